@@ -1,0 +1,53 @@
+# Two commands do everything on a fresh machine:
+#   make demo   renders the embedded `demo` world and runs the pipeline end to end
+#   make test   runs ruff and the unit tests
+# Both create .venv and install what is needed first (system libraries too, when root on Debian).
+
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+SYSLIBS := libusb-1.0-0 libgl1 libegl1 libx11-6 libudev1 libgomp1
+
+.PHONY: test demo venv syslibs lint clean
+
+venv: $(STAMP)
+
+$(STAMP): pyproject.toml
+	@$(MAKE) --no-print-directory syslibs
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	@rm -f $(VENV)/.installed-*
+	@touch $@
+
+# open3d needs a few shared libraries that a minimal Debian lacks.
+syslibs:
+	@missing=""; \
+	if command -v dpkg-query >/dev/null 2>&1; then \
+	  for p in $(SYSLIBS); do \
+	    dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
+	  done; \
+	fi; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
+	    echo "installing system libraries:$$missing"; \
+	    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing) >/dev/null \
+	      || echo "warning: could not install$$missing; open3d may fail to import"; \
+	  else \
+	    echo "open3d needs system libraries; run: sudo apt-get install -y$$missing"; \
+	  fi; \
+	fi
+
+lint: venv
+	$(BIN)/ruff check omnislam tests benchmarks
+
+test: venv
+	$(BIN)/ruff check omnislam tests benchmarks
+	$(BIN)/python -m pytest -q
+
+demo: venv
+	$(BIN)/omnislam demo
+
+clean:
+	rm -rf $(VENV) .pytest_cache .ruff_cache .hypothesis

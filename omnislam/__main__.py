@@ -1,0 +1,5 @@
+import sys
+
+from omnislam.cli import main
+
+sys.exit(main())

@@ -1,0 +1,198 @@
+"""The odometry motion model of the thesis (Guizilini 2008, section 4.4.2, eqs. 4.38-4.44).
+
+A planar motion between two frames is decomposed into a first rotation ``rot1``, a translation
+``trans`` and a second rotation ``rot2`` (eq. 4.39, after Thrun, Burgard & Fox 2005 sec. 5.4);
+each component gets a Gaussian error whose standard deviation grows linearly with the motion,
+weighted by four alpha coefficients (eqs. 4.40-4.41); sampled poses are recomposed with eq. 4.44.
+
+Two details the thesis leaves open are fixed here and documented:
+
+* eq. 4.41 multiplies signed displacements; a standard deviation must be non-negative, so the
+  magnitudes |rot1|, |trans|, |rot2| are used (as in Thrun et al., Table 5.6).
+* a robot that reverses would get ``rot1`` close to pi and a huge rotational std; a negative
+  ``trans`` with ``rot1`` near zero describes the same motion, and is used when dx < 0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from omnislam.core.se import wrap_angle
+
+#: translations below this are treated as pure rotations (rot1 is then undefined) [m]
+MIN_TRANSLATION_M = 1e-9
+
+
+@dataclass(frozen=True, slots=True)
+class MotionNoise:
+    """The alpha matrix of thesis eq. 4.40 (dimensionless / rad per m / m per rad).
+
+    Attributes:
+        a_vv: translation std per metre of translation.
+        a_vw: rotation std per metre of translation (enters sigma_rot1, sigma_rot2 in eq. 4.41).
+        a_wv: translation std per radian of rotation (enters sigma_trans in eq. 4.41).
+        a_ww: rotation std per radian of rotation.
+        min_sigma: (3,) floor of the stds of (rot1, trans, rot2) [rad, m, rad], so that a robot
+            standing still still has a (small) positive-definite covariance.
+    """
+
+    a_vv: float = 0.05
+    a_vw: float = 0.01
+    a_wv: float = 0.01
+    a_ww: float = 0.05
+    min_sigma: tuple[float, float, float] = (1e-4, 1e-4, 1e-4)
+
+    def __post_init__(self) -> None:
+        if min(self.a_vv, self.a_vw, self.a_wv, self.a_ww) < 0 or min(self.min_sigma) < 0:
+            raise ValueError("motion noise coefficients must be non-negative")
+
+
+@dataclass(frozen=True, slots=True)
+class OdometryMotionModel:
+    """Sampling, moments and Jacobians of the rot1-trans-rot2 odometry model.
+
+    Odometry deltas are robot-frame motions ``[dx, dy, dtheta]`` of the new pose in the frame of
+    the previous one (``omnislam.core.types.Odometry.delta``).
+    """
+
+    noise: MotionNoise = MotionNoise()
+
+    def decompose(self, delta_r: np.ndarray) -> np.ndarray:
+        """Robot-frame deltas [..., 3] -> [..., 3] = (rot1, trans, rot2), thesis eq. 4.39.
+
+        With the previous pose at the origin, eq. 4.39 reads rot1 = atan2(dy, dx),
+        trans = sqrt(dx^2 + dy^2), rot2 = dtheta - rot1. Reversing motion (dx < 0) gets a
+        negative trans and rot1 = atan2(-dy, -dx) (see the module docstring).
+        """
+        delta_r = np.asarray(delta_r, dtype=float)
+        dx, dy, dtheta = delta_r[..., 0], delta_r[..., 1], delta_r[..., 2]
+        trans = np.hypot(dx, dy)
+        backwards = dx < 0
+        sign = np.where(backwards, -1.0, 1.0)
+        rot1 = np.where(trans > MIN_TRANSLATION_M, np.arctan2(sign * dy, sign * dx), 0.0)
+        rot2 = wrap_angle(dtheta - rot1)
+        return np.stack([rot1, sign * trans, rot2], axis=-1)
+
+    @staticmethod
+    def recompose(components: np.ndarray) -> np.ndarray:
+        """(rot1, trans, rot2) [..., 3] -> robot-frame delta [..., 3] (eq. 4.44 from the origin)."""
+        components = np.asarray(components, dtype=float)
+        rot1, trans, rot2 = components[..., 0], components[..., 1], components[..., 2]
+        return np.stack(
+            [trans * np.cos(rot1), trans * np.sin(rot1), wrap_angle(rot1 + rot2)], axis=-1
+        )
+
+    def component_sigmas(self, components: np.ndarray) -> np.ndarray:
+        """Standard deviations of (rot1, trans, rot2) [..., 3], thesis eq. 4.41 (magnitudes)."""
+        n = self.noise
+        c = np.abs(np.asarray(components, dtype=float))
+        rot1, trans, rot2 = c[..., 0], c[..., 1], c[..., 2]
+        sigma = np.stack(
+            [
+                n.a_ww * rot1 + n.a_vw * trans,
+                n.a_wv * (rot1 + rot2) + n.a_vv * trans,
+                n.a_ww * rot2 + n.a_vw * trans,
+            ],
+            axis=-1,
+        )
+        return np.maximum(sigma, np.asarray(n.min_sigma))
+
+    def sample_delta(
+        self, delta_r: np.ndarray, rng: np.random.Generator, size: int | None = None
+    ) -> np.ndarray:
+        """Draw noisy versions of one odometry delta, thesis eqs. 4.42-4.43.
+
+        Args:
+            delta_r: (3,) the measured (mean) robot-frame delta.
+            rng: the random generator (normal draws replace the Box-Muller transform of 4.42).
+            size: number of draws; None returns a single (3,) delta.
+
+        Returns:
+            (size, 3) or (3,) sampled robot-frame deltas.
+        """
+        components = self.decompose(delta_r)
+        sigma = self.component_sigmas(components)
+        shape = (3,) if size is None else (size, 3)
+        noisy = components + sigma * rng.standard_normal(shape)
+        return self.recompose(noisy)
+
+    def sample(self, wTr: np.ndarray, delta_r: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Propagate P poses by one odometry step with independent noise, eq. 4.44.
+
+        Args:
+            wTr: (P, 3) poses [x, y, theta] in the world.
+            delta_r: (3,) measured robot-frame delta.
+            rng: random generator.
+
+        Returns:
+            (P, 3) sampled new poses.
+        """
+        wTr = np.asarray(wTr, dtype=float)
+        components = self.decompose(delta_r)
+        sigma = self.component_sigmas(components)
+        noisy = components + sigma * rng.standard_normal((wTr.shape[0], 3))
+        return self.apply(wTr, noisy)
+
+    @staticmethod
+    def apply(wTr: np.ndarray, components: np.ndarray) -> np.ndarray:
+        """Thesis eq. 4.44: x' = x + [t cos(theta + rot1), t sin(theta + rot1), rot1 + rot2]."""
+        wTr = np.asarray(wTr, dtype=float)
+        components = np.asarray(components, dtype=float)
+        heading = wTr[..., 2] + components[..., 0]
+        x = wTr[..., 0] + components[..., 1] * np.cos(heading)
+        y = wTr[..., 1] + components[..., 1] * np.sin(heading)
+        theta = wrap_angle(wTr[..., 2] + components[..., 0] + components[..., 2])
+        return np.stack(np.broadcast_arrays(x, y, theta), axis=-1)
+
+    def apply_jacobians(
+        self, wTr: np.ndarray, components: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Jacobians of ``apply`` w.r.t. the pose [x, y, theta] and w.r.t. (rot1, trans, rot2).
+
+        Returns:
+            (G, V): [..., 3, 3] each; G is the EKF state-transition Jacobian, V maps the
+            component noise into the state (Thrun et al. 2005, Table 7.1).
+        """
+        wTr = np.asarray(wTr, dtype=float)
+        components = np.asarray(components, dtype=float)
+        shape = np.broadcast_shapes(wTr.shape, components.shape)[:-1]
+        heading = wTr[..., 2] + components[..., 0]
+        c, s, trans = np.cos(heading), np.sin(heading), components[..., 1]
+        G = np.zeros((*shape, 3, 3))
+        G[..., 0, 0] = G[..., 1, 1] = G[..., 2, 2] = 1.0
+        G[..., 0, 2] = -trans * s
+        G[..., 1, 2] = trans * c
+        V = np.zeros((*shape, 3, 3))
+        V[..., 0, 0] = -trans * s
+        V[..., 0, 1] = c
+        V[..., 1, 0] = trans * c
+        V[..., 1, 1] = s
+        V[..., 2, 0] = V[..., 2, 2] = 1.0
+        return G, V
+
+    def predict(
+        self, wTr: np.ndarray, P: np.ndarray, delta_r: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Linearised (EKF) propagation of a pose mean (3,) and covariance (3, 3) by one delta.
+
+        Returns:
+            (mean (3,), covariance (3, 3)) = (g(x, u), G P G^T + V M V^T) with
+            M = diag(sigma^2) from eq. 4.41.
+        """
+        components = self.decompose(delta_r)
+        G, V = self.apply_jacobians(wTr, components)
+        M = np.diag(self.component_sigmas(components) ** 2)
+        return self.apply(wTr, components), G @ P @ G.T + V @ M @ V.T
+
+    def covariance(self, delta_r: np.ndarray) -> np.ndarray:
+        """(3, 3) covariance of the robot-frame delta [dx, dy, dtheta] (linearised).
+
+        This is the noise of an odometry between-factor expressed in the previous pose's frame
+        (used by the factor graph and by EKF-SLAM): J diag(sigma^2) J^T with J the Jacobian of
+        ``recompose`` at the decomposed delta.
+        """
+        components = self.decompose(delta_r)
+        _, V = self.apply_jacobians(np.zeros(3), components)
+        return V @ np.diag(self.component_sigmas(components) ** 2) @ V.T

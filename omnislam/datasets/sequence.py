@@ -1,0 +1,172 @@
+"""The Sequence: one recorded or rendered run, as every loader returns it.
+
+A Sequence holds what the sensors gave (odometry, range-bearing sightings, laser scans, images
+read on demand) and the ground truth, aligned to one list of frame stamps. It never estimates.
+``frame_inputs()`` turns the sensor data that need no image processing into the FrameInput
+records estimators consume; the front end adds bearings from images on top.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from omnislam.core.types import FrameInput, Odometry, RangeBearing, Trajectory, _frozen
+from omnislam.errors import DataError
+
+
+class GroundTruthKind(enum.Enum):
+    """Where a sequence's ground truth comes from (reports say it next to every number)."""
+
+    EXACT = "exact"  # synthetic: the renderer's own poses and points
+    MOTION_CAPTURE = "motion-capture"  # Vicon (MR.CLAM)
+    GPS_PARTIAL = "gps-partial"  # GPS with gaps (Victoria Park): compare only where it exists
+    PSEUDO = "pseudo"  # poses corrected by another SLAM system (CARMEN): not independent
+    REFERENCE = "reference"  # a reference solution computed by omnislam (gtsam's file)
+    NONE = "none"
+
+
+@dataclass(frozen=True, slots=True)
+class GroundTruth:
+    """True poses (possibly at a subset of the frame stamps) and true landmark positions.
+
+    Attributes:
+        kind: where it comes from.
+        trajectory: true poses; its stamps are a subset of the sequence's stamps (GPS gaps),
+            or None.
+        landmark_ids: (M,) ids matching the ids in the sightings (when the data has ids).
+        landmarks_w: (M, 3) landmark positions [m] (z = 0 for 2-D maps).
+        note: one sentence a report prints with the numbers (e.g. "pseudo ground truth ...").
+    """
+
+    kind: GroundTruthKind = GroundTruthKind.NONE
+    trajectory: Trajectory | None = None
+    landmark_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    landmarks_w: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    note: str = ""
+
+    def __post_init__(self) -> None:
+        ids = _frozen(self.landmark_ids, np.int64, (None,), "GroundTruth.landmark_ids")
+        object.__setattr__(self, "landmark_ids", ids)
+        object.__setattr__(
+            self,
+            "landmarks_w",
+            _frozen(self.landmarks_w, float, (ids.shape[0], 3), "GroundTruth.landmarks_w"),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class LaserScans:
+    """Planar laser scans, one row per frame (NaN where a frame has no scan).
+
+    Attributes:
+        angles_rad: (B,) beam angles in the robot frame, counter-clockwise from the heading.
+        ranges_m: (N, B) ranges; values >= max_range_m mean "no return".
+        max_range_m: the sensor's maximum range.
+    """
+
+    angles_rad: np.ndarray
+    ranges_m: np.ndarray
+    max_range_m: float
+
+    def __post_init__(self) -> None:
+        angles = _frozen(self.angles_rad, float, (None,), "LaserScans.angles_rad")
+        ranges = np.array(self.ranges_m, dtype=float)
+        if ranges.ndim != 2 or ranges.shape[1] != angles.shape[0]:
+            raise DataError(
+                f"LaserScans.ranges_m must be (N, {angles.shape[0]}), got {ranges.shape}"
+            )
+        ranges.setflags(write=False)
+        object.__setattr__(self, "angles_rad", angles)
+        object.__setattr__(self, "ranges_m", ranges)
+        object.__setattr__(self, "max_range_m", float(self.max_range_m))
+
+
+@dataclass(frozen=True, slots=True)
+class Sequence:
+    """One run: frame stamps, odometry between frames, sensor data, ground truth.
+
+    Attributes:
+        name: registry name or folder name.
+        source: citation / provenance, one line.
+        stamps_s: (N,) strictly increasing frame times [s].
+        odometry_r: (N, 3) measured motion [dx, dy, dtheta] from frame i-1 to frame i in the
+            frame of pose i-1 (row 0 is zero: the first frame defines the origin).
+        odometry_true_r: (N, 3) the same without noise, when known (synthetic data).
+        initial_pose_w: (3,) pose of frame 0 in the ground-truth world frame, when known
+            (estimators start at the origin; evaluation aligns).
+        range_bearing: per-frame sightings (None where a frame has none), or None.
+        laser: laser scans, or None.
+        image_loader: ``image_loader(i)`` reads image i (H, W, 3) uint8, or None.
+        image_frames: (K,) indices of the frames that have an image.
+        calibration: the camera rig (``omnislam.camera``), or None.
+        ground_truth: see GroundTruth.
+        info: short facts for ``dataset list`` and reports (sensor names, counts, warnings).
+    """
+
+    name: str
+    source: str
+    stamps_s: np.ndarray
+    odometry_r: np.ndarray
+    ground_truth: GroundTruth = field(default_factory=GroundTruth)
+    odometry_true_r: np.ndarray | None = None
+    initial_pose_w: np.ndarray | None = None
+    range_bearing: tuple[RangeBearing | None, ...] | None = None
+    laser: LaserScans | None = None
+    image_loader: Callable[[int], np.ndarray] | None = None
+    image_frames: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    calibration: object | None = None
+    info: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        stamps = _frozen(self.stamps_s, float, (None,), f"{self.name}: stamps_s")
+        n = stamps.shape[0]
+        if n == 0:
+            raise DataError(f"{self.name}: the sequence has no frames")
+        if n > 1 and np.any(np.diff(stamps) <= 0):
+            raise DataError(f"{self.name}: frame stamps must be strictly increasing")
+        object.__setattr__(self, "stamps_s", stamps)
+        object.__setattr__(
+            self, "odometry_r", _frozen(self.odometry_r, float, (n, 3), f"{self.name}: odometry_r")
+        )
+        if self.odometry_true_r is not None:
+            object.__setattr__(
+                self,
+                "odometry_true_r",
+                _frozen(self.odometry_true_r, float, (n, 3), f"{self.name}: odometry_true_r"),
+            )
+        if self.initial_pose_w is not None:
+            object.__setattr__(
+                self, "initial_pose_w", _frozen(self.initial_pose_w, float, (3,), "initial_pose_w")
+            )
+        if self.range_bearing is not None and len(self.range_bearing) != n:
+            raise DataError(f"{self.name}: range_bearing must have one entry per frame")
+        if self.laser is not None and self.laser.ranges_m.shape[0] != n:
+            raise DataError(f"{self.name}: laser must have one row per frame")
+        frames = _frozen(self.image_frames, np.int64, (None,), f"{self.name}: image_frames")
+        if frames.size and (frames.min() < 0 or frames.max() >= n):
+            raise DataError(f"{self.name}: image_frames out of range")
+        object.__setattr__(self, "image_frames", frames)
+        object.__setattr__(self, "info", dict(self.info))
+
+    def __len__(self) -> int:
+        return int(self.stamps_s.shape[0])
+
+    def image(self, index: int) -> np.ndarray:
+        """Read the image of frame ``index`` (H, W, 3) uint8."""
+        if self.image_loader is None:
+            raise DataError(f"{self.name}: the sequence has no images")
+        return self.image_loader(index)
+
+    def frame_inputs(self) -> Iterator[FrameInput]:
+        """Yield one FrameInput per frame with odometry and direct (non-image) sightings."""
+        for i in range(len(self)):
+            sightings = self.range_bearing[i] if self.range_bearing is not None else None
+            yield FrameInput(
+                index=i,
+                odometry=Odometry(self.odometry_r[i], self.stamps_s[i]),
+                range_bearing=sightings,
+            )

@@ -1,0 +1,29 @@
+"""Shared fixtures and the tolerances the tests use, named in one place."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+#: relative error allowed between an analytic and a central-difference Jacobian
+JACOBIAN_RTOL = 1e-6
+#: relative error allowed between sample moments of 100k draws and the linearised moments
+MOMENT_RTOL = 0.02
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+SHARED_DATA = REPO_ROOT.parent / "shared" / "data"
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(20081105)
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    """The real recorded data folder (../shared/data); skips the test when it is absent."""
+    if not SHARED_DATA.is_dir():
+        pytest.skip(f"real data not found at {SHARED_DATA}")
+    return SHARED_DATA

@@ -1,0 +1,93 @@
+import numpy as np
+import pytest
+from conftest import JACOBIAN_RTOL, MOMENT_RTOL
+
+from omnislam.core.jacobian import numerical_jacobian
+from omnislam.core.motion import MotionNoise, OdometryMotionModel
+from omnislam.core.se import se2_between, se2_compose, wrap_angle
+
+MODEL = OdometryMotionModel(MotionNoise(a_vv=0.08, a_vw=0.02, a_wv=0.01, a_ww=0.06))
+
+
+@pytest.mark.parametrize(
+    "delta",
+    [[0.30, 0.05, 0.20], [0.5, -0.1, -0.4], [-0.25, 0.02, 0.1], [0.0, 0.0, 0.5], [1e-12, 0, 0]],
+)
+def test_decompose_recompose_round_trip(delta):
+    delta = np.asarray(delta)
+    np.testing.assert_allclose(MODEL.recompose(MODEL.decompose(delta)), delta, atol=1e-12)
+    # eq. 4.44 from a non-trivial pose agrees with composing the delta in SE(2)
+    pose = np.array([1.0, -2.0, 2.5])
+    moved = MODEL.apply(pose, MODEL.decompose(delta))
+    np.testing.assert_allclose(se2_between(pose, moved), delta, atol=1e-12)
+
+
+def test_component_sigmas_follow_eq_4_41():
+    rot1, trans, rot2 = 0.2, 0.5, -0.3
+    sigma = MODEL.component_sigmas(np.array([rot1, trans, rot2]))
+    n = MODEL.noise
+    expected = [
+        n.a_ww * abs(rot1) + n.a_vw * trans,
+        n.a_wv * (abs(rot1) + abs(rot2)) + n.a_vv * trans,
+        n.a_ww * abs(rot2) + n.a_vw * trans,
+    ]
+    np.testing.assert_allclose(sigma, expected)
+    assert np.all(MODEL.component_sigmas(np.zeros(3)) > 0), "standing still keeps a floor"
+
+
+@pytest.mark.parametrize("delta", [[0.30, 0.05, 0.20], [0.8, -0.2, -0.6], [-0.3, 0.05, 0.1]])
+def test_sampled_moments_match_linearised_moments(rng, delta):
+    delta = np.asarray(delta)
+    pose = np.array([2.0, 1.0, 0.7])
+    draws = MODEL.sample(np.tile(pose, (100_000, 1)), delta, rng)
+    mean, cov = MODEL.predict(pose, np.zeros((3, 3)), delta)
+    residuals = draws - mean
+    residuals[:, 2] = wrap_angle(residuals[:, 2])
+    sample_mean = mean + residuals.mean(axis=0)
+    sample_cov = np.cov(residuals.T)
+    assert np.linalg.norm(sample_mean - mean) <= MOMENT_RTOL * np.linalg.norm(mean)
+    assert np.linalg.norm(sample_cov - cov) <= MOMENT_RTOL * np.linalg.norm(cov)
+    np.testing.assert_allclose(np.sqrt(np.diag(sample_cov)), np.sqrt(np.diag(cov)), rtol=MOMENT_RTOL)
+
+
+def test_sample_delta_covariance_matches_covariance(rng):
+    delta = np.array([0.4, 0.1, 0.3])
+    draws = MODEL.sample_delta(delta, rng, size=100_000)
+    assert draws.shape == (100_000, 3)
+    cov = MODEL.covariance(delta)
+    sample_cov = np.cov((draws - delta).T)
+    assert np.linalg.norm(sample_cov - cov) <= MOMENT_RTOL * np.linalg.norm(cov)
+    assert np.all(np.linalg.eigvalsh(cov) > 0)
+    assert MODEL.sample_delta(delta, rng).shape == (3,)
+
+
+def test_sampling_is_reproducible_with_the_injected_generator():
+    poses = np.zeros((50, 3))
+    a = MODEL.sample(poses, np.array([0.2, 0, 0.1]), np.random.default_rng(3))
+    b = MODEL.sample(poses, np.array([0.2, 0, 0.1]), np.random.default_rng(3))
+    np.testing.assert_array_equal(a, b)
+    assert np.ptp(a[:, 0]) > 0, "particles get independent noise"
+
+
+def test_apply_jacobians(rng):
+    for _ in range(10):
+        pose = np.r_[rng.uniform(-3, 3, 2), rng.uniform(-np.pi, np.pi)]
+        comps = np.r_[rng.uniform(-0.5, 0.5), rng.uniform(0.05, 1.0), rng.uniform(-0.5, 0.5)]
+        G, V = MODEL.apply_jacobians(pose, comps)
+        num_G = numerical_jacobian(lambda x, c=comps: MODEL.apply(x, c), pose)
+        num_V = numerical_jacobian(lambda c, x=pose: MODEL.apply(x, c), comps)
+        assert np.linalg.norm(G - num_G) <= JACOBIAN_RTOL * np.linalg.norm(num_G)
+        assert np.linalg.norm(V - num_V) <= JACOBIAN_RTOL * np.linalg.norm(num_V)
+
+
+def test_predict_with_zero_noise_equals_composition():
+    model = OdometryMotionModel(MotionNoise(0, 0, 0, 0, min_sigma=(0, 0, 0)))
+    pose, delta = np.array([1.0, 2.0, -0.5]), np.array([0.3, -0.1, 0.25])
+    mean, cov = model.predict(pose, np.zeros((3, 3)), delta)
+    np.testing.assert_allclose(mean, se2_compose(pose, delta), atol=1e-12)
+    np.testing.assert_allclose(cov, 0.0, atol=1e-15)
+
+
+def test_negative_coefficients_rejected():
+    with pytest.raises(ValueError):
+        MotionNoise(a_vv=-0.1)
