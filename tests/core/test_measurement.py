@@ -40,13 +40,15 @@ def test_analytic_jacobians_match_numerical(rng, model):
     for pose, landmark in zip(poses, landmarks, strict=True):
         _, H_p, H_l = model.predict(pose, landmark)
         num_p = numerical_jacobian(
-            lambda x, l=landmark: model.predict(x, l)[0],
+            lambda x, lm=landmark: model.predict(x, lm)[0],
             pose,
             retract=se2_retract,
             tangent_dim=3,
             difference=diff,
         )
-        num_l = numerical_jacobian(lambda l, x=pose: model.predict(x, l)[0], landmark, difference=diff)
+        num_l = numerical_jacobian(
+            lambda lm, x=pose: model.predict(x, lm)[0], landmark, difference=diff
+        )
         for analytic, numeric in ((H_p, num_p), (H_l, num_l)):
             err = np.linalg.norm(analytic - numeric) / np.linalg.norm(numeric)
             assert err <= JACOBIAN_RTOL, f"{type(model).__name__}: {err:.2e}"

@@ -47,7 +47,9 @@ def test_sampled_moments_match_linearised_moments(rng, delta):
     sample_cov = np.cov(residuals.T)
     assert np.linalg.norm(sample_mean - mean) <= MOMENT_RTOL * np.linalg.norm(mean)
     assert np.linalg.norm(sample_cov - cov) <= MOMENT_RTOL * np.linalg.norm(cov)
-    np.testing.assert_allclose(np.sqrt(np.diag(sample_cov)), np.sqrt(np.diag(cov)), rtol=MOMENT_RTOL)
+    np.testing.assert_allclose(
+        np.sqrt(np.diag(sample_cov)), np.sqrt(np.diag(cov)), rtol=MOMENT_RTOL
+    )
 
 
 def test_sample_delta_covariance_matches_covariance(rng):

@@ -1,0 +1,75 @@
+"""``omnislam evaluate RUN_DIR [--json]``: metrics against the run's ground truth.
+
+Writes ``RUN_DIR/metrics.json`` (keys of DESIGN.md; null for what is not computed or has no
+ground truth) and prints a table, or the JSON with ``--json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("evaluate", help="compute metrics of a run against ground truth")
+    p.add_argument("run_dir", metavar="RUN_DIR", help="folder written by `omnislam run`")
+    p.add_argument("--json", action="store_true", help="print metrics.json instead of a table")
+    p.set_defaults(handler=run)
+
+
+def _fmt(value: object) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+def run(args: argparse.Namespace) -> int:
+    import json
+    from pathlib import Path
+
+    from omnislam.compare.rundir import evaluate_run, read_run_dir, write_metrics
+
+    path = Path(args.run_dir)
+    record = read_run_dir(path)
+    metrics = evaluate_run(record)
+    write_metrics(path, metrics)
+    if args.json:
+        print(json.dumps(metrics, indent=2))
+        return 0
+    config = record.config
+    print(f"{config.estimator} on {config.dataset} ({config.frames} frames)")
+    if metrics["ate_rmse_m"] is None:
+        print(
+            f"no ground truth ({record.ground_truth.kind.value}): "
+            f"{record.ground_truth.note or 'nothing to compare against'}"
+        )
+    else:
+        print(f"ground truth: {record.ground_truth.kind.value}: {record.ground_truth.note}")
+    rows = [
+        ("ATE RMSE, SE(2) aligned [m]", metrics["ate_rmse_m"]),
+        ("ATE max, SE(2) aligned [m]", metrics["ate_max_m"]),
+        ("ATE RMSE, origin aligned [m]", metrics["ate_origin_rmse_m"]),
+        ("ATE max, origin aligned [m]", metrics["ate_origin_max_m"]),
+        (
+            "poses compared / coverage",
+            None
+            if metrics["ate_matched"] is None
+            else f"{metrics['ate_matched']} / {metrics['ate_coverage']:.1%}",
+        ),
+        ("RPE trans RMSE [m]", metrics["rpe_trans_rmse_m"]),
+        ("landmark RMSE [m]", metrics["landmark_rmse_m"]),
+        ("landmarks estimated", metrics["landmarks_estimated"]),
+        ("NEES mean", metrics["nees_mean"]),
+        (
+            "step median / p95 [ms]",
+            f"{_fmt(metrics['step_ms_median'])} / {_fmt(metrics['step_ms_p95'])}",
+        ),
+        ("total [s]", metrics["total_s"]),
+        ("peak RSS [MB]", metrics["peak_rss_mb"]),
+    ]
+    width = max(len(name) for name, _ in rows)
+    for name, value in rows:
+        print(f"  {name.ljust(width)}  {_fmt(value)}")
+    print(f"-> {path / 'metrics.json'}")
+    return 0

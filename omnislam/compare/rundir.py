@@ -1,0 +1,363 @@
+"""RUN_DIR: what one ``omnislam run`` leaves on disk, as ``read_run_dir`` / ``write_run_dir``.
+
+Files (DESIGN.md, command-line contract):
+
+* ``trajectory.tum``: one estimated pose per frame (TUM format; z = 0 for planar runs).
+* ``landmarks.csv``: ``id,x,y,z`` of the estimated map (header only when there is none).
+* ``timing.csv``: ``frame,stamp_s,step_s``, the wall time of each ``Estimator.step``.
+* ``config.yaml``: dataset, estimator, seed, options, omnislam version, run totals.
+* ``ground_truth.tum`` and ``ground_truth_landmarks.csv``: the sequence's ground truth copied at
+  run time (when it has any), so ``omnislam evaluate`` needs neither the data nor the loader.
+* ``metrics.json``: written by ``omnislam evaluate``.
+
+A RUN_DIR is written atomically: everything goes into a hidden temporary folder next to it,
+which is renamed into place only when complete; a failure leaves no partial RUN_DIR.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import tempfile
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from omnislam.core.types import Estimate
+from omnislam.datasets.sequence import GroundTruth, GroundTruthKind
+from omnislam.datasets.trajectory_io import read_tum, write_tum
+from omnislam.errors import ConfigError, DataError
+
+TRAJECTORY = "trajectory.tum"
+LANDMARKS = "landmarks.csv"
+TIMING = "timing.csv"
+CONFIG = "config.yaml"
+GROUND_TRUTH = "ground_truth.tum"
+GROUND_TRUTH_LANDMARKS = "ground_truth_landmarks.csv"
+METRICS = "metrics.json"
+
+
+@dataclass(frozen=True, slots=True)
+class RunConfig:
+    """The ``config.yaml`` of a run: enough to repeat it and to label its numbers.
+
+    Attributes:
+        dataset: the DATASET argument (registered name or path).
+        dataset_path: where the data was read from.
+        dataset_options: loader options used (``--set`` keys the loader took).
+        estimator: estimator name.
+        estimator_options: options passed to the estimator.
+        seed: the ``--seed`` (None when not given).
+        omnislam_version: package version that produced the run.
+        frames: number of frames processed.
+        total_s: wall time of all estimator steps [s].
+        peak_rss_mb: peak resident memory of the process [MB].
+        ground_truth_kind: ``GroundTruthKind`` value.
+        ground_truth_note: the ground truth's note (printed with every number).
+        source: the dataset's citation.
+    """
+
+    dataset: str
+    dataset_path: str
+    estimator: str
+    omnislam_version: str
+    frames: int
+    total_s: float
+    peak_rss_mb: float
+    ground_truth_kind: str = GroundTruthKind.NONE.value
+    ground_truth_note: str = ""
+    source: str = ""
+    seed: int | None = None
+    dataset_options: Mapping[str, str] = field(default_factory=dict)
+    estimator_options: Mapping[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class RunRecord:
+    """Everything a RUN_DIR holds (before evaluation).
+
+    Attributes:
+        config: see RunConfig.
+        estimate: the estimator's final estimate (one pose per frame).
+        step_s: (N,) wall time of each step [s].
+        ground_truth: the sequence's ground truth (kind NONE when there is none).
+    """
+
+    config: RunConfig
+    estimate: Estimate
+    step_s: np.ndarray
+    ground_truth: GroundTruth = field(default_factory=GroundTruth)
+
+
+def _write_landmarks(path: Path, ids: np.ndarray, points_w: np.ndarray) -> None:
+    lines = ["id,x,y,z"]
+    lines += [
+        f"{int(i)},{p[0]:.17g},{p[1]:.17g},{p[2]:.17g}" for i, p in zip(ids, points_w, strict=True)
+    ]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def read_landmarks_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """``id,x,y,z`` CSV -> (ids (M,), points (M, 3)).
+
+    Raises:
+        DataError: wrong header, column count or non-numeric field (naming the line).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text().splitlines()
+    except OSError as exc:
+        raise DataError(f"cannot read the file ({exc})", path) from exc
+    if not text or text[0].strip() != "id,x,y,z":
+        raise DataError("line 1: expected the header 'id,x,y,z'", path)
+    ids, points = [], []
+    for number, line in enumerate(text[1:], start=2):
+        if not line.strip():
+            continue
+        fields = line.split(",")
+        if len(fields) != 4:
+            raise DataError(f"line {number}: expected 4 columns, got {len(fields)}", path)
+        try:
+            ids.append(int(fields[0]))
+            points.append([float(v) for v in fields[1:]])
+        except ValueError:
+            raise DataError(f"line {number}: non-numeric field in {line!r}", path) from None
+    return np.asarray(ids, dtype=np.int64), np.asarray(points, dtype=float).reshape(-1, 3)
+
+
+def _read_timing(path: Path) -> np.ndarray:
+    """``timing.csv`` -> (N,) step seconds."""
+    try:
+        lines = path.read_text().splitlines()
+    except OSError as exc:
+        raise DataError(f"cannot read the file ({exc})", path) from exc
+    if not lines or lines[0].strip() != "frame,stamp_s,step_s":
+        raise DataError("line 1: expected the header 'frame,stamp_s,step_s'", path)
+    steps = []
+    for number, line in enumerate(lines[1:], start=2):
+        fields = line.split(",")
+        if len(fields) != 3:
+            raise DataError(f"line {number}: expected 3 columns, got {len(fields)}", path)
+        try:
+            steps.append(float(fields[2]))
+        except ValueError:
+            raise DataError(f"line {number}: step_s {fields[2]!r} is not a number", path) from None
+    return np.asarray(steps, dtype=float)
+
+
+def write_run_dir(path: Path, record: RunRecord) -> None:
+    """Write a RUN_DIR atomically (temporary folder next to it, then rename).
+
+    An existing RUN_DIR of an earlier run (it has ``config.yaml``) or an empty folder is
+    replaced; any other existing non-empty folder is refused.
+
+    Raises:
+        ConfigError: ``path`` exists, is not empty and is not a RUN_DIR.
+    """
+    path = Path(path)
+    if path.exists() and (
+        not path.is_dir() or (any(path.iterdir()) and not (path / CONFIG).exists())
+    ):
+        raise ConfigError(f"{path}: exists and is not a RUN_DIR; refusing to overwrite it")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+    try:
+        write_tum(staging / TRAJECTORY, record.estimate.trajectory)
+        _write_landmarks(
+            staging / LANDMARKS, record.estimate.landmark_ids, record.estimate.landmarks_w
+        )
+        stamps = record.estimate.trajectory.stamps_s
+        timing = ["frame,stamp_s,step_s"]
+        timing += [
+            f"{k},{stamps[k] if k < len(stamps) else math.nan:.17g},{s:.9f}"
+            for k, s in enumerate(record.step_s)
+        ]
+        (staging / TIMING).write_text("\n".join(timing) + "\n")
+        config = asdict(record.config)
+        config["dataset_options"] = dict(record.config.dataset_options)
+        config["estimator_options"] = dict(record.config.estimator_options)
+        (staging / CONFIG).write_text(yaml.safe_dump(config, sort_keys=False))
+        gt = record.ground_truth
+        if gt.trajectory is not None:
+            write_tum(staging / GROUND_TRUTH, gt.trajectory)
+        if len(gt.landmark_ids):
+            _write_landmarks(staging / GROUND_TRUTH_LANDMARKS, gt.landmark_ids, gt.landmarks_w)
+        if path.exists():
+            trash = path.with_name(f".{path.name}.old-{os.getpid()}")
+            os.replace(path, trash)
+            os.replace(staging, path)
+            shutil.rmtree(trash, ignore_errors=True)
+        else:
+            os.replace(staging, path)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+
+
+def read_run_config(path: Path) -> RunConfig:
+    """Read ``RUN_DIR/config.yaml``.
+
+    Raises:
+        DataError: missing file, not YAML, or keys missing / unknown.
+    """
+    file = Path(path) / CONFIG
+    if not file.is_file():
+        raise DataError(f"not a RUN_DIR (no {CONFIG})", Path(path))
+    try:
+        raw = yaml.safe_load(file.read_text())
+    except yaml.YAMLError as exc:
+        raise DataError(f"not valid YAML ({exc})", file) from exc
+    if not isinstance(raw, dict):
+        raise DataError("expected a mapping", file)
+    try:
+        return RunConfig(**raw)
+    except TypeError as exc:
+        raise DataError(f"unexpected contents ({exc})", file) from exc
+
+
+def read_run_dir(path: Path) -> RunRecord:
+    """Read a RUN_DIR written by ``write_run_dir``.
+
+    Raises:
+        DataError: a missing or malformed file (naming it).
+    """
+    path = Path(path)
+    config = read_run_config(path)
+    trajectory = read_tum(path / TRAJECTORY)
+    ids, points = read_landmarks_csv(path / LANDMARKS)
+    step_s = _read_timing(path / TIMING)
+    kind = GroundTruthKind(config.ground_truth_kind)
+    gt_trajectory = read_tum(path / GROUND_TRUTH) if (path / GROUND_TRUTH).is_file() else None
+    if (path / GROUND_TRUTH_LANDMARKS).is_file():
+        gt_ids, gt_points = read_landmarks_csv(path / GROUND_TRUTH_LANDMARKS)
+    else:
+        gt_ids, gt_points = np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    return RunRecord(
+        config=config,
+        estimate=Estimate(trajectory=trajectory, landmark_ids=ids, landmarks_w=points),
+        step_s=step_s,
+        ground_truth=GroundTruth(
+            kind=kind,
+            trajectory=gt_trajectory,
+            landmark_ids=gt_ids,
+            landmarks_w=gt_points,
+            note=config.ground_truth_note,
+        ),
+    )
+
+
+def write_metrics(path: Path, metrics: Mapping[str, object]) -> None:
+    """Write ``RUN_DIR/metrics.json`` atomically (NaN and inf become null)."""
+
+    def clean(value: object) -> object:
+        if isinstance(value, float) and not math.isfinite(value):
+            return None
+        if isinstance(value, np.generic):
+            return clean(value.item())
+        if isinstance(value, Mapping):
+            return {str(k): clean(v) for k, v in value.items()}
+        if isinstance(value, list | tuple):
+            return [clean(v) for v in value]
+        return value
+
+    file = Path(path) / METRICS
+    fd, tmp = tempfile.mkstemp(prefix=f".{METRICS}.", suffix=".tmp", dir=Path(path))
+    try:
+        with os.fdopen(fd, "w") as handle:
+            json.dump(clean(dict(metrics)), handle, indent=2)
+            handle.write("\n")
+        os.replace(tmp, file)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def read_metrics(path: Path) -> dict[str, object]:
+    """Read ``RUN_DIR/metrics.json``."""
+    file = Path(path) / METRICS
+    try:
+        return json.loads(file.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise DataError(f"cannot read metrics ({exc})", file) from exc
+
+
+#: keys of metrics.json that DESIGN.md requires (null when not computed)
+REQUIRED_METRICS = (
+    "ate_rmse_m",
+    "ate_max_m",
+    "rpe_trans_rmse_m",
+    "landmark_rmse_m",
+    "landmarks_estimated",
+    "landmarks_matched",
+    "nees_mean",
+    "frames",
+    "step_ms_median",
+    "step_ms_p95",
+    "total_s",
+    "peak_rss_mb",
+    "alignment",
+)
+
+
+def evaluate_run(record: RunRecord) -> dict[str, object]:
+    """The metrics of a run against the ground truth stored with it.
+
+    ``ate_rmse_m``/``ate_max_m`` use SE(2) alignment (``alignment`` says so); the ORIGIN-aligned
+    ATE (drift from the start) is in ``ate_origin_*``. Not yet computed metrics are None (RPE,
+    landmark error, NEES land with later issues). Without a ground-truth trajectory every ATE key
+    is None and ``ground_truth`` says why.
+
+    Returns:
+        A JSON-ready mapping with at least REQUIRED_METRICS.
+    """
+    from omnislam.compare.metrics import Alignment, ate
+
+    config = record.config
+    step_ms = 1e3 * np.asarray(record.step_s, dtype=float)
+    gt = record.ground_truth
+    out: dict[str, object] = dict.fromkeys(REQUIRED_METRICS)
+    out.update(
+        {
+            "frames": len(record.estimate.trajectory),
+            "step_ms_median": float(np.median(step_ms)) if step_ms.size else None,
+            "step_ms_p95": float(np.percentile(step_ms, 95)) if step_ms.size else None,
+            "total_s": config.total_s,
+            "peak_rss_mb": config.peak_rss_mb,
+            "landmarks_estimated": len(record.estimate.landmark_ids),
+            "dataset": config.dataset,
+            "estimator": config.estimator,
+            "ground_truth": gt.kind.value,
+            "ground_truth_note": gt.note,
+            "ate_origin_rmse_m": None,
+            "ate_origin_max_m": None,
+            "ate_matched": None,
+            "ate_coverage": None,
+        }
+    )
+    if gt.trajectory is None:
+        out["alignment"] = None
+        return out
+    oriented = gt.kind is not GroundTruthKind.GPS_PARTIAL
+    se2 = ate(
+        record.estimate.trajectory, gt.trajectory, Alignment.SE2, truth_has_orientation=oriented
+    )
+    origin = ate(
+        record.estimate.trajectory, gt.trajectory, Alignment.ORIGIN, truth_has_orientation=oriented
+    )
+    out.update(
+        {
+            "ate_rmse_m": se2.rmse_m,
+            "ate_max_m": se2.max_m,
+            "alignment": Alignment.SE2.value,
+            "ate_origin_rmse_m": origin.rmse_m,
+            "ate_origin_max_m": origin.max_m,
+            "ate_matched": se2.matched,
+            "ate_coverage": se2.coverage,
+        }
+    )
+    return out

@@ -1,0 +1,170 @@
+"""One reader for the whitespace-separated text formats of the real datasets.
+
+MR.CLAM ``.dat`` files, Victoria Park's ``inputs.dat``/``measurements.dat``/``gps.dat``, gtsam's
+``victoria_park.txt`` and CARMEN logs are all "one record per line, fields separated by white
+space". Every loader reads them through this module, so that a truncated file, a wrong column
+count, a non-numeric field or time going backwards is reported the same way everywhere: as a
+``DataError`` naming the file and the 1-based line number.
+"""
+
+from __future__ import annotations
+
+import enum
+import gzip
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from omnislam.errors import DataError
+
+
+class StampOrder(enum.Enum):
+    """What a table's time column must satisfy."""
+
+    ANY = "any"  # not a time column / not checked
+    NON_DECREASING = "non-decreasing"  # equal stamps allowed (simultaneous sightings)
+    INCREASING = "increasing"  # strictly increasing
+
+
+@dataclass(frozen=True, slots=True)
+class Table:
+    """The numeric rows of a text file with the line each row came from.
+
+    Attributes:
+        path: the file read.
+        values: (N, C) float rows.
+        line_numbers: (N,) 1-based line number of each row in the file (for error messages).
+    """
+
+    path: Path
+    values: np.ndarray
+    line_numbers: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.values.shape[0])
+
+    def where(self, row: int) -> str:
+        """``"line N"`` of a row, for messages raised after reading."""
+        return f"line {int(self.line_numbers[row])}"
+
+
+def open_text(path: Path) -> Iterator[str]:
+    """Yield the lines of a plain or gzip-compressed text file (gzip detected by magic bytes)."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as probe:
+            gzipped = probe.read(2) == b"\x1f\x8b"
+        opener = gzip.open if gzipped else open
+        with opener(path, "rt", encoding="utf-8", errors="replace") as stream:
+            yield from stream
+    except FileNotFoundError as exc:
+        raise DataError("file not found", path) from exc
+    except (OSError, EOFError) as exc:  # unreadable, or a gzip stream cut short
+        raise DataError(f"cannot read the file ({exc})", path) from exc
+
+
+def iter_records(path: Path, comment: str = "#") -> Iterator[tuple[int, list[str]]]:
+    """Yield ``(line_number, fields)`` for every non-blank, non-comment line (1-based numbers)."""
+    for number, line in enumerate(open_text(path), start=1):
+        stripped = line.strip()
+        if not stripped or stripped.startswith(comment):
+            continue
+        yield number, stripped.split()
+
+
+def parse_float(token: str, path: Path, line: int, what: str = "field") -> float:
+    """``float(token)`` or a DataError naming the file, the line and the field."""
+    try:
+        value = float(token)
+    except ValueError:
+        raise DataError(f"line {line}: {what} {token!r} is not a number", path) from None
+    if not np.isfinite(value):
+        raise DataError(f"line {line}: {what} {token!r} is not finite", path)
+    return value
+
+
+def parse_int(token: str, path: Path, line: int, what: str = "field") -> int:
+    """``int(token)`` or a DataError naming the file, the line and the field."""
+    try:
+        return int(token)
+    except ValueError:
+        raise DataError(f"line {line}: {what} {token!r} is not an integer", path) from None
+
+
+def read_table(
+    path: Path,
+    columns: tuple[str, ...],
+    *,
+    stamp_order: StampOrder = StampOrder.NON_DECREASING,
+    stamp_column: int = 0,
+    min_rows: int = 1,
+) -> Table:
+    """Read a whitespace-separated numeric table with ``#`` comments.
+
+    Args:
+        path: the file (plain or gzip).
+        columns: one name (with unit) per expected column; used in messages.
+        stamp_order: what ``values[:, stamp_column]`` must satisfy.
+        stamp_column: index of the time column.
+        min_rows: fewer data rows than this is an error (an empty or truncated file).
+
+    Returns:
+        The rows and their line numbers.
+
+    Raises:
+        DataError: "path: line N: ..." for a wrong column count (the last line of a truncated
+            file), a non-numeric or non-finite field, or time going backwards.
+    """
+    path = Path(path)
+    width = len(columns)
+    numbers: list[int] = []
+    rows: list[list[str]] = []
+    for number, fields in iter_records(path):
+        if len(fields) != width:
+            hint = " (file truncated?)" if len(fields) < width else ""
+            raise DataError(
+                f"line {number}: expected {width} columns ({' '.join(columns)}), "
+                f"got {len(fields)}{hint}",
+                path,
+            )
+        numbers.append(number)
+        rows.append(fields)
+    if len(rows) < min_rows:
+        raise DataError(f"expected at least {min_rows} data rows, found {len(rows)}", path)
+    try:
+        values = np.array(rows, dtype=float).reshape(len(rows), width)
+    except ValueError:
+        values = None
+    if values is None or not np.all(np.isfinite(values)):
+        # slow path only to name the culprit
+        for number, fields in zip(numbers, rows, strict=True):
+            for name, token in zip(columns, fields, strict=True):
+                parse_float(token, path, number, name)
+        raise DataError("unparseable numbers", path)  # pragma: no cover - defensive
+    line_numbers = np.asarray(numbers, dtype=np.int64)
+    if stamp_order is not StampOrder.ANY and len(values) > 1:
+        check_stamps(values[:, stamp_column], line_numbers, path, stamp_order)
+    values.setflags(write=False)
+    line_numbers.setflags(write=False)
+    return Table(path, values, line_numbers)
+
+
+def check_stamps(
+    stamps_s: np.ndarray, line_numbers: np.ndarray, path: Path, order: StampOrder
+) -> None:
+    """Raise DataError at the first stamp that breaks ``order`` (naming both lines)."""
+    if order is StampOrder.ANY or len(stamps_s) < 2:
+        return
+    step = np.diff(stamps_s)
+    bad = step < 0 if order is StampOrder.NON_DECREASING else step <= 0
+    if np.any(bad):
+        k = int(np.argmax(bad)) + 1
+        relation = "earlier than" if step[k - 1] < 0 else "equal to"
+        raise DataError(
+            f"line {int(line_numbers[k])}: time {float(stamps_s[k])!r} is {relation} "
+            f"{float(stamps_s[k - 1])!r} on line {int(line_numbers[k - 1])} "
+            f"(times must be {order.value})",
+            path,
+        )

@@ -1,0 +1,257 @@
+"""CARMEN 2-D laser logs (Radish repository): Intel Research Lab, ACES building, and others.
+
+Intel: recorded by Dirk Haehnel; ACES: by Patrick Beeson; both from the Robotics Data Set
+Repository (Radish), Howard & Roy 2003, in the "corrected" versions distributed with the SLAM
+benchmark of Kuemmerle, Steder, Dornhege, Ruhnke, Grisetti, Stachniss, Kleiner, "On measuring
+the accuracy of SLAM algorithms", Autonomous Robots 27(4), 2009.
+
+One record per line (``gzip`` or plain text), dispatched on the first token:
+
+* ``ODOM x y theta tv rv accel timestamp host logger_timestamp``: the odometry stream.
+* ``FLASER n r1..rn x y theta odom_x odom_y odom_theta timestamp host logger_timestamp``: a
+  front laser scan (180 beams, 1 deg apart from -90 deg) and the robot pose at the scan.
+
+What the files actually contain (checked on intel and aces) and how it is converted:
+
+* In a *corrected* log, every FLASER is a keyframe whose ``x y theta`` **and**
+  ``odom_x odom_y odom_theta`` both hold the pose corrected by a SLAM system (they are equal),
+  and the line right after it is an ``ODOM`` with timestamp 0 that resets the odometry stream to
+  that corrected pose. The raw motion between keyframes k and k+1 is therefore
+  ``between(reset pose after k, last ODOM pose before k+1)`` (that ODOM carries the scan's
+  stamp). The odom fields of FLASER must *not* be used as odometry there: they would hand the
+  estimators the corrected poses. The corrected poses are the pseudo ground truth (not
+  independent of a SLAM system: ``GroundTruthKind.PSEUDO``, said in ``GroundTruth.note``).
+* In a raw log (no reset records) the FLASER odom fields are the raw odometry at the scan and
+  the odometry is taken from them; there is no ground truth.
+* Frames are the FLASER records in file order. The intel log's clock steps back by up to 0.86 s
+  at four keyframes (file lines 5647, 10805, 11190, 12936): a stamp that does not increase is
+  moved to ``STAMP_REPAIR_S`` after its predecessor and counted in ``info["stamps_repaired"]``;
+  a step back larger than ``MAX_CLOCK_STEP_BACK_S`` is an error.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from omnislam.core.se import se2_between
+from omnislam.core.types import Trajectory
+from omnislam.datasets._text import iter_records, parse_float, parse_int
+from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, LaserScans, Sequence
+from omnislam.errors import DataError
+
+log = logging.getLogger(__name__)
+
+SOURCE = (
+    "CARMEN log from Radish (Howard & Roy 2003), corrected version of Kuemmerle et al., "
+    "'On measuring the accuracy of SLAM algorithms', Autonomous Robots 27(4), 2009"
+)
+PSEUDO_NOTE = (
+    "pseudo ground truth: keyframe poses corrected by a SLAM system (not independent; "
+    "Kuemmerle et al. 2009)"
+)
+
+#: a keyframe stamp that goes back by at most this much is repaired; more is an error [s]
+MAX_CLOCK_STEP_BACK_S = 5.0
+#: a repaired stamp is put this far after its predecessor [s]
+STAMP_REPAIR_S = 1e-3
+#: FLASER beams start at -90 deg and are 1 deg apart (CARMEN front laser, 180 beams)
+FLASER_FIRST_BEAM_RAD = -np.pi / 2.0
+
+
+@dataclass(frozen=True, slots=True)
+class CarmenLog:
+    """The records of a CARMEN log that omnislam uses, in file order.
+
+    Attributes:
+        stamps_s: (N,) FLASER timestamps as recorded [s].
+        lines: (N,) 1-based file line of each FLASER record.
+        scan_ranges_m: (N, B) ranges.
+        scan_poses: (N, 3) ``x y theta`` of each FLASER (corrected pose in corrected logs).
+        odom_at_scan: (N, 3) raw-odometry-chain pose at each scan (last ODOM before the FLASER,
+            or the FLASER's odom fields when no ODOM precedes it).
+        odom_after_scan: (N, 3) pose the odometry chain continues from after each scan (the reset
+            ODOM of a corrected log, else ``odom_at_scan``).
+        corrected: True when the log has the reset records of a corrected log.
+    """
+
+    stamps_s: np.ndarray
+    lines: np.ndarray
+    scan_ranges_m: np.ndarray
+    scan_poses: np.ndarray
+    odom_at_scan: np.ndarray
+    odom_after_scan: np.ndarray
+    corrected: bool
+
+
+def read_carmen_log(path: Path) -> CarmenLog:
+    """Parse the ODOM and FLASER records of a CARMEN log (other records are skipped).
+
+    Raises:
+        DataError: a malformed ODOM/FLASER record (naming the line), scans of different beam
+            counts, or no FLASER record.
+    """
+    path = Path(path)
+    stamps: list[float] = []
+    lines: list[int] = []
+    ranges: list[list[float]] = []
+    poses: list[list[float]] = []
+    at_scan: list[list[float]] = []
+    after_scan: list[list[float]] = []
+    last_odom: list[float] | None = None
+    previous_was_scan = False
+    resets = 0
+    beams: int | None = None
+    for line, fields in iter_records(path):
+        tag = fields[0]
+        if tag == "ODOM":
+            if len(fields) < 8:
+                raise DataError(
+                    f"line {line}: ODOM needs at least 7 fields, got {len(fields) - 1}", path
+                )
+            pose = [parse_float(t, path, line, "ODOM pose") for t in fields[1:4]]
+            stamp = parse_float(fields[7], path, line, "ODOM timestamp")
+            if previous_was_scan and stamp == 0.0:
+                after_scan[-1] = pose
+                resets += 1
+            last_odom = pose
+            previous_was_scan = False
+        elif tag == "FLASER":
+            if len(fields) < 2:
+                raise DataError(f"line {line}: FLASER without a beam count", path)
+            n = parse_int(fields[1], path, line, "beam count")
+            if n <= 0 or len(fields) < n + 9:
+                raise DataError(
+                    f"line {line}: FLASER with {n} beams needs {n + 9} fields, "
+                    f"got {len(fields) - 1}"
+                    " (file truncated?)",
+                    path,
+                )
+            if beams is not None and n != beams:
+                raise DataError(f"line {line}: FLASER has {n} beams, earlier ones {beams}", path)
+            beams = n
+            ranges.append([parse_float(t, path, line, "range") for t in fields[2 : 2 + n]])
+            pose = [parse_float(t, path, line, "pose") for t in fields[2 + n : 5 + n]]
+            odom = [parse_float(t, path, line, "odom pose") for t in fields[5 + n : 8 + n]]
+            stamps.append(parse_float(fields[8 + n], path, line, "timestamp"))
+            lines.append(line)
+            poses.append(pose)
+            at_scan.append(last_odom if last_odom is not None else odom)
+            after_scan.append(at_scan[-1])
+            previous_was_scan = True
+        else:
+            previous_was_scan = False
+    if not stamps:
+        raise DataError("no FLASER records (not a CARMEN laser log?)", path)
+    corrected = resets > 0
+    if not corrected:  # raw log: the FLASER odom fields are the raw odometry at the scan
+        odom_fields = []
+        for _, fields in iter_records(path):
+            if fields[0] == "FLASER":
+                n = int(fields[1])
+                odom_fields.append([float(t) for t in fields[5 + n : 8 + n]])
+        at_scan = after_scan = odom_fields
+    return CarmenLog(
+        stamps_s=np.asarray(stamps),
+        lines=np.asarray(lines, dtype=np.int64),
+        scan_ranges_m=np.asarray(ranges),
+        scan_poses=np.asarray(poses),
+        odom_at_scan=np.asarray(at_scan),
+        odom_after_scan=np.asarray(after_scan),
+        corrected=corrected,
+    )
+
+
+def repair_stamps(stamps_s: np.ndarray, lines: np.ndarray, path: Path) -> tuple[np.ndarray, int]:
+    """Make keyframe stamps strictly increasing by moving small clock steps back forward.
+
+    Returns:
+        (stamps (N,), number of stamps moved).
+
+    Raises:
+        DataError: a step back larger than ``MAX_CLOCK_STEP_BACK_S`` (naming the line).
+    """
+    out = np.array(stamps_s, dtype=float)
+    repaired = 0
+    for k in range(1, len(out)):
+        if out[k] > out[k - 1]:
+            continue
+        if stamps_s[k] < out[k - 1] - MAX_CLOCK_STEP_BACK_S:
+            raise DataError(
+                f"line {int(lines[k])}: time {float(stamps_s[k])!r} is earlier than "
+                f"{float(out[k - 1])!r} on "
+                f"line {int(lines[k - 1])} by more than {MAX_CLOCK_STEP_BACK_S} s",
+                path,
+            )
+        out[k] = out[k - 1] + STAMP_REPAIR_S
+        repaired += 1
+    return out, repaired
+
+
+def is_carmen_log(path: Path) -> bool:
+    """True when ``path`` is a file named ``*.log`` or ``*.log.gz`` (a CARMEN log)."""
+    path = Path(path)
+    return path.is_file() and (path.name.endswith(".log") or path.name.endswith(".log.gz"))
+
+
+def load_carmen(path: Path, *, name: str | None = None) -> Sequence:
+    """Load a CARMEN laser log as a Sequence (one frame per FLASER keyframe).
+
+    Args:
+        path: ``*.log`` or ``*.log.gz`` file.
+        name: sequence name (default: the file name without ``.log[.gz]``).
+
+    Returns:
+        The Sequence with laser scans, odometry between keyframes, and (for corrected logs) the
+        corrected keyframe poses as PSEUDO ground truth.
+
+    Raises:
+        DataError: a malformed record or a large clock step back (naming the line).
+    """
+    path = Path(path)
+    record = read_carmen_log(path)
+    stamps, repaired = repair_stamps(record.stamps_s, record.lines, path)
+    if repaired:
+        log.warning("%s: %d keyframe stamps out of order were moved forward", path, repaired)
+    odometry = np.zeros((len(stamps), 3))
+    if len(stamps) > 1:
+        odometry[1:] = se2_between(record.odom_after_scan[:-1], record.odom_at_scan[1:])
+    beams = record.scan_ranges_m.shape[1]
+    laser = LaserScans(
+        angles_rad=FLASER_FIRST_BEAM_RAD + np.deg2rad(np.arange(beams) * 180.0 / beams),
+        ranges_m=record.scan_ranges_m,
+        max_range_m=float(np.max(record.scan_ranges_m)),
+    )
+    if record.corrected:
+        ground_truth = GroundTruth(
+            kind=GroundTruthKind.PSEUDO,
+            trajectory=Trajectory.from_se2(stamps, record.scan_poses),
+            note=PSEUDO_NOTE,
+        )
+        initial_pose = record.scan_poses[0]
+    else:
+        ground_truth = GroundTruth(kind=GroundTruthKind.NONE, note="raw log: no ground truth")
+        initial_pose = None
+    stem = path.name.removesuffix(".gz").removesuffix(".log")
+    info = {
+        "sensors": f"wheel odometry; front laser ({beams} beams, 180 deg)",
+        "scans": str(len(stamps)),
+        "corrected_log": str(record.corrected).lower(),
+        "odometry": "raw ODOM chain between corrected keyframes"
+        if record.corrected
+        else "FLASER odom fields",
+        "stamps_repaired": str(repaired),
+    }
+    return Sequence(
+        name=name or stem,
+        source=SOURCE,
+        stamps_s=stamps,
+        odometry_r=odometry,
+        ground_truth=ground_truth,
+        initial_pose_w=initial_pose,
+        laser=laser,
+        info=info,
+    )

@@ -1,0 +1,211 @@
+"""gtsam's pre-processed Victoria Park graph file (``gtsam/Data/victoria_park.txt``).
+
+The file ships inside the gtsam wheel (find it with
+``gtsam.findExampleDataFile("victoria_park.txt")``); it is the Victoria Park run of Guivant &
+Nebot (IEEE T-RA 17(3), 2001) reduced by the GTSAM authors to odometry factors and landmark
+sightings with data association solved. One line per factor (format of gtsam's
+``gtsam/slam/dataset.cpp``):
+
+* ``ODOMETRY i j dx dy dtheta c11 c12 c13 c22 c23 c33``: pose j seen from pose i with the upper
+  triangle of its 3x3 *covariance* (gtsam's ``NoiseFormatCOV``, detected automatically by
+  ``load2D``: here diag(1e-4, 4e-6, 4e-6), i.e. sigmas 1 cm, 2 mm, 2 mrad).
+* ``LANDMARK i l x y v1 v2 v3``: landmark l at (x, y) in the frame of pose i. gtsam converts it to
+  bearing = atan2(y, x), range = hypot(x, y) and, when v1 == v3, to sigmas
+  bearing = sqrt(v1 / 10), range = sqrt(v1) ("the x-y covariance ... describes the uncertainty
+  at a range of 10 m"); with v1 = 0.4 that is 0.2 rad and 0.63 m. The same is done here so that
+  omnislam's estimators see what gtsam's examples see.
+* ``BR i l bearing range sigma_bearing sigma_range``: a bearing-range sighting (accepted too).
+
+Poses and landmarks share one id space. Frames are the poses in chain order; the file has no
+time stamps, so frame k gets the nominal stamp k [s]. There is no ground truth: evaluation
+compares against a reference solution (``GroundTruthKind.REFERENCE``, provided by the graph
+SLAM work) when one is given, otherwise reports "no ground truth".
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from omnislam.core.types import UNKNOWN_ID
+from omnislam.datasets._common import Association, group_sightings
+from omnislam.datasets._text import iter_records, parse_float, parse_int
+from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, Sequence
+from omnislam.errors import DataError
+
+SOURCE = (
+    "gtsam example data victoria_park.txt (GTSAM authors), from ACFR Victoria Park: Guivant & "
+    "Nebot, IEEE T-RA 17(3), 2001"
+)
+FILE_NAME = "victoria_park.txt"
+
+#: fields after the tag, per record type
+_WIDTHS = {"ODOMETRY": 11, "LANDMARK": 7, "BR": 6}
+
+
+def find_gtsam_file() -> Path | None:
+    """Path of gtsam's ``victoria_park.txt``, or None when gtsam (or the file) is missing."""
+    try:
+        import gtsam
+    except ImportError:
+        return None
+    try:
+        return Path(gtsam.findExampleDataFile(FILE_NAME))
+    except (RuntimeError, ValueError, IndexError):
+        return None
+
+
+def read_gtsam_graph(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Parse a gtsam 2-D graph file with ODOMETRY, LANDMARK and BR records.
+
+    Returns:
+        (edges (E, 2) int [i, j], deltas (E, 3) [dx, dy, dtheta], edge_sigmas (E, 3) [m, m, rad],
+        sightings (S, 6) [pose id, landmark id, range m, bearing rad, sigma_range m,
+        sigma_bearing rad]) in file order.
+
+    Raises:
+        DataError: unknown record, wrong field count or non-numeric field (naming the line).
+    """
+    edges: list[tuple[int, int]] = []
+    deltas: list[list[float]] = []
+    sigmas: list[list[float]] = []
+    sightings: list[list[float]] = []
+    for line, fields in iter_records(path):
+        tag = fields[0]
+        if tag not in _WIDTHS:
+            raise DataError(
+                f"line {line}: unknown record {tag!r} (expected {', '.join(_WIDTHS)})", path
+            )
+        if len(fields) - 1 != _WIDTHS[tag]:
+            raise DataError(
+                f"line {line}: {tag} needs {_WIDTHS[tag]} fields, got {len(fields) - 1}", path
+            )
+        i = parse_int(fields[1], path, line, "id")
+        j = parse_int(fields[2], path, line, "id")
+        values = [parse_float(t, path, line) for t in fields[3:]]
+        if tag == "ODOMETRY":
+            c11, c12, c13, c22, c23, c33 = values[3:]
+            cov = np.array([[c11, c12, c13], [c12, c22, c23], [c13, c23, c33]])
+            if np.any(np.linalg.eigvalsh(cov) <= 0):
+                raise DataError(f"line {line}: odometry covariance is not positive definite", path)
+            edges.append((i, j))
+            deltas.append(values[:3])
+            sigmas.append(list(np.sqrt(np.diag(cov))))
+        elif tag == "LANDMARK":
+            x, y, v1, _, v3 = values
+            if abs(v1 - v3) < 1e-4:  # gtsam dataset.cpp conversion
+                sigma_bearing, sigma_range = np.sqrt(v1 / 10.0), np.sqrt(v1)
+            else:
+                sigma_bearing, sigma_range = 1.0, 1.0
+            sightings.append([i, j, np.hypot(x, y), np.arctan2(y, x), sigma_range, sigma_bearing])
+        else:  # BR
+            bearing, range_m, sigma_bearing, sigma_range = values
+            sightings.append([i, j, range_m, bearing, sigma_range, sigma_bearing])
+    if not edges:
+        raise DataError("no ODOMETRY records", path)
+    return (
+        np.asarray(edges, dtype=np.int64),
+        np.asarray(deltas, dtype=float),
+        np.asarray(sigmas, dtype=float),
+        np.asarray(sightings, dtype=float).reshape(-1, 6),
+    )
+
+
+def is_gtsam_graph_file(path: Path) -> bool:
+    """True when ``path`` is a text file whose first record is ODOMETRY, LANDMARK or BR."""
+    path = Path(path)
+    if not path.is_file():
+        return False
+    try:
+        with open(path, encoding="utf-8", errors="replace") as stream:
+            for line in stream:
+                if line.strip() and not line.lstrip().startswith("#"):
+                    return line.split()[0] in _WIDTHS
+    except OSError:
+        return False
+    return False
+
+
+def load_gtsam_victoria(
+    path: Path | None = None,
+    *,
+    association: Association = Association.KNOWN,
+    name: str | None = None,
+) -> Sequence:
+    """Load gtsam's ``victoria_park.txt`` (or any file in that format) as a Sequence.
+
+    Args:
+        path: the file; None finds gtsam's copy.
+        association: KNOWN keeps the file's landmark ids, UNKNOWN hides them.
+        name: sequence name (default: the file's stem).
+
+    Returns:
+        The Sequence: one frame per pose of the odometry chain (stamp = pose index), each frame's
+        sightings with the file's noise; ground truth NONE (see the module docstring).
+
+    Raises:
+        DataError: file missing or malformed, or the ODOMETRY records not forming one chain.
+    """
+    if path is None:
+        path = find_gtsam_file()
+        if path is None:
+            raise DataError(f"gtsam's {FILE_NAME} not found: install the 'graph' extra (gtsam)")
+    path = Path(path)
+    edges, deltas, sigmas, sightings = read_gtsam_graph(path)
+    chain = edges[:, 0]
+    if np.any(edges[1:, 0] != edges[:-1, 1]):
+        k = int(np.argmax(edges[1:, 0] != edges[:-1, 1])) + 1
+        raise DataError(
+            f"ODOMETRY record {k + 1} starts at pose {edges[k, 0]}, "
+            f"the chain is at {edges[k - 1, 1]}",
+            path,
+        )
+    pose_ids = np.append(chain, edges[-1, 1])
+    frame_of_pose = {int(p): k for k, p in enumerate(pose_ids)}
+    frames = np.array([frame_of_pose.get(int(p), -1) for p in sightings[:, 0]], dtype=np.int64)
+    if np.any(frames < 0):
+        bad = int(sightings[int(np.argmax(frames < 0)), 0])
+        raise DataError(
+            f"a sighting refers to pose {bad}, which is not in the odometry chain", path
+        )
+    stamps = np.arange(len(pose_ids), dtype=float)
+    odometry = np.vstack([np.zeros(3), deltas])
+    # the file gives each sighting its own sigma; gtsam's LANDMARK records all share one
+    sigma_range = float(np.median(sightings[:, 4])) if len(sightings) else 1.0
+    sigma_bearing = float(np.median(sightings[:, 5])) if len(sightings) else 1.0
+    ids = sightings[:, 1].astype(np.int64)
+    range_bearing = group_sightings(
+        stamps,
+        stamps[frames],
+        ids,
+        sightings[:, 2],
+        sightings[:, 3],
+        sigma_range,
+        sigma_bearing,
+        association,
+    )
+    info = {
+        "sensors": "odometry factors; landmark sightings (x, y in the pose frame) with ids",
+        "poses": str(len(pose_ids)),
+        "landmarks": str(len(np.unique(ids))),
+        "sightings": str(len(sightings)),
+        "association": association.value,
+        "odometry_sigmas": " ".join(f"{s:.3g}" for s in np.median(sigmas, axis=0)),
+        "sigma_range_m": f"{sigma_range:.3g}",
+        "sigma_bearing_rad": f"{sigma_bearing:.3g}",
+        "stamps": "nominal: frame index (the file has no times)",
+        "unknown_id": str(UNKNOWN_ID),
+    }
+    return Sequence(
+        name=name or path.stem,
+        source=SOURCE,
+        stamps_s=stamps,
+        odometry_r=odometry,
+        ground_truth=GroundTruth(
+            kind=GroundTruthKind.NONE,
+            note="no ground truth; compare against a reference solution (graphslam-batch)",
+        ),
+        range_bearing=range_bearing,
+        info=info,
+    )

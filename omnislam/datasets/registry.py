@@ -1,0 +1,355 @@
+"""Registry of datasets: registered names, on-disk formats, and format detection.
+
+``omnislam run DATASET`` accepts a registered name (``mrclam6-r1``, ``victoria-park``, ...) or a
+path to any file or folder in one of the formats below; the format is detected from the files.
+Loader options come from ``--set key=value``: each format declares the keys it accepts (e.g.
+``robot`` for MR.CLAM), the remaining keys belong to the estimator.
+
+Loaders are imported lazily (``module:function`` strings), so listing datasets costs nothing and
+a missing optional part (gtsam, the synthetic renderer) only matters when it is used.
+"""
+
+from __future__ import annotations
+
+import enum
+import importlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from omnislam.datasets._common import DATA_ENV, Association, data_root
+from omnislam.datasets.sequence import GroundTruthKind, Sequence
+from omnislam.errors import ConfigError, DataError
+
+
+def _positive_float(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise ValueError("must be positive")
+    return value
+
+
+class DatasetFormat(enum.Enum):
+    """The on-disk formats omnislam reads."""
+
+    MRCLAM = "mrclam"
+    VICTORIA_PARK = "victoria-park"
+    GTSAM_GRAPH = "gtsam-graph"
+    CARMEN = "carmen"
+    SYNTHETIC = "synthetic"
+
+
+@dataclass(frozen=True, slots=True)
+class FormatSpec:
+    """How to detect and load one format.
+
+    Attributes:
+        detect: ``"module:function"``, ``function(path) -> bool``.
+        load: ``"module:function"``, ``function(path, **options) -> Sequence``.
+        options: option name -> parser from the ``--set`` string to the loader's keyword value.
+    """
+
+    detect: str
+    load: str
+    options: Mapping[str, Callable[[str], object]] = field(default_factory=dict)
+
+
+FORMATS: dict[DatasetFormat, FormatSpec] = {
+    DatasetFormat.MRCLAM: FormatSpec(
+        "omnislam.datasets.mrclam:is_mrclam_folder",
+        "omnislam.datasets.mrclam:load_mrclam",
+        {
+            "robot": int,
+            "association": Association.parse,
+            "sigma_range_m": _positive_float,
+            "sigma_bearing_rad": _positive_float,
+        },
+    ),
+    DatasetFormat.VICTORIA_PARK: FormatSpec(
+        "omnislam.datasets.victoria_park:is_victoria_park_folder",
+        "omnislam.datasets.victoria_park:load_victoria_park",
+        {"sigma_range_m": _positive_float, "sigma_bearing_rad": _positive_float},
+    ),
+    DatasetFormat.GTSAM_GRAPH: FormatSpec(
+        "omnislam.datasets.gtsam_victoria:is_gtsam_graph_file",
+        "omnislam.datasets.gtsam_victoria:load_gtsam_victoria",
+        {"association": Association.parse},
+    ),
+    DatasetFormat.CARMEN: FormatSpec(
+        "omnislam.datasets.carmen:is_carmen_log",
+        "omnislam.datasets.carmen:load_carmen",
+    ),
+    DatasetFormat.SYNTHETIC: FormatSpec(
+        "omnislam.datasets.synthetic:is_synthetic_folder",
+        "omnislam.datasets.synthetic:load_synthetic",
+    ),
+}
+
+#: detection order (most specific first)
+DETECTION_ORDER = (
+    DatasetFormat.SYNTHETIC,
+    DatasetFormat.MRCLAM,
+    DatasetFormat.VICTORIA_PARK,
+    DatasetFormat.CARMEN,
+    DatasetFormat.GTSAM_GRAPH,
+)
+
+
+@dataclass(frozen=True, slots=True)
+class DatasetEntry:
+    """A registered real dataset.
+
+    Attributes:
+        name: registry name used on the command line.
+        format: its on-disk format.
+        relative_path: path under the data root (``$OMNISLAM_DATA`` or ``../shared/data``);
+            empty for gtsam's file, which is found through gtsam.
+        source: citation, one line.
+        sensors: what it provides, one line.
+        ground_truth: the kind of ground truth.
+        options: loader options fixed by the entry (e.g. the robot).
+    """
+
+    name: str
+    format: DatasetFormat
+    relative_path: str
+    source: str
+    sensors: str
+    ground_truth: GroundTruthKind
+    options: Mapping[str, str] = field(default_factory=dict)
+
+    def location(self) -> Path | None:
+        """Where this dataset is looked for (None when gtsam is not installed)."""
+        if self.format is DatasetFormat.GTSAM_GRAPH and not self.relative_path:
+            from omnislam.datasets.gtsam_victoria import find_gtsam_file
+
+            return find_gtsam_file()
+        return data_root() / self.relative_path
+
+    def found(self) -> bool:
+        """True when the data is present at ``location()``."""
+        where = self.location()
+        return where is not None and where.exists()
+
+
+_MRCLAM_SOURCE = "Leung, Halpern, Barfoot, Liu, IJRR 2011 (UTIAS MR.CLAM), dataset 6"
+_MRCLAM_SENSORS = "odometry (v, omega); range-bearing to 15 barcoded landmarks (ids)"
+
+REGISTRY: dict[str, DatasetEntry] = {
+    **{
+        f"mrclam6-r{robot}": DatasetEntry(
+            f"mrclam6-r{robot}",
+            DatasetFormat.MRCLAM,
+            "mrclam/MRCLAM_Dataset6",
+            f"{_MRCLAM_SOURCE}, robot {robot}",
+            _MRCLAM_SENSORS,
+            GroundTruthKind.MOTION_CAPTURE,
+            {"robot": str(robot)},
+        )
+        for robot in range(1, 6)
+    },
+    "victoria-park": DatasetEntry(
+        "victoria-park",
+        DatasetFormat.VICTORIA_PARK,
+        "victoria_park",
+        "Guivant & Nebot, IEEE T-RA 2001 (ACFR Victoria Park)",
+        "speed + steering (Ackermann); laser tree range-bearing (no ids)",
+        GroundTruthKind.GPS_PARTIAL,
+    ),
+    "victoria-park-gtsam": DatasetEntry(
+        "victoria-park-gtsam",
+        DatasetFormat.GTSAM_GRAPH,
+        "",
+        "gtsam example data victoria_park.txt (from Guivant & Nebot 2001)",
+        "odometry steps; landmark sightings with ids",
+        GroundTruthKind.NONE,
+    ),
+    "carmen-intel": DatasetEntry(
+        "carmen-intel",
+        DatasetFormat.CARMEN,
+        "carmen/intel-corrected.log.gz",
+        "Intel Research Lab (Haehnel), Radish; corrected log (Kuemmerle et al. 2009)",
+        "wheel odometry; 180-beam laser",
+        GroundTruthKind.PSEUDO,
+    ),
+    "carmen-aces": DatasetEntry(
+        "carmen-aces",
+        DatasetFormat.CARMEN,
+        "carmen/aces-corrected.log.gz",
+        "ACES building, UT Austin (Beeson), Radish; corrected log (Kuemmerle et al. 2009)",
+        "wheel odometry; 180-beam laser",
+        GroundTruthKind.PSEUDO,
+    ),
+}
+
+
+@dataclass(frozen=True, slots=True)
+class ResolvedDataset:
+    """A dataset argument turned into a format, a path, a name and fixed options."""
+
+    name: str
+    format: DatasetFormat
+    path: Path
+    options: Mapping[str, str] = field(default_factory=dict)
+
+    def option_names(self) -> frozenset[str]:
+        """The ``--set`` keys the loader of this format accepts."""
+        return frozenset(FORMATS[self.format].options)
+
+
+def _function(spec: str) -> Callable[..., object]:
+    module_name, attribute = spec.split(":")
+    module = importlib.import_module(module_name)
+    return getattr(module, attribute)
+
+
+def detect_format(path: Path) -> DatasetFormat | None:
+    """The format of a file or folder, or None when no loader recognises it."""
+    for fmt in DETECTION_ORDER:
+        try:
+            detect = _function(FORMATS[fmt].detect)
+        except (ImportError, AttributeError):  # an optional part not installed / not written
+            continue
+        if detect(path):
+            return fmt
+    if path.is_dir():  # a folder holding exactly one CARMEN log
+        logs = [p for p in path.iterdir() if p.name.endswith((".log", ".log.gz"))]
+        if len(logs) == 1:
+            return DatasetFormat.CARMEN
+    return None
+
+
+def resolve(dataset: str) -> ResolvedDataset:
+    """Turn a registered name or a path into a ResolvedDataset.
+
+    Raises:
+        DataError: a registered dataset whose files are missing (naming where it looked), or a
+            path no loader recognises.
+        ConfigError: neither a registered name nor an existing path.
+    """
+    entry = REGISTRY.get(dataset)
+    if entry is not None:
+        where = entry.location()
+        if where is None:
+            raise DataError(
+                f"dataset {dataset!r} needs gtsam's example data: install the 'graph' extra"
+            )
+        if not where.exists():
+            raise DataError(
+                f"dataset {dataset!r} not found: looked in {where} "
+                f"(set {DATA_ENV} to the folder holding the real data)"
+            )
+        return ResolvedDataset(entry.name, entry.format, where, entry.options)
+    path = Path(dataset).expanduser()
+    if not path.exists():
+        raise ConfigError(
+            f"unknown dataset {dataset!r}: not a registered name ({', '.join(REGISTRY)}) "
+            "nor an existing file or folder"
+        )
+    fmt = detect_format(path)
+    if fmt is None:
+        raise DataError(
+            "no loader recognises this file or folder (expected an MR.CLAM folder, a Victoria "
+            "Park folder, a CARMEN .log[.gz], a gtsam graph file or a synthetic folder)",
+            path,
+        )
+    if fmt is DatasetFormat.CARMEN and path.is_dir():
+        path = next(p for p in path.iterdir() if p.name.endswith((".log", ".log.gz")))
+    name = path.name.removesuffix(".gz").removesuffix(".log") if path.is_file() else path.name
+    return ResolvedDataset(name, fmt, path)
+
+
+def parse_options(fmt: DatasetFormat, options: Mapping[str, str]) -> dict[str, object]:
+    """Convert ``--set`` strings to the loader's keyword arguments.
+
+    Raises:
+        ConfigError: an option the format does not accept, or a value that does not parse.
+    """
+    parsers = FORMATS[fmt].options
+    out: dict[str, object] = {}
+    for key, text in options.items():
+        if key not in parsers:
+            known = ", ".join(sorted(parsers)) or "none"
+            raise ConfigError(f"{fmt.value} datasets take no option {key!r} (options: {known})")
+        try:
+            out[key] = parsers[key](text)
+        except (ValueError, ConfigError) as exc:
+            raise ConfigError(f"option {key}={text!r}: {exc}") from None
+    return out
+
+
+def load_dataset(
+    dataset: str | ResolvedDataset, options: Mapping[str, str] | None = None
+) -> Sequence:
+    """Load a registered dataset or a path, with loader options.
+
+    Args:
+        dataset: a registered name, a path, or the result of ``resolve``.
+        options: loader options (``--set`` strings); they override the entry's fixed ones.
+
+    Returns:
+        The Sequence.
+    """
+    resolved = resolve(dataset) if isinstance(dataset, str) else dataset
+    merged = {**resolved.options, **(options or {})}
+    kwargs = parse_options(resolved.format, merged)
+    try:
+        load = _function(FORMATS[resolved.format].load)
+    except (ImportError, AttributeError) as exc:
+        raise DataError(
+            f"the {resolved.format.value} loader is not available ({exc})", resolved.path
+        ) from exc
+    if resolved.format is not DatasetFormat.SYNTHETIC:
+        kwargs.setdefault("name", resolved.name)
+    sequence = load(resolved.path, **kwargs)
+    if not isinstance(sequence, Sequence):  # pragma: no cover - defensive
+        raise DataError("loader did not return a Sequence", resolved.path)
+    return sequence
+
+
+@dataclass(frozen=True, slots=True)
+class ListedDataset:
+    """One row of ``omnislam dataset list``."""
+
+    name: str
+    kind: str  # "real" or "synthetic preset"
+    source: str
+    sensors: str
+    ground_truth: str
+    found: bool
+    location: str
+
+
+def list_datasets() -> list[ListedDataset]:
+    """Every registered real dataset (found or not, and where) and the synthetic presets."""
+    rows = []
+    for entry in REGISTRY.values():
+        where = entry.location()
+        rows.append(
+            ListedDataset(
+                entry.name,
+                "real",
+                entry.source,
+                entry.sensors,
+                entry.ground_truth.value,
+                entry.found(),
+                str(where) if where is not None else "gtsam not installed",
+            )
+        )
+    try:
+        from omnislam.datasets.synthetic import PRESETS
+    except (ImportError, AttributeError):
+        PRESETS = {}
+    for preset in PRESETS:
+        rows.append(
+            ListedDataset(
+                str(preset),
+                "synthetic preset",
+                "omnislam synthetic omni world",
+                "rendered omni images; true/noisy odometry",
+                GroundTruthKind.EXACT.value,
+                True,
+                "render with: omnislam dataset synth " + str(preset) + " --out DIR",
+            )
+        )
+    return rows

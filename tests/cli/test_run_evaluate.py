@@ -1,0 +1,136 @@
+"""``omnislam run`` / ``omnislam evaluate`` / ``omnislam dataset list`` end to end."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from omnislam.cli import main
+from omnislam.compare.rundir import REQUIRED_METRICS, read_run_dir
+from omnislam.datasets.registry import REGISTRY
+
+#: dead-reckoning ATE (SE(2) aligned) measured when the loaders were written: a regression guard
+DEAD_RECKONING_ATE_M = {
+    "mrclam6-r1": 2.06,
+    "victoria-park": 92.9,
+    "carmen-intel": 23.4,
+    "carmen-aces": 5.42,
+}
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_dead_reckoning_runs_on_every_registered_dataset(name, tmp_path, capsys):
+    if not REGISTRY[name].found():
+        pytest.skip(f"{name} not found at {REGISTRY[name].location()}")
+    out = tmp_path / "run"
+    assert (
+        main(["run", name, "--estimator", "deadreckoning", "--out", str(out), "--seed", "1"]) == 0
+    )
+    assert {p.name for p in out.iterdir()} >= {
+        "trajectory.tum",
+        "landmarks.csv",
+        "timing.csv",
+        "config.yaml",
+    }
+    config = yaml.safe_load((out / "config.yaml").read_text())
+    assert config["dataset"] == name and config["estimator"] == "deadreckoning"
+    assert config["seed"] == 1 and config["omnislam_version"]
+    assert main(["evaluate", str(out), "--json"]) == 0
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert set(REQUIRED_METRICS) <= set(metrics)
+    record = read_run_dir(out)
+    assert metrics["frames"] == len(record.estimate.trajectory) == len(record.step_s)
+    if record.ground_truth.trajectory is None:
+        assert metrics["ate_rmse_m"] is None and metrics["alignment"] is None
+        assert main(["evaluate", str(out)]) == 0
+        assert "no ground truth" in capsys.readouterr().out
+    else:
+        assert metrics["alignment"] == "se2"
+        assert metrics["ate_origin_rmse_m"] >= metrics["ate_rmse_m"] > 0
+        if name in DEAD_RECKONING_ATE_M:
+            assert metrics["ate_rmse_m"] == pytest.approx(DEAD_RECKONING_ATE_M[name], rel=0.01)
+
+
+def write_raw_carmen(path: Path, stamps=(1.0, 2.0, 3.0)) -> Path:
+    lines = [f"FLASER 2 1 1 0 0 0 {k * 0.5} 0 {k * 0.1} {t} h {t}\n" for k, t in enumerate(stamps)]
+    path.write_text("".join(lines))
+    return path
+
+
+def test_run_on_a_path_and_rerun_replaces_the_run_dir(tmp_path, capsys):
+    log = write_raw_carmen(tmp_path / "mine.log")
+    out = tmp_path / "run"
+    assert main(["run", str(log), "--estimator", "deadreckoning", "--out", str(out)]) == 0
+    assert main(["run", str(log), "--estimator", "deadreckoning", "--out", str(out)]) == 0
+    record = read_run_dir(out)
+    assert np.allclose(record.estimate.trajectory.se2[-1], [1.0, 0.0, 0.2], atol=0.06)
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+    assert main(["evaluate", str(out)]) == 0
+    assert "no ground truth" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--estimator", "kalman"], "unknown estimator 'kalman'"),
+        (["--estimator", "deadreckoning", "--set", "particles=3"], "takes no options"),
+        (["--estimator", "deadreckoning", "--set", "oops"], "expects KEY=VALUE"),
+        (["--estimator", "deadreckoning", "--log", "x.log"], "--log is not yet available"),
+    ],
+)
+def test_bad_arguments_exit_2_without_output(tmp_path, capsys, extra, message):
+    log = write_raw_carmen(tmp_path / "mine.log")
+    out = tmp_path / "run"
+    assert main(["run", str(log), "--out", str(out), *extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_bad_data_exits_2_naming_file_and_line(tmp_path, capsys):
+    log = write_raw_carmen(tmp_path / "mine.log", stamps=(1.0, 20.0, 3.0))
+    out = tmp_path / "run"
+    assert main(["run", str(log), "--estimator", "deadreckoning", "--out", str(out)]) == 2
+    assert f"{log}: line 3:" in capsys.readouterr().err
+    assert not out.exists() and len(list(tmp_path.iterdir())) == 1
+
+
+def test_a_crash_during_the_run_leaves_no_run_dir(tmp_path, monkeypatch):
+    import omnislam.deadreckoning as dr
+
+    def boom(self, frame):
+        raise RuntimeError("estimator crashed")
+
+    monkeypatch.setattr(dr.DeadReckoning, "step", boom)
+    log = write_raw_carmen(tmp_path / "mine.log")
+    out = tmp_path / "run"
+    with pytest.raises(RuntimeError):
+        main(["run", str(log), "--estimator", "deadreckoning", "--out", str(out)])
+    assert not out.exists()
+
+
+def test_refuses_to_overwrite_a_folder_that_is_not_a_run_dir(tmp_path, capsys):
+    log = write_raw_carmen(tmp_path / "mine.log")
+    out = tmp_path / "precious"
+    out.mkdir()
+    (out / "thesis.tex").write_text("x")
+    assert main(["run", str(log), "--estimator", "deadreckoning", "--out", str(out)]) == 2
+    assert "refusing to overwrite" in capsys.readouterr().err
+    assert (out / "thesis.tex").exists()
+
+
+def test_evaluate_on_a_non_run_dir_exits_2(tmp_path, capsys):
+    assert main(["evaluate", str(tmp_path)]) == 2
+    assert "not a RUN_DIR" in capsys.readouterr().err
+
+
+def test_dataset_list_shows_where_it_looked(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("OMNISLAM_DATA", str(tmp_path))
+    assert main(["dataset", "list"]) == 0
+    out = capsys.readouterr().out
+    assert "mrclam6-r1" in out and "NO" in out and str(tmp_path) in out
+    assert main(["dataset", "list", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert {"name", "source", "sensors", "ground_truth", "found", "location"} <= set(rows[0])

@@ -1,0 +1,59 @@
+"""gtsam's victoria_park.txt loader."""
+
+import numpy as np
+import pytest
+
+from omnislam.datasets.gtsam_victoria import find_gtsam_file, load_gtsam_victoria
+from omnislam.datasets.sequence import GroundTruthKind
+from omnislam.errors import DataError
+
+GTSAM_FILE = find_gtsam_file()
+needs_file = pytest.mark.skipif(
+    GTSAM_FILE is None or not GTSAM_FILE.is_file(),
+    reason="gtsam (and its victoria_park.txt) missing",
+)
+
+
+@needs_file
+def test_gtsam_file_has_6969_poses_151_landmarks_3640_sightings():
+    seq = load_gtsam_victoria(GTSAM_FILE)
+    assert len(seq) == 6969
+    ids = np.concatenate([rb.landmark_ids for rb in seq.range_bearing if rb is not None])
+    assert len(ids) == 3640
+    assert len(np.unique(ids)) == 151
+    assert seq.ground_truth.kind is GroundTruthKind.NONE
+    assert seq.ground_truth.trajectory is None
+
+
+@needs_file
+def test_noise_follows_gtsam_load2d():
+    seq = load_gtsam_victoria(GTSAM_FILE)
+    first = next(rb for rb in seq.range_bearing if rb is not None)
+    assert first.sigma_bearing_rad[0] == pytest.approx(np.sqrt(0.4 / 10))
+    assert first.sigma_range_m[0] == pytest.approx(np.sqrt(0.4))
+    # first sighting: LANDMARK 4 5 11.5387 -3.2007 at pose 4 (frame 4)
+    assert seq.range_bearing[4].ranges_m[0] == pytest.approx(np.hypot(11.5387, -3.2007))
+    assert seq.range_bearing[4].bearings_rad[0] == pytest.approx(np.arctan2(-3.2007, 11.5387))
+    assert seq.odometry_r[1] == pytest.approx([0.000985144, -3.63222e-10, -1.54136e-06])
+
+
+ODO = "ODOMETRY 0 1 1 0 0 0.0001 0 0 4e-06 0 4e-06\n"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (ODO + "ODOMETRY 1 2 1 0 0 0.0001 0 0 4e-06\n", "line 2: ODOMETRY needs 11 fields, got 9"),
+        (ODO + "LANDMARK 1 9 1 one 0.4 0 0.4\n", "line 2: field 'one' is not a number"),
+        (ODO + "VERTEX2 1 0 0 0\n", "line 2: unknown record 'VERTEX2'"),
+        (ODO + "ODOMETRY 5 6 1 0 0 0.0001 0 0 4e-06 0 4e-06\n", "chain is at 1"),
+        (ODO + "LANDMARK 7 9 1 1 0.4 0 0.4\n", "refers to pose 7"),
+        ("", "no ODOMETRY records"),
+    ],
+)
+def test_bad_input(tmp_path, text, message):
+    path = tmp_path / "graph.txt"
+    path.write_text(text)
+    with pytest.raises(DataError, match=message) as info:
+        load_gtsam_victoria(path)
+    assert str(info.value).startswith(str(path))
