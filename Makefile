@@ -40,10 +40,10 @@ syslibs:
 	fi
 
 lint: venv
-	$(BIN)/ruff check omnislam tests benchmarks
+	$(BIN)/ruff check .
 
 test: venv
-	$(BIN)/ruff check omnislam tests benchmarks
+	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -q
 
 demo: venv
