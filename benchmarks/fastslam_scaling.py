@@ -1,0 +1,168 @@
+"""FastSLAM speed and memory scaling (issue #7).
+
+1. Cost per particle-observation on a small 2-D world (8 landmarks, ~6 sightings per step) at
+   100 and 1000 particles, FastSLAM 1.0 and 2.0, tree store. Goal: <= 1 us.
+2. Step time with 1k, 10k and 100k landmarks in the map and a fixed 6 sightings per step,
+   resampling every step (the worst case for the dense store): tree vs dense. Goal for the
+   tree: <= 1.5x growth from 1k to 100k.
+3. Memory: bytes held by the landmark store and peak bytes allocated during a step.
+
+Run:  .venv/bin/python benchmarks/fastslam_scaling.py [--quick]
+Medians over the timed steps are reported.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import tracemalloc
+
+import numpy as np
+
+from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.motion import MotionNoise
+from omnislam.core.se import se2_between, se2_compose
+from omnislam.core.types import FrameInput, Odometry, RangeBearing
+from omnislam.fastslam import (
+    FastSLAM,
+    FastSLAMConfig,
+    LandmarkBlock,
+    LandmarkStatus,
+    SensorMode,
+    StoreKind,
+    Variant,
+)
+
+NOISE = MotionNoise(a_vv=0.05, a_vw=0.02, a_wv=0.01, a_ww=0.05)
+SIGMA_R, SIGMA_B = 0.05, 0.01
+
+
+def small_world(steps: int, seed: int = 0) -> list[FrameInput]:
+    """A circle of radius 4 m with 8 landmarks around it; ~6 within the 9 m sensor range."""
+    rng = np.random.default_rng(seed)
+    angles = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+    landmarks = np.column_stack([6 * np.cos(angles), 4 + 6 * np.sin(angles)])
+    sensor = RangeBearing2D()
+    d = 0.3 / 4
+    delta = np.array([4 * np.sin(d), 4 * (1 - np.cos(d)), d])
+    pose = np.zeros(3)
+    frames = []
+    for t in range(steps):
+        new = se2_compose(pose, delta)
+        z, _, _ = sensor.predict(np.broadcast_to(new, (8, 3)), landmarks)
+        seen = np.flatnonzero(z[:, 0] < 9.0)
+        noisy = z[seen] + rng.normal(0, [SIGMA_R, SIGMA_B], (seen.size, 2))
+        frames.append(
+            FrameInput(
+                t,
+                Odometry(se2_between(pose, new), 0.1 * (t + 1)),
+                range_bearing=RangeBearing(seen, noisy[:, 0], noisy[:, 1], SIGMA_R, SIGMA_B),
+            )
+        )
+        pose = new
+    return frames
+
+
+def per_particle_observation(quick: bool) -> list[str]:
+    steps, warm = (60, 10) if quick else (200, 20)
+    frames = small_world(steps)
+    sightings = np.mean([len(f.range_bearing) for f in frames])
+    rows = [
+        f"## cost per particle-observation (8 landmarks, {sightings:.1f} sightings/step, "
+        f"tree store, median of {steps - warm} steps)",
+        "| variant | particles | step ms | us / particle-observation |",
+        "|---|---:|---:|---:|",
+    ]
+    for variant in Variant:
+        for n in (100, 1000):
+            config = FastSLAMConfig(variant=variant, n_particles=n, motion_noise=NOISE)
+            slam = FastSLAM(config, np.random.default_rng(1))
+            times = []
+            for frame in frames:
+                t0 = time.perf_counter()
+                slam.step(frame)
+                times.append(time.perf_counter() - t0)
+            k = np.array([len(f.range_bearing) for f in frames[warm:]])
+            per = np.median(np.array(times[warm:]) / (n * k)) * 1e6
+            rows.append(
+                f"| {variant.value} | {n} | {np.median(times[warm:]) * 1e3:.2f} | {per:.2f} |"
+            )
+    return rows
+
+
+def populated_filter(store: StoreKind, n_landmarks: int, n_particles: int):
+    """A filter whose particles all share a map of ``n_landmarks`` landmarks on a grid."""
+    config = FastSLAMConfig(
+        variant=Variant.FASTSLAM1,
+        n_particles=n_particles,
+        motion_noise=NOISE,
+        store=store,
+        sensor_mode=SensorMode.RANGE_BEARING_2D,
+        resample_ess_fraction=1.0,  # resample every step: the dense store's worst case
+    )
+    slam = FastSLAM(config, np.random.default_rng(2))
+    slots = slam.add_known_landmarks(np.arange(n_landmarks))
+    block = LandmarkBlock.empty(n_landmarks, 2, 0)
+    side = int(np.ceil(np.sqrt(n_landmarks)))
+    block.mean[:] = np.column_stack([slots % side, slots // side]) * 3.0
+    block.cov[:] = 0.01 * np.eye(2)
+    block.status[:] = LandmarkStatus.ESTIMATED
+    block.existence[:] = 1
+    slam.store.scatter(np.zeros(n_landmarks, dtype=np.int64), slots, block)
+    slam.store.resample(np.zeros(n_particles, dtype=np.int64))
+    return slam, block.mean
+
+
+def map_size_scaling(quick: bool) -> list[str]:
+    n_particles, steps = 100, (8 if quick else 25)
+    sizes = (1_000, 10_000, 100_000)
+    rows = [
+        f"## step time vs map size ({n_particles} particles, 6 sightings/step, resampling "
+        f"every step, median of {steps} steps)",
+        "| store | landmarks | step ms | growth vs 1k | store MB | peak alloc in step MB |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    sensor = RangeBearing2D()
+    for store in (StoreKind.TREE, StoreKind.LEAF_TREE, StoreKind.DENSE):
+        base = None
+        for m in sizes:
+            slam, landmarks = populated_filter(store, m, n_particles)
+            rng = np.random.default_rng(3)
+            times, peaks = [], []
+            pose = np.zeros(3)
+            for t in range(steps + 3):
+                ids = rng.choice(m, size=6, replace=False)
+                z, _, _ = sensor.predict(np.broadcast_to(pose, (6, 3)), landmarks[ids])
+                frame = FrameInput(
+                    t,
+                    Odometry(np.array([0.1, 0.0, 0.01]), 0.1 * (t + 1)),
+                    range_bearing=RangeBearing(ids, z[:, 0], z[:, 1], SIGMA_R, SIGMA_B),
+                )
+                measure_memory = t == steps + 2
+                if measure_memory:
+                    tracemalloc.start()
+                t0 = time.perf_counter()
+                slam.step(frame)
+                elapsed = time.perf_counter() - t0
+                if measure_memory:
+                    peaks.append(tracemalloc.get_traced_memory()[1])
+                    tracemalloc.stop()
+                elif t >= 2:
+                    times.append(elapsed)
+            median = float(np.median(times))
+            base = median if base is None else base
+            rows.append(
+                f"| {store.value} | {m} | {median * 1e3:.2f} | {median / base:.2f}x | "
+                f"{slam.store.memory_bytes / 1e6:.1f} | {peaks[0] / 1e6:.2f} |"
+            )
+    return rows
+
+
+def main() -> None:
+    quick = "--quick" in sys.argv
+    lines = [*per_particle_observation(quick), "", *map_size_scaling(quick)]
+    sys.stdout.write("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,240 @@
+"""Configuration of the FastSLAM estimator: one frozen dataclass, option enums, named presets.
+
+Every default is documented next to the field. Presets reproduce the thesis's experiments
+(Guizilini 2008, sec. 5.1.2: FastSLAM 1.0 with 50 particles, FastSLAM 2.0 with 10 particles on
+route 1) and a fast setting for large range-bearing logs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from enum import Enum
+
+from omnislam.core.motion import MotionNoise
+from omnislam.errors import ConfigError
+
+
+class Variant(Enum):
+    """Which FastSLAM: 1.0 samples poses from the motion model (thesis eqs. 4.42-4.44); 2.0
+    samples from the motion model refined by the matched observations (thesis 4.45-4.46,
+    Montemerlo 2003 sec. 3.3)."""
+
+    FASTSLAM1 = "fastslam1"
+    FASTSLAM2 = "fastslam2"
+
+
+class StoreKind(Enum):
+    """How each particle's landmark EKFs are stored.
+
+    TREE: the thesis's persistent balanced tree with estimates in every node (sec. 4.4.1.3),
+        shared between particles, path copying on update: O(P log M) per step.
+    LEAF_TREE: Montemerlo's tree with estimates in the leaves only (for comparison).
+    DENSE: plain (P, M, ...) arrays copied on resampling: O(P M) per resampling; the oracle.
+    """
+
+    TREE = "tree"
+    LEAF_TREE = "leaf_tree"
+    DENSE = "dense"
+
+
+class SensorMode(Enum):
+    """Which observations drive the map.
+
+    AUTO: fixed at the first frame that carries observations (range-bearing -> 2-D,
+        bearings -> 3-D).
+    RANGE_BEARING_2D: 2-D point landmarks from ``FrameInput.range_bearing``.
+    BEARINGS_3D: 3-D point landmarks from the omni camera's ``FrameInput.bearings``.
+    """
+
+    AUTO = "auto"
+    RANGE_BEARING_2D = "range_bearing_2d"
+    BEARINGS_3D = "bearings_3d"
+
+
+class BearingUpdate(Enum):
+    """How a 3-D landmark that already has an estimate is updated by a new bearing.
+
+    TRIANGULATED: the thesis (sec. 4.4.1.2): triangulate the new ray with the stored previous
+        sighting, turn the point into a "measured" z = (d, theta, phi) (eq. 4.25) and update with
+        the range-azimuth-elevation model (eqs. 4.29-4.37). The pseudo-measurement shares a ray
+        with the previous one, so successive updates are correlated (the thesis ignores this);
+        when the two rays have too little parallax the direct update is used instead.
+    DIRECT: a bearing-only EKF update with z = (azimuth, elevation), 2 DOF
+        (``BearingElevation3D``), which uses each ray exactly once.
+    """
+
+    TRIANGULATED = "triangulated"
+    DIRECT = "direct"
+
+
+class TriangulationMethod(Enum):
+    """How two rays give a first landmark position (thesis sec. 4.3).
+
+    GROUND_PLANE: thesis eq. 4.21 (intersect the ground projections, z = mean height).
+    MIDPOINT: the least-squares point of the two rays (midpoint of their common perpendicular).
+    """
+
+    GROUND_PLANE = "ground_plane"
+    MIDPOINT = "midpoint"
+
+
+class TrajectoryMode(Enum):
+    """Which trajectory ``estimate()`` reports.
+
+    WEIGHTED_MEAN: per step, the weighted mean of the particles (circular mean of the heading)
+        with their weighted covariance. O(1) memory per step.
+    BEST_ANCESTRY: the path of the current best particle, traced back through the resampling
+        ancestry (the FastSLAM path posterior sample). Stores every particle's pose at every
+        step: O(P) memory per step.
+    """
+
+    WEIGHTED_MEAN = "weighted_mean"
+    BEST_ANCESTRY = "best_ancestry"
+
+
+class ResamplingScheme(Enum):
+    """Resampling algorithm (``omnislam.fastslam.resampling``)."""
+
+    SYSTEMATIC = "systematic"
+    STRATIFIED = "stratified"
+    MULTINOMIAL = "multinomial"
+
+
+@dataclass(frozen=True, slots=True)
+class ExistenceIndexConfig:
+    """The existence index of thesis sec. 5.1.2 and the sensor field it needs.
+
+    A landmark's index grows by one each time it is seen and drops by one each time it is
+    predicted inside the sensor's field but not seen; a landmark whose index becomes negative
+    is deleted from that particle's map.
+
+    Attributes:
+        max_range_m: the sensor's range (thesis simulation: 4 m laser) [m].
+        min_range_m: landmarks closer than this are not expected to be seen [m].
+        half_fov_rad: half the horizontal field of view (pi: omnidirectional) [rad].
+        min_elevation_rad, max_elevation_rad: vertical field of the omni camera (3-D only) [rad].
+    """
+
+    max_range_m: float = 4.0
+    min_range_m: float = 0.0
+    half_fov_rad: float = math.pi
+    min_elevation_rad: float = -math.pi / 2
+    max_elevation_rad: float = math.pi / 2
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.min_range_m < self.max_range_m:
+            raise ConfigError("existence index: need 0 <= min_range_m < max_range_m")
+        if not 0 < self.half_fov_rad <= math.pi:
+            raise ConfigError("existence index: half_fov_rad must be in (0, pi]")
+
+
+@dataclass(frozen=True, slots=True)
+class FastSLAMConfig:
+    """Everything a FastSLAM estimator needs besides its random generator.
+
+    Attributes:
+        variant: FastSLAM 1.0 or 2.0; also the estimator's ``name``.
+        n_particles: number of particles P.
+        motion_noise: alpha coefficients of thesis eqs. 4.40-4.41.
+        resample_ess_fraction: resample when ESS (thesis eq. 4.51) < fraction * P; 1.0 resamples
+            every step with observations, 0.0 never.
+        resampling: the resampling algorithm (low-variance systematic by default, Thrun et al.
+            2005 Table 4.4).
+        store: landmark storage (thesis tree by default).
+        sensor_mode: 2-D range-bearing or 3-D bearings, or chosen from the data.
+        sensor_height_m: height of the omni camera's viewpoint above the ground plane (3-D) [m].
+        bearing_update: update of established 3-D landmarks (thesis triangulation or direct).
+        triangulation: first 3-D estimate from two rays.
+        min_parallax_rad: two rays closer than this are not triangulated; the first sighting is
+            kept until a ray with enough parallax arrives [rad].
+        new_landmark_log_likelihood: log p0, Montemerlo 2003 sec. 3.4.1 / Thrun et al. Table
+            13.2: for sightings of unknown association, a particle creates a new landmark when no
+            existing landmark explains the sighting with a log-likelihood above log p0, and its
+            weight is then multiplied by p0. The default suits ~0.1 m / ~3 deg range-bearing
+            noise: it is the log-likelihood of a residual ~4 sigma out.
+        association_margin_m: unknown sightings are only compared with landmarks whose last
+            known position lies within the largest sighting range plus this margin of the mean
+            pose [m] (a coarse gate that keeps association O(nearby landmarks)).
+        existence: the existence index of thesis 5.1.2, or None to keep every landmark forever.
+        trajectory: which trajectory ``estimate()`` reports.
+        initial_pose_sigma: std of the initial pose (x, y, theta) [m, m, rad]; zero: all
+            particles start at the given pose (the map frame is anchored at the first pose).
+        initial_landmark_capacity: landmark slots allocated up front (the stores grow).
+    """
+
+    variant: Variant = Variant.FASTSLAM1
+    n_particles: int = 100
+    motion_noise: MotionNoise = field(default_factory=MotionNoise)
+    resample_ess_fraction: float = 0.5
+    resampling: ResamplingScheme = ResamplingScheme.SYSTEMATIC
+    store: StoreKind = StoreKind.TREE
+    sensor_mode: SensorMode = SensorMode.AUTO
+    sensor_height_m: float = 0.0
+    bearing_update: BearingUpdate = BearingUpdate.TRIANGULATED
+    triangulation: TriangulationMethod = TriangulationMethod.MIDPOINT
+    min_parallax_rad: float = math.radians(3.0)
+    new_landmark_log_likelihood: float = -6.0
+    association_margin_m: float = 3.0
+    existence: ExistenceIndexConfig | None = None
+    trajectory: TrajectoryMode = TrajectoryMode.WEIGHTED_MEAN
+    initial_pose_sigma: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    initial_landmark_capacity: int = 64
+
+    def __post_init__(self) -> None:
+        if self.n_particles < 1:
+            raise ConfigError("n_particles must be >= 1")
+        if not 0.0 <= self.resample_ess_fraction <= 1.0:
+            raise ConfigError("resample_ess_fraction must be in [0, 1]")
+        if self.min_parallax_rad < 0 or self.association_margin_m < 0:
+            raise ConfigError("min_parallax_rad and association_margin_m must be non-negative")
+        if min(self.initial_pose_sigma) < 0:
+            raise ConfigError("initial_pose_sigma must be non-negative")
+        if self.initial_landmark_capacity < 1:
+            raise ConfigError("initial_landmark_capacity must be >= 1")
+
+    @property
+    def name(self) -> str:
+        """The estimator name: ``fastslam1`` or ``fastslam2``."""
+        return self.variant.value
+
+    def with_(self, **changes: object) -> FastSLAMConfig:
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+    # -- named presets -------------------------------------------------------------------------
+
+    @classmethod
+    def thesis_fastslam1(cls) -> FastSLAMConfig:
+        """Thesis route 1 (Fig. 5.6): FastSLAM 1.0 with 50 particles, existence index on."""
+        return cls(variant=Variant.FASTSLAM1, n_particles=50, existence=ExistenceIndexConfig())
+
+    @classmethod
+    def thesis_fastslam2(cls) -> FastSLAMConfig:
+        """Thesis route 1 (Fig. 5.6): FastSLAM 2.0 with 10 particles, existence index on."""
+        return cls(variant=Variant.FASTSLAM2, n_particles=10, existence=ExistenceIndexConfig())
+
+    @classmethod
+    def thesis_route2_fastslam2(cls) -> FastSLAMConfig:
+        """Thesis route 2 (Fig. 5.8): the long route needs FastSLAM 2.0 with 50 particles."""
+        return cls(variant=Variant.FASTSLAM2, n_particles=50, existence=ExistenceIndexConfig())
+
+    @classmethod
+    def omni(cls, sensor_height_m: float, variant: Variant = Variant.FASTSLAM2) -> FastSLAMConfig:
+        """Omni camera bearings (3-D landmarks) with the thesis's triangulated updates."""
+        return cls(
+            variant=variant,
+            n_particles=50,
+            sensor_mode=SensorMode.BEARINGS_3D,
+            sensor_height_m=sensor_height_m,
+        )
+
+
+PRESETS: dict[str, FastSLAMConfig] = {
+    "fastslam1": FastSLAMConfig(variant=Variant.FASTSLAM1, n_particles=100),
+    "fastslam2": FastSLAMConfig(variant=Variant.FASTSLAM2, n_particles=20),
+    "thesis-fastslam1": FastSLAMConfig.thesis_fastslam1(),
+    "thesis-fastslam2": FastSLAMConfig.thesis_fastslam2(),
+    "thesis-route2-fastslam2": FastSLAMConfig.thesis_route2_fastslam2(),
+}
+"""Named presets (``omnislam run ... --estimator fastslam2`` starts from ``PRESETS[name]``)."""

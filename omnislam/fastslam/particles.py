@@ -1,0 +1,129 @@
+"""The particle set over robot poses and the record of its path.
+
+Poses are one (P, 3) array [x, y, theta] and weights one (P,) array of logarithms (thesis eqs.
+4.47-4.48 in log space), so every operation is vectorised across particles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from omnislam.core.se import wrap_angle
+from omnislam.core.types import Trajectory
+from omnislam.fastslam.resampling import effective_sample_size, normalize_log_weights
+
+
+class ParticleSet:
+    """P pose hypotheses with log weights.
+
+    Attributes:
+        poses: (P, 3) poses [x, y, theta] in the world.
+        log_weights: (P,) normalised log weights.
+    """
+
+    def __init__(self, poses: np.ndarray) -> None:
+        self.poses = np.array(poses, dtype=float)
+        p = self.poses.shape[0]
+        self.log_weights = np.full(p, -np.log(p))
+        self._best_after_resampling: int | None = 0
+
+    def __len__(self) -> int:
+        return int(self.poses.shape[0])
+
+    @property
+    def weights(self) -> np.ndarray:
+        """(P,) normalised weights."""
+        return np.exp(self.log_weights)
+
+    def reweight(self, log_factors: np.ndarray) -> None:
+        """Multiply the weights by exp(log_factors) and normalise (thesis 4.47-4.48)."""
+        self.log_weights = normalize_log_weights(self.log_weights + log_factors)
+        self._best_after_resampling = None
+
+    def effective_sample_size(self) -> float:
+        """Thesis eq. 4.51."""
+        return effective_sample_size(self.log_weights)
+
+    def best(self) -> int:
+        """Index of the highest-weight particle (after resampling, when all weights are equal:
+        a copy of the particle that was best before it)."""
+        if self._best_after_resampling is not None:
+            return self._best_after_resampling
+        return int(np.argmax(self.log_weights))
+
+    def resample(self, ancestors: np.ndarray) -> None:
+        """Particle i <- old particle ancestors[i]; weights become uniform."""
+        best = self.best()
+        ancestors = np.asarray(ancestors, dtype=np.int64)
+        self.poses = self.poses[ancestors]
+        p = len(self)
+        self.log_weights = np.full(p, -np.log(p))
+        copies = np.flatnonzero(ancestors == best)
+        self._best_after_resampling = int(copies[0]) if copies.size else 0
+
+    def mean_pose(self) -> np.ndarray:
+        """(3,) weighted mean pose; the heading is the circular mean atan2(E sin, E cos)."""
+        w = self.weights
+        x, y = w @ self.poses[:, 0], w @ self.poses[:, 1]
+        theta = np.arctan2(w @ np.sin(self.poses[:, 2]), w @ np.cos(self.poses[:, 2]))
+        return np.array([x, y, theta])
+
+    def pose_covariance(self, mean: np.ndarray) -> np.ndarray:
+        """(3, 3) weighted covariance about ``mean`` (heading residuals wrapped)."""
+        d = self.poses - mean
+        d[:, 2] = wrap_angle(d[:, 2])
+        return (d * self.weights[:, None]).T @ d
+
+
+class PathHistory:
+    """Per-step record of the particle set, from which ``Trajectory`` is built.
+
+    Always keeps the weighted mean and covariance per step; with ``keep_particles`` it also
+    keeps every particle's pose and the resampling ancestry, so the path of any current
+    particle can be traced back (FastSLAM's path posterior sample).
+    """
+
+    def __init__(self, keep_particles: bool) -> None:
+        self._keep = keep_particles
+        self._stamps: list[float] = []
+        self._means: list[np.ndarray] = []
+        self._covs: list[np.ndarray] = []
+        self._poses: list[np.ndarray] = []
+        self._ancestors: list[np.ndarray | None] = []
+
+    def __len__(self) -> int:
+        return len(self._stamps)
+
+    def record(self, stamp_s: float, particles: ParticleSet) -> None:
+        """Record the particle set of one step (before any resampling)."""
+        mean = particles.mean_pose()
+        self._stamps.append(float(stamp_s))
+        self._means.append(mean)
+        self._covs.append(particles.pose_covariance(mean))
+        if self._keep:
+            self._poses.append(particles.poses.copy())
+            self._ancestors.append(None)
+
+    def record_resampling(self, ancestors: np.ndarray) -> None:
+        """Remember the ancestors of the resampling that followed the last record."""
+        if self._keep and self._ancestors:
+            self._ancestors[-1] = np.asarray(ancestors, dtype=np.int64).copy()
+
+    def mean_trajectory(self) -> tuple[Trajectory, np.ndarray]:
+        """The per-step weighted means (N poses) and covariances (N, 3, 3)."""
+        means = np.array(self._means).reshape(-1, 3)
+        covs = np.array(self._covs).reshape(-1, 3, 3)
+        return Trajectory.from_se2(np.array(self._stamps), means), covs
+
+    def ancestry_trajectory(self, particle: int) -> Trajectory:
+        """The path of current particle ``particle`` traced back through every resampling."""
+        if not self._keep:
+            raise ValueError("PathHistory was created without keep_particles")
+        path = np.empty((len(self), 3))
+        index = int(particle)
+        for t in range(len(self) - 1, -1, -1):
+            ancestors = self._ancestors[t]
+            if ancestors is not None:
+                index = int(ancestors[index])
+            path[t] = self._poses[t][index]
+        return Trajectory.from_se2(np.array(self._stamps), path)

@@ -1,0 +1,15 @@
+"""Fixtures and tolerances of the FastSLAM tests (named in one place)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+#: FastSLAM's ATE must be below this fraction of dead reckoning's on the loop scenario
+ATE_FRACTION_OF_DEAD_RECKONING = 0.4
+#: RMS landmark position error allowed on the loop scenario [m]
+LANDMARK_RMSE_M = 1.5
+#: absolute tolerance when comparing the tree and the dense store (same arithmetic)
+STORE_ATOL = 1e-12

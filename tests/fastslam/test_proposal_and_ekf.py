@@ -1,0 +1,77 @@
+"""The landmark EKF and the FastSLAM 2.0 proposal against their textbook forms."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.motion import MotionNoise, OdometryMotionModel
+from omnislam.fastslam.landmark_ekf import ekf_update
+from omnislam.fastslam.proposal import motion_prediction, refine_proposal, sample_poses
+
+
+def _case(rng, n=5):
+    poses = np.column_stack([rng.normal(0, 1, (n, 2)), rng.uniform(-np.pi, np.pi, n)])
+    landmarks = poses[:, :2] + rng.uniform(2, 5, (n, 2))
+    A = rng.normal(size=(n, 2, 2)) * 0.1
+    cov = A @ np.swapaxes(A, 1, 2) + 0.01 * np.eye(2)
+    R = np.broadcast_to(np.diag([0.1**2, 0.02**2]), (n, 2, 2)).copy()
+    z, _, _ = RangeBearing2D().predict(poses, landmarks + rng.normal(0, 0.1, (n, 2)))
+    return poses, landmarks, cov, z, R
+
+
+def test_ekf_update_matches_information_form(rng):
+    """Sigma' = (Sigma^-1 + H^T R^-1 H)^-1, mu' = mu + Sigma' H^T R^-1 y (thesis 4.35-4.37)."""
+    poses, landmarks, cov, z, R = _case(rng)
+    model = RangeBearing2D()
+    update = ekf_update(poses, landmarks, cov, z, R, model)
+    z_hat, _, H = model.predict(poses, landmarks)
+    y = model.residual(z, z_hat)
+    for i in range(len(z)):
+        info = np.linalg.inv(cov[i]) + H[i].T @ np.linalg.inv(R[i]) @ H[i]
+        Sigma = np.linalg.inv(info)
+        np.testing.assert_allclose(update.cov[i], Sigma, rtol=1e-9, atol=1e-12)
+        mu = landmarks[i] + Sigma @ H[i].T @ np.linalg.inv(R[i]) @ y[i]
+        np.testing.assert_allclose(update.mean[i], mu, rtol=1e-9)
+        S = H[i] @ cov[i] @ H[i].T + R[i]
+        ll = -0.5 * (y[i] @ np.linalg.solve(S, y[i]) + np.log(np.linalg.det(2 * np.pi * S)))
+        np.testing.assert_allclose(update.log_likelihood[i], ll, rtol=1e-9)
+
+
+def test_proposal_matches_montemerlo_information_form(rng):
+    """Sigma_x = [H_x^T Q^-1 H_x + P^-1]^-1, mu_x = Sigma_x H_x^T Q^-1 (z - z_hat) + x_hat."""
+    poses, landmarks, cov, z, R = _case(rng)
+    motion = OdometryMotionModel(MotionNoise())
+    x_hat, P = motion_prediction(motion, poses, np.array([0.5, 0.05, 0.2]))
+    model = RangeBearing2D()
+    update = refine_proposal(x_hat, P, z, R, landmarks, cov, model)
+    z_hat, H_x, H_m = model.predict(x_hat, landmarks)
+    y = model.residual(z, z_hat)
+    for i in range(len(z)):
+        Q = H_m[i] @ cov[i] @ H_m[i].T + R[i]
+        Sigma = np.linalg.inv(H_x[i].T @ np.linalg.inv(Q) @ H_x[i] + np.linalg.inv(P[i]))
+        np.testing.assert_allclose(update.cov[i], Sigma, rtol=1e-6, atol=1e-12)
+        mu = Sigma @ H_x[i].T @ np.linalg.inv(Q) @ y[i] + x_hat[i]
+        np.testing.assert_allclose(update.mean[i, :2], mu[:2], rtol=1e-7)
+        L = H_x[i] @ P[i] @ H_x[i].T + Q
+        ll = -0.5 * (y[i] @ np.linalg.solve(L, y[i]) + np.log(np.linalg.det(2 * np.pi * L)))
+        np.testing.assert_allclose(update.log_likelihood[i], ll, rtol=1e-9)
+
+
+def test_motion_prediction_moments_match_sampling(rng):
+    """The Gaussian the 2.0 proposal starts from agrees with the 1.0 sampler's moments."""
+    motion = OdometryMotionModel(MotionNoise(a_vv=0.1, a_vw=0.05, a_wv=0.02, a_ww=0.1))
+    pose = np.array([[1.0, 2.0, 0.3]])
+    delta = np.array([0.4, 0.02, 0.1])
+    mean, cov = motion_prediction(motion, pose, delta)
+    samples = motion.sample(np.repeat(pose, 100_000, axis=0), delta, rng)
+    np.testing.assert_allclose(samples.mean(axis=0), mean[0], atol=2e-3)
+    np.testing.assert_allclose(np.cov(samples.T), cov[0], rtol=0.05, atol=1e-6)
+
+
+def test_sample_poses_has_the_requested_moments(rng):
+    mean = np.array([1.0, -1.0, 0.5])
+    cov = np.array([[0.04, 0.01, 0.0], [0.01, 0.09, 0.002], [0.0, 0.002, 0.01]])
+    samples = sample_poses(np.tile(mean, (200_000, 1)), np.tile(cov, (200_000, 1, 1)), rng)
+    np.testing.assert_allclose(samples.mean(axis=0), mean, atol=2e-3)
+    np.testing.assert_allclose(np.cov(samples.T), cov, rtol=0.02, atol=2e-4)

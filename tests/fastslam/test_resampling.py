@@ -1,0 +1,52 @@
+"""Weights and resampling (thesis eqs. 4.48-4.51, Thrun et al. Table 4.4)."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from omnislam.fastslam.resampling import (
+    coefficient_of_variation,
+    effective_sample_size,
+    multinomial_resample,
+    normalize_log_weights,
+    stratified_resample,
+    systematic_resample,
+)
+
+
+def test_normalization_survives_huge_log_likelihoods():
+    log_w = np.array([-1e4, -1e4 + 1.0, -2e4])
+    w = np.exp(normalize_log_weights(log_w))
+    np.testing.assert_allclose(w.sum(), 1.0)
+    np.testing.assert_allclose(w[1] / w[0], np.e)
+
+
+@given(st.lists(st.floats(-50, 0), min_size=2, max_size=40))
+def test_ess_equals_thesis_form(log_w):
+    """ESS = P / (1 + cv^2) (eq. 4.51) equals 1 / sum w^2."""
+    p = len(log_w)
+    np.testing.assert_allclose(
+        effective_sample_size(np.array(log_w)), p / (1 + coefficient_of_variation(np.array(log_w)))
+    )
+
+
+@settings(max_examples=50)
+@given(st.lists(st.floats(0.0, 1.0), min_size=1, max_size=50), st.integers(0, 2**32 - 1))
+def test_systematic_resampling_copies_floor_or_ceil(raw, seed):
+    weights = np.array(raw) + 1e-3
+    weights /= weights.sum()
+    ancestors = systematic_resample(weights, np.random.default_rng(seed))
+    counts = np.bincount(ancestors, minlength=len(weights))
+    expected = len(weights) * weights
+    assert np.all(counts >= np.floor(expected - 1e-9))
+    assert np.all(counts <= np.ceil(expected + 1e-9))
+
+
+def test_all_schemes_are_unbiased():
+    weights = np.array([0.5, 0.3, 0.15, 0.05])
+    rng = np.random.default_rng(1)
+    for scheme in (systematic_resample, stratified_resample, multinomial_resample):
+        counts = sum(np.bincount(scheme(weights, rng), minlength=4) for _ in range(2000))
+        np.testing.assert_allclose(counts / counts.sum(), weights, atol=0.01)

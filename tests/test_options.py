@@ -1,0 +1,75 @@
+import enum
+from dataclasses import dataclass, field
+
+import pytest
+
+from omnislam.errors import ConfigError
+from omnislam.options import apply_options
+
+
+class Mode(enum.Enum):
+    FAST = "fast"
+    SLOW = "slow"
+
+
+@dataclass(frozen=True)
+class Inner:
+    a: float = 1.0
+    b: int = 2
+
+
+@dataclass(frozen=True)
+class Outer:
+    n: int = 10
+    ratio: float = 0.5
+    flag: bool = False
+    mode: Mode = Mode.FAST
+    sigmas: tuple[float, float, float] = (0.1, 0.1, 0.1)
+    inner: Inner = field(default_factory=Inner)
+    maybe: Inner | None = None
+    label: str = "x"
+
+
+def test_every_supported_type_converts():
+    out = apply_options(
+        Outer(),
+        {
+            "n": "50",
+            "ratio": "0.25",
+            "flag": "yes",
+            "mode": "slow",
+            "sigmas": "1,2,3",
+            "inner.a": "7.5",
+            "maybe.b": "9",
+            "label": "hello",
+        },
+    )
+    assert out == Outer(
+        50, 0.25, True, Mode.SLOW, (1.0, 2.0, 3.0), Inner(7.5, 2), Inner(1.0, 9), "hello"
+    )
+    assert apply_options(out, {"maybe": "none"}).maybe is None
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"nn": "1"}, "unknown option 'nn'; known: flag, inner"),
+        ({"n": "ten"}, "option n:"),
+        ({"mode": "medium"}, "expected one of fast, slow"),
+        ({"flag": "maybe"}, "expected true/false"),
+        ({"sigmas": "1,2"}, "expected 3 comma-separated values"),
+        ({"inner.c": "1"}, "unknown option 'inner.c'"),
+    ],
+)
+def test_bad_options_name_the_key(options, message):
+    with pytest.raises(ConfigError, match=message):
+        apply_options(Outer(), options)
+
+
+def test_validation_of_the_config_itself_is_kept():
+    from omnislam.fastslam import FastSLAMConfig
+
+    with pytest.raises(ConfigError, match="n_particles"):
+        apply_options(FastSLAMConfig(), {"n_particles": "0"})
+    config = apply_options(FastSLAMConfig(), {"motion_noise.a_vv": "0.2", "store": "dense"})
+    assert config.motion_noise.a_vv == 0.2 and config.store.value == "dense"
