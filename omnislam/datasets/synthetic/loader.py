@@ -1,0 +1,224 @@
+"""Read a synthetic folder (format: ``omnislam.datasets.synthetic.writer``) as a Sequence.
+
+Images are read on demand (``Sequence.image_loader``); per-pixel ground truth is read with
+``read_ground_truth_maps`` or, for many frames, a ``SyntheticFolder`` that keeps the world and
+the calibration in memory.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from omnislam.core.se import se2_from_se3
+from omnislam.core.types import RangeBearing
+from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, LaserScans, Sequence
+from omnislam.datasets.synthetic.raycast import plane_distances
+from omnislam.datasets.synthetic.writer import FORMAT_NAME, FORMAT_VERSION, frame_name
+from omnislam.errors import DataError
+
+
+def is_synthetic_folder(path: str | Path) -> bool:
+    """True when ``path`` is a folder written by ``omnislam dataset synth``."""
+    meta = Path(path) / "meta.json"
+    try:
+        return json.loads(meta.read_text()).get("format") == FORMAT_NAME
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def _read_meta(folder: Path) -> dict[str, object]:
+    path = folder / "meta.json"
+    try:
+        meta = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise DataError(f"cannot read synthetic metadata: {exc}", path) from exc
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT_NAME:
+        raise DataError(f"not an {FORMAT_NAME} folder", path)
+    if meta.get("version") != FORMAT_VERSION:
+        raise DataError(f"unsupported format version {meta.get('version')!r}", path)
+    return meta
+
+
+def _read_csv(path: Path, columns: int) -> np.ndarray:
+    """Numeric CSV with one header line -> (rows, columns) float array."""
+    try:
+        with path.open() as handle:
+            header = handle.readline()
+            data = np.loadtxt(handle, delimiter=",", ndmin=2)
+    except (OSError, ValueError) as exc:
+        raise DataError(f"cannot parse CSV: {exc}", path) from exc
+    if not header.strip():
+        raise DataError("missing header line", path)
+    data = data.reshape(-1, columns) if data.size == 0 else data
+    if data.shape[1] != columns:
+        raise DataError(f"expected {columns} columns, got {data.shape[1]}", path)
+    return data
+
+
+@dataclass(frozen=True, slots=True)
+class GroundTruthMaps:
+    """Per-pixel ground truth of one image.
+
+    Attributes:
+        points_w: (H, W, 3) float32 world point seen by each pixel centre [m]; NaN none.
+        surface_ids: (H, W) int32 surface id (``World.quads`` index); -1 none.
+    """
+
+    points_w: np.ndarray
+    surface_ids: np.ndarray
+
+
+class SyntheticFolder:
+    """A synthetic folder with its world, calibration and true poses loaded once."""
+
+    def __init__(self, path: str | Path) -> None:
+        from omnislam.camera.io import load_rig
+        from omnislam.datasets.synthetic.world import World
+        from omnislam.datasets.trajectory_io import read_tum
+
+        self.path = Path(path)
+        self.meta = _read_meta(self.path)
+        world_path = self.path / "world.json"
+        try:
+            text = world_path.read_text()
+        except OSError as exc:
+            raise DataError(f"cannot read world: {exc}", world_path) from exc
+        self.world = World.from_json(text, world_path)
+        self.quads = self.world.arrays()
+        calibration = self.path / "calibration.yaml"
+        self.rig = load_rig(calibration) if calibration.exists() else None
+        self.groundtruth = read_tum(self.path / "groundtruth.tum")
+
+    def surface_ids(self, index: int) -> np.ndarray:
+        """(H, W) int32 surface ids of frame ``index``'s image."""
+        path = self.path / "gt" / f"{frame_name(index)}.npz"
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                return np.asarray(data["surface_id"], dtype=np.int32)
+        except (OSError, KeyError, ValueError) as exc:
+            raise DataError(f"cannot read ground-truth map: {exc}", path) from exc
+
+    def ground_truth_maps(self, index: int) -> GroundTruthMaps:
+        """World points and surface ids of frame ``index`` (see ``writer`` for how)."""
+        if self.rig is None:
+            raise DataError("the folder has no camera", self.path)
+        ids = self.surface_ids(index)
+        height, width = ids.shape
+        rows, cols = np.nonzero(ids >= 0)
+        pixels = np.column_stack([cols, rows]).astype(float)
+        wTr = self.groundtruth.poses_w[index]
+        rays_w = self.rig.rays_r(pixels) @ wTr[:3, :3].T
+        origin_w = wTr[:3, :3] @ self.rig.viewpoint_r + wTr[:3, 3]
+        hit = ids[rows, cols].astype(np.int64)
+        t = plane_distances(self.quads, origin_w, rays_w, hit)
+        points = np.full((height, width, 3), np.nan, dtype=np.float32)
+        points[rows, cols] = origin_w + t[:, None] * rays_w
+        return GroundTruthMaps(points_w=points, surface_ids=ids)
+
+    def world_points(self, index: int, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Exact world points seen at sub-pixel locations of frame ``index``'s image.
+
+        The ray of each pixel (e.g. a SIFT keypoint) is intersected with the plane of the
+        surface seen at the nearest pixel centre, so the point is exact on the surface's plane
+        (wrong only within half a pixel of a depth edge).
+
+        Args:
+            index: frame index.
+            pixels: (K, 2) ``[u, v]`` [px].
+
+        Returns:
+            ``(points_w (K, 3) [m], NaN where nothing is seen; surface_ids (K,) int, -1)``.
+        """
+        if self.rig is None:
+            raise DataError("the folder has no camera", self.path)
+        ids_map = self.surface_ids(index)
+        pixels = np.asarray(pixels, dtype=float).reshape(-1, 2)
+        cols = np.clip(np.round(pixels[:, 0]).astype(np.int64), 0, ids_map.shape[1] - 1)
+        rows = np.clip(np.round(pixels[:, 1]).astype(np.int64), 0, ids_map.shape[0] - 1)
+        ids = ids_map[rows, cols].astype(np.int64)
+        wTr = self.groundtruth.poses_w[index]
+        rays_w = self.rig.rays_r(pixels) @ wTr[:3, :3].T
+        ids[~np.all(np.isfinite(rays_w), axis=1)] = -1
+        origin_w = wTr[:3, :3] @ self.rig.viewpoint_r + wTr[:3, 3]
+        t = plane_distances(self.quads, origin_w, rays_w, ids)
+        points = origin_w + t[:, None] * rays_w
+        points[ids < 0] = np.nan
+        return points, ids
+
+    def image(self, index: int) -> np.ndarray:
+        """(H, W, 3) uint8 RGB image of frame ``index``."""
+        from omnislam._optional import require
+
+        cv2 = require("cv2")
+        path = self.path / "images" / f"{frame_name(index)}.png"
+        bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        if bgr is None:
+            raise DataError("cannot read image", path)
+        return np.ascontiguousarray(bgr[..., ::-1])
+
+
+def read_ground_truth_maps(path: str | Path, index: int) -> GroundTruthMaps:
+    """Per-pixel world points and surface ids of frame ``index`` of the folder ``path``."""
+    return SyntheticFolder(path).ground_truth_maps(index)
+
+
+def load_synthetic(path: str | Path) -> Sequence:
+    """Read a synthetic folder as a Sequence (images on demand, exact ground truth)."""
+    folder = SyntheticFolder(path)
+    root = folder.path
+    odometry = _read_csv(root / "odometry.csv", 7)
+    n = odometry.shape[0]
+    if n == 0 or len(folder.groundtruth) != n:
+        raise DataError(f"{n} odometry rows but {len(folder.groundtruth)} poses",
+                        root / "odometry.csv")
+    poles = _read_csv(root / "poles.csv", 6)
+    frames = poles[:, 0].astype(np.int64)
+    if frames.size and (frames.min() < 0 or frames.max() >= n):
+        raise DataError("frame index out of range", root / "poles.csv")
+    sightings = []
+    for i in range(n):
+        rows = poles[frames == i]
+        sightings.append(RangeBearing(rows[:, 1].astype(np.int64), rows[:, 2], rows[:, 3],
+                                      rows[:, 4], rows[:, 5]))
+    laser_path = root / "laser.npz"
+    try:
+        with np.load(laser_path, allow_pickle=False) as data:
+            laser = LaserScans(data["angles_rad"], data["ranges_m"], float(data["max_range_m"]))
+    except (OSError, KeyError, ValueError) as exc:
+        raise DataError(f"cannot read laser scans: {exc}", laser_path) from exc
+    landmarks = _read_csv(root / "landmarks.csv", 4)
+    images = sorted(int(p.stem) for p in (root / "images").glob("*.png")) if (
+        root / "images").is_dir() else []
+    gt_traj = folder.groundtruth
+    meta = folder.meta
+    return Sequence(
+        name=root.name,
+        source=f"synthetic preset {meta['preset']} (seed {meta['seed']}): {meta['source']}",
+        stamps_s=odometry[:, 0],
+        odometry_r=odometry[:, 1:4],
+        odometry_true_r=odometry[:, 4:7],
+        initial_pose_w=se2_from_se3(gt_traj.poses_w[0]),
+        ground_truth=GroundTruth(
+            kind=GroundTruthKind.EXACT,
+            trajectory=gt_traj,
+            landmark_ids=landmarks[:, 0].astype(np.int64),
+            landmarks_w=landmarks[:, 1:4],
+            note="exact: the renderer's own poses and landmark positions",
+        ),
+        range_bearing=tuple(sightings),
+        laser=laser,
+        image_loader=folder.image if images else None,
+        image_frames=np.array(images, dtype=np.int64),
+        calibration=folder.rig,
+        info={
+            "preset": str(meta["preset"]),
+            "seed": str(meta["seed"]),
+            "frames": str(n),
+            "images": str(len(images)),
+            "backend": str(meta.get("backend")),
+        },
+    )

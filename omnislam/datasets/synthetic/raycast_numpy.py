@@ -1,0 +1,55 @@
+"""Pure numpy ray caster: every ray against every quad, in chunks (the test oracle).
+
+Ray-plane intersection ``t = n.(o_q - o) / n.d``, then the parallelogram test with the dual
+basis of the quad's edges (``QuadArrays.dual_u_w``): the hit point ``p`` is inside when both
+``(p - o_q).dual_u`` and ``(p - o_q).dual_v`` lie in [0, 1]. Cost O(rays x quads): fine for a
+few hundred quads, slow for thousands (use open3d there).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from omnislam.datasets.synthetic.raycast import MIN_DISTANCE_M, plane_distances
+from omnislam.datasets.synthetic.world import QuadArrays
+
+#: ray x quad products evaluated at once (bounds the memory of one chunk)
+_CHUNK_ELEMENTS = 1 << 21
+
+
+class NumpyRayCaster:
+    """Brute-force first-hit ray caster (see module docstring)."""
+
+    def __init__(self, quads: QuadArrays) -> None:
+        self.quads = quads
+        self._normals_t = np.ascontiguousarray(quads.normals_w.T)
+        self._dual_t = np.ascontiguousarray(np.concatenate([quads.dual_u_w, quads.dual_v_w]).T)
+
+    def cast(self, origin_w: np.ndarray, directions_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """See ``RayCaster.cast``."""
+        q = self.quads
+        m = len(q)
+        origin_w = np.asarray(origin_w, dtype=float)
+        directions_w = np.asarray(directions_w, dtype=float)
+        n_rays = directions_w.shape[0]
+        ids = np.full(n_rays, -1, dtype=np.int64)
+        if m == 0 or n_rays == 0:
+            return np.full(n_rays, np.inf), ids
+        rel = q.origins_w - origin_w  # (M, 3)
+        num = np.sum(q.normals_w * rel, axis=1)  # n.(o_q - o)
+        a0 = -np.sum(q.dual_u_w * rel, axis=1)  # (o - o_q).dual_u
+        b0 = -np.sum(q.dual_v_w * rel, axis=1)
+        chunk = max(1, _CHUNK_ELEMENTS // m)
+        for start in range(0, n_rays, chunk):
+            d = directions_w[start:start + chunk]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = num / (d @ self._normals_t)
+                ab = d @ self._dual_t
+                a = a0 + t * ab[:, :m]
+                b = b0 + t * ab[:, m:]
+            inside = (t > MIN_DISTANCE_M) & (a >= 0) & (a <= 1) & (b >= 0) & (b <= 1)
+            t = np.where(inside, t, np.inf)
+            best = np.argmin(t, axis=1)
+            hit = np.isfinite(t[np.arange(t.shape[0]), best])
+            ids[start:start + chunk] = np.where(hit, best, -1)
+        return plane_distances(q, origin_w, directions_w, ids), ids

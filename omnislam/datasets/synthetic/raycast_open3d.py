@@ -1,0 +1,47 @@
+"""Ray caster on open3d's Embree ``RaycastingScene`` (extra ``render``).
+
+Each quad is added as two triangles (``QuadArrays.triangles``); triangle k belongs to quad
+k // 2. open3d works in float32, so the distance is recomputed in float64 against the hit
+quad's plane (``plane_distances``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from omnislam._optional import require
+from omnislam.datasets.synthetic.raycast import MIN_DISTANCE_M, plane_distances
+from omnislam.datasets.synthetic.world import QuadArrays
+
+
+class Open3DRayCaster:
+    """First-hit ray caster backed by ``open3d.t.geometry.RaycastingScene``."""
+
+    def __init__(self, quads: QuadArrays) -> None:
+        o3d = require("open3d")
+        self._o3d = o3d
+        self.quads = quads
+        self._scene = o3d.t.geometry.RaycastingScene()
+        if len(quads):
+            vertices, triangles = quads.triangles()
+            self._scene.add_triangles(
+                o3d.core.Tensor(vertices.astype(np.float32)),
+                o3d.core.Tensor(triangles.astype(np.uint32)),
+            )
+        self._invalid = int(o3d.t.geometry.RaycastingScene.INVALID_ID)
+
+    def cast(self, origin_w: np.ndarray, directions_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """See ``RayCaster.cast``."""
+        directions_w = np.asarray(directions_w, dtype=float)
+        n = directions_w.shape[0]
+        rays = np.empty((n, 6), dtype=np.float32)
+        rays[:, :3] = np.asarray(origin_w, dtype=float)
+        rays[:, 3:] = directions_w
+        result = self._scene.cast_rays(self._o3d.core.Tensor(rays))
+        prim = result["primitive_ids"].numpy().astype(np.int64)
+        ids = np.where(prim == self._invalid, -1, prim // 2)
+        distances = plane_distances(self.quads, np.asarray(origin_w, float), directions_w, ids)
+        too_close = distances <= MIN_DISTANCE_M
+        ids[too_close] = -1
+        distances[too_close] = np.inf
+        return distances, ids

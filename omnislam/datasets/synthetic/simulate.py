@@ -1,0 +1,106 @@
+"""Run a preset: build its world, drive its route, sample odometry, laser and pole sightings.
+
+Randomness is split into independent streams of one ``SeedSequence(seed)`` (world details,
+odometry noise, laser noise), so limiting the number of frames or changing the laser does not
+change the world or the odometry noise of the frames that remain.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from omnislam.camera.rig import CameraRig
+from omnislam.core.types import RangeBearing
+from omnislam.datasets.synthetic.laser import pole_sightings, pole_table, scan
+from omnislam.datasets.synthetic.presets import Preset
+from omnislam.datasets.synthetic.raycast import Backend, make_ray_caster
+from omnislam.datasets.synthetic.routes import drive_through, measured_odometry
+from omnislam.datasets.synthetic.world import SurfaceKind, World
+from omnislam.errors import ConfigError
+
+
+@dataclass(frozen=True, slots=True)
+class Simulation:
+    """Everything of a run except the images (rendered while writing).
+
+    Attributes:
+        preset: the scenario.
+        seed: the seed.
+        world: the world.
+        rig: the camera rig, or None.
+        stamps_s: (N,) odometry / frame times [s] (10 Hz).
+        poses_w: (N, 3) true poses.
+        odometry_true_r: (N, 3) true robot-frame deltas (row 0 zero).
+        odometry_r: (N, 3) measured deltas (thesis alpha model).
+        image_frames: (K,) frame indices that get an image.
+        laser_ranges_m: (N, B) noisy laser ranges.
+        poles: per-frame pole sightings.
+    """
+
+    preset: Preset
+    seed: int
+    world: World
+    rig: CameraRig | None
+    stamps_s: np.ndarray
+    poses_w: np.ndarray
+    odometry_true_r: np.ndarray
+    odometry_r: np.ndarray
+    image_frames: np.ndarray
+    laser_ranges_m: np.ndarray
+    poles: tuple[RangeBearing, ...]
+
+
+def simulate(
+    preset: Preset,
+    seed: int,
+    max_images: int | None = None,
+    backend: Backend | str | None = None,
+) -> Simulation:
+    """Build the world and the non-image sensor data of ``preset``.
+
+    Args:
+        preset: the scenario.
+        seed: master seed (world details and all noise).
+        max_images: keep the run up to (and including) its ``max_images``-th image frame.
+        backend: ray caster used for the laser.
+    """
+    if max_images is not None and max_images < 1:
+        raise ConfigError(f"--frames must be >= 1, got {max_images}")
+    world_ss, odo_ss, laser_ss = np.random.SeedSequence(seed).spawn(3)
+    world = dataclasses.replace(preset.build_world(np.random.default_rng(world_ss)), seed=seed)
+    path = drive_through(np.array(preset.waypoints_w), preset.drive)
+    n = len(path)
+    image_frames = np.arange(0, n, preset.image_every_k, dtype=np.int64)
+    if max_images is not None and max_images < image_frames.size:
+        image_frames = image_frames[:max_images]
+        n = int(image_frames[-1]) + 1
+    poses = path.poses_w[:n]
+    stamps = path.stamps_s[:n]
+    true_odo = np.zeros_like(poses)
+    true_odo[1:] = path.odometry_true()[1:n]
+    odometry = measured_odometry(true_odo, preset.motion_noise, np.random.default_rng(odo_ss))
+    caster = make_ray_caster(world.arrays(), backend)
+    laser_rng = np.random.default_rng(laser_ss)
+    table = pole_table(world)
+    is_pole = np.array([q.kind is SurfaceKind.POLE for q in world.quads], dtype=bool)
+    ranges = np.empty((n, preset.laser.beams))
+    sightings = []
+    for i in range(n):
+        ranges[i] = scan(caster, preset.laser, poses[i], laser_rng)
+        sightings.append(pole_sightings(caster, is_pole, table, preset.laser, poses[i], laser_rng))
+    return Simulation(
+        preset=preset,
+        seed=seed,
+        world=world,
+        rig=preset.rig(),
+        stamps_s=stamps,
+        poses_w=poses,
+        odometry_true_r=true_odo,
+        odometry_r=odometry,
+        image_frames=image_frames if preset.rig() is not None else image_frames[:0],
+        laser_ranges_m=ranges,
+        poles=tuple(sightings),
+    )

@@ -1,0 +1,202 @@
+"""Write a synthetic run to disk, atomically and byte-reproducibly.
+
+On-disk format of a synthetic folder (``omnislam dataset synth PRESET --out DIR``)
+-------------------------------------------------------------------------------
+All files are written into a temporary sibling folder that is renamed to ``DIR`` at the end,
+so a crash leaves no half-written dataset. The same preset, seed, frame limit and backend give
+byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
+
+``meta.json``
+    ``{"format": "omnislam-synthetic", "version": 1, "preset", "seed", "backend", "frames",
+    "images", "description", "source"}``.
+``world.json``
+    The world: quads (surface id = index), texture specs, poles, vertical lines, 2-D walls.
+``calibration.yaml``
+    The camera rig (``omnislam.camera.io.save_rig``): camera model + ``rTc``. Absent for
+    laser-only runs.
+``groundtruth.tum``
+    True pose of every frame (10 Hz), TUM format ``stamp x y z qx qy qz qw``, z = 0.
+``odometry.csv``
+    ``stamp_s,dx_m,dy_m,dtheta_rad,true_dx_m,true_dy_m,true_dtheta_rad``: one row per frame;
+    the robot-frame motion since the previous frame, measured (thesis alpha model, eqs.
+    4.38-4.44) and true. Row 0 is zero.
+``images/NNNNNN.png``
+    RGB images (8 bit) of the frames that have one; NNNNNN = frame index (zero-padded).
+``gt/NNNNNN.npz``
+    Per-image ground truth: ``surface_id`` (H, W) int32, the surface seen by each pixel
+    centre (-1 outside the mask or no hit). The world point of a pixel is exact and not
+    stored twice: it is the intersection of the pixel's ray (``calibration.yaml``, pose in
+    ``groundtruth.tum``) with the plane of quad ``surface_id`` (``world.json``);
+    ``loader.read_ground_truth_maps`` returns it as ``points_w`` (H, W, 3) float32.
+``laser.npz``
+    ``angles_rad`` (B,), ``ranges_m`` (N, B) (``max_range_m`` = no return), ``max_range_m``.
+``poles.csv``
+    ``frame,landmark_id,range_m,bearing_rad,sigma_range_m,sigma_bearing_rad``: noisy pole
+    sightings with true ids (the thesis's laser stand-in for the camera, ch. 5.1.1).
+``landmarks.csv``
+    ``id,x,y,z`` ground-truth 2-D landmarks (pole centres, door-frame vertical lines), z = 0.
+``walls.csv``
+    ``x0,y0,x1,y1`` main walls of the 2-D map (Barra & Costa's occlusion map).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import shutil
+import zipfile
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from omnislam.core.types import Trajectory
+from omnislam.datasets.synthetic.raycast import Backend
+from omnislam.datasets.synthetic.render import Renderer
+from omnislam.datasets.synthetic.simulate import Simulation
+from omnislam.errors import DataError
+
+FORMAT_NAME = "omnislam-synthetic"
+FORMAT_VERSION = 1
+_ZIP_DATE = (1980, 1, 1, 0, 0, 0)
+_FLOAT = "%.17g"
+
+
+def frame_name(index: int) -> str:
+    """File stem of frame ``index`` (``000042``)."""
+    return f"{index:06d}"
+
+
+def write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """``np.savez_compressed`` with fixed zip dates, so equal arrays give equal bytes."""
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+        for name in sorted(arrays):
+            buffer = io.BytesIO()
+            np.lib.format.write_array(buffer, np.require(arrays[name], requirements="C"),
+                                      allow_pickle=False)
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=_ZIP_DATE)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            archive.writestr(info, buffer.getvalue(), compresslevel=6)
+
+
+def _write_csv(path: Path, header: str, rows: np.ndarray, formats: list[str]) -> None:
+    lines = [header]
+    lines += [",".join(f % v for f, v in zip(formats, row, strict=True)) for row in rows]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def prepare_output(out: Path, overwrite: bool) -> None:
+    """Refuse a non-empty existing ``out`` unless ``overwrite`` (checked before any work)."""
+    if out.exists():
+        if not out.is_dir():
+            raise DataError("exists and is not a folder", out)
+        if any(out.iterdir()) and not overwrite:
+            raise DataError("folder exists and is not empty (pass overwrite to replace it)", out)
+
+
+def write_synthetic(
+    out: str | Path,
+    sim: Simulation,
+    backend: Backend | str | None = None,
+    supersample: int = 1,
+    overwrite: bool = False,
+    progress: Callable[[int], None] | None = None,
+) -> Path:
+    """Render the images of ``sim`` and write the whole folder (format in the module docstring).
+
+    Args:
+        out: destination folder; must not exist or be empty unless ``overwrite``.
+        sim: the simulated run.
+        backend: ray caster for the images.
+        supersample: 1 or 2 colour rays per pixel side.
+        overwrite: replace a non-empty ``out``.
+        progress: called with the number of images written so far.
+
+    Returns:
+        The folder written.
+    """
+    from omnislam.camera.io import save_rig
+    from omnislam.datasets.trajectory_io import write_tum
+
+    cv2 = _cv2()
+    out = Path(out)
+    prepare_output(out, overwrite)
+    backend = Backend.default() if backend is None else Backend(backend)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    tmp.mkdir()
+    try:
+        n = sim.stamps_s.shape[0]
+        meta = {
+            "format": FORMAT_NAME,
+            "version": FORMAT_VERSION,
+            "preset": sim.preset.name,
+            "seed": sim.seed,
+            "backend": backend.value,
+            "supersample": supersample,
+            "frames": n,
+            "images": int(sim.image_frames.size),
+            "description": sim.preset.description,
+            "source": sim.preset.source,
+        }
+        (tmp / "meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
+        (tmp / "world.json").write_text(sim.world.to_json() + "\n")
+        write_tum(tmp / "groundtruth.tum", Trajectory.from_se2(sim.stamps_s, sim.poses_w))
+        _write_csv(
+            tmp / "odometry.csv",
+            "stamp_s,dx_m,dy_m,dtheta_rad,true_dx_m,true_dy_m,true_dtheta_rad",
+            np.column_stack([sim.stamps_s, sim.odometry_r, sim.odometry_true_r]),
+            [_FLOAT] * 7,
+        )
+        rows = [
+            (i, lid, r, b, sr, sb)
+            for i, rb in enumerate(sim.poles)
+            for lid, r, b, sr, sb in zip(rb.landmark_ids, rb.ranges_m, rb.bearings_rad,
+                                         rb.sigma_range_m, rb.sigma_bearing_rad, strict=True)
+        ]
+        _write_csv(tmp / "poles.csv",
+                   "frame,landmark_id,range_m,bearing_rad,sigma_range_m,sigma_bearing_rad",
+                   np.array(rows, dtype=object).reshape(-1, 6), ["%d", "%d"] + [_FLOAT] * 4)
+        ids, xyz = sim.world.landmarks()
+        _write_csv(tmp / "landmarks.csv", "id,x,y,z",
+                   np.column_stack([ids.astype(object), xyz]).reshape(-1, 4),
+                   ["%d", _FLOAT, _FLOAT, _FLOAT])
+        walls = np.array([[w.x0_m, w.y0_m, w.x1_m, w.y1_m] for w in sim.world.walls_2d])
+        _write_csv(tmp / "walls.csv", "x0,y0,x1,y1", walls.reshape(-1, 4), [_FLOAT] * 4)
+        write_npz(tmp / "laser.npz", {
+            "angles_rad": sim.preset.laser.angles_rad(),
+            "ranges_m": sim.laser_ranges_m,
+            "max_range_m": np.array(sim.preset.laser.max_range_m),
+        })
+        if sim.rig is not None and sim.image_frames.size:
+            save_rig(sim.rig, tmp / "calibration.yaml")
+            (tmp / "images").mkdir()
+            (tmp / "gt").mkdir()
+            renderer = Renderer(sim.world, sim.rig, backend, supersample)
+            for count, index in enumerate(sim.image_frames, start=1):
+                frame = renderer.render(sim.poses_w[index])
+                name = frame_name(int(index))
+                if not cv2.imwrite(str(tmp / "images" / f"{name}.png"), frame.image[..., ::-1]):
+                    raise DataError("cannot write image", tmp / "images" / f"{name}.png")
+                write_npz(tmp / "gt" / f"{name}.npz", {"surface_id": frame.surface_ids})
+                if progress is not None:
+                    progress(count)
+        if out.exists():
+            trash = out.parent / f".{out.name}.old-{os.getpid()}"
+            out.rename(trash)
+            shutil.rmtree(trash)
+        tmp.rename(out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out
+
+
+def _cv2() -> object:
+    from omnislam._optional import require
+
+    return require("cv2")

@@ -1,0 +1,114 @@
+"""Writer and loader: byte-identical output, atomic writes, Sequence contents, ground truth."""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+
+import numpy as np
+import pytest
+
+from omnislam.datasets.sequence import GroundTruthKind
+from omnislam.datasets.synthetic import (
+    SyntheticFolder,
+    cli_synth,
+    is_synthetic_folder,
+    load_synthetic,
+    read_ground_truth_maps,
+)
+from omnislam.datasets.synthetic.render import Renderer
+from omnislam.datasets.synthetic.writer import write_synthetic
+from omnislam.errors import DataError
+
+#: SIFT ratio test of the ground-truth check (DESIGN.md "SIFT / matching")
+RATIO = 0.8
+#: a match is correct when the true point of one keypoint lands this close to the other [px]
+CORRECT_PX = 3.0
+
+
+def _digests(folder):
+    return {
+        p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
+
+
+def test_same_preset_and_seed_give_byte_identical_folders(tmp_path):
+    pytest.importorskip("cv2")
+    for name in ("a", "b"):
+        args = argparse.Namespace(preset="demo", out=str(tmp_path / name), seed=7, frames=2,
+                                  backend=None)
+        assert cli_synth(args) == 0
+    a, b = _digests(tmp_path / "a"), _digests(tmp_path / "b")
+    assert a == b
+    assert "images/000000.png" in a and "gt/000000.npz" in a and "world.json" in a
+
+
+def test_refuses_a_non_empty_folder_and_leaves_no_partial_output(tmp_path, demo_sim):
+    out = tmp_path / "taken"
+    out.mkdir()
+    (out / "keep.txt").write_text("x")
+    with pytest.raises(DataError, match="not empty"):
+        write_synthetic(out, demo_sim, backend="numpy")
+    assert (out / "keep.txt").exists()
+
+    def crash(count: int) -> None:
+        raise RuntimeError("simulated crash")
+
+    with pytest.raises(RuntimeError):
+        write_synthetic(tmp_path / "new", demo_sim, backend="numpy", progress=crash)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["taken"]
+
+
+def test_loader_returns_the_simulated_sequence(demo_folder, demo_sim):
+    assert is_synthetic_folder(demo_folder)
+    seq = load_synthetic(demo_folder)
+    assert len(seq) == demo_sim.stamps_s.size
+    np.testing.assert_array_equal(seq.odometry_r, demo_sim.odometry_r)
+    np.testing.assert_array_equal(seq.odometry_true_r, demo_sim.odometry_true_r)
+    np.testing.assert_allclose(seq.ground_truth.trajectory.se2, demo_sim.poses_w, atol=1e-12)
+    assert seq.ground_truth.kind is GroundTruthKind.EXACT
+    np.testing.assert_array_equal(seq.image_frames, demo_sim.image_frames)
+    assert seq.image(int(seq.image_frames[1])).shape == (640, 640, 3)
+    assert seq.laser.ranges_m.shape == demo_sim.laser_ranges_m.shape
+    seen = [i for rb in seq.range_bearing for i in rb.landmark_ids]
+    assert set(seen) <= set(seq.ground_truth.landmark_ids)
+
+
+def test_ground_truth_maps_equal_the_renderers(demo_folder, demo_sim):
+    index = int(demo_sim.image_frames[2])
+    maps = read_ground_truth_maps(demo_folder, index)
+    meta_backend = SyntheticFolder(demo_folder).meta["backend"]
+    frame = Renderer(demo_sim.world, demo_sim.rig, meta_backend).render(demo_sim.poses_w[index])
+    np.testing.assert_array_equal(maps.surface_ids, frame.surface_ids)
+    np.testing.assert_allclose(maps.points_w, frame.points_w, atol=1e-5, equal_nan=True)
+
+
+def test_sift_matches_agree_with_the_ground_truth(demo_folder, demo_sim):
+    cv2 = pytest.importorskip("cv2")
+    folder = SyntheticFolder(demo_folder)
+    frames = demo_sim.image_frames
+    xy = demo_sim.poses_w[frames, :2]
+    # the pair of images closest to 0.3 m apart
+    gaps = np.linalg.norm(xy[:, None] - xy[None], axis=2)
+    i, j = np.unravel_index(np.argmin(np.abs(gaps - 0.3)), gaps.shape)
+    assert abs(gaps[i, j] - 0.3) < 0.1
+    a, b = int(frames[i]), int(frames[j])
+    sift = cv2.SIFT_create()
+    mask = demo_sim.rig.camera.mask().astype(np.uint8)
+    kp_a, des_a = sift.detectAndCompute(cv2.cvtColor(folder.image(a), cv2.COLOR_RGB2GRAY), mask)
+    kp_b, des_b = sift.detectAndCompute(cv2.cvtColor(folder.image(b), cv2.COLOR_RGB2GRAY), mask)
+    assert len(kp_a) >= 300 and len(kp_b) >= 300
+    pairs = cv2.BFMatcher(cv2.NORM_L2).knnMatch(des_a, des_b, k=2)
+    good = [m for m, n in pairs if m.distance < RATIO * n.distance]
+    px_a = np.array([kp_a[m.queryIdx].pt for m in good])
+    px_b = np.array([kp_b[m.trainIdx].pt for m in good])
+    points_w, ids = folder.world_points(a, px_a)
+    wTb = folder.groundtruth.poses_w[b]
+    points_rb = (points_w - wTb[:3, 3]) @ wTb[:3, :3]
+    projected, _ = folder.rig.project_r(points_rb)
+    err = np.hypot(*(projected - px_b).T)
+    correct = (ids >= 0) & (err < CORRECT_PX)
+    assert correct.mean() >= 0.8, f"{correct.mean():.2f} of {len(good)} matches correct"
+    assert np.median(err[correct]) <= 1.5
