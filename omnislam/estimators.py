@@ -29,6 +29,8 @@ class SequenceInfo:
         has_bearings: the frames carry omni bearings (from the front end's log).
         known_association: sightings carry landmark ids (not UNKNOWN_ID).
         sigma_range_m, sigma_bearing_rad: the loader's sighting noise, when it states one.
+        sensor_height_m: height of the omni camera's single viewpoint above the ground plane
+            (from the calibration rig), when the sequence has a camera.
         facts: the sequence's ``info`` mapping (free-form, for logging).
     """
 
@@ -39,6 +41,7 @@ class SequenceInfo:
     known_association: bool = False
     sigma_range_m: float | None = None
     sigma_bearing_rad: float | None = None
+    sensor_height_m: float | None = None
     facts: Mapping[str, str] = field(default_factory=dict)
 
 

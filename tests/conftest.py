@@ -7,11 +7,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-#: relative error allowed between an analytic and a central-difference Jacobian
-JACOBIAN_RTOL = 1e-6
-#: relative error allowed between sample moments of 100k draws and the linearised moments
-MOMENT_RTOL = 0.02
-
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO_ROOT.parent / "shared" / "data"
 

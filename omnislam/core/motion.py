@@ -192,7 +192,15 @@ class OdometryMotionModel:
         This is the noise of an odometry between-factor expressed in the previous pose's frame
         (used by the factor graph and by EKF-SLAM): J diag(sigma^2) J^T with J the Jacobian of
         ``recompose`` at the decomposed delta.
+
+        The decomposition leaves the direction perpendicular to a vanishing translation without
+        noise (a robot standing still would get a singular covariance), so the translation
+        floor ``min_sigma[1]`` is added isotropically in x and y: the result is always positive
+        definite.
         """
         components = self.decompose(delta_r)
         _, V = self.apply_jacobians(np.zeros(3), components)
-        return V @ np.diag(self.component_sigmas(components) ** 2) @ V.T
+        floor = self.noise.min_sigma[1] ** 2
+        return V @ np.diag(self.component_sigmas(components) ** 2) @ V.T + np.diag(
+            [floor, floor, 0.0]
+        )

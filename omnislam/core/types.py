@@ -41,14 +41,22 @@ class Odometry:
         delta: (3,) [dx, dy, dtheta] of the new pose expressed in the previous pose's frame
             [m, m, rad], i.e. ``rTr' = se2_between(wTr, wTr')``.
         stamp_s: time of the new pose [s].
+        covariance: (3, 3) covariance of ``delta`` when the data states one (e.g. the factors
+            of gtsam's victoria_park.txt), else None: estimators then use their motion model.
     """
 
     delta: np.ndarray
     stamp_s: float
+    covariance: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         _set(self, "delta", _frozen(self.delta, float, (3,), "Odometry.delta"))
         _set(self, "stamp_s", float(self.stamp_s))
+        if self.covariance is not None:
+            cov = _frozen(self.covariance, float, (3, 3), "Odometry.covariance")
+            if not np.allclose(cov, cov.T) or np.any(np.linalg.eigvalsh(cov) <= 0):
+                raise DataError("Odometry.covariance must be symmetric positive definite")
+            _set(self, "covariance", cov)
 
 
 @dataclass(frozen=True, slots=True)

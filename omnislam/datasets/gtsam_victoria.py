@@ -207,5 +207,8 @@ def load_gtsam_victoria(
             note="no ground truth; compare against a reference solution (graphslam-batch)",
         ),
         range_bearing=range_bearing,
+        odometry_covariance_r=np.concatenate(
+            [np.eye(3)[None], np.einsum("ki,ij->kij", np.square(sigmas), np.eye(3))]
+        ),
         info=info,
     )

@@ -96,6 +96,8 @@ class Sequence:
         odometry_r: (N, 3) measured motion [dx, dy, dtheta] from frame i-1 to frame i in the
             frame of pose i-1 (row 0 is zero: the first frame defines the origin).
         odometry_true_r: (N, 3) the same without noise, when known (synthetic data).
+        odometry_covariance_r: (N, 3, 3) covariance of each odometry row when the data states
+            one (row 0 is ignored), else None.
         initial_pose_w: (3,) pose of frame 0 in the ground-truth world frame, when known
             (estimators start at the origin; evaluation aligns).
         range_bearing: per-frame sightings (None where a frame has none), or None.
@@ -113,6 +115,7 @@ class Sequence:
     odometry_r: np.ndarray
     ground_truth: GroundTruth = field(default_factory=GroundTruth)
     odometry_true_r: np.ndarray | None = None
+    odometry_covariance_r: np.ndarray | None = None
     initial_pose_w: np.ndarray | None = None
     range_bearing: tuple[RangeBearing | None, ...] | None = None
     laser: LaserScans | None = None
@@ -137,6 +140,12 @@ class Sequence:
                 self,
                 "odometry_true_r",
                 _frozen(self.odometry_true_r, float, (n, 3), f"{self.name}: odometry_true_r"),
+            )
+        if self.odometry_covariance_r is not None:
+            object.__setattr__(
+                self,
+                "odometry_covariance_r",
+                _frozen(self.odometry_covariance_r, float, (n, 3, 3), f"{self.name}: odometry cov"),
             )
         if self.initial_pose_w is not None:
             object.__setattr__(
@@ -165,8 +174,11 @@ class Sequence:
         """Yield one FrameInput per frame with odometry and direct (non-image) sightings."""
         for i in range(len(self)):
             sightings = self.range_bearing[i] if self.range_bearing is not None else None
+            cov = None
+            if self.odometry_covariance_r is not None and i > 0:
+                cov = self.odometry_covariance_r[i]
             yield FrameInput(
                 index=i,
-                odometry=Odometry(self.odometry_r[i], self.stamps_s[i]),
+                odometry=Odometry(self.odometry_r[i], self.stamps_s[i], cov),
                 range_bearing=sightings,
             )

@@ -1,1 +1,33 @@
-"""omnislam.graphslam."""
+"""GTSAM back end: iSAM2 (``graphslam``) and batch Levenberg-Marquardt (``graphslam-batch``).
+
+Modules: ``config`` (modes, kernels, settings), ``factors`` (noise models and factors),
+``landmark_init`` (delayed insertion of bearing-only tracks), ``association`` (unlabelled
+range-bearing sightings), ``isam`` (the incremental estimator), ``batch`` (LM), ``export`` (g2o).
+
+gtsam is imported lazily: ``import omnislam.graphslam`` works without it, and the estimator
+classes raise an error naming the ``graph`` extra when it is missing.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from omnislam.graphslam.config import GraphSLAMConfig, Mode, RobustKernel
+
+__all__ = ["BatchGraphSLAM", "GraphSLAM", "GraphSLAMConfig", "Mode", "RobustKernel"]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "GraphSLAM":
+        from omnislam.graphslam.isam import GraphSLAM
+
+        return GraphSLAM
+    if name == "BatchGraphSLAM":
+        from omnislam.graphslam.batch import BatchGraphSLAM
+
+        return BatchGraphSLAM
+    if name in ("make_estimator", "make_batch_estimator"):
+        from omnislam.graphslam import factory
+
+        return getattr(factory, name)
+    raise AttributeError(f"module 'omnislam.graphslam' has no attribute {name!r}")

@@ -1,6 +1,6 @@
 import numpy as np
 import pytest
-from conftest import JACOBIAN_RTOL
+from tolerances import JACOBIAN_RTOL
 
 from omnislam.core.jacobian import angle_difference, numerical_jacobian, se2_retract
 from omnislam.core.measurement import (

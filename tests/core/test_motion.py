@@ -1,6 +1,6 @@
 import numpy as np
 import pytest
-from conftest import JACOBIAN_RTOL, MOMENT_RTOL
+from tolerances import JACOBIAN_RTOL, MOMENT_RTOL
 
 from omnislam.core.jacobian import numerical_jacobian
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
@@ -61,6 +61,11 @@ def test_sample_delta_covariance_matches_covariance(rng):
     assert np.linalg.norm(sample_cov - cov) <= MOMENT_RTOL * np.linalg.norm(cov)
     assert np.all(np.linalg.eigvalsh(cov) > 0)
     assert MODEL.sample_delta(delta, rng).shape == (3,)
+
+
+def test_covariance_is_positive_definite_when_standing_still():
+    for delta in ([0.0, 0.0, 0.0], [0.0, 0.0, 0.3], [1e-15, 0.0, 0.0]):
+        assert np.all(np.linalg.eigvalsh(MODEL.covariance(np.asarray(delta))) > 0)
 
 
 def test_sampling_is_reproducible_with_the_injected_generator():

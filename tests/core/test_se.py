@@ -1,5 +1,5 @@
 import numpy as np
-from conftest import JACOBIAN_RTOL
+from tolerances import JACOBIAN_RTOL
 
 from omnislam.core.jacobian import numerical_jacobian
 from omnislam.core.se import (

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import ATE_FRACTION_OF_DEAD_RECKONING, LANDMARK_RMSE_M, STORE_ATOL
-from scenario import (
+from fastslam_scenario import (
     BEARING_SCENARIO_NOISE,
     SCENARIO_NOISE,
     SENSOR_HEIGHT_M,
@@ -13,6 +12,7 @@ from scenario import (
     make_bearing_scenario,
     make_scenario,
 )
+from fastslam_tolerances import ATE_FRACTION_OF_DEAD_RECKONING, LANDMARK_RMSE_M, STORE_ATOL
 
 from omnislam.core.types import Estimator, FrameInput, Odometry, RangeBearing
 from omnislam.errors import ConfigError

@@ -1,11 +1,6 @@
-"""Fixtures and tolerances of the FastSLAM tests (named in one place)."""
+"""Tolerances of the FastSLAM tests (named in one place)."""
 
 from __future__ import annotations
-
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 #: FastSLAM's ATE must be below this fraction of dead reckoning's on the loop scenario
 ATE_FRACTION_OF_DEAD_RECKONING = 0.4

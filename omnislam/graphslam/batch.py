@@ -1,0 +1,94 @@
+"""Batch mode (estimator ``graphslam-batch``): Levenberg-Marquardt on the whole graph.
+
+The graph is built exactly as the incremental estimator builds it (every ``step`` is an iSAM2
+update); ``estimate()`` then runs LM on all factors, **warm-started from the iSAM2 solution**.
+DESIGN.md: LM from dead reckoning on gtsam's victoria_park.txt stopped in a local minimum (poses
+19 m RMS off), while from the iSAM2 solution it reached the optimum in 2 iterations.
+Covariances, when configured, come from ``gtsam.Marginals`` at the LM solution.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from omnislam._optional import require
+from omnislam.core.types import Estimate
+from omnislam.graphslam.isam import GraphSLAM
+
+gtsam = require("gtsam")
+
+
+@dataclass(frozen=True, slots=True)
+class BatchResult:
+    """Outcome of one LM run.
+
+    Attributes:
+        values: the optimised ``gtsam.Values``.
+        iterations: LM iterations taken.
+        initial_error: graph error (0.5 * sum of squared whitened residuals) at the start.
+        final_error: graph error at the end.
+    """
+
+    values: Any
+    iterations: int
+    initial_error: float
+    final_error: float
+
+
+def optimize_batch(
+    graph: Any, initial: Any, max_iterations: int = 100, relative_error_tol: float = 1e-10
+) -> BatchResult:
+    """Levenberg-Marquardt on ``graph`` from ``initial`` (``gtsam.Values``)."""
+    params = gtsam.LevenbergMarquardtParams()
+    params.setMaxIterations(max_iterations)
+    params.setRelativeErrorTol(relative_error_tol)
+    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
+    values = optimizer.optimize()
+    return BatchResult(
+        values=values,
+        iterations=int(optimizer.iterations()),
+        initial_error=float(graph.error(initial)),
+        final_error=float(graph.error(values)),
+    )
+
+
+class BatchGraphSLAM(GraphSLAM):
+    """Incremental steps, then LM on the whole graph in ``estimate()`` (warm-started).
+
+    Same constructor as ``GraphSLAM``. The LM result is cached until the next ``step``.
+    """
+
+    name = "graphslam-batch"
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._batch: BatchResult | None = None
+        self._batch_frames = -1
+
+    def optimize(self) -> BatchResult:
+        """Run (or reuse) LM on every factor so far, from the current iSAM2 estimate."""
+        self._require_started()
+        if self._batch is None or self._batch_frames != self._frames:
+            self._batch = optimize_batch(
+                self.factor_graph(),
+                self._isam.calculateEstimate(),
+                self.config.batch_max_iterations,
+                self.config.batch_relative_error_tol,
+            )
+            self._batch_frames = self._frames
+        return self._batch
+
+    def values(self) -> Any:
+        """The LM solution as ``gtsam.Values``."""
+        return self.optimize().values
+
+    def estimate(self) -> Estimate:
+        """The LM optimum; covariances (if configured) from ``gtsam.Marginals`` there."""
+        if self._isam is None:
+            return super().estimate()
+        result = self.optimize()
+        covariance = None
+        if self.config.compute_covariances:
+            covariance = gtsam.Marginals(self.factor_graph(), result.values).marginalCovariance
+        return self._estimate_from(result.values, covariance)

@@ -1,0 +1,176 @@
+"""Configuration of the GTSAM back end: modes, robust kernels, and one frozen config record.
+
+Every default is documented next to its field, with the reason it has that value. The measured
+facts behind the iSAM2 and insertion defaults are in DESIGN.md ("Facts measured on this machine
+kind").
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+
+from omnislam.core.motion import MotionNoise
+from omnislam.errors import ConfigError
+
+
+class Mode(enum.Enum):
+    """Which variables and factors the graph is built from.
+
+    * ``OMNI``: Pose3 variables (the sensor viewpoint), ``BearingFactor3D`` per omni bearing,
+      a per-pose prior holding z, roll and pitch; landmarks Point3 (delayed insertion).
+    * ``RANGE_BEARING_2D``: Pose2 + ``BearingRangeFactor2D`` (MR.CLAM, Victoria Park, laser
+      landmarks); landmarks Point2 initialised from their first sighting.
+    * ``BEARING_2D``: Pose2 + ``BearingFactor2D`` (vertical lines); landmarks Point2 (delayed
+      insertion).
+    * ``AUTO``: chosen from the first frame that carries sightings (bearings -> OMNI,
+      range_bearing -> RANGE_BEARING_2D, vertical_lines -> BEARING_2D).
+    """
+
+    AUTO = "auto"
+    OMNI = "omni"
+    RANGE_BEARING_2D = "range-bearing-2d"
+    BEARING_2D = "bearing-2d"
+
+
+class RobustKernel(enum.Enum):
+    """M-estimator wrapped around every landmark factor's noise model (odometry stays Gaussian)."""
+
+    NONE = "none"
+    HUBER = "huber"
+    CAUCHY = "cauchy"
+
+
+#: default thresholds on the whitened residual: 95% asymptotic efficiency on Gaussian noise
+#: (Huber 1.345, Cauchy 2.3849; Zhang, "Parameter estimation techniques", 1997)
+DEFAULT_ROBUST_THRESHOLD: dict[RobustKernel, float] = {
+    RobustKernel.NONE: 0.0,
+    RobustKernel.HUBER: 1.345,
+    RobustKernel.CAUCHY: 2.3849,
+}
+
+
+@dataclass(frozen=True, slots=True)
+class GraphSLAMConfig:
+    """Settings of ``GraphSLAM`` / ``BatchGraphSLAM``.
+
+    Attributes:
+        mode: factor family, see ``Mode`` (default AUTO: decided by the first sightings).
+        motion_noise: alpha coefficients of the odometry model (thesis eq. 4.41); the 3x3
+            covariance of each odometry delta is ``OdometryMotionModel.covariance``.
+        odometry_sigmas: fixed (sx [m], sy [m], stheta [rad]) of every odometry factor instead
+            of the motion model, for datasets that state their odometry noise (gtsam's
+            victoria_park.txt: 0.01, 0.002, 0.002). None (default) uses ``motion_noise``.
+        prior_sigmas: (sx [m], sy [m], stheta [rad]) of the prior anchoring the first pose at
+            ``initial_pose`` (default 1 mm / 1 mrad: the first pose defines the world frame).
+        sensor_height_m: height of the omni camera's single viewpoint above the robot frame
+            origin [m] (OMNI mode). Bearings are measured from there.
+        planar_sigma_m: std of z in the per-pose prior and of the vertical component of each
+            odometry factor [m] (OMNI mode; default 1 mm: the robot drives on a plane).
+        planar_sigma_rad: std of roll and pitch in the same factors [rad] (default 1 mrad).
+        relinearize_threshold: iSAM2 relinearisation threshold on the tangent-space delta
+            (default 0.1; stable on all seeds, DESIGN.md).
+        relinearize_skip: iSAM2 checks for relinearisation every this many updates (default 1:
+            the GTSAM default of 10 diverged on one of four seeds, DESIGN.md).
+        min_sightings: sightings a bearing-only track needs before it is triangulated and
+            inserted (default 3).
+        min_parallax_deg: largest angle between a track's world rays needed before insertion
+            [deg] (default 3: fewer made iSAM2 throw "Indeterminate linear system").
+        min_consistent_sightings: range-bearing landmarks with given ids enter the graph once
+            this many of their sightings agree on the position (chi-square gate at
+            ``association_gate_probability``); default 1 = on the first sighting. Use 2 or more
+            when wrong ids are expected (see ``landmark_init.ConsistentInsertion``).
+        robust_kernel: M-estimator on landmark factors (default NONE).
+        robust_threshold: kernel threshold on the whitened residual; None uses
+            ``DEFAULT_ROBUST_THRESHOLD`` of the kernel.
+        association_gate_probability: chi-square probability of the gate inside which an
+            unlabelled range-bearing sighting is matched to its nearest landmark (default 0.99).
+        new_landmark_probability: chi-square probability beyond which an unmatched sighting
+            starts a new landmark (default 0.9999); sightings between the two gates are
+            ambiguous and dropped.
+        association_landmark_sigma_m: fixed std of every landmark position used in the
+            association gate instead of landmark marginals [m] (default 0.3). See
+            ``association.py`` for why and what it costs.
+        association_pose_covariance: add the newest pose's iSAM2 marginal covariance to the
+            sightings' covariance in the gate (default True; one marginal per frame with
+            unlabelled sightings).
+        batch_max_iterations: Levenberg-Marquardt iteration limit of batch mode (default 100).
+        batch_relative_error_tol: LM relative error decrease at which batch mode stops
+            (default 1e-10).
+        compute_covariances: ``estimate()`` returns marginal covariances of poses and landmarks
+            (default False: marginals cost far more than the estimate).
+    """
+
+    mode: Mode = Mode.AUTO
+    motion_noise: MotionNoise = field(default_factory=MotionNoise)
+    odometry_sigmas: tuple[float, float, float] | None = None
+    prior_sigmas: tuple[float, float, float] = (1e-3, 1e-3, 1e-3)
+    sensor_height_m: float = 0.0
+    planar_sigma_m: float = 1e-3
+    planar_sigma_rad: float = 1e-3
+    relinearize_threshold: float = 0.1
+    relinearize_skip: int = 1
+    min_sightings: int = 3
+    min_parallax_deg: float = 3.0
+    min_consistent_sightings: int = 1
+    robust_kernel: RobustKernel = RobustKernel.NONE
+    robust_threshold: float | None = None
+    association_gate_probability: float = 0.99
+    new_landmark_probability: float = 0.9999
+    association_landmark_sigma_m: float = 0.3
+    association_pose_covariance: bool = True
+    batch_max_iterations: int = 100
+    batch_relative_error_tol: float = 1e-10
+    compute_covariances: bool = False
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.mode, Mode):
+            raise ConfigError(f"mode must be a Mode, got {self.mode!r}")
+        if not isinstance(self.robust_kernel, RobustKernel):
+            raise ConfigError(f"robust_kernel must be a RobustKernel, got {self.robust_kernel!r}")
+        positive = {
+            "planar_sigma_m": self.planar_sigma_m,
+            "planar_sigma_rad": self.planar_sigma_rad,
+            "relinearize_threshold": self.relinearize_threshold,
+            "association_landmark_sigma_m": self.association_landmark_sigma_m,
+        }
+        for name, value in positive.items():
+            if not value > 0:
+                raise ConfigError(f"{name} must be positive, got {value}")
+        for name in ("prior_sigmas", "odometry_sigmas"):
+            sigmas = getattr(self, name)
+            if sigmas is not None and (len(sigmas) != 3 or min(sigmas) <= 0):
+                raise ConfigError(f"{name} must be three positive numbers, got {sigmas}")
+        if self.relinearize_skip < 1 or self.batch_max_iterations < 1:
+            raise ConfigError("relinearize_skip and batch_max_iterations must be >= 1")
+        if self.min_sightings < 2:
+            raise ConfigError(f"min_sightings must be >= 2, got {self.min_sightings}")
+        if self.min_consistent_sightings < 1:
+            raise ConfigError(
+                f"min_consistent_sightings must be >= 1, got {self.min_consistent_sightings}"
+            )
+        if self.min_parallax_deg < 0:
+            raise ConfigError(f"min_parallax_deg must be >= 0, got {self.min_parallax_deg}")
+        if not 0 < self.association_gate_probability <= self.new_landmark_probability < 1:
+            raise ConfigError(
+                "need 0 < association_gate_probability <= new_landmark_probability < 1"
+            )
+        if self.robust_threshold is not None and not self.robust_threshold > 0:
+            raise ConfigError(f"robust_threshold must be positive, got {self.robust_threshold}")
+
+    @property
+    def kernel_threshold(self) -> float:
+        """The robust kernel's threshold on the whitened residual (0 without a kernel)."""
+        if self.robust_threshold is not None:
+            return self.robust_threshold
+        return DEFAULT_ROBUST_THRESHOLD[self.robust_kernel]
+
+
+#: named presets (the CLI merges ``--set key=value`` overrides on top of one of these)
+PRESETS: dict[str, GraphSLAMConfig] = {
+    "default": GraphSLAMConfig(),
+    "robust": GraphSLAMConfig(robust_kernel=RobustKernel.CAUCHY, min_consistent_sightings=2),
+    "victoria-park-gtsam": GraphSLAMConfig(
+        mode=Mode.RANGE_BEARING_2D, odometry_sigmas=(0.01, 0.002, 0.002)
+    ),
+}

@@ -1,0 +1,41 @@
+"""Factories that ``omnislam.estimators`` calls for ``graphslam`` and ``graphslam-batch``."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from omnislam.errors import ConfigError
+from omnislam.graphslam.config import PRESETS, GraphSLAMConfig
+from omnislam.options import apply_options
+
+
+def _config(info: object, options: Mapping[str, str]) -> GraphSLAMConfig:
+    options = dict(options)
+    preset = options.pop("preset", "default")
+    if preset not in PRESETS:
+        raise ConfigError(f"unknown graphslam preset {preset!r}; known: {', '.join(PRESETS)}")
+    config = PRESETS[preset]
+    height = getattr(info, "sensor_height_m", None)
+    if height is not None and "sensor_height_m" not in options:
+        options["sensor_height_m"] = str(height)
+    return apply_options(config, options)
+
+
+def make_estimator(info: object, options: Mapping[str, str], rng: np.random.Generator) -> object:
+    """iSAM2 from ``PRESETS[preset]`` (default ``default``) with ``--set`` overrides."""
+    from omnislam.graphslam.isam import GraphSLAM
+
+    del rng  # deterministic
+    return GraphSLAM(_config(info, options))
+
+
+def make_batch_estimator(
+    info: object, options: Mapping[str, str], rng: np.random.Generator
+) -> object:
+    """iSAM2 then Levenberg-Marquardt on the whole graph, warm-started (``graphslam-batch``)."""
+    from omnislam.graphslam.batch import BatchGraphSLAM
+
+    del rng
+    return BatchGraphSLAM(_config(info, options))

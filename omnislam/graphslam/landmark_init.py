@@ -1,0 +1,193 @@
+"""Delayed insertion of bearing-only landmarks (DESIGN.md "Landmark insertion").
+
+A bearing fixes no depth: a landmark added to iSAM2 after one bearing leaves its linear system
+rank deficient and GTSAM throws "Indeterminate linear system". A track is therefore held back
+until it has ``min_sightings`` sightings whose world rays span at least ``min_parallax_deg``;
+then it is triangulated (``omnislam.core.triangulation.triangulate_rays``) and enters the graph
+together with all its held-back factors in one iSAM2 update. Tracks that never qualify are
+counted (``DelayedInsertionStats``), not silently lost.
+
+This module is pure bookkeeping and numpy: it never touches GTSAM. The caller supplies the
+factors to hold back (opaque objects) and, at insertion time, the current estimates of the poses
+the sightings were taken from.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from omnislam.core.triangulation import triangulate_rays
+
+#: relative floor of the smallest eigenvalue of sum(I - d d^T) (near-parallel rays are rejected)
+_MIN_EIGENVALUE = 1e-6
+
+
+@dataclass(slots=True)
+class PendingTrack:
+    """A track not yet in the graph: its sightings and the factors they became.
+
+    Attributes:
+        frames: frame index of each sighting.
+        rays_s: unit bearing of each sighting in its sensor frame (3,) (z = 0 in 2-D modes).
+        factors: the held-back factor of each sighting.
+    """
+
+    frames: list[int] = field(default_factory=list)
+    rays_s: list[np.ndarray] = field(default_factory=list)
+    factors: list[Any] = field(default_factory=list)
+
+
+@dataclass(frozen=True, slots=True)
+class DelayedInsertionStats:
+    """Counts of the delayed-insertion bookkeeping.
+
+    Attributes:
+        tracks_inserted: tracks triangulated and added to the graph.
+        tracks_pending: tracks still held back (never qualified so far).
+        sightings_pending: held-back sightings of the pending tracks.
+        triangulations_rejected: attempts whose point lay behind a ray or whose rays were
+            (nearly) parallel in 3-D although the pairwise parallax passed.
+    """
+
+    tracks_inserted: int
+    tracks_pending: int
+    sightings_pending: int
+    triangulations_rejected: int
+
+
+@dataclass(frozen=True, slots=True)
+class Insertion:
+    """A track that qualified: its id, triangulated point and held-back factors."""
+
+    track_id: int
+    point_w: np.ndarray
+    factors: list[Any]
+
+
+class DelayedInsertion:
+    """Holds bearing-only tracks back until they can be triangulated.
+
+    Args:
+        min_sightings: sightings needed (>= 2).
+        min_parallax_rad: largest pairwise angle between world rays needed [rad].
+    """
+
+    def __init__(self, min_sightings: int, min_parallax_rad: float) -> None:
+        self._min_sightings = min_sightings
+        self._min_parallax_rad = min_parallax_rad
+        self._pending: dict[int, PendingTrack] = {}
+        self._inserted = 0
+        self._rejected = 0
+
+    def hold(self, track_id: int, frame: int, ray_s: np.ndarray, factor: Any) -> None:
+        """Hold back one sighting of a track that is not in the graph."""
+        track = self._pending.setdefault(track_id, PendingTrack())
+        track.frames.append(frame)
+        track.rays_s.append(ray_s)
+        track.factors.append(factor)
+
+    def try_insert(
+        self, track_id: int, viewpoint: Callable[[int], tuple[np.ndarray, np.ndarray]]
+    ) -> Insertion | None:
+        """Triangulate a held-back track if it qualifies, and release it.
+
+        Args:
+            track_id: the track.
+            viewpoint: ``viewpoint(frame) -> (origin_w (3,), wRs (3, 3))``, the current estimate
+                of the sensor viewpoint of a frame (position [m] and rotation sensor -> world).
+
+        Returns:
+            The insertion (the track is forgotten here) or None (the track stays pending).
+        """
+        track = self._pending.get(track_id)
+        if track is None or len(track.frames) < self._min_sightings:
+            return None
+        origins = np.empty((len(track.frames), 3))
+        rays_w = np.empty_like(origins)
+        for k, (frame, ray_s) in enumerate(zip(track.frames, track.rays_s, strict=True)):
+            origins[k], wRs = viewpoint(frame)
+            rays_w[k] = wRs @ ray_s
+        result = triangulate_rays(origins, rays_w)
+        if result.parallax_rad < self._min_parallax_rad:
+            return None
+        if not result.in_front or result.min_eigenvalue < _MIN_EIGENVALUE * len(track.frames):
+            self._rejected += 1
+            return None
+        del self._pending[track_id]
+        self._inserted += 1
+        return Insertion(track_id, result.point_w, track.factors)
+
+    def is_pending(self, track_id: int) -> bool:
+        """True when the track has held-back sightings."""
+        return track_id in self._pending
+
+    def stats(self) -> DelayedInsertionStats:
+        """Counts so far."""
+        return DelayedInsertionStats(
+            tracks_inserted=self._inserted,
+            tracks_pending=len(self._pending),
+            sightings_pending=sum(len(t.frames) for t in self._pending.values()),
+            triangulations_rejected=self._rejected,
+        )
+
+
+class ConsistentInsertion:
+    """Holds range-bearing landmarks back until ``min_consistent`` sightings agree on the point.
+
+    A range-bearing sighting fixes a 2-D landmark on its own, so without wrong associations a
+    landmark can enter on its first sighting (``min_consistent = 1``). With wrong ids, a
+    landmark initialised from a wrong first sighting sits metres away; a robust kernel then
+    down-weights its *correct* sightings and iSAM2 can stay in that minimum. Waiting until
+    sightings agree -- squared Mahalanobis distance ``(p_i - p_j)^T (C_i + C_j)^-1 (p_i - p_j)``
+    inside ``gate`` -- and starting at their mean avoids it. All held-back factors are released
+    (the robust kernel handles the disagreeing ones).
+
+    Args:
+        min_consistent: agreeing sightings needed (1 inserts on the first sighting).
+        gate: chi-square threshold on the squared distance (2 degrees of freedom).
+    """
+
+    def __init__(self, min_consistent: int, gate: float) -> None:
+        self._min_consistent = min_consistent
+        self._gate = gate
+        self._pending: dict[int, tuple[list[np.ndarray], list[np.ndarray], list[Any]]] = {}
+        self._inserted = 0
+
+    def hold(
+        self, track_id: int, point_w: np.ndarray, covariance_w: np.ndarray, factor: Any
+    ) -> None:
+        """Hold back one sighting: its world point (2,), covariance (2, 2) and factor."""
+        points, covariances, factors = self._pending.setdefault(track_id, ([], [], []))
+        points.append(point_w)
+        covariances.append(covariance_w)
+        factors.append(factor)
+
+    def try_insert(self, track_id: int) -> Insertion | None:
+        """Insert when the newest sighting agrees with enough earlier ones (then forget it)."""
+        if track_id not in self._pending:
+            return None
+        points, covariances, factors = self._pending[track_id]
+        newest, newest_cov = points[-1], covariances[-1]
+        agreeing = [
+            p
+            for p, c in zip(points, covariances, strict=True)
+            if (d := p - newest) @ np.linalg.solve(c + newest_cov, d) <= self._gate
+        ]  # includes the newest itself (distance 0)
+        if len(agreeing) < self._min_consistent:
+            return None
+        del self._pending[track_id]
+        self._inserted += 1
+        return Insertion(track_id, np.mean(agreeing, axis=0), factors)
+
+    def stats(self) -> DelayedInsertionStats:
+        """Counts so far (no triangulation here: ``triangulations_rejected`` is 0)."""
+        return DelayedInsertionStats(
+            tracks_inserted=self._inserted,
+            tracks_pending=len(self._pending),
+            sightings_pending=sum(len(p[0]) for p in self._pending.values()),
+            triangulations_rejected=0,
+        )

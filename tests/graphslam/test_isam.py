@@ -1,0 +1,177 @@
+"""The incremental estimator: iSAM2 against batch LM, marginals, omni mode, robustness."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from graphslam_scenarios import (
+    ISAM_VS_BATCH_TOL_M,
+    MARGINALS_RTOL,
+    MOTION_NOISE,
+    SENSOR_HEIGHT_M,
+    corrupt_ids,
+    hide_ids,
+    run,
+    simulate_omni,
+    simulate_planar,
+)
+
+from omnislam.core.types import Estimator, FrameInput, Odometry
+from omnislam.graphslam import BatchGraphSLAM, GraphSLAM, GraphSLAMConfig, Mode, RobustKernel
+from omnislam.graphslam import factors as fx
+
+gtsam = pytest.importorskip("gtsam")
+
+#: a converged graph estimate beats integrated odometry by at least this factor
+SLAM_VS_DEAD_RECKONING = 0.25
+
+
+def _config(**overrides) -> GraphSLAMConfig:
+    return GraphSLAMConfig(motion_noise=MOTION_NOISE, **overrides)
+
+
+def test_both_estimators_conform_to_the_protocol():
+    assert isinstance(GraphSLAM(), Estimator) and GraphSLAM.name == "graphslam"
+    assert isinstance(BatchGraphSLAM(), Estimator) and BatchGraphSLAM.name == "graphslam-batch"
+
+
+@pytest.mark.parametrize("threshold, tol_m", [(0.1, ISAM_VS_BATCH_TOL_M), (1e-3, 1e-3)])
+def test_isam2_equals_batch_lm_on_the_same_graph(planar, threshold, tol_m):
+    cfg = _config(relinearize_threshold=threshold)
+    incremental = run(GraphSLAM(cfg, planar.poses_true[0]), planar.frames)
+    batch_estimator = BatchGraphSLAM(cfg, planar.poses_true[0])
+    batch = run(batch_estimator, planar.frames)
+    np.testing.assert_array_equal(incremental.landmark_ids, batch.landmark_ids)
+    np.testing.assert_allclose(incremental.trajectory.se2, batch.trajectory.se2, atol=tol_m)
+    np.testing.assert_allclose(incremental.landmarks_w, batch.landmarks_w, atol=tol_m)
+    assert batch_estimator.optimize().iterations <= 5  # warm start: already near the optimum
+    assert planar.ate(batch.trajectory.se2) < SLAM_VS_DEAD_RECKONING * planar.ate(
+        planar.dead_reckoning
+    )
+
+
+def test_isam2_marginals_match_gtsam_marginals(planar):
+    cfg = _config(compute_covariances=True)
+    estimator = GraphSLAM(cfg, planar.poses_true[0])
+    incremental = run(estimator, planar.frames)
+    # exactly equal at iSAM2's own linearisation point ...
+    at_linearization = gtsam.Marginals(
+        estimator.factor_graph(), estimator._isam.getLinearizationPoint()
+    )
+    for key in (fx.pose_key(0), fx.pose_key(75), fx.pose_key(149), fx.landmark_key(3)):
+        np.testing.assert_allclose(
+            estimator._isam.marginalCovariance(key),
+            at_linearization.marginalCovariance(key),
+            rtol=1e-8,
+            atol=1e-14,
+        )
+    # ... and close to batch Marginals at the LM optimum
+    batch = run(BatchGraphSLAM(cfg, planar.poses_true[0]), planar.frames)
+    scale_p = np.abs(batch.pose_covariances).max()
+    scale_l = np.abs(batch.landmark_covariances).max()
+    assert np.abs(incremental.pose_covariances - batch.pose_covariances).max() < (
+        MARGINALS_RTOL * scale_p
+    )
+    assert np.abs(incremental.landmark_covariances - batch.landmark_covariances).max() < (
+        MARGINALS_RTOL * scale_l
+    )
+    # world-frame covariances are symmetric positive definite; 2-D landmarks have no z
+    assert np.all(np.linalg.eigvalsh(incremental.pose_covariances[1:]) > 0)
+    assert np.all(incremental.landmark_covariances[:, 2, :] == 0)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_omni_mode_never_indeterminate_and_beats_dead_reckoning(seed):
+    scenario = simulate_omni(np.random.default_rng(seed))
+    estimator = GraphSLAM(_config(sensor_height_m=SENSOR_HEIGHT_M), scenario.poses_true[0])
+    estimate = run(estimator, scenario.frames)  # EstimationError would fail the test
+    info = estimator.info()
+    assert info.mode is Mode.OMNI and info.frames == len(scenario.frames)
+    assert info.tracks_inserted == info.landmarks == len(estimate.landmark_ids) > 40
+    ate = scenario.ate(estimate.trajectory.se2)
+    assert ate < SLAM_VS_DEAD_RECKONING * scenario.ate(scenario.dead_reckoning)
+    assert ate < 0.15
+    # the robot frame stays on the floor; landmarks land at their heights
+    assert np.abs(estimate.trajectory.positions_w[:, 2]).max() < 0.01
+    errors = np.linalg.norm(
+        estimate.landmarks_w - scenario.landmarks_true[estimate.landmark_ids], axis=1
+    )
+    assert np.median(errors) < 0.1
+
+
+def test_omni_tracks_that_never_qualify_are_counted():
+    rng = np.random.default_rng(5)
+    scenario = simulate_omni(rng, n=40, laps=0.1)
+    estimator = GraphSLAM(
+        _config(sensor_height_m=SENSOR_HEIGHT_M, min_parallax_deg=30.0), scenario.poses_true[0]
+    )
+    run(estimator, scenario.frames)
+    info = estimator.info()
+    seen = {int(i) for f in scenario.frames for i in f.bearings.landmark_ids}
+    assert info.tracks_pending > 0
+    assert info.tracks_pending + info.tracks_inserted == len(seen)
+    assert info.sightings_pending >= estimator.config.min_sightings * info.tracks_pending
+
+
+def test_bearing_2d_mode_maps_vertical_lines(planar):
+    estimator = GraphSLAM(_config(mode=Mode.BEARING_2D), planar.poses_true[0])
+    estimate = run(estimator, planar.frames)
+    assert estimator.info().tracks_inserted == len(estimate.landmark_ids) == 30
+    assert planar.ate(estimate.trajectory.se2) < SLAM_VS_DEAD_RECKONING * planar.ate(
+        planar.dead_reckoning
+    )
+    assert np.all(estimate.landmarks_w[:, 2] == 0)
+
+
+def test_auto_mode_buffers_frames_until_the_first_sightings(planar):
+    empty = [
+        FrameInput(0, Odometry(np.zeros(3), -2.0)),
+        FrameInput(1, Odometry(np.array([0.1, 0.0, 0.0]), -1.0)),
+    ]
+    estimator = GraphSLAM(_config())
+    for frame in empty:
+        estimator.step(frame)
+    assert estimator.mode is Mode.AUTO
+    assert len(estimator.estimate().trajectory) == 2  # dead reckoning until then
+    estimator.step(planar.frames[1])
+    assert estimator.mode is Mode.RANGE_BEARING_2D
+    estimate = estimator.estimate()
+    assert len(estimate.trajectory) == 3
+    np.testing.assert_allclose(estimate.trajectory.stamps_s, [-2.0, -1.0, 1.0])
+
+
+def test_wrong_associations_robust_kernel_keeps_ate_near_clean():
+    """20% of sightings re-assigned to wrong ids: Cauchy + consistent insertion vs plain."""
+    ratios_robust, ratios_plain = [], []
+    robust = _config(robust_kernel=RobustKernel.CAUCHY, min_consistent_sightings=2)
+    for seed in range(5):
+        scenario = simulate_planar(np.random.default_rng(seed))
+        wrong, count = corrupt_ids(scenario.frames, 0.2, 30, np.random.default_rng(100 + seed))
+        assert count > 150
+        clean = scenario.ate(
+            run(GraphSLAM(_config(), scenario.poses_true[0]), scenario.frames).trajectory.se2
+        )
+        corrupted = scenario.ate(
+            run(GraphSLAM(robust, scenario.poses_true[0]), wrong).trajectory.se2
+        )
+        plain = scenario.ate(
+            run(GraphSLAM(_config(), scenario.poses_true[0]), wrong).trajectory.se2
+        )
+        ratios_robust.append(corrupted / clean)
+        ratios_plain.append(plain / clean)
+    assert np.median(ratios_robust) < 1.5, ratios_robust
+    assert np.max(ratios_robust) < 2.5, ratios_robust
+    assert np.median(ratios_plain) > 10, ratios_plain  # the threat is real
+
+
+def test_unknown_association_recovers_the_map():
+    scenario = simulate_planar(np.random.default_rng(2))
+    estimator = GraphSLAM(_config(), scenario.poses_true[0])
+    estimate = run(estimator, hide_ids(scenario.frames))
+    info = estimator.info()
+    seen = len({int(i) for f in scenario.frames for i in f.range_bearing.landmark_ids})
+    assert info.landmarks_created == len(estimate.landmark_ids)
+    assert seen - 3 <= info.landmarks_created <= seen + 3
+    assert np.all(estimate.landmark_ids >= 1_000_000_000)
+    assert info.sightings_associated > 0.5 * sum(len(f.range_bearing) for f in scenario.frames)
+    assert scenario.ate(estimate.trajectory.se2) < 0.5 * scenario.ate(scenario.dead_reckoning)
