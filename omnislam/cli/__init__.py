@@ -18,6 +18,8 @@ COMMANDS: dict[str, str] = {
     "dataset": "dataset",
     "run": "run",
     "evaluate": "evaluate",
+    "compare": "compare",
+    "report": "report",
     "demo": "demo",
 }
 

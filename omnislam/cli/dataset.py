@@ -33,9 +33,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="ray-casting backend (default: open3d when installed)",
     )
-    synth.add_argument(
-        "--overwrite", action="store_true", help="replace an existing output folder"
-    )
+    synth.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
     synth.set_defaults(handler=run_synth)
     # ---- end of synth ----
 

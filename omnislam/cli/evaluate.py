@@ -13,6 +13,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("evaluate", help="compute metrics of a run against ground truth")
     p.add_argument("run_dir", metavar="RUN_DIR", help="folder written by `omnislam run`")
     p.add_argument("--json", action="store_true", help="print metrics.json instead of a table")
+    p.add_argument(
+        "--rpe-segment", type=float, default=None, metavar="M", help="RPE segment length [m]"
+    )
+    p.add_argument(
+        "--landmark-gate",
+        type=float,
+        default=None,
+        metavar="M",
+        help="landmark association gate for maps without true ids [m]",
+    )
     p.set_defaults(handler=run)
 
 
@@ -28,11 +38,22 @@ def run(args: argparse.Namespace) -> int:
     import json
     from pathlib import Path
 
+    from omnislam.compare.evaluation import EvaluationOptions
     from omnislam.compare.rundir import evaluate_run, read_run_dir, write_metrics
+    from omnislam.errors import DataError
 
+    defaults = EvaluationOptions()
+    options = EvaluationOptions(
+        rpe_segment_m=defaults.rpe_segment_m if args.rpe_segment is None else args.rpe_segment,
+        landmark_gate_m=(
+            defaults.landmark_gate_m if args.landmark_gate is None else args.landmark_gate
+        ),
+    )
     path = Path(args.run_dir)
+    if not path.is_dir():
+        raise DataError("no such RUN_DIR", path)
     record = read_run_dir(path)
-    metrics = evaluate_run(record)
+    metrics = evaluate_run(record, options)
     write_metrics(path, metrics)
     if args.json:
         print(json.dumps(metrics, indent=2))
@@ -57,10 +78,16 @@ def run(args: argparse.Namespace) -> int:
             if metrics["ate_matched"] is None
             else f"{metrics['ate_matched']} / {metrics['ate_coverage']:.1%}",
         ),
-        ("RPE trans RMSE [m]", metrics["rpe_trans_rmse_m"]),
+        (f"RPE {options.rpe_segment_m:g} m trans RMSE [m]", metrics["rpe_trans_rmse_m"]),
+        (f"RPE {options.rpe_segment_m:g} m rot RMSE [deg]", metrics["rpe_rot_rmse_deg"]),
         ("landmark RMSE [m]", metrics["landmark_rmse_m"]),
-        ("landmarks estimated", metrics["landmarks_estimated"]),
-        ("NEES mean", metrics["nees_mean"]),
+        (
+            "landmarks estimated / matched / true",
+            f"{metrics['landmarks_estimated']} / {_fmt(metrics['landmarks_matched'])} / "
+            f"{_fmt(metrics['landmarks_truth'])}",
+        ),
+        ("pose NEES mean (dof 3 when consistent)", metrics["nees_mean"]),
+        ("landmark NEES mean", metrics["landmark_nees_mean"]),
         (
             "step median / p95 [ms]",
             f"{_fmt(metrics['step_ms_median'])} / {_fmt(metrics['step_ms_p95'])}",

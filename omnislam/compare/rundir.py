@@ -8,6 +8,10 @@ Files (DESIGN.md, command-line contract):
 * ``config.yaml``: dataset, estimator, seed, options, omnislam version, run totals.
 * ``ground_truth.tum`` and ``ground_truth_landmarks.csv``: the sequence's ground truth copied at
   run time (when it has any), so ``omnislam evaluate`` needs neither the data nor the loader.
+* ``pose_covariances.csv`` (``frame,c00,...,c22``: covariance of [x, y, yaw] per pose, row-major)
+  and ``landmark_covariances.csv`` (``id,c00,...,c22``: position covariance [m^2]) when the
+  estimator provides covariances.
+* attachments an estimator exports (e.g. ``graph.g2o``), stored verbatim.
 * ``metrics.json``: written by ``omnislam evaluate``.
 
 A RUN_DIR is written atomically: everything goes into a hidden temporary folder next to it,
@@ -40,6 +44,13 @@ CONFIG = "config.yaml"
 GROUND_TRUTH = "ground_truth.tum"
 GROUND_TRUTH_LANDMARKS = "ground_truth_landmarks.csv"
 METRICS = "metrics.json"
+POSE_COVARIANCES = "pose_covariances.csv"
+LANDMARK_COVARIANCES = "landmark_covariances.csv"
+#: attachment an estimator with a factor graph may export (see compare.execute.GraphExporter)
+GRAPH_G2O = "graph.g2o"
+#: file names an attachment may take (kept small so a RUN_DIR stays a known set of files)
+ATTACHMENTS = (GRAPH_G2O,)
+_COV_COLUMNS = ",".join(f"c{r}{c}" for r in range(3) for c in range(3))
 
 
 @dataclass(frozen=True, slots=True)
@@ -60,6 +71,8 @@ class RunConfig:
         ground_truth_kind: ``GroundTruthKind`` value.
         ground_truth_note: the ground truth's note (printed with every number).
         source: the dataset's citation.
+        landmark_ids_from_truth: the sightings carried the ground truth's landmark ids, so the
+            estimate's ids name true landmarks (landmark error associates by id).
     """
 
     dataset: str
@@ -75,6 +88,7 @@ class RunConfig:
     seed: int | None = None
     dataset_options: Mapping[str, str] = field(default_factory=dict)
     estimator_options: Mapping[str, str] = field(default_factory=dict)
+    landmark_ids_from_truth: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -86,12 +100,14 @@ class RunRecord:
         estimate: the estimator's final estimate (one pose per frame).
         step_s: (N,) wall time of each step [s].
         ground_truth: the sequence's ground truth (kind NONE when there is none).
+        attachments: file name (one of ATTACHMENTS) -> bytes exported by the estimator.
     """
 
     config: RunConfig
     estimate: Estimate
     step_s: np.ndarray
     ground_truth: GroundTruth = field(default_factory=GroundTruth)
+    attachments: Mapping[str, bytes] = field(default_factory=dict)
 
 
 def _write_landmarks(path: Path, ids: np.ndarray, points_w: np.ndarray) -> None:
@@ -100,6 +116,43 @@ def _write_landmarks(path: Path, ids: np.ndarray, points_w: np.ndarray) -> None:
         f"{int(i)},{p[0]:.17g},{p[1]:.17g},{p[2]:.17g}" for i, p in zip(ids, points_w, strict=True)
     ]
     path.write_text("\n".join(lines) + "\n")
+
+
+def _write_covariances(path: Path, key: str, keys: np.ndarray, covariances: np.ndarray) -> None:
+    lines = [f"{key},{_COV_COLUMNS}"]
+    lines += [
+        f"{int(k)}," + ",".join(f"{v:.17g}" for v in c.reshape(9))
+        for k, c in zip(keys, covariances, strict=True)
+    ]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def read_covariances_csv(path: Path, key: str) -> tuple[np.ndarray, np.ndarray]:
+    """``KEY,c00,...,c22`` CSV -> (keys (M,), covariances (M, 3, 3)).
+
+    Raises:
+        DataError: wrong header, column count or non-numeric field (naming the line).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text().splitlines()
+    except OSError as exc:
+        raise DataError(f"cannot read the file ({exc})", path) from exc
+    if not text or text[0].strip() != f"{key},{_COV_COLUMNS}":
+        raise DataError(f"line 1: expected the header '{key},{_COV_COLUMNS}'", path)
+    keys, values = [], []
+    for number, line in enumerate(text[1:], start=2):
+        if not line.strip():
+            continue
+        fields = line.split(",")
+        if len(fields) != 10:
+            raise DataError(f"line {number}: expected 10 columns, got {len(fields)}", path)
+        try:
+            keys.append(int(fields[0]))
+            values.append([float(v) for v in fields[1:]])
+        except ValueError:
+            raise DataError(f"line {number}: non-numeric field in {line!r}", path) from None
+    return np.asarray(keys, dtype=np.int64), np.asarray(values, dtype=float).reshape(-1, 3, 3)
 
 
 def read_landmarks_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -150,6 +203,13 @@ def _read_timing(path: Path) -> np.ndarray:
     return np.asarray(steps, dtype=float)
 
 
+def make_shareable(folder: Path) -> None:
+    """Give a ``tempfile.mkdtemp`` folder (mode 0700) the permissions of a plain ``mkdir``."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(folder, 0o777 & ~umask)
+
+
 def write_run_dir(path: Path, record: RunRecord) -> None:
     """Write a RUN_DIR atomically (temporary folder next to it, then rename).
 
@@ -167,6 +227,7 @@ def write_run_dir(path: Path, record: RunRecord) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
     try:
+        make_shareable(staging)
         write_tum(staging / TRAJECTORY, record.estimate.trajectory)
         _write_landmarks(
             staging / LANDMARKS, record.estimate.landmark_ids, record.estimate.landmarks_w
@@ -182,6 +243,25 @@ def write_run_dir(path: Path, record: RunRecord) -> None:
         config["dataset_options"] = dict(record.config.dataset_options)
         config["estimator_options"] = dict(record.config.estimator_options)
         (staging / CONFIG).write_text(yaml.safe_dump(config, sort_keys=False))
+        estimate = record.estimate
+        if estimate.pose_covariances is not None:
+            _write_covariances(
+                staging / POSE_COVARIANCES,
+                "frame",
+                np.arange(len(estimate.trajectory)),
+                estimate.pose_covariances,
+            )
+        if estimate.landmark_covariances is not None:
+            _write_covariances(
+                staging / LANDMARK_COVARIANCES,
+                "id",
+                estimate.landmark_ids,
+                estimate.landmark_covariances,
+            )
+        for name, payload in record.attachments.items():
+            if name not in ATTACHMENTS:
+                raise ConfigError(f"unknown RUN_DIR attachment {name!r}; known: {ATTACHMENTS}")
+            (staging / name).write_bytes(payload)
         gt = record.ground_truth
         if gt.trajectory is not None:
             write_tum(staging / GROUND_TRUTH, gt.trajectory)
@@ -237,9 +317,32 @@ def read_run_dir(path: Path) -> RunRecord:
         gt_ids, gt_points = read_landmarks_csv(path / GROUND_TRUTH_LANDMARKS)
     else:
         gt_ids, gt_points = np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    pose_cov = landmark_cov = None
+    if (path / POSE_COVARIANCES).is_file():
+        frames, pose_cov = read_covariances_csv(path / POSE_COVARIANCES, "frame")
+        if not np.array_equal(frames, np.arange(len(trajectory))):
+            raise DataError("expected one row per pose, frames 0..N-1", path / POSE_COVARIANCES)
+    if (path / LANDMARK_COVARIANCES).is_file():
+        cov_ids, landmark_cov = read_covariances_csv(path / LANDMARK_COVARIANCES, "id")
+        if not np.array_equal(cov_ids, ids):
+            raise DataError(f"ids differ from {LANDMARKS}", path / LANDMARK_COVARIANCES)
+    try:
+        estimate = Estimate(
+            trajectory=trajectory,
+            landmark_ids=ids,
+            landmarks_w=points,
+            landmark_covariances=landmark_cov,
+            pose_covariances=pose_cov,
+        )
+    except DataError as exc:
+        raise DataError(f"inconsistent RUN_DIR ({exc})", path) from exc
+    attachments = {
+        name: (path / name).read_bytes() for name in ATTACHMENTS if (path / name).is_file()
+    }
     return RunRecord(
         config=config,
-        estimate=Estimate(trajectory=trajectory, landmark_ids=ids, landmarks_w=points),
+        attachments=attachments,
+        estimate=estimate,
         step_s=step_s,
         ground_truth=GroundTruth(
             kind=kind,
@@ -304,60 +407,29 @@ REQUIRED_METRICS = (
 )
 
 
-def evaluate_run(record: RunRecord) -> dict[str, object]:
+#: keys of metrics.json that measure time or memory: they differ between two runs of the same
+#: cell; every other key is a deterministic function of the data, the estimator and the seed
+TIMING_KEYS = (
+    "step_ms_median",
+    "step_ms_p95",
+    "step_ms_mean",
+    "step_ms_max",
+    "total_s",
+    "peak_rss_mb",
+)
+
+
+def evaluate_run(record: RunRecord, options: object | None = None) -> dict[str, object]:
     """The metrics of a run against the ground truth stored with it.
 
-    ``ate_rmse_m``/``ate_max_m`` use SE(2) alignment (``alignment`` says so); the ORIGIN-aligned
-    ATE (drift from the start) is in ``ate_origin_*``. Not yet computed metrics are None (RPE,
-    landmark error, NEES land with later issues). Without a ground-truth trajectory every ATE key
-    is None and ``ground_truth`` says why.
+    See ``omnislam.compare.evaluation.evaluate_record`` (``options`` is an
+    ``EvaluationOptions``; defaults when None).
 
     Returns:
         A JSON-ready mapping with at least REQUIRED_METRICS.
     """
-    from omnislam.compare.metrics import Alignment, ate
+    from omnislam.compare.evaluation import EvaluationOptions, evaluate_record
 
-    config = record.config
-    step_ms = 1e3 * np.asarray(record.step_s, dtype=float)
-    gt = record.ground_truth
-    out: dict[str, object] = dict.fromkeys(REQUIRED_METRICS)
-    out.update(
-        {
-            "frames": len(record.estimate.trajectory),
-            "step_ms_median": float(np.median(step_ms)) if step_ms.size else None,
-            "step_ms_p95": float(np.percentile(step_ms, 95)) if step_ms.size else None,
-            "total_s": config.total_s,
-            "peak_rss_mb": config.peak_rss_mb,
-            "landmarks_estimated": len(record.estimate.landmark_ids),
-            "dataset": config.dataset,
-            "estimator": config.estimator,
-            "ground_truth": gt.kind.value,
-            "ground_truth_note": gt.note,
-            "ate_origin_rmse_m": None,
-            "ate_origin_max_m": None,
-            "ate_matched": None,
-            "ate_coverage": None,
-        }
-    )
-    if gt.trajectory is None:
-        out["alignment"] = None
-        return out
-    oriented = gt.kind is not GroundTruthKind.GPS_PARTIAL
-    se2 = ate(
-        record.estimate.trajectory, gt.trajectory, Alignment.SE2, truth_has_orientation=oriented
-    )
-    origin = ate(
-        record.estimate.trajectory, gt.trajectory, Alignment.ORIGIN, truth_has_orientation=oriented
-    )
-    out.update(
-        {
-            "ate_rmse_m": se2.rmse_m,
-            "ate_max_m": se2.max_m,
-            "alignment": Alignment.SE2.value,
-            "ate_origin_rmse_m": origin.rmse_m,
-            "ate_origin_max_m": origin.max_m,
-            "ate_matched": se2.matched,
-            "ate_coverage": se2.coverage,
-        }
-    )
-    return out
+    if options is None:
+        options = EvaluationOptions()
+    return evaluate_record(record, options)  # type: ignore[arg-type]

@@ -3,7 +3,19 @@
 import numpy as np
 import pytest
 
-from omnislam.compare.metrics import Alignment, associate, ate, umeyama
+from omnislam.compare.metrics import (
+    Alignment,
+    DeltaUnit,
+    LandmarkAssociation,
+    associate,
+    ate,
+    landmark_error,
+    nees,
+    pairs_by_distance,
+    pose_nees,
+    rpe,
+    umeyama,
+)
 from omnislam.core.se import se3_exp
 from omnislam.core.types import Trajectory
 
@@ -119,3 +131,217 @@ def test_matches_evo_ape(alignment, scale):
     ape.process_data((ref, est))
     assert ours.rmse_m == pytest.approx(ape.get_statistic(metrics.StatisticsType.rmse), rel=1e-9)
     assert ours.max_m == pytest.approx(ape.get_statistic(metrics.StatisticsType.max), rel=1e-9)
+
+
+# ---------------------------------------------------------------------------------------------
+# evo as the oracle: APE for every alignment both implement, RPE where the definitions coincide
+# ---------------------------------------------------------------------------------------------
+
+EVO_TOL_M = 1e-9  # our ATE/RPE vs evo's, absolute [m] (and [rad] for rotations)
+
+
+def _evo():
+    pytest.importorskip("evo")
+    from evo.core import metrics as evo_metrics
+    from evo.core.trajectory import PoseTrajectory3D
+
+    return evo_metrics, PoseTrajectory3D
+
+
+def _random_se3_pair(seed, n=120):
+    rng = np.random.default_rng(seed)
+    poses = se3_exp(np.cumsum(rng.normal(0, 0.1, size=(n, 6)), axis=0))
+    noisy = poses @ se3_exp(rng.normal(0, 0.05, size=(n, 6)))
+    return np.arange(n, dtype=float), poses, noisy
+
+
+def _random_planar_pair(seed, n=150):
+    rng = np.random.default_rng(seed)
+    stamps, truth = random_path(rng, n)
+    est = moved(truth, 2.0, -3.0, 0.6)
+    est[:, :2] += rng.normal(0, 0.05, size=(n, 2))
+    est[:, 2] += rng.normal(0, 0.02, n)
+    return (
+        stamps,
+        Trajectory.from_se2(stamps, truth).poses_w,
+        Trajectory.from_se2(stamps, est).poses_w,
+    )
+
+
+@pytest.mark.parametrize("seed", [11, 12])
+@pytest.mark.parametrize(
+    ("ours", "evo_mode", "planar"),
+    [
+        (Alignment.NONE, "none", False),
+        (Alignment.ORIGIN, "origin", False),
+        (Alignment.SE3, "se3", False),
+        (Alignment.SIM3, "sim3", False),
+        # planar runs: our SE(2) Umeyama equals evo's SE(3) Umeyama (same optimum in the plane)
+        (Alignment.SE2, "se3", True),
+    ],
+)
+def test_ate_equals_evo_ape(seed, ours, evo_mode, planar):
+    evo_metrics, PoseTrajectory3D = _evo()
+    stamps, truth, est = (_random_planar_pair if planar else _random_se3_pair)(seed)
+    result = ate(Trajectory(stamps, est), Trajectory(stamps, truth), ours)
+    ref = PoseTrajectory3D(poses_se3=list(truth), timestamps=stamps)
+    evo_est = PoseTrajectory3D(poses_se3=list(est), timestamps=stamps)
+    if evo_mode == "origin":
+        evo_est.align_origin(ref)
+    elif evo_mode in ("se3", "sim3"):
+        evo_est.align(ref, correct_scale=evo_mode == "sim3")
+    ape = evo_metrics.APE(evo_metrics.PoseRelation.translation_part)
+    ape.process_data((ref, evo_est))
+    stats = evo_metrics.StatisticsType
+    assert abs(result.rmse_m - ape.get_statistic(stats.rmse)) < EVO_TOL_M
+    assert abs(result.max_m - ape.get_statistic(stats.max)) < EVO_TOL_M
+    assert abs(result.mean_m - ape.get_statistic(stats.mean)) < EVO_TOL_M
+    assert abs(result.median_m - ape.get_statistic(stats.median)) < EVO_TOL_M
+
+
+def _evo_rpe(truth, est, stamps, relation, delta, unit, all_pairs):
+    evo_metrics, PoseTrajectory3D = _evo()
+    ref = PoseTrajectory3D(poses_se3=list(truth), timestamps=stamps)
+    evo_est = PoseTrajectory3D(poses_se3=list(est), timestamps=stamps)
+    metric = evo_metrics.RPE(
+        relation,
+        delta,
+        evo_metrics.Unit.frames if unit is DeltaUnit.FRAMES else evo_metrics.Unit.meters,
+        rel_delta_tol=0.1,
+        all_pairs=all_pairs,
+        pairs_from_reference=True,
+    )
+    metric.process_data((ref, evo_est))
+    return metric
+
+
+@pytest.mark.parametrize("planar", [False, True])
+@pytest.mark.parametrize(
+    ("delta", "unit", "all_pairs"),
+    [
+        (1, DeltaUnit.FRAMES, False),
+        (5, DeltaUnit.FRAMES, False),
+        (5, DeltaUnit.FRAMES, True),
+        (2.0, DeltaUnit.METERS, True),
+        (7.5, DeltaUnit.METERS, True),
+    ],
+)
+def test_rpe_equals_evo_rpe(planar, delta, unit, all_pairs):
+    evo_metrics, _ = _evo()
+    stamps, truth, est = (_random_planar_pair if planar else _random_se3_pair)(21)
+    ours = rpe(Trajectory(stamps, est), Trajectory(stamps, truth), delta, unit, all_pairs=all_pairs)
+    assert ours.planar is planar and ours.count > 5
+    trans = _evo_rpe(
+        truth, est, stamps, evo_metrics.PoseRelation.translation_part, delta, unit, all_pairs
+    )
+    rot = _evo_rpe(
+        truth, est, stamps, evo_metrics.PoseRelation.rotation_angle_rad, delta, unit, all_pairs
+    )
+    assert [j for _, j in ours.pairs] == list(trans.delta_ids)
+    assert np.max(np.abs(ours.trans_errors_m - trans.error)) < EVO_TOL_M
+    assert np.max(np.abs(ours.rot_errors_rad - rot.error)) < EVO_TOL_M
+    rmse = evo_metrics.StatisticsType.rmse
+    assert abs(ours.trans_rmse_m - trans.get_statistic(rmse)) < EVO_TOL_M
+
+
+def test_pairs_by_distance_handles_a_robot_standing_still():
+    evo_filters = pytest.importorskip("evo.core.filters")
+    positions = np.array([[0, 0], [1, 0], [1, 0], [1, 0], [2, 0], [3, 0], [3, 0], [5, 0]], float)
+    ours = pairs_by_distance(positions, 1.0, 0.1)
+    poses = [np.eye(4) for _ in positions]
+    for pose, p in zip(poses, positions, strict=True):
+        pose[:2, 3] = p
+    theirs = evo_filters.filter_pairs_by_path(poses, 1.0, 0.1, all_pairs=True)
+    assert [tuple(p) for p in ours] == theirs
+
+
+def test_rpe_of_a_rigidly_moved_copy_is_zero_and_drift_shows():
+    stamps, poses = random_path(np.random.default_rng(30))
+    truth = Trajectory.from_se2(stamps, poses)
+    assert rpe(Trajectory.from_se2(stamps, moved(poses, 5, 1, 2.0)), truth, 5.0).trans_rmse_m < 1e-9
+    scaled = poses.copy()
+    scaled[:, :2] *= 1.1  # 10 % odometry scale error: 10 % of every segment
+    result = rpe(Trajectory.from_se2(stamps, scaled), truth, 10.0)
+    assert np.median(result.trans_errors_m) == pytest.approx(1.0, rel=0.15)
+    assert np.max(result.rot_errors_rad) < 1e-9
+
+
+def test_rpe_against_position_only_truth_has_no_rotation_error():
+    stamps, poses = random_path(np.random.default_rng(31))
+    gps = moved(poses, 1, 2, 0.5)
+    gps[:, 2] = 0.0
+    result = rpe(
+        Trajectory.from_se2(stamps, poses),
+        Trajectory.from_se2(stamps, gps),
+        5.0,
+        truth_has_orientation=False,
+    )
+    assert result.rot_errors_rad is None and result.trans_rmse_m < 1e-9
+
+
+# ---------------------------------------------------------------------------------------------
+# landmarks
+# ---------------------------------------------------------------------------------------------
+
+
+def test_landmarks_by_id_after_alignment():
+    rng = np.random.default_rng(40)
+    truth = np.column_stack([rng.uniform(-10, 10, (20, 2)), np.zeros(20)])
+    T = np.eye(4)
+    T[:2, :2] = [[np.cos(0.3), -np.sin(0.3)], [np.sin(0.3), np.cos(0.3)]]
+    T[:2, 3] = [1.0, -2.0]
+    est = (truth - T[:3, 3]) @ T[:3, :3]  # the truth in the estimate's frame
+    est[:5, 0] += 0.3  # five landmarks 0.3 m off
+    ids = np.arange(20)
+    result = landmark_error(
+        np.r_[ids[:18], 99], np.r_[est[:18], est[18:19]], ids, truth, T, LandmarkAssociation.BY_ID
+    )
+    assert result.matched == 18 and result.missed == 2 and result.spurious == 1
+    assert result.rmse_m == pytest.approx(np.sqrt(5 * 0.09 / 18))
+
+
+def test_landmarks_by_assignment_count_duplicates_spurious_and_misses():
+    truth = np.array([[0, 0, 0], [10, 0, 0], [0, 10, 0], [10, 10, 0]], float)
+    est = np.array(
+        [
+            [0.1, 0, 0],  # matches 0
+            [0.5, 0.2, 0],  # a duplicate of 0 (inside the gate, farther)
+            [10, 0.2, 0],  # matches 1
+            [0, 10.3, 0],  # matches 2
+            [30, 30, 0],  # spurious
+        ]
+    )
+    result = landmark_error(np.arange(5) + 100, est, np.arange(4), truth, gate_m=1.0)
+    assert result.matched == 3 and result.duplicates == 1
+    assert result.spurious == 1 and result.missed == 1
+    assert sorted(result.errors_m) == pytest.approx([0.1, 0.2, 0.3])
+
+
+# ---------------------------------------------------------------------------------------------
+# NEES
+# ---------------------------------------------------------------------------------------------
+
+
+def test_nees_of_a_consistent_estimator_is_its_dimension():
+    rng = np.random.default_rng(50)
+    n = 4000
+    A = rng.normal(size=(n, 3, 3)) * [0.3, 0.2, 0.05]
+    cov = A @ np.swapaxes(A, 1, 2) + 1e-4 * np.eye(3)
+    errors = np.einsum("kij,kj->ki", np.linalg.cholesky(cov), rng.normal(size=(n, 3)))
+    result = nees(errors, cov)
+    assert result.dof == 3 and result.mean == pytest.approx(3.0, rel=0.05)
+    assert result.anees == pytest.approx(1.0, rel=0.05)
+    assert result.within_bounds == pytest.approx(0.95, abs=0.015)
+    assert nees(2.0 * errors, cov).anees == pytest.approx(4.0, rel=0.06)  # overconfident
+
+
+def test_pose_nees_wraps_the_yaw_residual_and_skips_singular_covariances():
+    stamps = np.arange(4, dtype=float)
+    truth = np.array([[0, 0, 0], [1, 0, np.pi - 0.01], [2, 0, -np.pi + 0.01], [3, 0, 0.0]])
+    est = truth.copy()
+    est[1:, 2] = [-np.pi + 0.01, np.pi - 0.01, 0.0]  # 0.02 rad off across the cut
+    cov = np.tile(np.diag([0.01, 0.01, 0.02**2]), (4, 1, 1))
+    cov[0] = 0.0  # the anchored first pose: no uncertainty
+    result = pose_nees(Trajectory.from_se2(stamps, est), cov, Trajectory.from_se2(stamps, truth))
+    assert result.skipped == 1
+    assert result.values == pytest.approx([1.0, 1.0, 0.0], abs=1e-9)

@@ -1,0 +1,116 @@
+"""``omnislam compare GRID.yaml --out RESULTS_DIR [--workers N | --scheduler ADDRESS]``.
+
+Runs every cell of the grid (see ``omnislam.compare.grid``) that is not already finished in
+RESULTS_DIR, on a local process pool (``--workers``, default: one per core; 0 runs in this
+process) or on a Dask cluster (``--scheduler tcp://HOST:PORT``; ``--scheduler local`` starts a
+LocalCluster of ``--workers`` processes). Progress goes to stderr; a table of the results to
+stdout. Exit code 0 when every cell succeeded, 1 when some failed (each named on stderr), 2 on
+bad input (nothing written).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("compare", help="run a grid of datasets x estimators x seeds")
+    p.add_argument("grid", metavar="GRID.yaml", help="grid file")
+    p.add_argument("--out", required=True, metavar="RESULTS_DIR", help="results folder")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="local worker processes (0 = in-process; with --scheduler local: cluster size)",
+    )
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="Dask scheduler address, or 'local' for a LocalCluster",
+    )
+    p.add_argument(
+        "--max-attempts", type=int, default=3, help="submissions per cell when a worker is lost"
+    )
+    p.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import os
+    from contextlib import ExitStack
+
+    from tqdm import tqdm
+
+    from omnislam.compare.grid import load_grid
+    from omnislam.compare.runner import (
+        CellStatus,
+        check_results_dir,
+        local_executor_factory,
+        run_grid,
+    )
+    from omnislam.errors import ConfigError
+
+    if args.max_attempts < 1:
+        raise ConfigError(f"--max-attempts must be >= 1, got {args.max_attempts}")
+    if args.scheduler not in (None, "local") and args.workers is not None:
+        raise ConfigError("--workers cannot be combined with a remote --scheduler")
+    if args.workers is not None and args.workers < 0:
+        raise ConfigError(f"--workers must be >= 0, got {args.workers}")
+    grid = load_grid(args.grid)
+    check_results_dir(args.out)
+    with ExitStack() as stack:
+        if args.scheduler is None:
+            factory = local_executor_factory(
+                args.workers if args.workers is not None else os.cpu_count() or 1
+            )
+            engine = f"{args.workers if args.workers is not None else os.cpu_count()} local"
+        else:
+            from omnislam._optional import require
+
+            distributed = require("distributed")
+            if args.scheduler == "local":
+                n = args.workers or os.cpu_count() or 1
+                cluster = stack.enter_context(
+                    distributed.LocalCluster(
+                        n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
+                    )
+                )
+                address = cluster.scheduler_address
+            else:
+                address = args.scheduler
+            try:
+                client = stack.enter_context(distributed.Client(address, timeout="10s"))
+            except OSError as exc:
+                raise ConfigError(f"cannot reach the Dask scheduler {address!r} ({exc})") from None
+            factory = client.get_executor
+            engine = f"Dask at {address}"
+        bar = stack.enter_context(
+            tqdm(total=len(grid.cells), desc=f"compare ({engine})", unit="cell", file=sys.stderr)
+        )
+        result = run_grid(
+            grid,
+            args.out,
+            factory,
+            max_attempts=args.max_attempts,
+            on_outcome=lambda _: bar.update(),
+        )
+    computed = result.count(CellStatus.COMPUTED)
+    reused = result.count(CellStatus.REUSED)
+    failed = [o for o in result.outcomes if o.status is CellStatus.FAILED]
+    width = max(len(o.cell.cell_id) for o in result.outcomes)
+    for outcome in result.outcomes:
+        metrics = outcome.metrics or {}
+        ate = metrics.get("ate_rmse_m")
+        text = f"ATE {ate:.4g} m" if isinstance(ate, float) else "ATE -"
+        print(f"{outcome.cell.cell_id.ljust(width)}  {outcome.status.value:8s}  {text}")
+    print(
+        f"omnislam compare: {len(result.outcomes)} cells ({computed} computed, {reused} reused, "
+        f"{len(failed)} failed) -> {args.out}"
+    )
+    for outcome in failed:
+        print(
+            f"omnislam compare: cell {outcome.cell.cell_id} failed: {outcome.error}",
+            file=sys.stderr,
+        )
+    return 1 if failed else 0

@@ -1,0 +1,204 @@
+"""Run one estimator on one dataset: the library function behind ``omnislam run`` and the grid.
+
+``execute_run(spec)`` loads the dataset, builds the estimator through the registry, feeds it
+every frame, times each step, and returns a RunRecord (nothing is written; ``write_run_dir``
+does that atomically). The same function runs in the CLI's process and in the grid runner's
+workers, so a cell of a grid and ``omnislam run`` with the same arguments give the same numbers.
+
+Peak memory is measured per run: on Linux the process's resident-set high-water mark is reset
+before the run (``/proc/self/clear_refs``), so a worker process that runs several cells reports
+each cell's own peak; elsewhere it is the process's peak so far (an upper bound).
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from omnislam.compare.rundir import GRAPH_G2O, RunConfig, RunRecord
+from omnislam.core.types import UNKNOWN_ID, FrameInput
+from omnislam.errors import ConfigError, DataError
+
+_STATUS = Path("/proc/self/status")
+_CLEAR_REFS = Path("/proc/self/clear_refs")
+
+
+@runtime_checkable
+class GraphExporter(Protocol):
+    """Optional protocol: an estimator with a factor graph exports it as g2o text.
+
+    ``execute_run`` stores the file as the RUN_DIR attachment ``graph.g2o`` and reports copy
+    it into their exports. Estimators without a graph simply do not implement it.
+    """
+
+    def export_g2o(self, path: Path) -> object:
+        """Write the current graph to ``path`` in g2o format."""
+        ...
+
+
+@dataclass(frozen=True, slots=True)
+class RunSpec:
+    """What to run: the arguments of ``omnislam run``.
+
+    Attributes:
+        dataset: registered name or path.
+        estimator: estimator name (a key of ``omnislam.estimators.ESTIMATORS``).
+        seed: random seed (None: fresh entropy).
+        options: ``--set`` options; keys the dataset's loader accepts go to the loader, the
+            others to the estimator.
+        log: a front-end ObservationLog to replay instead of the dataset's own sightings
+            (the hook of the shared front end; None = the dataset's sightings).
+    """
+
+    dataset: str
+    estimator: str
+    seed: int | None = None
+    options: Mapping[str, str] = field(default_factory=dict)
+    log: str | None = None
+
+
+def reset_peak_rss() -> bool:
+    """Reset this process's resident-set high-water mark (Linux >= 4.0); True on success."""
+    try:
+        _CLEAR_REFS.write_text("5")
+    except OSError:
+        return False
+    return True
+
+
+def peak_rss_mb() -> float:
+    """Peak resident set size of this process since the last reset [MB] (0 when unknown)."""
+    try:
+        for line in _STATUS.read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return float(line.split()[1]) / 1024.0
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - Windows
+        return 0.0
+    kilobytes = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return kilobytes / (1024.0 * 1024.0) if sys.platform == "darwin" else kilobytes / 1024.0
+
+
+def check_estimator(name: str) -> None:
+    """Raise ConfigError unless ``name`` is a registered and available estimator."""
+    from omnislam.estimators import estimator_factory
+
+    estimator_factory(name)
+
+
+def execute_run(spec: RunSpec) -> RunRecord:
+    """Run ``spec.estimator`` on ``spec.dataset`` and return what a RUN_DIR holds.
+
+    Args:
+        spec: the run.
+
+    Returns:
+        RunRecord with the final estimate, per-step wall times [s] and the sequence's ground
+        truth.
+
+    Raises:
+        ConfigError: unknown estimator or option, a log that is not available.
+        DataError: missing or malformed data.
+    """
+    import omnislam
+    from omnislam.datasets.registry import load_dataset, resolve
+    from omnislam.estimators import SequenceInfo, make_estimator
+
+    reset_peak_rss()
+    check_estimator(spec.estimator)
+    resolved = resolve(spec.dataset)
+    loader_keys = resolved.option_names()
+    dataset_options = {k: v for k, v in spec.options.items() if k in loader_keys}
+    estimator_options = {k: v for k, v in spec.options.items() if k not in loader_keys}
+    sequence = load_dataset(resolved, dataset_options)
+    frames = _frame_source(sequence, spec.log)
+    if spec.log is not None:
+        replayed = tuple(frames)
+        frames = iter(replayed)
+        has_bearings = any(f.bearings is not None and len(f.bearings) for f in replayed)
+    else:
+        has_bearings = False
+
+    sightings = [rb for rb in sequence.range_bearing or () if rb is not None and len(rb)]
+    known = bool(sightings) and all(np.all(rb.landmark_ids != UNKNOWN_ID) for rb in sightings)
+    info = SequenceInfo(
+        name=sequence.name,
+        frames=len(sequence),
+        has_range_bearing=bool(sightings),
+        has_bearings=has_bearings,
+        known_association=known,
+        sigma_range_m=float(sightings[0].sigma_range_m[0]) if sightings else None,
+        sigma_bearing_rad=float(sightings[0].sigma_bearing_rad[0]) if sightings else None,
+        facts=sequence.info,
+    )
+    rng = np.random.default_rng(spec.seed)
+    estimator = make_estimator(spec.estimator, info, estimator_options, rng)
+
+    step_s = np.zeros(len(sequence))
+    clock = time.perf_counter
+    for frame in frames:
+        start = clock()
+        estimator.step(frame)
+        step_s[frame.index] = clock() - start
+    start = clock()
+    estimate = estimator.estimate()
+    final_s = clock() - start
+    attachments = _export_graph(estimator)
+
+    config = RunConfig(
+        dataset=spec.dataset,
+        dataset_path=str(resolved.path),
+        estimator=spec.estimator,
+        omnislam_version=omnislam.__version__,
+        frames=len(sequence),
+        total_s=float(step_s.sum() + final_s),
+        peak_rss_mb=round(peak_rss_mb(), 1),
+        ground_truth_kind=sequence.ground_truth.kind.value,
+        ground_truth_note=sequence.ground_truth.note,
+        source=sequence.source,
+        seed=spec.seed,
+        dataset_options=dataset_options,
+        estimator_options=estimator_options,
+        landmark_ids_from_truth=known and spec.log is None,
+    )
+    return RunRecord(config, estimate, step_s, sequence.ground_truth, attachments)
+
+
+def _frame_source(sequence: object, log: str | None) -> Iterator[FrameInput]:
+    """The frames to feed: the dataset's own, or a front-end ObservationLog (RunSpec.log).
+
+    The log must have been built from this very sequence (its fingerprint is checked).
+    """
+    if log is None:
+        return sequence.frame_inputs()  # type: ignore[attr-defined]
+    try:
+        from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
+    except ImportError as exc:
+        raise ConfigError(f"--log needs the front end, which is not available ({exc})") from None
+    replay = load_observation_log(Path(log), dataset_id=dataset_fingerprint(sequence))
+    if len(replay.frames) != len(sequence):  # type: ignore[arg-type]
+        raise DataError(
+            f"the observation log has {len(replay.frames)} frames, the dataset {len(sequence)}",  # type: ignore[arg-type]
+            Path(log),
+        )
+    return iter(replay.frames)
+
+
+def _export_graph(estimator: object) -> dict[str, bytes]:
+    """The estimator's g2o export as an attachment, when it implements GraphExporter."""
+    if not isinstance(estimator, GraphExporter):
+        return {}
+    with tempfile.TemporaryDirectory(prefix="omnislam-g2o-") as tmp:
+        path = Path(tmp) / GRAPH_G2O
+        estimator.export_g2o(path)
+        return {GRAPH_G2O: path.read_bytes()} if path.is_file() else {}

@@ -1,0 +1,707 @@
+"""Comparative reports: ``report.md`` (+ PNGs next to it) and a self-contained ``index.html``.
+
+``write_report(results_dir, out_dir)`` reads the results of ``omnislam compare`` (or a single
+RUN_DIR, or a folder of RUN_DIRs), and writes:
+
+* a headline table (datasets x estimators, ATE RMSE, each row naming its ground truth),
+* per dataset: every estimator side by side with dead reckoning as the baseline (ATE, drift,
+  RPE, landmark error, NEES, timing, memory; mean +- std over seeds), trajectories over the
+  ground truth, landmark maps with covariance ellipses where covariances exist, error over
+  distance, per-step timing, and -- where the data has laser scans (CARMEN) -- occupancy grids
+  built from the scans on the estimated poses (``compare.occupancy``),
+* exports per cell (``exports/CELL/``): trajectory as TUM and KITTI, the landmark map as PLY
+  (open3d, the ``render`` extra) and the factor graph as g2o when the run has one.
+
+The folder is written under a hidden name and renamed into place when complete.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+import os
+import shutil
+import tempfile
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from omnislam.compare.evaluation import GROUND_TRUTH_LABELS, EvaluationOptions
+from omnislam.compare.metrics import Alignment, ate
+from omnislam.compare.rundir import (
+    CONFIG,
+    GRAPH_G2O,
+    METRICS,
+    RunRecord,
+    evaluate_run,
+    make_shareable,
+    read_metrics,
+    read_run_dir,
+)
+from omnislam.datasets.registry import DatasetFormat
+from omnislam.datasets.sequence import GroundTruthKind
+from omnislam.errors import ConfigError, DataError, MissingExtraError, OmnislamError
+
+REPORT_MD = "report.md"
+REPORT_HTML = "index.html"
+#: estimator name of the baseline column
+BASELINE = "deadreckoning"
+#: dataset formats whose Sequence can carry raw laser scans (occupancy grids)
+LASER_FORMATS = (DatasetFormat.CARMEN, DatasetFormat.SYNTHETIC)
+
+
+@dataclass(frozen=True, slots=True)
+class ReportCell:
+    """One run as the report sees it.
+
+    Attributes:
+        cell_id: folder name of the run.
+        dataset: dataset label.
+        column: estimator label (with override) -- one column of the tables.
+        estimator: estimator name.
+        seed: the run's seed.
+        status: ``computed`` / ``reused`` / ``failed`` (runner) or ``run`` (a plain RUN_DIR).
+        error: why it failed.
+        metrics: its metrics.json.
+        run_dir: where the RUN_DIR is (None when failed).
+    """
+
+    cell_id: str
+    dataset: str
+    column: str
+    estimator: str
+    seed: int | None
+    status: str
+    error: str | None = None
+    metrics: Mapping[str, object] | None = None
+    run_dir: Path | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.metrics is not None and self.run_dir is not None
+
+
+@dataclass(frozen=True, slots=True)
+class ReportOptions:
+    """What to include.
+
+    Attributes:
+        title: the report's title (default: the grid's name).
+        exports: write ``exports/CELL/`` (TUM, KITTI, PLY, g2o).
+        occupancy: build occupancy grids where the data has laser scans.
+        occupancy_resolution_m: grid cell size [m].
+        occupancy_columns: at most this many estimators get an occupancy grid per dataset.
+    """
+
+    title: str | None = None
+    exports: bool = True
+    occupancy: bool = True
+    occupancy_resolution_m: float = 0.1
+    occupancy_columns: int = 3
+
+
+@dataclass(frozen=True, slots=True)
+class ReportSummary:
+    """What ``write_report`` wrote."""
+
+    out_dir: Path
+    figures: tuple[str, ...]
+    cells: int
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+# --------------------------------------------------------------------------------------------
+# Reading results
+# --------------------------------------------------------------------------------------------
+
+
+def _cell_from_run_dir(path: Path, status: str = "run") -> ReportCell:
+    record = read_run_dir(path)
+    if (path / METRICS).is_file():
+        metrics = read_metrics(path)
+    else:  # not evaluated yet: evaluate in memory (the user's folder is left untouched)
+        metrics = evaluate_run(record, EvaluationOptions())
+    config = record.config
+    options = dict(config.estimator_options)
+    column = config.estimator + (
+        f" [{','.join(f'{k}={v}' for k, v in sorted(options.items()))}]" if options else ""
+    )
+    return ReportCell(
+        cell_id=path.name,
+        dataset=config.dataset if "/" not in config.dataset else Path(config.dataset).name,
+        column=column,
+        estimator=config.estimator,
+        seed=config.seed,
+        status=status,
+        metrics=metrics,
+        run_dir=path,
+    )
+
+
+def collect_cells(results_dir: str | Path) -> tuple[str, list[ReportCell]]:
+    """Read what a report is made of.
+
+    Args:
+        results_dir: RESULTS_DIR of ``omnislam compare`` (has ``results.json``), a RUN_DIR, or
+            a folder whose sub-folders are RUN_DIRs.
+
+    Returns:
+        (title, cells).
+
+    Raises:
+        DataError: the folder is missing or none of the above, or a file in it is malformed.
+    """
+    from omnislam.compare.runner import CELLS, RESULTS_JSON
+
+    root = Path(results_dir)
+    if not root.is_dir():
+        raise DataError("no such folder", root)
+    if (root / RESULTS_JSON).is_file():
+        try:
+            summary = json.loads((root / RESULTS_JSON).read_text())
+            rows = summary["cells"]
+            title = str(summary.get("grid") or root.name)
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise DataError(f"malformed results file ({exc})", root / RESULTS_JSON) from exc
+        cells = []
+        for row in rows:
+            try:
+                run_dir = root / CELLS / row["cell"]
+                ok = row["status"] != "failed" and (run_dir / CONFIG).is_file()
+                metrics = read_metrics(run_dir) if ok else None
+                cells.append(
+                    ReportCell(
+                        cell_id=row["cell"],
+                        dataset=row["dataset"],
+                        column=row["column"],
+                        estimator=row["estimator"],
+                        seed=row["seed"],
+                        status=row["status"],
+                        error=row.get("error"),
+                        metrics=metrics,
+                        run_dir=run_dir if ok else None,
+                    )
+                )
+            except (KeyError, TypeError) as exc:
+                raise DataError(f"malformed cell row ({exc})", root / RESULTS_JSON) from exc
+        return title, cells
+    if (root / CONFIG).is_file():
+        return root.name, [_cell_from_run_dir(root)]
+    runs = sorted(p for p in root.iterdir() if (p / CONFIG).is_file())
+    if not runs:
+        raise DataError(
+            "not a results folder of `omnislam compare` (no results.json), not a RUN_DIR and "
+            "holds no RUN_DIRs",
+            root,
+        )
+    return root.name, [_cell_from_run_dir(p) for p in runs]
+
+
+# --------------------------------------------------------------------------------------------
+# Tables
+# --------------------------------------------------------------------------------------------
+
+
+def _values(cells: Sequence[ReportCell], key: str) -> list[float]:
+    out = []
+    for c in cells:
+        value = (c.metrics or {}).get(key)
+        if isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value):
+            out.append(float(value))
+    return out
+
+
+def _fmt(values: Sequence[float], digits: int = 3) -> str:
+    if not values:
+        return "–"
+    mean = float(np.mean(values))
+    text = f"{mean:.{digits}g}"
+    spread = float(np.std(values, ddof=1)) if len(values) > 1 else 0.0
+    if spread > 0:
+        text += f" ± {spread:.2g}"
+    return text
+
+
+def _columns(cells: Sequence[ReportCell]) -> list[str]:
+    """Column labels with the baseline first, then in grid order."""
+    columns = list(dict.fromkeys(c.column for c in cells))
+    return sorted(columns, key=lambda col: col != BASELINE)
+
+
+def _gt_label(cells: Sequence[ReportCell]) -> str:
+    for c in cells:
+        if c.metrics is not None:
+            kind = str(c.metrics.get("ground_truth") or "none")
+            try:
+                return GROUND_TRUTH_LABELS[GroundTruthKind(kind)]
+            except ValueError:
+                return kind
+    return "unknown ground truth"
+
+
+DETAIL_COLUMNS = (
+    ("ATE RMSE [m]", "ate_rmse_m"),
+    ("ATE / dead reckoning", None),
+    ("ATE max [m]", "ate_max_m"),
+    ("drift: ATE origin-aligned RMSE [m]", "ate_origin_rmse_m"),
+    ("RPE trans RMSE [m]", "rpe_trans_rmse_m"),
+    ("RPE rot RMSE [deg]", "rpe_rot_rmse_deg"),
+    ("landmark RMSE [m]", "landmark_rmse_m"),
+    ("landmarks matched / estimated", None),
+    ("pose NEES (dof 3)", "nees_mean"),
+    ("step median [ms]", "step_ms_median"),
+    ("step p95 [ms]", "step_ms_p95"),
+    ("total [s]", "total_s"),
+    ("peak RSS [MB]", "peak_rss_mb"),
+    ("runs", None),
+)
+
+
+def _detail_rows(cells: Sequence[ReportCell]) -> tuple[list[str], list[list[str]]]:
+    header = ["estimator", *(name for name, _ in DETAIL_COLUMNS)]
+    by_column = {col: [c for c in cells if c.column == col] for col in _columns(cells)}
+    baseline = _values([c for c in cells if c.column == BASELINE and c.ok], "ate_rmse_m")
+    rows = []
+    for column, group in by_column.items():
+        ok = [c for c in group if c.ok]
+        row = [column]
+        for name, key in DETAIL_COLUMNS:
+            if key is not None:
+                row.append(_fmt(_values(ok, key)))
+            elif name.startswith("ATE /"):
+                ate_values = _values(ok, "ate_rmse_m")
+                row.append(
+                    f"{np.mean(ate_values) / np.mean(baseline):.2f}x"
+                    if ate_values and baseline
+                    else "–"
+                )
+            elif name.startswith("landmarks"):
+                matched = _values(ok, "landmarks_matched")
+                estimated = _values(ok, "landmarks_estimated")
+                row.append(f"{_fmt(matched)} / {_fmt(estimated)}" if any(estimated) else "–")
+            else:
+                failed = len(group) - len(ok)
+                row.append(f"{len(ok)}" + (f" ({failed} failed)" if failed else ""))
+        rows.append(row)
+    return header, rows
+
+
+def _markdown_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def _html_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    body = "".join(
+        "<tr>" + "".join(f"<td>{html.escape(v)}</td>" for v in row) + "</tr>" for row in rows
+    )
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+# --------------------------------------------------------------------------------------------
+# Figures
+# --------------------------------------------------------------------------------------------
+
+
+def _first_runs(cells: Sequence[ReportCell]) -> list[tuple[ReportCell, RunRecord]]:
+    """The lowest-seed successful run of each column, read from disk."""
+    out = []
+    for column in _columns(cells):
+        group = sorted(
+            (c for c in cells if c.column == column and c.ok),
+            key=lambda c: (c.seed is None, c.seed or 0),
+        )
+        if group:
+            out.append((group[0], read_run_dir(group[0].run_dir)))  # type: ignore[arg-type]
+    return out
+
+
+def _alignment(record: RunRecord) -> np.ndarray:
+    """gtTest of the SE(2) alignment used by the metrics (identity without ground truth)."""
+    truth = record.ground_truth.trajectory
+    if truth is None:
+        return np.eye(4)
+    oriented = record.ground_truth.kind is not GroundTruthKind.GPS_PARTIAL
+    return ate(
+        record.estimate.trajectory, truth, Alignment.SE2, truth_has_orientation=oriented
+    ).gtTest
+
+
+def _aligned_se2(record: RunRecord, T: np.ndarray) -> np.ndarray:
+    xyt = record.estimate.trajectory.se2
+    xy = xyt[:, :2] @ T[:2, :2].T + T[:2, 3]
+    return np.column_stack([xy, xyt[:, 2] + math.atan2(T[1, 0], T[0, 0])])
+
+
+def _dataset_figures(
+    dataset: str,
+    cells: Sequence[ReportCell],
+    options: ReportOptions,
+    notes: list[str],
+) -> list[tuple[str, str, bytes]]:
+    """(file name, caption, png) of one dataset's figures."""
+    from omnislam.compare import plots
+
+    runs = _first_runs(cells)
+    if not runs:
+        return []
+    gt_label = _gt_label(cells)
+    slug = "".join(ch if ch.isalnum() or ch in "-_" else "-" for ch in dataset)
+    figures = []
+    reference = runs[0][1]
+    truth = reference.ground_truth
+    truth_xy = truth.trajectory.positions_w[:, :2] if truth.trajectory is not None else None
+    truth_lm = truth.landmarks_w[:, :2] if len(truth.landmark_ids) else None
+    aligned = {cell.column: (_alignment(record), record) for cell, record in runs}
+    series = [
+        plots.Series(column, _aligned_se2(record, T)[:, :2])
+        for column, (T, record) in aligned.items()
+    ]
+    what = "SE(2)-aligned to the " + gt_label if truth_xy is not None else "no ground truth"
+    figures.append(
+        (
+            f"{slug}-trajectories.png",
+            f"{dataset}: trajectories ({what})",
+            plots.trajectories_png(f"{dataset} ({gt_label})", gt_label, truth_xy, series, truth_lm),
+        )
+    )
+    maps = []
+    for column, (T, record) in aligned.items():
+        estimate = record.estimate
+        if not len(estimate.landmark_ids):
+            continue
+        xy = estimate.landmarks_w[:, :2] @ T[:2, :2].T + T[:2, 3]
+        cov = None
+        if estimate.landmark_covariances is not None:
+            R = T[:2, :2]
+            cov = R @ estimate.landmark_covariances[:, :2, :2] @ R.T
+        maps.append(plots.LandmarkSeries(column, xy, cov))
+    if maps:
+        figures.append(
+            (
+                f"{slug}-landmarks.png",
+                f"{dataset}: landmark maps (aligned with the trajectory; {gt_label})",
+                plots.landmark_map_png(f"{dataset} landmarks", truth_lm, maps),
+            )
+        )
+    translation, rotation = [], []
+    for cell, _ in runs:
+        curve = (cell.metrics or {}).get("rpe_by_distance") or []
+        if curve:
+            lengths = np.array([p["length_m"] for p in curve], dtype=float)
+            trans = np.array([p["trans_rmse_m"] for p in curve], dtype=float)
+            translation.append(plots.Series(cell.column, np.column_stack([lengths, trans])))
+            rot = [p.get("rot_rmse_deg") for p in curve]
+            if all(r is not None for r in rot):
+                rotation.append(
+                    plots.Series(cell.column, np.column_stack([lengths, np.array(rot, float)]))
+                )
+    if translation:
+        figures.append(
+            (
+                f"{slug}-error-over-distance.png",
+                f"{dataset}: RPE over segment length ({gt_label})",
+                plots.error_over_distance_png(f"{dataset}", translation, rotation),
+            )
+        )
+    steps = [
+        plots.Series(
+            cell.column,
+            np.column_stack([np.arange(len(record.step_s)), 1e3 * np.asarray(record.step_s)]),
+        )
+        for cell, record in runs
+    ]
+    figures.append(
+        (
+            f"{slug}-timing.png",
+            f"{dataset}: wall time of each estimator step",
+            plots.timing_png(f"{dataset}: per-step time", steps),
+        )
+    )
+    if options.occupancy:
+        grids = _occupancy(reference, aligned, gt_label, options, notes)
+        if grids:
+            figures.append(
+                (
+                    f"{slug}-occupancy.png",
+                    f"{dataset}: occupancy grids from the laser scans on each trajectory "
+                    f"({options.occupancy_resolution_m:g} m cells)",
+                    plots.occupancy_png(f"{dataset}: occupancy (log-odds)", grids),
+                )
+            )
+    return figures
+
+
+def _occupancy(
+    reference: RunRecord,
+    aligned: Mapping[str, tuple[np.ndarray, RunRecord]],
+    gt_label: str,
+    options: ReportOptions,
+    notes: list[str],
+) -> list[tuple[str, object]]:
+    """Occupancy grids on the ground truth and on each estimator's poses (laser data only)."""
+    from omnislam.compare.occupancy import occupancy_grid
+    from omnislam.datasets.registry import load_dataset, resolve
+
+    config = reference.config
+    try:
+        resolved = resolve(config.dataset)
+        if resolved.format not in LASER_FORMATS:
+            return []  # no raw scans in this format: do not load the data for nothing
+        sequence = load_dataset(resolved, dict(config.dataset_options))
+    except OmnislamError as exc:
+        notes.append(f"{config.dataset}: no occupancy grid, the data could not be read ({exc})")
+        return []
+    laser = sequence.laser
+    if laser is None:
+        return []
+    grids: list[tuple[str, object]] = []
+
+    def build(poses: np.ndarray) -> object:
+        return occupancy_grid(
+            poses,
+            laser.angles_rad,
+            laser.ranges_m,
+            laser.max_range_m,
+            resolution_m=options.occupancy_resolution_m,
+        )
+
+    truth = sequence.ground_truth.trajectory
+    if truth is not None and len(truth) == len(sequence):
+        grids.append((gt_label.split(" (")[0], build(truth.se2)))
+    for column, (T, record) in list(aligned.items())[: options.occupancy_columns]:
+        if len(record.estimate.trajectory) != len(sequence):
+            notes.append(f"{config.dataset}: {column} has no pose per scan; no occupancy grid")
+            continue
+        grids.append((column, build(_aligned_se2(record, T))))
+    return grids
+
+
+# --------------------------------------------------------------------------------------------
+# Exports
+# --------------------------------------------------------------------------------------------
+
+
+def write_landmarks_ply(path: Path, points_w: np.ndarray) -> None:
+    """Write a landmark map as a PLY point cloud (open3d; the ``render`` extra).
+
+    Raises:
+        MissingExtraError: open3d is not installed (naming the extra).
+        DataError: open3d could not write the file.
+    """
+    from omnislam._optional import require
+
+    o3d = require("open3d")
+    cloud = o3d.geometry.PointCloud()
+    cloud.points = o3d.utility.Vector3dVector(np.array(points_w, dtype=float).reshape(-1, 3))
+    if not o3d.io.write_point_cloud(str(path), cloud, write_ascii=True):
+        raise DataError("open3d could not write the point cloud", path)
+
+
+def _exports(out: Path, cells: Sequence[ReportCell], notes: list[str]) -> None:
+    from omnislam.datasets.trajectory_io import write_kitti, write_tum
+
+    for cell in cells:
+        if not cell.ok:
+            continue
+        record = read_run_dir(cell.run_dir)  # type: ignore[arg-type]
+        folder = out / "exports" / cell.cell_id
+        folder.mkdir(parents=True, exist_ok=True)
+        write_tum(folder / "trajectory.tum", record.estimate.trajectory)
+        write_kitti(folder / "trajectory.kitti", record.estimate.trajectory)
+        if len(record.estimate.landmark_ids):
+            try:
+                write_landmarks_ply(folder / "landmarks.ply", record.estimate.landmarks_w)
+            except MissingExtraError as exc:
+                notes.append(f"{cell.cell_id}: landmarks.ply not written: {exc}")
+        if GRAPH_G2O in record.attachments:
+            (folder / GRAPH_G2O).write_bytes(record.attachments[GRAPH_G2O])
+
+
+# --------------------------------------------------------------------------------------------
+# Writing
+# --------------------------------------------------------------------------------------------
+
+_CSS = """
+body{font-family:system-ui,sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}
+table{border-collapse:collapse;margin:1em 0;font-size:.9em}
+th,td{border:1px solid #ccc;padding:.3em .6em;text-align:right}
+th:first-child,td:first-child{text-align:left}
+thead{background:#f0f0f0} img{max-width:100%} figure{margin:1em 0}
+figcaption{font-size:.85em;color:#555} .note{color:#844}
+"""
+
+
+def check_report_dir(out_dir: Path) -> None:
+    """Refuse an existing non-empty folder that is not a report.
+
+    Raises:
+        ConfigError: naming the folder.
+    """
+    out_dir = Path(out_dir)
+    if out_dir.exists() and (
+        not out_dir.is_dir() or (any(out_dir.iterdir()) and not (out_dir / REPORT_MD).is_file())
+    ):
+        raise ConfigError(f"{out_dir}: exists and is not a report folder; refusing to overwrite it")
+
+
+def _estimator_availability() -> list[tuple[str, str]]:
+    from omnislam.estimators import ESTIMATORS, estimator_factory
+
+    out = []
+    for name in ESTIMATORS:
+        try:
+            estimator_factory(name)
+            out.append((name, "available"))
+        except (ConfigError, ImportError) as exc:
+            reason = "not available yet" if "not available yet" in str(exc) else str(exc)
+            out.append((name, reason))
+    return out
+
+
+def write_report(
+    results_dir: str | Path, out_dir: str | Path, options: ReportOptions | None = None
+) -> ReportSummary:
+    """Write ``report.md``, its PNGs, ``index.html`` and the exports into ``out_dir``.
+
+    Raises:
+        DataError: ``results_dir`` is missing or malformed.
+        ConfigError: ``out_dir`` exists and is not a report folder.
+    """
+    options = options or ReportOptions()
+    out_dir = Path(out_dir)
+    check_report_dir(out_dir)
+    title, cells = collect_cells(results_dir)
+    title = options.title or title
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", suffix=".tmp", dir=out_dir.parent))
+    try:
+        make_shareable(staging)
+        notes: list[str] = []
+        figure_names = _write_into(staging, title, cells, options, notes)
+        if out_dir.exists():
+            trash = out_dir.with_name(f".{out_dir.name}.old-{os.getpid()}")
+            os.replace(out_dir, trash)
+            os.replace(staging, out_dir)
+            shutil.rmtree(trash, ignore_errors=True)
+        else:
+            os.replace(staging, out_dir)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return ReportSummary(out_dir, tuple(figure_names), len(cells), tuple(notes))
+
+
+def _write_into(
+    out: Path,
+    title: str,
+    cells: Sequence[ReportCell],
+    options: ReportOptions,
+    notes: list[str],
+) -> list[str]:
+    datasets = list(dict.fromkeys(c.dataset for c in cells))
+    columns = _columns(cells)
+    md: list[str] = [f"# {title}", ""]
+    doc: list[str] = [f"<h1>{html.escape(title)}</h1>"]
+
+    def para(text: str) -> None:
+        md.extend([text, ""])
+        doc.append(f"<p>{html.escape(text)}</p>")
+
+    def table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
+        md.extend([_markdown_table(header, rows), ""])
+        doc.append(_html_table(header, rows))
+
+    def heading(text: str, level: int = 2) -> None:
+        md.extend(["#" * level + " " + text, ""])
+        doc.append(f"<h{level}>{html.escape(text)}</h{level}>")
+
+    para(
+        "ATE: position RMSE after SE(2) alignment to the ground truth (Sturm et al. 2012); "
+        "drift: the same with only the first pose anchored. RPE: segments of the stated length "
+        "of ground-truth travel, SE(2) errors for planar runs. Landmark error: after the "
+        "trajectory's alignment, matched by id where the data has ids, else by optimal "
+        "assignment within a gate. NEES: pose error against the estimator's own covariance "
+        "(3 when consistent; '–' when the estimator has no covariance). Values are mean ± "
+        "standard deviation over seeds. Every row names the kind of ground truth it is "
+        "measured against; pseudo ground truth (CARMEN) comes from another SLAM system and "
+        "is not independent."
+    )
+    heading("ATE RMSE [m] per dataset and estimator")
+    headline = []
+    for dataset in datasets:
+        group = [c for c in cells if c.dataset == dataset]
+        row = [dataset, _gt_label(group)]
+        for column in columns:
+            ok = [c for c in group if c.column == column and c.ok]
+            failed = [c for c in group if c.column == column and not c.ok]
+            row.append(_fmt(_values(ok, "ate_rmse_m")) + (" (failed)" if failed and not ok else ""))
+        headline.append(row)
+    table(["dataset", "ground truth", *columns], headline)
+    segment = next(
+        (c.metrics.get("rpe_segment_m") for c in cells if c.ok and c.metrics.get("rpe_segment_m")),
+        None,
+    )
+    heading("Estimators")
+    ran = {c.estimator for c in cells}
+    table(
+        ["estimator", "status", "in this report"],
+        [
+            [name, status, "yes" if name in ran else "no"]
+            for name, status in _estimator_availability()
+        ],
+    )
+
+    figure_names: list[str] = []
+    for dataset in datasets:
+        group = [c for c in cells if c.dataset == dataset]
+        gt_label = _gt_label(group)
+        heading(f"{dataset} — {gt_label}")
+        note = next((str(c.metrics.get("ground_truth_note")) for c in group if c.ok), "")
+        if note:
+            para(f"Ground truth: {note}")
+        header, rows = _detail_rows(group)
+        if segment:
+            header = [h.replace("RPE trans", f"RPE {segment:g} m trans") for h in header]
+            header = [h.replace("RPE rot", f"RPE {segment:g} m rot") for h in header]
+        table(header, rows)
+        for c in group:
+            if not c.ok:
+                para(f"Failed: {c.cell_id}: {c.error}")
+        for name, caption, png in _dataset_figures(dataset, group, options, notes):
+            (out / name).write_bytes(png)
+            figure_names.append(name)
+            md.extend([f"![{caption}]({name})", "", f"*{caption}*", ""])
+            data = base64.b64encode(png).decode("ascii")
+            doc.append(
+                f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
+                f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+            )
+    if options.exports:
+        _exports(out, cells, notes)
+        para(
+            "Exports: exports/CELL/trajectory.tum and trajectory.kitti for every run, "
+            "landmarks.ply where the run has landmarks, graph.g2o where the estimator "
+            "exported its factor graph."
+        )
+    if notes:
+        heading("Notes")
+        for n in notes:
+            md.append(f"- {n}")
+            doc.append(f'<p class="note">{html.escape(n)}</p>')
+        md.append("")
+    (out / REPORT_MD).write_text("\n".join(md))
+    page = (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>\n"
+        + "\n".join(doc)
+        + "\n</body></html>\n"
+    )
+    (out / REPORT_HTML).write_text(page)
+    return figure_names

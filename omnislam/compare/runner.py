@@ -1,0 +1,410 @@
+"""Run a Grid through any ``concurrent.futures`` executor: a local process pool or Dask.
+
+The runner is written against ``concurrent.futures.Executor`` only: ``ProcessPoolExecutor`` by
+default, ``distributed.Client(address).get_executor()`` for a Dask cluster, ``SerialExecutor``
+in-process. Workers run ``execute_run(cell.spec)`` and return the RunRecord; this process writes
+each cell and evaluates it, so the results folder needs no shared file system and every cell is
+written atomically by one writer:
+
+    RESULTS_DIR/
+      grid.yaml            the grid as given (marks the folder as a results folder)
+      cells/CELL_ID/       one RUN_DIR per cell, with metrics.json (``omnislam evaluate`` output)
+      results.json         one row per cell: labels, status, error, metrics (rewritten after
+      results.csv          every cell, atomically)
+
+A cell folder appears only complete (written under a hidden name, evaluated, then renamed), so
+after an interruption a re-run reuses every finished cell and computes only the others. A cell
+whose worker died (process killed, pool broken, Dask ``KilledWorker``) is resubmitted up to
+``max_attempts`` times -- on a fresh executor when the old one is broken; a cell that fails with
+an omnislam error (bad option, diverged estimator) is deterministic and is not retried.
+
+Numbers do not depend on the executor: the same cell gives the same metrics.json everywhere
+except the TIMING_KEYS of ``rundir`` (wall time and memory).
+"""
+
+from __future__ import annotations
+
+import csv
+import enum
+import io
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Callable, Mapping
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from omnislam.compare.evaluation import EvaluationOptions
+from omnislam.compare.execute import execute_run
+from omnislam.compare.grid import Cell, Grid, column_label
+from omnislam.compare.rundir import (
+    CONFIG,
+    METRICS,
+    RunRecord,
+    evaluate_run,
+    read_metrics,
+    read_run_config,
+    read_run_dir,
+    write_metrics,
+    write_run_dir,
+)
+from omnislam.errors import ConfigError, OmnislamError
+
+GRID_COPY = "grid.yaml"
+CELLS = "cells"
+RESULTS_JSON = "results.json"
+RESULTS_CSV = "results.csv"
+#: a cell whose worker was lost is submitted at most this many times in all
+DEFAULT_MAX_ATTEMPTS = 3
+
+#: columns of results.csv (after the labels)
+CSV_METRICS = (
+    "ate_rmse_m",
+    "ate_max_m",
+    "ate_origin_rmse_m",
+    "rpe_trans_rmse_m",
+    "rpe_rot_rmse_deg",
+    "landmark_rmse_m",
+    "landmarks_estimated",
+    "landmarks_matched",
+    "nees_mean",
+    "frames",
+    "step_ms_median",
+    "step_ms_p95",
+    "total_s",
+    "peak_rss_mb",
+    "alignment",
+    "ground_truth",
+)
+
+
+class CellStatus(enum.Enum):
+    """What happened to a cell in this invocation."""
+
+    COMPUTED = "computed"
+    REUSED = "reused"
+    FAILED = "failed"
+
+
+@dataclass(frozen=True, slots=True)
+class CellOutcome:
+    """The result of one cell.
+
+    Attributes:
+        cell: the cell.
+        status: computed now, reused from an earlier invocation, or failed.
+        metrics: its metrics.json (None when failed).
+        error: one line saying why it failed (None otherwise).
+        attempts: submissions this invocation (0 when reused).
+    """
+
+    cell: Cell
+    status: CellStatus
+    metrics: Mapping[str, object] | None = None
+    error: str | None = None
+    attempts: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class GridResult:
+    """Every cell's outcome, in grid order."""
+
+    grid: Grid
+    out_dir: Path
+    outcomes: tuple[CellOutcome, ...] = field(default_factory=tuple)
+
+    def count(self, status: CellStatus) -> int:
+        """Number of cells with ``status``."""
+        return sum(o.status is status for o in self.outcomes)
+
+
+class SerialExecutor(Executor):
+    """An Executor that runs each call at ``submit`` in this process (debugging, tests)."""
+
+    def submit(self, fn: Callable[..., object], /, *args: object, **kwargs: object) -> Future:
+        future: Future = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # delivered through the future like a pool would
+            future.set_exception(exc)
+        return future
+
+
+def local_executor_factory(workers: int) -> Callable[[], Executor]:
+    """Factory of the default executor: a process pool of ``workers`` ('spawn'), serial if 0."""
+    if workers < 0:
+        raise ConfigError(f"--workers must be >= 0, got {workers}")
+
+    def make() -> Executor:
+        if workers == 0:
+            return SerialExecutor()
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        return ProcessPoolExecutor(
+            max_workers=workers, mp_context=multiprocessing.get_context("spawn")
+        )
+
+    return make
+
+
+def check_results_dir(out_dir: Path) -> None:
+    """Refuse an existing non-empty folder that is not a results folder of ``omnislam compare``.
+
+    Raises:
+        ConfigError: naming the folder.
+    """
+    out_dir = Path(out_dir)
+    if not out_dir.exists():
+        return
+    if not out_dir.is_dir():
+        raise ConfigError(f"{out_dir}: exists and is not a folder")
+    if any(out_dir.iterdir()) and not (out_dir / GRID_COPY).is_file():
+        raise ConfigError(
+            f"{out_dir}: exists, is not empty and is not a results folder (no {GRID_COPY}); "
+            "refusing to write into it"
+        )
+
+
+def _atomic_text(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _matches(cell_dir: Path, cell: Cell) -> bool:
+    """True when ``cell_dir`` holds a finished run of exactly ``cell.spec``."""
+    if not (cell_dir / METRICS).is_file() or not (cell_dir / CONFIG).is_file():
+        return False
+    try:
+        config = read_run_config(cell_dir)
+    except OmnislamError:
+        return False
+    spec = cell.spec
+    options = {**config.dataset_options, **config.estimator_options}
+    return (
+        config.dataset == spec.dataset
+        and config.estimator == spec.estimator
+        and config.seed == spec.seed
+        and options == dict(spec.options)
+    )
+
+
+def _evaluation_matches(metrics: Mapping[str, object], options: EvaluationOptions) -> bool:
+    segment = metrics.get("rpe_segment_m")
+    gate = metrics.get("landmark_gate_m")
+    return (segment is None or segment == options.rpe_segment_m) and (
+        gate is None or gate == options.landmark_gate_m
+    )
+
+
+def store_cell(
+    cells_dir: Path, cell: Cell, record: RunRecord, options: EvaluationOptions
+) -> dict[str, object]:
+    """Write one cell atomically: RUN_DIR + metrics.json under a hidden name, then rename.
+
+    The metrics are computed from the files as written (``read_run_dir``), exactly as
+    ``omnislam evaluate`` would compute them.
+    """
+    final = cells_dir / cell.cell_id
+    staging = cells_dir / f".{cell.cell_id}.staging-{os.getpid()}"
+    shutil.rmtree(staging, ignore_errors=True)
+    try:
+        write_run_dir(staging, record)
+        metrics = evaluate_run(read_run_dir(staging), options)
+        write_metrics(staging, metrics)
+        if final.exists():
+            trash = cells_dir / f".{cell.cell_id}.old-{os.getpid()}"
+            os.replace(final, trash)
+            os.replace(staging, final)
+            shutil.rmtree(trash, ignore_errors=True)
+        else:
+            os.replace(staging, final)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return metrics
+
+
+def _row(outcome: CellOutcome) -> dict[str, object]:
+    cell = outcome.cell
+    return {
+        "cell": cell.cell_id,
+        "dataset": cell.dataset_label,
+        "estimator": cell.estimator_label,
+        "column": column_label(cell),
+        "override": cell.override_label,
+        "seed": cell.spec.seed,
+        "status": outcome.status.value,
+        "error": outcome.error,
+        "metrics": dict(outcome.metrics) if outcome.metrics is not None else None,
+    }
+
+
+def write_summary(result: GridResult) -> None:
+    """Write ``results.json`` and ``results.csv`` atomically (cells finished so far)."""
+    rows = [_row(o) for o in result.outcomes]
+    summary = {"grid": result.grid.name, "cells": rows}
+    _atomic_text(result.out_dir / RESULTS_JSON, json.dumps(summary, indent=2) + "\n")
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["cell", "dataset", "estimator", "override", "seed", "status", *CSV_METRICS])
+    for row in rows:
+        metrics = row["metrics"] or {}
+        writer.writerow(
+            [row[k] for k in ("cell", "dataset", "estimator", "override", "seed", "status")]
+            + ["" if metrics.get(k) is None else metrics.get(k) for k in CSV_METRICS]
+        )
+    _atomic_text(result.out_dir / RESULTS_CSV, buffer.getvalue())
+
+
+def prepare_frontend_logs(grid: Grid, out_dir: Path) -> dict[str, str | None]:
+    """Hook: the shared front end's ObservationLog per dataset, computed once for all cells.
+
+    Returns ``{dataset argument: log path or None}``; None feeds the dataset's own sightings.
+    When the front end lands, this runs ``frontend.pipeline.cached_frontend`` once per
+    (dataset, front-end configuration) into ``out_dir / "logs"`` (in this process or as one
+    executor task per dataset) and the runner puts the path into every cell's ``RunSpec.log``,
+    so all estimators replay the same log.
+    """
+    del out_dir
+    return {cell.spec.dataset: cell.spec.log for cell in grid.cells}
+
+
+def run_grid(
+    grid: Grid,
+    out_dir: str | Path,
+    executor_factory: Callable[[], Executor] | None = None,
+    *,
+    max_attempts: int = DEFAULT_MAX_ATTEMPTS,
+    on_outcome: Callable[[CellOutcome], None] | None = None,
+) -> GridResult:
+    """Run every cell of ``grid`` not already finished in ``out_dir``.
+
+    Args:
+        grid: a validated grid.
+        out_dir: RESULTS_DIR (created; an existing results folder is resumed).
+        executor_factory: makes the executor (called again when one breaks); default a
+            process pool of ``os.cpu_count()`` workers.
+        max_attempts: submissions per cell when its worker is lost.
+        on_outcome: called with every cell's outcome as it is known (progress bars).
+
+    Returns:
+        GridResult with every cell's outcome.
+
+    Raises:
+        ConfigError: ``out_dir`` is a non-empty folder that is not a results folder.
+    """
+    out_dir = Path(out_dir)
+    check_results_dir(out_dir)
+    if executor_factory is None:
+        executor_factory = local_executor_factory(os.cpu_count() or 1)
+    cells_dir = out_dir / CELLS
+    cells_dir.mkdir(parents=True, exist_ok=True)
+    for stale in cells_dir.glob(".*"):  # staging folders of an interrupted invocation
+        shutil.rmtree(stale, ignore_errors=True)
+    _atomic_text(out_dir / GRID_COPY, grid.text)
+    prepare_frontend_logs(grid, out_dir)
+
+    outcomes: dict[str, CellOutcome] = {}
+    pending: list[Cell] = []
+    for cell in grid.cells:
+        cell_dir = cells_dir / cell.cell_id
+        if _matches(cell_dir, cell):
+            metrics = read_metrics(cell_dir)
+            if not _evaluation_matches(metrics, grid.evaluation):
+                metrics = evaluate_run(read_run_dir(cell_dir), grid.evaluation)
+                write_metrics(cell_dir, metrics)
+            outcomes[cell.cell_id] = CellOutcome(cell, CellStatus.REUSED, metrics)
+            if on_outcome is not None:
+                on_outcome(outcomes[cell.cell_id])
+        else:
+            pending.append(cell)
+
+    def summary() -> GridResult:
+        ordered = tuple(outcomes[c.cell_id] for c in grid.cells if c.cell_id in outcomes)
+        return GridResult(grid, out_dir, ordered)
+
+    def finish(outcome: CellOutcome) -> None:
+        outcomes[outcome.cell.cell_id] = outcome
+        write_summary(summary())
+        if on_outcome is not None:
+            on_outcome(outcome)
+
+    if pending:
+        _execute(pending, grid, cells_dir, executor_factory, max_attempts, finish)
+    result = summary()
+    write_summary(result)
+    return result
+
+
+def _execute(
+    pending: list[Cell],
+    grid: Grid,
+    cells_dir: Path,
+    executor_factory: Callable[[], Executor],
+    max_attempts: int,
+    finish: Callable[[CellOutcome], None],
+) -> None:
+    """Submit the pending cells, store results as they arrive, resubmit lost ones."""
+    attempts = {cell.cell_id: 0 for cell in pending}
+    executor = executor_factory()
+    running: dict[Future, Cell] = {}
+
+    def submit(cell: Cell) -> None:
+        nonlocal executor
+        attempts[cell.cell_id] += 1
+        try:
+            future = executor.submit(execute_run, cell.spec)
+        except (BrokenProcessPool, RuntimeError):  # a broken or shut down pool: renew it
+            executor.shutdown(wait=False, cancel_futures=True)
+            executor = executor_factory()
+            future = executor.submit(execute_run, cell.spec)
+        running[future] = cell
+
+    try:
+        for cell in pending:
+            submit(cell)
+        while running:
+            done, _ = wait(list(running), return_when=FIRST_COMPLETED)
+            for future in done:
+                cell = running.pop(future)
+                try:
+                    record = future.result()
+                except OmnislamError as exc:  # deterministic: bad option, estimator failure
+                    finish(CellOutcome(cell, CellStatus.FAILED, error=str(exc), attempts=1))
+                    continue
+                except BaseException as exc:  # worker lost (killed, pool broken, cancelled)
+                    if isinstance(exc, KeyboardInterrupt):
+                        raise
+                    if attempts[cell.cell_id] < max_attempts:
+                        submit(cell)
+                    else:
+                        error = f"{type(exc).__name__}: {exc}".strip()
+                        finish(
+                            CellOutcome(
+                                cell,
+                                CellStatus.FAILED,
+                                error=f"gave up after {attempts[cell.cell_id]} attempts ({error})",
+                                attempts=attempts[cell.cell_id],
+                            )
+                        )
+                    continue
+                metrics = store_cell(cells_dir, cell, record, grid.evaluation)
+                finish(
+                    CellOutcome(cell, CellStatus.COMPUTED, metrics, attempts=attempts[cell.cell_id])
+                )
+    except BaseException:  # interrupted: keep finished cells, do not wait for running ones
+        for future in running:
+            future.cancel()
+        executor.shutdown(wait=False, cancel_futures=True)
+        raise
+    executor.shutdown(wait=True)

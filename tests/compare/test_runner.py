@@ -1,0 +1,236 @@
+"""The grid runner: serial == Dask (also with a worker killed), resume, retries, atomic cells."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import threading
+import time
+from concurrent.futures import Future
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+
+import pytest
+from room_log import write_room_log
+
+from omnislam.compare.grid import load_grid
+from omnislam.compare.rundir import METRICS, TIMING_KEYS
+from omnislam.compare.runner import CELLS, CellStatus, SerialExecutor, run_grid
+
+GRID = """
+name: rooms
+datasets: [data/room_a.log, {{dataset: data/room_b.log, label: b}}]
+estimators: [deadreckoning]
+seeds: [0, 1]
+evaluation: {{rpe_segment_m: {segment}}}
+"""
+
+
+def make_grid(tmp_path: Path, frames: int = 60, segment: float = 2.0) -> Path:
+    write_room_log(tmp_path / "data" / "room_a.log", frames=frames, seed=1)
+    write_room_log(tmp_path / "data" / "room_b.log", frames=frames + 20, seed=2)
+    path = tmp_path / "grid.yaml"
+    path.write_text(GRID.format(segment=segment))
+    return path
+
+
+def numbers(results: Path) -> dict[str, dict[str, object]]:
+    """Every cell's metrics without the timing keys, and its trajectory file."""
+    out = {}
+    for cell in sorted((results / CELLS).iterdir()):
+        metrics = json.loads((cell / METRICS).read_text())
+        out[cell.name] = {k: v for k, v in metrics.items() if k not in TIMING_KEYS}
+        out[cell.name]["trajectory"] = (cell / "trajectory.tum").read_text()
+    return out
+
+
+class CountingExecutor(SerialExecutor):
+    def __init__(self):
+        self.submitted = 0
+
+    def submit(self, fn, /, *args, **kwargs):
+        self.submitted += 1
+        return super().submit(fn, *args, **kwargs)
+
+
+def test_grid_cells_are_named_deterministically(tmp_path):
+    grid = load_grid(make_grid(tmp_path))
+    assert [c.cell_id for c in grid.cells] == [
+        "room_a__deadreckoning__s0",
+        "room_a__deadreckoning__s1",
+        "b__deadreckoning__s0",
+        "b__deadreckoning__s1",
+    ]
+    assert grid.evaluation.rpe_segment_m == 2.0
+
+
+def test_a_cell_equals_omnislam_run_and_evaluate(tmp_path):
+    from omnislam.cli import main
+
+    grid = load_grid(make_grid(tmp_path))
+    run_grid(grid, tmp_path / "out", SerialExecutor)
+    log = tmp_path / "data" / "room_a.log"
+    run = tmp_path / "run"
+    assert (
+        main(["run", str(log), "--estimator", "deadreckoning", "--out", str(run), "--seed", "0"])
+        == 0
+    )
+    assert main(["evaluate", str(run), "--json", "--rpe-segment", "2"]) == 0
+    cell = tmp_path / "out" / CELLS / "room_a__deadreckoning__s0"
+    ours = json.loads((cell / METRICS).read_text())
+    theirs = json.loads((run / METRICS).read_text())
+    assert {k: v for k, v in ours.items() if k not in TIMING_KEYS} == {
+        k: v for k, v in theirs.items() if k not in TIMING_KEYS
+    }
+
+
+def test_resume_computes_only_unfinished_cells(tmp_path):
+    grid = load_grid(make_grid(tmp_path))
+    out = tmp_path / "out"
+
+    seen = []
+
+    def interrupt_after_two(outcome):  # Ctrl-C while the third cell is being collected
+        seen.append(outcome)
+        if len(seen) == 2:
+            raise KeyboardInterrupt
+
+    first = CountingExecutor()
+    with pytest.raises(KeyboardInterrupt):
+        run_grid(grid, out, lambda: first, on_outcome=interrupt_after_two)
+    finished = sorted(p.name for p in (out / CELLS).iterdir())
+    assert len(finished) == 2 and not [p for p in (out / CELLS).iterdir() if p.name[0] == "."]
+    summary = json.loads((out / "results.json").read_text())
+    assert [row["status"] for row in summary["cells"]] == ["computed", "computed"]
+    before = {name: (out / CELLS / name / METRICS).stat().st_mtime_ns for name in finished}
+
+    second = CountingExecutor()
+    result = run_grid(grid, out, lambda: second)
+    assert second.submitted == 2  # only the two missing cells were computed
+    assert result.count(CellStatus.REUSED) == 2 and result.count(CellStatus.COMPUTED) == 2
+    assert {n: (out / CELLS / n / METRICS).stat().st_mtime_ns for n in finished} == before
+
+    third = CountingExecutor()
+    assert run_grid(grid, out, lambda: third).count(CellStatus.REUSED) == 4
+    assert third.submitted == 0
+
+
+def test_a_changed_cell_spec_is_recomputed(tmp_path):
+    path = make_grid(tmp_path)
+    out = tmp_path / "out"
+    run_grid(load_grid(path), out, SerialExecutor)
+    # same cell ids, other loader option: nothing may be reused
+    path.write_text(
+        path.read_text().replace("data/room_a.log,", "{dataset: data/room_b.log, label: room_a},")
+    )
+    counting = CountingExecutor()
+    result = run_grid(load_grid(path), out, lambda: counting)
+    assert counting.submitted == 2 and result.count(CellStatus.REUSED) == 2
+
+
+def test_lost_workers_are_retried_a_bounded_number_of_times(tmp_path):
+    grid = load_grid(make_grid(tmp_path))
+
+    class Flaky(CountingExecutor):
+        def __init__(self, failures):
+            super().__init__()
+            self.failures = failures
+
+        def submit(self, fn, /, *args, **kwargs):
+            self.submitted += 1
+            if self.failures > 0:
+                self.failures -= 1
+                future = Future()
+                future.set_exception(BrokenProcessPool("worker died"))
+                return future
+            return SerialExecutor.submit(self, fn, *args, **kwargs)
+
+    flaky = Flaky(failures=3)
+    result = run_grid(grid, tmp_path / "out", lambda: flaky, max_attempts=3)
+    assert result.count(CellStatus.COMPUTED) == 4 and flaky.submitted == 7
+    assert numbers(tmp_path / "out")  # complete
+
+    hopeless = Flaky(failures=100)
+    result = run_grid(grid, tmp_path / "out2", lambda: hopeless, max_attempts=2)
+    assert result.count(CellStatus.FAILED) == 4 and hopeless.submitted == 8
+    assert all("gave up after 2 attempts" in o.error for o in result.outcomes)
+    assert list((tmp_path / "out2" / CELLS).iterdir()) == []
+
+
+def test_a_cell_with_a_bad_option_fails_alone_and_is_not_retried(tmp_path):
+    path = make_grid(tmp_path)
+    path.write_text(path.read_text() + "overrides: [{}, {particles: 5}]\n")
+    counting = CountingExecutor()
+    result = run_grid(load_grid(path), tmp_path / "out", lambda: counting)
+    assert result.count(CellStatus.COMPUTED) == 4 and result.count(CellStatus.FAILED) == 4
+    assert counting.submitted == 8
+    failed = [o for o in result.outcomes if o.status is CellStatus.FAILED]
+    assert all("takes no options" in o.error for o in failed)
+    assert failed[0].cell.cell_id == "room_a__deadreckoning__s0__particles=5"
+
+
+def test_local_process_pool_survives_a_killed_worker(tmp_path):
+    from concurrent.futures import ProcessPoolExecutor
+
+    grid = load_grid(make_grid(tmp_path, frames=60))
+    run_grid(grid, tmp_path / "serial", SerialExecutor)
+    pools = []
+
+    def factory():
+        pools.append(ProcessPoolExecutor(max_workers=2))
+        if len(pools) == 1:  # kill a worker of the first pool as soon as it exists
+            pool = pools[0]
+            pool.submit(time.sleep, 0).result()
+            os.kill(next(iter(pool._processes)), signal.SIGKILL)
+        return pools[-1]
+
+    result = run_grid(grid, tmp_path / "pool", factory)
+    assert result.count(CellStatus.COMPUTED) == 4 and len(pools) >= 2
+    assert numbers(tmp_path / "pool") == numbers(tmp_path / "serial")
+
+
+@pytest.fixture(scope="module")
+def dask_client():
+    distributed = pytest.importorskip("distributed")
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        yield client
+
+
+def test_dask_local_cluster_gives_the_numbers_of_the_serial_run(tmp_path, dask_client):
+    grid = load_grid(make_grid(tmp_path))
+    serial = run_grid(grid, tmp_path / "serial", SerialExecutor)
+    dask = run_grid(grid, tmp_path / "dask", dask_client.get_executor)
+    assert serial.count(CellStatus.COMPUTED) == dask.count(CellStatus.COMPUTED) == 4
+    assert numbers(tmp_path / "dask") == numbers(tmp_path / "serial")
+
+
+def test_dask_worker_killed_mid_grid_still_gives_a_complete_identical_result(tmp_path, dask_client):
+    # cells big enough (loading ~0.5 s each) that a worker is killed while computing one
+    grid = load_grid(make_grid(tmp_path, frames=6000, segment=10.0))
+    run_grid(grid, tmp_path / "serial", SerialExecutor)
+    pids = dask_client.run(os.getpid)
+    killed = []
+
+    def killer():
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and not killed:
+            busy = [w for w, tasks in dask_client.processing().items() if tasks]
+            if busy:
+                time.sleep(0.2)  # let the task get going
+                os.kill(pids[busy[0]], signal.SIGKILL)
+                killed.append(busy[0])
+            time.sleep(0.02)
+
+    thread = threading.Thread(target=killer)
+    thread.start()
+    result = run_grid(grid, tmp_path / "dask", dask_client.get_executor)
+    thread.join()
+    assert killed, "no worker was busy: nothing was killed"
+    assert result.count(CellStatus.COMPUTED) == 4
+    assert numbers(tmp_path / "dask") == numbers(tmp_path / "serial")
