@@ -4,12 +4,15 @@
     .venv/bin/python benchmarks/render.py --full lab40      # whole preset to a temp folder
 
 Reports the median time per frame (after one warm-up frame) for the numpy and open3d ray
-casters side by side, and with --full the wall time of ``omnislam dataset synth``.
+casters side by side, and with --full the wall time of ``omnislam dataset synth``. The load
+average is printed with the numbers: the machine is shared, so compare runs at similar load.
+Goals (GitHub issue #3): >= 10 fps with open3d, ``--full lab40`` in <= 2 minutes on 2 cores.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -22,7 +25,13 @@ from omnislam.datasets.synthetic.render import Renderer
 from omnislam.datasets.synthetic.simulate import simulate
 
 
+def load_average() -> str:
+    """The 1-, 5- and 15-minute load averages, as ``uptime`` prints them."""
+    return ", ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
 def time_backend(sim, backend: str, supersample: int) -> float:
+    """Median seconds per frame over the run's image frames after the first (warm-up)."""
     renderer = Renderer(sim.world, sim.rig, backend, supersample)
     renderer.render(sim.poses_w[sim.image_frames[0]])
     times = []
@@ -34,12 +43,15 @@ def time_backend(sim, backend: str, supersample: int) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--preset", default="demo")
     parser.add_argument("--frames", type=int, default=10)
     parser.add_argument("--supersample", type=int, default=1)
+    parser.add_argument("--backends", default="numpy,open3d", help="comma-separated")
     parser.add_argument("--full", metavar="PRESET", help="time a whole synth run")
     args = parser.parse_args()
+    print(f"load average before: {load_average()}")
     if args.full:
         from omnislam.datasets.synthetic.cli import cli_synth
 
@@ -48,16 +60,18 @@ def main() -> None:
             cli_synth(argparse.Namespace(preset=args.full, out=str(Path(tmp) / "out"), seed=0,
                                          frames=None, backend=None))
             print(f"{args.full}: full synth run {time.perf_counter() - start:.1f} s")
+        print(f"load average after: {load_average()}")
         return
     sim = simulate(PRESETS[args.preset], 0, max_images=args.frames + 1, backend="numpy")
     print(f"preset {args.preset}: {len(sim.world.quads)} quads, 640x640, "
           f"supersample {args.supersample}, median of {args.frames} frames")
-    for backend in ("numpy", "open3d"):
+    for backend in args.backends.split(","):
         if backend == "open3d" and not available("open3d"):
             print("open3d: not installed")
             continue
         seconds = time_backend(sim, backend, args.supersample)
         print(f"{backend:>7}: {1000 * seconds:7.1f} ms/frame  {1 / seconds:5.1f} fps")
+    print(f"load average after: {load_average()}")
 
 
 if __name__ == "__main__":

@@ -47,6 +47,11 @@ class RayCaster(Protocol):
         """
         ...
 
+    def first_hits(self, origin_w: np.ndarray, directions_w: np.ndarray) -> np.ndarray:
+        """Only the surface ids of ``cast``: (N,) int32, -1 where nothing is hit (hits
+        closer than ``MIN_DISTANCE_M`` may remain; ``cast`` removes them)."""
+        ...
+
 
 def plane_distances(
     quads: QuadArrays, origin_w: np.ndarray, directions_w: np.ndarray, surface_ids: np.ndarray

@@ -13,8 +13,11 @@ import numpy as np
 from omnislam.datasets.synthetic.raycast import MIN_DISTANCE_M, plane_distances
 from omnislam.datasets.synthetic.world import QuadArrays
 
-#: ray x quad products evaluated at once (bounds the memory of one chunk)
-_CHUNK_ELEMENTS = 1 << 21
+#: ray x quad products evaluated at once: small enough to stay in cache and to keep OpenBLAS
+#: single-threaded (its threads made the (rays, 3) @ (3, quads) products ~7x slower on a
+#: loaded 2-core machine with 2**21); at least _MIN_CHUNK_RAYS rays per chunk
+_CHUNK_ELEMENTS = 1 << 15
+_MIN_CHUNK_RAYS = 256
 
 
 class NumpyRayCaster:
@@ -27,19 +30,25 @@ class NumpyRayCaster:
 
     def cast(self, origin_w: np.ndarray, directions_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """See ``RayCaster.cast``."""
+        directions_w = np.asarray(directions_w, dtype=float)
+        ids = self.first_hits(origin_w, directions_w).astype(np.int64)
+        return plane_distances(self.quads, np.asarray(origin_w, float), directions_w, ids), ids
+
+    def first_hits(self, origin_w: np.ndarray, directions_w: np.ndarray) -> np.ndarray:
+        """See ``RayCaster.first_hits``."""
         q = self.quads
         m = len(q)
         origin_w = np.asarray(origin_w, dtype=float)
         directions_w = np.asarray(directions_w, dtype=float)
         n_rays = directions_w.shape[0]
-        ids = np.full(n_rays, -1, dtype=np.int64)
+        ids = np.full(n_rays, -1, dtype=np.int32)
         if m == 0 or n_rays == 0:
-            return np.full(n_rays, np.inf), ids
+            return ids
         rel = q.origins_w - origin_w  # (M, 3)
         num = np.sum(q.normals_w * rel, axis=1)  # n.(o_q - o)
         a0 = -np.sum(q.dual_u_w * rel, axis=1)  # (o - o_q).dual_u
         b0 = -np.sum(q.dual_v_w * rel, axis=1)
-        chunk = max(1, _CHUNK_ELEMENTS // m)
+        chunk = max(_MIN_CHUNK_RAYS, _CHUNK_ELEMENTS // m)
         for start in range(0, n_rays, chunk):
             d = directions_w[start:start + chunk]
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -52,4 +61,4 @@ class NumpyRayCaster:
             best = np.argmin(t, axis=1)
             hit = np.isfinite(t[np.arange(t.shape[0]), best])
             ids[start:start + chunk] = np.where(hit, best, -1)
-        return plane_distances(q, origin_w, directions_w, ids), ids
+        return ids

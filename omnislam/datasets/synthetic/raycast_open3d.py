@@ -28,18 +28,24 @@ class Open3DRayCaster:
                 o3d.core.Tensor(vertices.astype(np.float32)),
                 o3d.core.Tensor(triangles.astype(np.uint32)),
             )
-        self._invalid = int(o3d.t.geometry.RaycastingScene.INVALID_ID)
+        # INVALID_ID is 2**32 - 1: -1 as int32, and it stays -1 through ``>> 1`` (quad id)
+        if int(o3d.t.geometry.RaycastingScene.INVALID_ID) != 2**32 - 1:  # pragma: no cover
+            raise RuntimeError("unexpected open3d RaycastingScene.INVALID_ID")
+
+    def first_hits(self, origin_w: np.ndarray, directions_w: np.ndarray) -> np.ndarray:
+        """See ``RayCaster.first_hits``."""
+        n = directions_w.shape[0]
+        rays = np.empty((n, 6), dtype=np.float32)
+        rays[:, :3] = origin_w
+        rays[:, 3:] = directions_w
+        result = self._scene.cast_rays(self._o3d.core.Tensor.from_numpy(rays))
+        prim = result["primitive_ids"].numpy().view(np.int32)
+        return prim >> 1
 
     def cast(self, origin_w: np.ndarray, directions_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """See ``RayCaster.cast``."""
         directions_w = np.asarray(directions_w, dtype=float)
-        n = directions_w.shape[0]
-        rays = np.empty((n, 6), dtype=np.float32)
-        rays[:, :3] = np.asarray(origin_w, dtype=float)
-        rays[:, 3:] = directions_w
-        result = self._scene.cast_rays(self._o3d.core.Tensor(rays))
-        prim = result["primitive_ids"].numpy().astype(np.int64)
-        ids = np.where(prim == self._invalid, -1, prim // 2)
+        ids = self.first_hits(origin_w, directions_w).astype(np.int64)
         distances = plane_distances(self.quads, np.asarray(origin_w, float), directions_w, ids)
         too_close = distances <= MIN_DISTANCE_M
         ids[too_close] = -1

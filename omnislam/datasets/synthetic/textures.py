@@ -270,50 +270,185 @@ def generate_texture(spec: TextureSpec) -> np.ndarray:
 
 
 # --- lookup -------------------------------------------------------------------------------
+#: columns of ``TextureAtlas.table``
+TEX_WIDTH, TEX_HEIGHT, TEX_INV_TEXEL, TEX_MAX_LEVEL, TEX_REPEAT, TEX_LEVEL_ROW = range(6)
+#: texels are stored as uint16 value * TEXEL_SCALE
+TEXEL_SCALE = 256
+#: a bound that never clips (used to switch clamping off for repeating textures)
+_NO_CLAMP = np.float32(1e30)
+
+
+class Workspace:
+    """Named work arrays kept from call to call.
+
+    A renderer's per-ray temporaries are tens of MB a frame; fresh arrays that large come
+    from the kernel as new pages, and zeroing them cost ~14 ms a frame (20%). An array taken
+    from a workspace is overwritten by the next ``get`` of the same name.
+    """
+
+    def __init__(self) -> None:
+        self._arrays: dict[str, np.ndarray] = {}
+
+    def get(self, name: str, shape: tuple[int, ...], dtype: type) -> np.ndarray:
+        """The (uninitialised) array ``name`` of ``shape`` and ``dtype``."""
+        array = self._arrays.get(name)
+        if array is None or array.shape != shape or array.dtype != dtype:
+            array = self._arrays[name] = np.empty(shape, dtype=dtype)
+        return array
+
+
+def _pad(level: np.ndarray, repeat: bool) -> np.ndarray:
+    """(h+1, w+1) copy of ``level`` whose extra row / column wraps (repeat) or clamps."""
+    h, w = level.shape[:2]
+    out = np.empty((h + 1, w + 1, *level.shape[2:]), dtype=level.dtype)
+    out[:h, :w] = level
+    out[:h, w] = level[:, 0] if repeat else level[:, w - 1]
+    out[h] = out[0] if repeat else out[h - 1]
+    return out
+
+
 class TextureAtlas:
     """All textures of a world (with mip levels) packed into one flat texel array.
 
     ``sample(textures, u_m, v_m, footprint_m)`` does a bilinear lookup at the mip level whose
     texel matches the pixel's footprint on the surface (box-filtered pyramid, nearest level),
     which keeps distant posters from aliasing into salt-and-pepper noise.
+
+    Storage: each mip level gets one extra column and row (a copy of the first ones for
+    repeating textures, of the last ones otherwise), so the right and lower neighbours of any
+    texel exist and wrapping / clamping is done once, on the coordinate. A texel is one
+    uint64: RGBA as uint16 fixed point (value * ``TEXEL_SCALE``), which holds the box-filtered
+    mip levels exactly down to level 4 (uint8 would round them and change ~10% of the
+    pixels), so a bilinear lookup is four one-element gathers.
+
+    Attributes:
+        table: (T, 6) float32 per texture: level-0 width and height [texels], 1 / texel size
+            [1/m], highest mip level, repeat flag (0 / 1), first row of ``level_offsets``.
+        level_offsets: (T * L,) int64 start of each (texture, level) in ``texels`` (row
+            ``TEX_LEVEL_ROW + level``); L = ``levels_max``.
+        texels: (K,) uint64 packed RGBA texels of all padded levels.
     """
 
     def __init__(self, specs: tuple[TextureSpec, ...] | list[TextureSpec]) -> None:
-        texels: list[np.ndarray] = []
-        offsets, widths, heights = [], [], []
-        first_level, n_levels, repeat, extent_u, extent_v, texel0 = [], [], [], [], [], []
+        chunks: list[np.ndarray] = []
+        rows: list[tuple[float, ...]] = []
+        offsets: list[list[int]] = []
+        self._extent_m = np.array([s.extent_m for s in specs], dtype=float).reshape(-1, 2)
         total = 0
         for spec in specs:
             level = generate_texture(spec).astype(np.float32)
-            first_level.append(len(offsets))
-            count = 0
+            starts = []
             while True:
                 h, w = level.shape[:2]
-                texels.append(level.reshape(-1, 3))
-                offsets.append(total)
-                widths.append(w)
-                heights.append(h)
-                total += h * w
-                count += 1
+                rgba = np.zeros((h, w, 4), dtype=np.uint16)
+                rgba[..., :3] = np.rint(level * TEXEL_SCALE)
+                padded = _pad(rgba.view(np.uint64)[..., 0], spec.kind.repeats)
+                chunks.append(padded.reshape(-1))
+                starts.append(total)
+                total += padded.size
                 if h % 2 or w % 2 or min(h, w) < _MIN_SIZE_PX:
                     break
                 level = 0.25 * (level[0::2, 0::2] + level[1::2, 0::2] + level[0::2, 1::2]
                                 + level[1::2, 1::2])
-            n_levels.append(count)
-            repeat.append(spec.kind.repeats)
-            extent_u.append(spec.extent_m[0])
-            extent_v.append(spec.extent_m[1])
-            texel0.append(spec.texel_m())
-        self.texels = np.concatenate(texels) if texels else np.zeros((0, 3), np.float32)
-        self._offset = np.array(offsets, dtype=np.int64)
-        self._width = np.array(widths, dtype=np.int64)
-        self._height = np.array(heights, dtype=np.int64)
-        self._first_level = np.array(first_level, dtype=np.int64)
-        self._n_levels = np.array(n_levels, dtype=np.int64)
-        self._repeat = np.array(repeat, dtype=bool)
-        self._extent_u = np.array(extent_u)
-        self._extent_v = np.array(extent_v)
-        self._texel_m = np.array(texel0)
+            offsets.append(starts)
+            w0, h0 = spec.size_px
+            rows.append((w0, h0, 1.0 / spec.texel_m(), len(starts) - 1,
+                         float(spec.kind.repeats), 0.0))
+        self.levels_max = max((len(o) for o in offsets), default=1)
+        self.level_offsets = np.zeros(len(offsets) * self.levels_max, dtype=np.int64)
+        for t, starts in enumerate(offsets):
+            self.level_offsets[t * self.levels_max:t * self.levels_max + len(starts)] = starts
+        self.table = np.array(rows, dtype=np.float32).reshape(-1, 6)
+        self.table[:, TEX_LEVEL_ROW] = np.arange(len(rows)) * self.levels_max
+        self.texels = np.concatenate(chunks) if chunks else np.zeros(1, np.uint64)
+
+    def level_of(self, texture: np.ndarray, footprint_m: np.ndarray) -> np.ndarray:
+        """(N,) float32 mip level (integer valued): the nearest to log2(footprint / texel),
+        clipped to the texture's pyramid.
+
+        Args:
+            texture: (6, N) float32 ``table`` columns of the textures seen.
+            footprint_m: (N,) float32 size of the pixels on the surfaces [m] (overwritten).
+        """
+        ratio = np.multiply(footprint_m, texture[TEX_INV_TEXEL], out=footprint_m)
+        np.maximum(ratio, 1.0, out=ratio)
+        level = np.log2(ratio, out=ratio)
+        np.rint(level, out=level)
+        return np.minimum(level, texture[TEX_MAX_LEVEL], out=level)
+
+    def bilinear(
+        self,
+        texture: np.ndarray,
+        texel0: np.ndarray,
+        level: np.ndarray,
+        work: Workspace | None = None,
+    ) -> np.ndarray:
+        """Bilinear lookup in mip level ``level`` at level-0 texel coordinates.
+
+        Args:
+            texture: (6, N) float32 ``table`` columns of the textures.
+            texel0: (2, N) float32 (x, y) position in level-0 texels (texel (0, 0) spans
+                [0, 1) x [0, 1)); overwritten.
+            level: (N,) float32 integer-valued mip level (``level_of``); overwritten.
+            work: arrays to reuse (the result is then one of them); None allocates.
+
+        Returns:
+            (3, N) float32 RGB channels in [0, 255].
+        """
+        work = Workspace() if work is None else work
+        n = texel0.shape[1]
+        scale = np.negative(level, out=work.get("tex.scale", (n,), np.float32))
+        np.exp2(scale, out=scale)
+        size = np.multiply(texture[TEX_WIDTH:TEX_HEIGHT + 1], scale,  # (2, N) level size
+                           out=work.get("tex.size", (2, n), np.float32))
+        f = np.multiply(texel0, scale, out=texel0)
+        f -= 0.5
+        # clamp to the outer texel centres, except for repeating textures (infinite bounds)
+        low = np.multiply(texture[TEX_REPEAT], -_NO_CLAMP, out=scale)
+        np.maximum(f, low, out=f)
+        high = np.subtract(size, 1.0, out=work.get("tex.high", (2, n), np.float32))
+        high -= low
+        np.minimum(f, high, out=f)
+        first = np.floor(f, out=work.get("tex.first", (2, n), np.float32))
+        weight = np.subtract(f, first, out=f)
+        wraps = np.divide(first, size, out=high)
+        np.floor(wraps, out=wraps)
+        wraps *= size
+        first -= wraps  # wrap into [0, size) (identity once clamped)
+        corner = work.get("tex.corner", (2, n), np.int64)
+        corner[...] = first
+        stride = work.get("tex.stride", (n,), np.int64)
+        stride[...] = size[0]
+        stride += 1
+        row = work.get("tex.row", (n,), np.int64)
+        row[...] = np.add(texture[TEX_LEVEL_ROW], level, out=level)
+        index = np.take(self.level_offsets, row, out=work.get("tex.index", (n,), np.int64))
+        corner[1] *= stride
+        index += corner[1]
+        index += corner[0]
+        texels = work.get("tex.texels", (4, n), np.uint64)
+        for corner_texels, step in zip(texels, (0, 1, None, 1), strict=True):
+            if step is None:  # next row, left
+                index += stride
+                index -= 1
+            else:
+                index += step
+            np.take(self.texels, index, out=corner_texels)
+        channels = work.get("tex.channels", (4, 3, n), np.float32)
+        channels[:] = texels.view(np.uint16).reshape(4, n, 4)[..., :3].transpose(0, 2, 1)
+        top, top_right, bottom, bottom_right = channels
+        ax, ay = weight
+        top_right -= top
+        top_right *= ax
+        top += top_right
+        bottom_right -= bottom
+        bottom_right *= ax
+        bottom += bottom_right
+        bottom -= top
+        bottom *= ay
+        top += bottom
+        top *= np.float32(1.0 / TEXEL_SCALE)
+        return top
 
     def sample(
         self,
@@ -334,28 +469,12 @@ class TextureAtlas:
             (N, 3) float32 RGB in [0, 255].
         """
         textures = np.asarray(textures, dtype=np.int64)
+        texture = np.ascontiguousarray(self.table[textures].T)
         if footprint_m is None:
-            level = np.zeros_like(textures)
+            level = np.zeros(textures.shape, dtype=np.float32)
         else:
-            ratio = np.maximum(footprint_m / self._texel_m[textures], 1.0)
-            level = np.minimum(np.round(np.log2(ratio)).astype(np.int64),
-                               self._n_levels[textures] - 1)
-        entry = self._first_level[textures] + level
-        w, h = self._width[entry], self._height[entry]
-        fx = u_m / self._extent_u[textures] * w - 0.5
-        fy = v_m / self._extent_v[textures] * h - 0.5
-        x0f, y0f = np.floor(fx), np.floor(fy)
-        ax = (fx - x0f).astype(np.float32)[:, None]
-        ay = (fy - y0f).astype(np.float32)[:, None]
-        x0, y0 = x0f.astype(np.int64), y0f.astype(np.int64)
-        rep = self._repeat[textures]
-        x1, y1 = x0 + 1, y0 + 1
-        x0 = np.where(rep, x0 % w, np.clip(x0, 0, w - 1))
-        x1 = np.where(rep, x1 % w, np.clip(x1, 0, w - 1))
-        y0 = np.where(rep, y0 % h, np.clip(y0, 0, h - 1))
-        y1 = np.where(rep, y1 % h, np.clip(y1, 0, h - 1))
-        base = self._offset[entry]
-        t = self.texels
-        top = t[base + y0 * w + x0] * (1 - ax) + t[base + y0 * w + x1] * ax
-        bottom = t[base + y1 * w + x0] * (1 - ax) + t[base + y1 * w + x1] * ax
-        return top * (1 - ay) + bottom * ay
+            level = self.level_of(texture, np.array(footprint_m, dtype=np.float32))
+        extent = self._extent_m[textures]
+        texel0 = np.array([u_m / extent[:, 0] * texture[TEX_WIDTH],
+                           v_m / extent[:, 1] * texture[TEX_HEIGHT]], dtype=np.float32)
+        return np.ascontiguousarray(self.bilinear(texture, texel0, level).T)
