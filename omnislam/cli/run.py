@@ -64,13 +64,6 @@ def run(args: argparse.Namespace) -> int:
     from omnislam.compare.rundir import CONFIG, write_run_dir
     from omnislam.errors import ConfigError
 
-    if args.log is not None:
-        # the hook exists (RunSpec.log, compare.execute._frame_source); the lead enables it
-        # here when the front end's ObservationLog lands
-        raise ConfigError(
-            "--log is not yet available (the front end's ObservationLog lands with the "
-            "front-end issue); run without it to use the dataset's own sightings"
-        )
     check_estimator(args.estimator)
     out = Path(args.out)
     if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not (out / CONFIG).exists())):

@@ -139,6 +139,7 @@ def execute_run(spec: RunSpec) -> RunRecord:
         known_association=known,
         sigma_range_m=float(sightings[0].sigma_range_m[0]) if sightings else None,
         sigma_bearing_rad=float(sightings[0].sigma_bearing_rad[0]) if sightings else None,
+        sensor_height_m=_sensor_height_m(sequence.calibration),
         facts=sequence.info,
     )
     rng = np.random.default_rng(spec.seed)
@@ -170,8 +171,22 @@ def execute_run(spec: RunSpec) -> RunRecord:
         dataset_options=dataset_options,
         estimator_options=estimator_options,
         landmark_ids_from_truth=known and spec.log is None,
+        frontend_log=None if spec.log is None else str(spec.log),
+        frontend_config_hash=None if spec.log is None else _log_config_hash(spec.log),
     )
     return RunRecord(config, estimate, step_s, sequence.ground_truth, attachments)
+
+
+def _sensor_height_m(calibration: object) -> float | None:
+    """Height of a camera rig's single viewpoint above the robot frame (None without a rig)."""
+    viewpoint = getattr(calibration, "viewpoint_r", None)
+    return None if viewpoint is None else float(np.asarray(viewpoint)[2])
+
+
+def _log_config_hash(log: str | Path) -> str:
+    from omnislam.frontend.observation_log import read_log_key
+
+    return read_log_key(Path(log))[1]
 
 
 def _frame_source(sequence: object, log: str | None) -> Iterator[FrameInput]:

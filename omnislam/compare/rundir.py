@@ -73,6 +73,9 @@ class RunConfig:
         source: the dataset's citation.
         landmark_ids_from_truth: the sightings carried the ground truth's landmark ids, so the
             estimate's ids name true landmarks (landmark error associates by id).
+        frontend_log: the front-end ObservationLog replayed (None: the dataset's own sightings).
+        frontend_config_hash: the configuration hash of that log (a changed front end never
+            reuses a finished cell).
     """
 
     dataset: str
@@ -89,6 +92,8 @@ class RunConfig:
     dataset_options: Mapping[str, str] = field(default_factory=dict)
     estimator_options: Mapping[str, str] = field(default_factory=dict)
     landmark_ids_from_truth: bool = False
+    frontend_log: str | None = None
+    frontend_config_hash: str | None = None
 
 
 @dataclass(frozen=True, slots=True)

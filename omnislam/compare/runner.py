@@ -34,12 +34,12 @@ import tempfile
 from collections.abc import Callable, Mapping
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from omnislam.compare.evaluation import EvaluationOptions
 from omnislam.compare.execute import execute_run
-from omnislam.compare.grid import Cell, Grid, column_label
+from omnislam.compare.grid import Cell, Grid, column_label, safe_name
 from omnislam.compare.rundir import (
     CONFIG,
     METRICS,
@@ -55,6 +55,7 @@ from omnislam.errors import ConfigError, OmnislamError
 
 GRID_COPY = "grid.yaml"
 CELLS = "cells"
+LOGS = "logs"
 RESULTS_JSON = "results.json"
 RESULTS_CSV = "results.csv"
 #: a cell whose worker was lost is submitted at most this many times in all
@@ -190,6 +191,13 @@ def _matches(cell_dir: Path, cell: Cell) -> bool:
         return False
     spec = cell.spec
     options = {**config.dataset_options, **config.estimator_options}
+    if spec.log is not None:
+        from omnislam.frontend.observation_log import read_log_key
+
+        if config.frontend_config_hash != read_log_key(Path(spec.log))[1]:
+            return False
+    elif config.frontend_log is not None:
+        return False
     return (
         config.dataset == spec.dataset
         and config.estimator == spec.estimator
@@ -266,17 +274,43 @@ def write_summary(result: GridResult) -> None:
     _atomic_text(result.out_dir / RESULTS_CSV, buffer.getvalue())
 
 
-def prepare_frontend_logs(grid: Grid, out_dir: Path) -> dict[str, str | None]:
-    """Hook: the shared front end's ObservationLog per dataset, computed once for all cells.
+def prepare_frontend_logs(grid: Grid, out_dir: Path) -> Grid:
+    """Run the shared front end once per dataset with images; every cell replays its log.
 
-    Returns ``{dataset argument: log path or None}``; None feeds the dataset's own sightings.
-    When the front end lands, this runs ``frontend.pipeline.cached_frontend`` once per
-    (dataset, front-end configuration) into ``out_dir / "logs"`` (in this process or as one
-    executor task per dataset) and the runner puts the path into every cell's ``RunSpec.log``,
-    so all estimators replay the same log.
+    For each dataset of the grid whose sequence has images (synthetic omni runs, image folders)
+    and whose cells name no log of their own, ``frontend.pipeline.cached_frontend`` writes (or
+    reuses, when dataset and configuration are unchanged) ``out_dir/logs/<dataset>.npz`` in this
+    process, and every cell of that dataset gets it as ``RunSpec.log``: all estimators replay
+    the same observations, so a comparison measures estimators, not front ends. Datasets
+    without images keep their own sightings.
+
+    Returns:
+        The grid with the log paths filled in.
     """
-    del out_dir
-    return {cell.spec.dataset: cell.spec.log for cell in grid.cells}
+    from omnislam.datasets.registry import load_dataset
+
+    logs: dict[str, str | None] = {}
+    for cell in grid.cells:
+        dataset = cell.spec.dataset
+        if cell.spec.log is not None or dataset in logs:
+            continue
+        sequence = load_dataset(dataset)
+        if sequence.image_loader is None or not len(sequence.image_frames):
+            logs[dataset] = None
+            continue
+        from omnislam.frontend.pipeline import cached_frontend
+
+        path = out_dir / LOGS / f"{safe_name(dataset)}.npz"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        cached_frontend(sequence, path, progress=True)
+        logs[dataset] = str(path)
+    cells = tuple(
+        cell
+        if cell.spec.log is not None or logs.get(cell.spec.dataset) is None
+        else replace(cell, spec=replace(cell.spec, log=logs[cell.spec.dataset]))
+        for cell in grid.cells
+    )
+    return replace(grid, cells=cells)
 
 
 def run_grid(
@@ -312,7 +346,7 @@ def run_grid(
     for stale in cells_dir.glob(".*"):  # staging folders of an interrupted invocation
         shutil.rmtree(stale, ignore_errors=True)
     _atomic_text(out_dir / GRID_COPY, grid.text)
-    prepare_frontend_logs(grid, out_dir)
+    grid = prepare_frontend_logs(grid, out_dir)
 
     outcomes: dict[str, CellOutcome] = {}
     pending: list[Cell] = []

@@ -77,7 +77,7 @@ def test_run_on_a_path_and_rerun_replaces_the_run_dir(tmp_path, capsys):
         (["--estimator", "kalman"], "unknown estimator 'kalman'"),
         (["--estimator", "deadreckoning", "--set", "particles=3"], "takes no options"),
         (["--estimator", "deadreckoning", "--set", "oops"], "expects KEY=VALUE"),
-        (["--estimator", "deadreckoning", "--log", "x.log"], "--log is not yet available"),
+        (["--estimator", "deadreckoning", "--log", "missing.npz"], "missing.npz"),
     ],
 )
 def test_bad_arguments_exit_2_without_output(tmp_path, capsys, extra, message):
