@@ -16,6 +16,7 @@ from collections.abc import Sequence
 #: command name -> module of this package that implements it
 COMMANDS: dict[str, str] = {
     "dataset": "dataset",
+    "frontend": "frontend",
     "run": "run",
     "evaluate": "evaluate",
     "compare": "compare",

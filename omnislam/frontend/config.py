@@ -1,0 +1,384 @@
+"""Configuration of the shared front end: one frozen dataclass per component, named presets.
+
+Every component of :mod:`omnislam.frontend` takes its own config record; ``FrontendConfig``
+bundles them. YAML overrides are merged at the edge (``frontend_config_from_dict``) and the
+whole configuration is hashed (``config_hash``) so that a cached ObservationLog built with
+another configuration is never reused.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import hashlib
+import json
+import typing
+from dataclasses import dataclass, field
+from typing import Any
+
+from omnislam.errors import ConfigError
+
+
+class SiftBackend(enum.Enum):
+    """Which SIFT implementation extracts the features."""
+
+    OPENCV = "opencv"  # cv2.SIFT (fast; the default)
+    PYCOLMAP = "pycolmap"  # COLMAP's SIFT through pycolmap.FeatureExtractor (~5x slower)
+
+
+class ScheduleMode(enum.Enum):
+    """Which images the asynchronous front end processes (thesis 4.5; Barra & Costa 3)."""
+
+    EVERY_K = "every-k"  # every k-th image
+    EVERY_D = "every-d"  # the first image after the odometry has travelled d metres
+
+
+@dataclass(frozen=True, slots=True)
+class SiftConfig:
+    """SIFT detector/descriptor settings (Lowe 2004; thesis 4.1).
+
+    Attributes:
+        contrast_threshold: Lowe's contrast threshold C on |D(x)| (thesis eq. 4.9) for images
+            scaled to [0, 1], *per scale level*: Lowe's 0.03. (OpenCV expects it multiplied
+            by the number of layers; the backend converts.)
+        edge_threshold: maximum ratio R of principal curvatures (thesis eq. 4.15). Lowe: 10;
+            the thesis keeps the same rejection rate on omni images with R ~ 2.
+        n_octave_layers: scales per octave N (k = 2^(1/N), thesis 4.1.1).
+        sigma: blur of the first octave's base image [px].
+        max_features: keep at most this many strongest features (0 = all).
+        upsample_first_octave: double the image for the first octave (Lowe 2004 sec. 3.3).
+        backend: OpenCV or pycolmap.
+    """
+
+    contrast_threshold: float = 0.03
+    edge_threshold: float = 10.0
+    n_octave_layers: int = 3
+    sigma: float = 1.6
+    max_features: int = 0
+    upsample_first_octave: bool = True
+    backend: SiftBackend = SiftBackend.OPENCV
+
+    def __post_init__(self) -> None:
+        if self.contrast_threshold < 0 or self.edge_threshold <= 1.0:
+            raise ConfigError("SiftConfig: contrast_threshold >= 0 and edge_threshold > 1")
+        if self.n_octave_layers < 1 or self.sigma <= 0 or self.max_features < 0:
+            raise ConfigError("SiftConfig: n_octave_layers >= 1, sigma > 0, max_features >= 0")
+
+
+#: Lowe (2004): C = 0.03, R = 10.
+LOWE = SiftConfig()
+#: Thesis 4.1.2: on omnidirectional images keep Lowe's rejection rate with R ~ 2. The contrast
+#: threshold is lowered to 0.02 so that the ring (a third of the pixels of a perspective image
+#: of the same size, blurred by the mirror) still yields several hundred features.
+OMNI_THESIS = SiftConfig(contrast_threshold=0.02, edge_threshold=2.0)
+SIFT_PRESETS: dict[str, SiftConfig] = {"lowe": LOWE, "omni-thesis": OMNI_THESIS}
+
+
+@dataclass(frozen=True, slots=True)
+class GroupConfig:
+    """Feature groups, the thesis's "objects" (4.1.3, after Jung 2004).
+
+    Two keypoints are linked when they are close in the image **and** of similar contrast;
+    a group is a connected component of links.
+
+    Attributes:
+        distance_px: link keypoints closer than ``max(distance_px, scale_factor * size)`` [px]
+            (thesis Fig. 4.5 uses 3 px on a 2-megapixel image).
+        scale_factor: multiple of the larger keypoint diameter that also links keypoints.
+        contrast_ratio: link only if max(c_i, c_j) / min(c_i, c_j) <= this (c = |D(x)|).
+        min_size: groups with fewer members are discarded (their features are not used).
+    """
+
+    distance_px: float = 12.0
+    scale_factor: float = 1.5
+    contrast_ratio: float = 3.0
+    min_size: int = 3
+
+    def __post_init__(self) -> None:
+        if self.distance_px < 0 or self.scale_factor < 0 or self.contrast_ratio < 1:
+            raise ConfigError("GroupConfig: distances >= 0 and contrast_ratio >= 1")
+        if self.min_size < 1:
+            raise ConfigError("GroupConfig.min_size must be >= 1")
+
+
+@dataclass(frozen=True, slots=True)
+class MatchConfig:
+    """Descriptor matching (thesis 4.2).
+
+    Attributes:
+        ratio: Lowe's ratio test: accept when d1 < ratio * d2.
+        flann_trees: randomised kd-trees of the FLANN index over the map (the BBF search).
+        flann_checks: leaves visited per query (more = closer to exact).
+        min_object_matches: object-level validation: a group's matches are accepted only if
+            at least this many of its features match (Lowe: 3 features recognise an object).
+        min_object_fraction: ... and at least this fraction of the object's live features
+            (thesis 4.2). 0 by default: objects grow by absorbing features over time and a
+            viewpoint sees only part of one, so the count alone (Lowe's rule) is used.
+    """
+
+    ratio: float = 0.8
+    flann_trees: int = 4
+    flann_checks: int = 64
+    min_object_matches: int = 3
+    min_object_fraction: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not 0 < self.ratio <= 1:
+            raise ConfigError("MatchConfig.ratio must be in (0, 1]")
+        if self.flann_trees < 1 or self.flann_checks < 1 or self.min_object_matches < 1:
+            raise ConfigError("MatchConfig: flann_trees, flann_checks, min_object_matches >= 1")
+        if not 0 <= self.min_object_fraction <= 1:
+            raise ConfigError("MatchConfig.min_object_fraction must be in [0, 1]")
+
+
+@dataclass(frozen=True, slots=True)
+class VerificationConfig:
+    """RANSAC on bearing vectors (essential matrix of a central camera).
+
+    Attributes:
+        threshold_rad: inlier threshold on the angular epipolar error [rad].
+        confidence: stop when the probability of having drawn an all-inlier sample reaches it.
+        max_iterations: RANSAC iteration cap.
+        min_inliers: fewer verified inliers than this reject the whole frame pair.
+        min_baseline_m: below this odometry baseline the epipolar geometry is degenerate and
+            the pure-rotation model ``f1 = R f2`` is verified instead.
+        prior_rotation_tol_rad: a model whose rotation differs from the odometry prior's by
+            more than this is rejected (the prior seeds and guards the search).
+        enabled: False skips verification (every ratio-test match is accepted).
+    """
+
+    threshold_rad: float = 0.004
+    confidence: float = 0.999
+    max_iterations: int = 300
+    min_inliers: int = 10
+    min_baseline_m: float = 0.02
+    prior_rotation_tol_rad: float = 0.35
+    enabled: bool = True
+
+    def __post_init__(self) -> None:
+        if self.threshold_rad <= 0 or not 0 < self.confidence < 1:
+            raise ConfigError("VerificationConfig: threshold_rad > 0 and confidence in (0, 1)")
+        if self.max_iterations < 1 or self.min_inliers < 8:
+            raise ConfigError("VerificationConfig: max_iterations >= 1 and min_inliers >= 8")
+
+
+@dataclass(frozen=True, slots=True)
+class TrackConfig:
+    """Landmark tracks: stable ids, re-recognition against the map, pruning (thesis 4.2).
+
+    Attributes:
+        window_images: features are first matched against the tracks seen in the last this
+            many processed images (1 = the previous image only; more bridges short gaps).
+        relocalise: match the features not tracked from the previous image against the
+            descriptors of every landmark of the map (this is what closes loops).
+        young_images: tracks started within this many images are still matched against the
+            map, and merged into the old landmark they turn out to be.
+        relocalise_threshold_scale: re-recognised matches are verified with the inlier
+            threshold times this (wider viewpoint changes move keypoints by more pixels).
+        map_min_sightings: only tracks seen at least this often enter the map index.
+        map_rebuild_every: rebuild the FLANN index of the map every this many processed images.
+        max_reference_images: candidate matches are verified against at most this many
+            earlier images (those that saw most of the candidate landmarks).
+        prune_after_failures: a feature of a recognised object that failed to match this many
+            times in a row is removed from the map (thesis 4.2).
+        min_track_length: tracks with fewer sightings are dropped from the log at the end;
+            3 because a bearing-only landmark needs 3 sightings to be initialised (DESIGN.md,
+            "Landmark insertion").
+        sigma_px: pixel noise turned into each bearing's angular sigma [px].
+    """
+
+    window_images: int = 3
+    relocalise: bool = True
+    young_images: int = 10
+    relocalise_threshold_scale: float = 1.0
+    map_min_sightings: int = 2
+    map_rebuild_every: int = 5
+    max_reference_images: int = 8
+    prune_after_failures: int = 5
+    min_track_length: int = 3
+    sigma_px: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.map_min_sightings < 1 or self.map_rebuild_every < 1:
+            raise ConfigError("TrackConfig: map_min_sightings and map_rebuild_every >= 1")
+        if self.max_reference_images < 1 or self.prune_after_failures < 1:
+            raise ConfigError("TrackConfig: max_reference_images, prune_after_failures >= 1")
+        if self.window_images < 1:
+            raise ConfigError("TrackConfig.window_images must be >= 1")
+        if self.min_track_length < 1 or self.sigma_px <= 0:
+            raise ConfigError("TrackConfig: min_track_length >= 1 and sigma_px > 0")
+
+
+@dataclass(frozen=True, slots=True)
+class ScheduleConfig:
+    """Asynchronous processing (thesis 4.5): odometry flows every frame, images when scheduled.
+
+    Attributes:
+        mode: every k-th image or every d metres of odometry.
+        every_k: process every k-th image (mode EVERY_K).
+        every_m: process the first image after this odometry distance (mode EVERY_D);
+            Barra & Costa use 0.375 m.
+    """
+
+    mode: ScheduleMode = ScheduleMode.EVERY_K
+    every_k: int = 1
+    every_m: float = 0.375
+
+    def __post_init__(self) -> None:
+        if self.every_k < 1 or self.every_m < 0:
+            raise ConfigError("ScheduleConfig: every_k >= 1 and every_m >= 0")
+
+
+@dataclass(frozen=True, slots=True)
+class VerticalEdgeConfig:
+    """Vertical-line extraction (Barra & Costa sec. 2).
+
+    Attributes:
+        enabled: extract vertical lines on processed images.
+        azimuth_bins: angular resolution of the omni radial-edge histogram (bins over 360 deg).
+        min_gradient: minimum gradient magnitude of an edge pixel (0-255 grey levels per px).
+        max_direction_error_rad: an edge pixel's gradient must be within this of tangential
+            (omni) or horizontal (perspective).
+        min_support: a line needs at least this fraction of the radial (or vertical) extent.
+        profile_half_width: n of the PMC profile (W = 2n + 1 samples across the line).
+        profile_step_rad: angular spacing of PMC samples (omni) [rad]; perspective: 1 px.
+        sigma_bearing_rad: bearing std reported with each line [rad].
+    """
+
+    enabled: bool = False
+    azimuth_bins: int = 720
+    min_gradient: float = 20.0
+    max_direction_error_rad: float = 0.3
+    min_support: float = 0.3
+    profile_half_width: int = 5
+    profile_step_rad: float = 0.004
+    sigma_bearing_rad: float = 0.005
+
+    def __post_init__(self) -> None:
+        if self.azimuth_bins < 36 or self.profile_half_width < 1 or self.min_support <= 0:
+            raise ConfigError("VerticalEdgeConfig: azimuth_bins >= 36, profile_half_width >= 1")
+
+
+@dataclass(frozen=True, slots=True)
+class LaserLandmarkConfig:
+    """Laser landmarks (SLAM for Dummies, "landmark extraction").
+
+    Attributes:
+        enabled: extract landmarks when the sequence has scans.
+        spike_jump_m: a beam whose range is this much shorter than both neighbours' is a spike.
+        spike_max_beams: runs of up to this many beams standing out count as one spike.
+        max_valid_range_m: ranges beyond are invalid (SICK: 8.1 m); None = sensor maximum.
+        ransac_trials: N, attempts to find lines.
+        ransac_samples: S, points sampled around a random beam.
+        ransac_window_rad: D, the sample window [rad].
+        ransac_max_distance_m: X, a point within this distance of a line supports it.
+        ransac_consensus: C, minimum support of a line.
+        sigma_range_fraction: range std as a fraction of the range (1 %).
+        sigma_bearing_rad: bearing std (1 deg).
+    """
+
+    enabled: bool = True
+    spike_jump_m: float = 0.5
+    spike_max_beams: int = 6
+    max_valid_range_m: float | None = 8.1
+    ransac_trials: int = 100
+    ransac_samples: int = 6
+    ransac_window_rad: float = 0.17
+    ransac_max_distance_m: float = 0.05
+    ransac_consensus: int = 30
+    sigma_range_fraction: float = 0.01
+    sigma_bearing_rad: float = 0.0175
+
+    def __post_init__(self) -> None:
+        if self.ransac_samples < 2 or self.ransac_consensus < self.ransac_samples:
+            raise ConfigError("LaserLandmarkConfig: samples >= 2 and consensus >= samples")
+
+
+@dataclass(frozen=True, slots=True)
+class FrontendConfig:
+    """Everything the front end does, in one hashable record (see ``config_hash``)."""
+
+    sift: SiftConfig = OMNI_THESIS
+    groups: GroupConfig = field(default_factory=GroupConfig)
+    matching: MatchConfig = field(default_factory=MatchConfig)
+    verification: VerificationConfig = field(default_factory=VerificationConfig)
+    tracks: TrackConfig = field(default_factory=TrackConfig)
+    schedule: ScheduleConfig = field(default_factory=ScheduleConfig)
+    vertical_edges: VerticalEdgeConfig = field(default_factory=VerticalEdgeConfig)
+    laser: LaserLandmarkConfig = field(default_factory=LaserLandmarkConfig)
+
+
+def config_to_dict(config: object) -> dict[str, Any]:
+    """Plain-Python form of a (nested) config dataclass; enums become their values."""
+
+    def plain(value: object) -> object:
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            return {f.name: plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+        if isinstance(value, enum.Enum):
+            return value.value
+        return value
+
+    out = plain(config)
+    assert isinstance(out, dict)
+    return out
+
+
+def config_hash(config: FrontendConfig) -> str:
+    """16 hex digits of SHA-256 over the canonical JSON of the configuration."""
+    text = json.dumps(config_to_dict(config), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _build(cls: type, doc: object, where: str) -> object:
+    """Instantiate config dataclass ``cls`` from a mapping, converting nested records/enums."""
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{where} must be a mapping, got {type(doc).__name__}")
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(doc) - names)
+    if unknown:
+        raise ConfigError(f"{where}: unknown key(s) {', '.join(unknown)}")
+    kwargs: dict[str, object] = {}
+    for key, value in doc.items():
+        hint = hints[key]
+        if dataclasses.is_dataclass(hint):
+            kwargs[key] = _build(hint, value, f"{where}.{key}")
+        elif isinstance(hint, type) and issubclass(hint, enum.Enum):
+            try:
+                kwargs[key] = hint(value)
+            except ValueError as exc:
+                options = ", ".join(m.value for m in hint)
+                raise ConfigError(f"{where}.{key}: {value!r} is not one of {options}") from exc
+        elif hint is float and isinstance(value, int) and not isinstance(value, bool):
+            kwargs[key] = float(value)
+        else:
+            kwargs[key] = value
+    return cls(**kwargs)
+
+
+def frontend_config_from_dict(doc: dict[str, Any] | None) -> FrontendConfig:
+    """Merge overrides onto the defaults.
+
+    ``sift`` may also be a preset name (``"lowe"``, ``"omni-thesis"``) or a mapping with a
+    ``preset`` key plus overrides.
+
+    Raises:
+        ConfigError: unknown keys, bad enum values or out-of-range values.
+    """
+    doc = dict(doc or {})
+    sift = doc.pop("sift", None)
+    base = FrontendConfig()
+    if isinstance(sift, str) or (isinstance(sift, dict) and "preset" in sift):
+        overrides = {} if isinstance(sift, str) else dict(sift)
+        name = sift if isinstance(sift, str) else overrides.pop("preset")
+        if name not in SIFT_PRESETS:
+            raise ConfigError(f"unknown SIFT preset {name!r}; known: {', '.join(SIFT_PRESETS)}")
+        merged = config_to_dict(SIFT_PRESETS[name]) | overrides
+        sift_config = _build(SiftConfig, merged, "sift")
+    elif sift is not None:
+        sift_config = _build(SiftConfig, config_to_dict(base.sift) | dict(sift), "sift")
+    else:
+        sift_config = base.sift
+    config = _build(FrontendConfig, doc, "frontend")
+    assert isinstance(config, FrontendConfig)
+    return dataclasses.replace(config, sift=sift_config)

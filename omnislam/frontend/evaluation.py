@@ -1,0 +1,205 @@
+"""Quality of an ObservationLog against per-pixel ground truth (synthetic renders).
+
+The renderer knows the world point every pixel sees, so every sighting of the log has a true
+3-D point. A track is correct when all its sightings see the same point: **track precision**
+is the fraction of sighting pairs within one track whose true points lie within ``tol_m`` of
+each other. **Re-association after a return**: a sighting whose true point was last seen
+``min_gap_s`` or more before, and first seen ``min_age_s`` or more before, is a landmark
+"visible again"; it is re-associated when its track id is one of the ids that point had.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from omnislam.frontend.observation_log import ObservationLog
+
+#: two sightings of one world point see true points closer than this [m]
+SAME_POINT_M = 0.05
+
+
+@dataclass(frozen=True, slots=True)
+class Sightings:
+    """Every sighting of a log, flattened.
+
+    Attributes:
+        frame: (S,) frame index; stamp_s: (S,) time [s]; track: (S,) track id;
+        points_w: (S, 3) true world point [m] (NaN: the pixel sees nothing).
+    """
+
+    frame: np.ndarray
+    stamp_s: np.ndarray
+    track: np.ndarray
+    points_w: np.ndarray
+
+
+def point_at_pixels(points_w: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+    """True world points at sub-pixel keypoint positions.
+
+    Bilinear interpolation of the per-pixel map between the four surrounding pixel centres
+    when they see one surface patch (all within ``SAME_POINT_M`` of each other); the nearest
+    pixel's point across depth discontinuities.
+
+    Args:
+        points_w: (H, W, 3) world point of every pixel centre [m], NaN where none.
+        pixels: (K, 2) ``[u, v]`` [px].
+
+    Returns:
+        (K, 3) world points [m] (NaN where unknown).
+    """
+    h, w = points_w.shape[:2]
+    u = np.clip(pixels[:, 0], 0, w - 1)
+    v = np.clip(pixels[:, 1], 0, h - 1)
+    u0 = np.clip(np.floor(u).astype(int), 0, w - 2)
+    v0 = np.clip(np.floor(v).astype(int), 0, h - 2)
+    a, b = (u - u0)[:, None], (v - v0)[:, None]
+    c00, c10 = points_w[v0, u0], points_w[v0, u0 + 1]
+    c01, c11 = points_w[v0 + 1, u0], points_w[v0 + 1, u0 + 1]
+    corners = np.stack([c00, c10, c01, c11], axis=1).astype(float)
+    bilinear = (1 - a) * (1 - b) * c00 + a * (1 - b) * c10 + (1 - a) * b * c01 + a * b * c11
+    spread = np.max(np.linalg.norm(corners - corners.mean(axis=1, keepdims=True), axis=2),
+                    axis=1)
+    smooth = np.all(np.isfinite(corners), axis=(1, 2)) & (spread < SAME_POINT_M)
+    nearest = points_w[np.round(v).astype(int), np.round(u).astype(int)].astype(float)
+    return np.where(smooth[:, None], bilinear, nearest)
+
+
+def true_sightings(
+    log: ObservationLog, points_w_of: Callable[[int], np.ndarray]
+) -> Sightings:
+    """Look up the true world point of every sighting.
+
+    Args:
+        log: the log (its ``pixels`` locate the keypoints).
+        points_w_of: ``points_w_of(frame)`` -> (H, W, 3) world point of each pixel, NaN none.
+    """
+    frames, stamps, tracks, points = [], [], [], []
+    for frame, px in zip(log.frames, log.pixels, strict=True):
+        if frame.bearings is None or px is None or len(frame.bearings) == 0:
+            continue
+        k = len(frame.bearings)
+        frames.append(np.full(k, frame.index))
+        stamps.append(np.full(k, frame.stamp_s))
+        tracks.append(frame.bearings.landmark_ids)
+        points.append(point_at_pixels(points_w_of(frame.index), px))
+    if not frames:
+        return Sightings(np.zeros(0, int), np.zeros(0), np.zeros(0, int), np.zeros((0, 3)))
+    return Sightings(np.concatenate(frames), np.concatenate(stamps), np.concatenate(tracks),
+                     np.concatenate(points))
+
+
+def track_precision(s: Sightings, tol_m: float = SAME_POINT_M) -> tuple[float, int]:
+    """Fraction of same-track sighting pairs whose true points are within ``tol_m``.
+
+    Returns:
+        ``(precision, pairs)``; pairs with an unknown true point are not counted.
+    """
+    good = total = 0
+    known = np.all(np.isfinite(s.points_w), axis=1)
+    order = np.argsort(s.track[known], kind="stable")
+    tracks = s.track[known][order]
+    points = s.points_w[known][order]
+    bounds = np.flatnonzero(np.diff(tracks)) + 1
+    for p in np.split(points, bounds):
+        if p.shape[0] < 2:
+            continue
+        d = np.linalg.norm(p[:, None, :] - p[None, :, :], axis=2)
+        iu = np.triu_indices(p.shape[0], 1)
+        good += int(np.sum(d[iu] <= tol_m))
+        total += iu[0].shape[0]
+    return (good / total if total else 1.0), total
+
+
+def track_lengths(log: ObservationLog) -> np.ndarray:
+    """(T,) number of sightings of every track id in the log."""
+    ids = [f.bearings.landmark_ids for f in log.frames if f.bearings is not None]
+    if not ids:
+        return np.zeros(0, dtype=np.int64)
+    _, counts = np.unique(np.concatenate(ids), return_counts=True)
+    return counts
+
+
+def sightings_per_image(log: ObservationLog) -> np.ndarray:
+    """(M,) number of bearings on every processed image."""
+    return np.array([len(f.bearings) for f in log.frames if f.bearings is not None])
+
+
+def reassociation_rate(
+    s: Sightings, min_age_s: float = 60.0, min_gap_s: float = 20.0, tol_m: float = SAME_POINT_M
+) -> tuple[float, int]:
+    """Fraction of landmarks visible again after a return that keep their original track id.
+
+    A sighting counts as a return when its true point (within ``tol_m``) was first seen at
+    least ``min_age_s`` before and not seen during the last ``min_gap_s``; it is
+    re-associated when its track id is one the point had before.
+
+    Returns:
+        ``(rate, returns)``.
+    """
+    known = np.all(np.isfinite(s.points_w), axis=1)
+    idx = np.flatnonzero(known)
+    if idx.shape[0] == 0:
+        return 0.0, 0
+    tree = cKDTree(s.points_w[idx])
+    neighbours = tree.query_ball_point(s.points_w[idx], tol_m)
+    good = returns = 0
+    for a, near in enumerate(neighbours):
+        near = idx[np.asarray(near, dtype=np.int64)]
+        i = idx[a]
+        earlier = near[s.stamp_s[near] < s.stamp_s[i]]
+        if earlier.shape[0] == 0:
+            continue
+        if s.stamp_s[i] - s.stamp_s[earlier].min() < min_age_s:
+            continue
+        if s.stamp_s[i] - s.stamp_s[earlier].max() < min_gap_s:
+            continue
+        returns += 1
+        good += int(s.track[i] in set(s.track[earlier].tolist()))
+    return (good / returns if returns else 0.0), returns
+
+
+def visible_line_bearings(
+    lines_w: np.ndarray, wTr: np.ndarray, rig: object, points_w: np.ndarray,
+    tol_m: float = 0.12,
+) -> np.ndarray:
+    """True robot-frame bearings of the vertical-line landmarks visible in one image.
+
+    A line (x, y) is visible when its point at the camera's height projects into the usable
+    image and the renderer's world point at that pixel (or up to 3 px aside) lies within
+    ``tol_m`` of the line (it is not hidden behind something).
+
+    Args:
+        lines_w: (L, 2) line positions on the floor [m].
+        wTr: (4, 4) true robot pose.
+        rig: the camera rig.
+        points_w: (H, W, 3) the renderer's world point of every pixel.
+    """
+    R, t = wTr[:3, :3], wTr[:3, 3]
+    viewpoint_r = rig.viewpoint_r  # type: ignore[attr-defined]
+    out = []
+    for x, y in np.asarray(lines_w, dtype=float).reshape(-1, 2):
+        p_w = np.array([x, y, (R @ viewpoint_r + t)[2]])
+        p_r = (p_w - t) @ R
+        pixels, valid = rig.project_r(p_r[None])  # type: ignore[attr-defined]
+        if not valid[0] or not rig.camera.in_mask(pixels)[0]:  # type: ignore[attr-defined]
+            continue
+        u, v = np.round(pixels[0]).astype(int)
+        cols = np.clip(u + np.arange(-3, 4), 0, points_w.shape[1] - 1)
+        seen = points_w[min(max(v, 0), points_w.shape[0] - 1), cols]
+        near = np.hypot(seen[:, 0] - x, seen[:, 1] - y) < tol_m
+        if np.any(near):
+            d_r = p_r - viewpoint_r
+            out.append(np.arctan2(d_r[1], d_r[0]))
+    return np.array(out)
+
+
+def bearing_errors(detected_rad: np.ndarray, true_rad: np.ndarray) -> np.ndarray:
+    """(T,) angular distance from each true bearing to the nearest detected one [rad]."""
+    if np.asarray(detected_rad).size == 0:
+        return np.full(np.asarray(true_rad).shape, np.inf)
+    d = np.asarray(detected_rad)[None, :] - np.asarray(true_rad)[:, None]
+    return np.abs((d + np.pi) % (2 * np.pi) - np.pi).min(axis=1)

@@ -1,0 +1,154 @@
+"""Point landmarks from a planar laser scan: spikes and RANSAC lines (SLAM for Dummies, sec.
+"Landmark extraction"), as range-bearing sightings for the EKF-SLAM baseline.
+
+- **Spikes**: a beam (or a run of a few beams) whose range is shorter than both neighbours' by
+  more than a jump (0.5 m in the tutorial) sees something standing out (a pole, a table leg);
+  the sighting is the run's nearest range at its mean bearing.
+- **RANSAC lines**: repeatedly pick a random unassigned reading, sample S readings within
+  D radians of it, fit a line by least squares, collect every unassigned reading within X of
+  the line; with at least C supporters the line is refitted to all of them, kept, and its
+  readings removed (N attempts at most). A line becomes a point landmark: the **foot of the
+  perpendicular** from a fixed world point (the origin of the odometry frame, through the
+  dead-reckoning pose) to the line, as the tutorial does with its estimated pose.
+
+Readings beyond the sensor's valid range (8.1 m for the tutorial's SICK) are ignored.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from omnislam.core.types import UNKNOWN_ID, RangeBearing
+from omnislam.frontend.config import LaserLandmarkConfig
+
+#: smallest range standard deviation reported [m]
+MIN_SIGMA_RANGE_M = 0.01
+
+
+def find_spikes(
+    ranges_m: np.ndarray, valid: np.ndarray, jump_m: float, max_beams: int
+) -> list[np.ndarray]:
+    """Runs of at most ``max_beams`` valid beams closer than both flanking beams by ``jump_m``.
+
+    The tutorial's spike is one beam standing out from its neighbours; a pole a few beams wide
+    is a short run bounded by a range drop on its left and a range rise on its right.
+
+    Returns:
+        One array of beam indices per spike.
+    """
+    r = np.where(valid, ranges_m, np.inf)
+    n = r.shape[0]
+    with np.errstate(invalid="ignore"):  # inf - inf next to invalid beams
+        drop = np.flatnonzero(r[:-1] - r[1:] > jump_m) + 1  # run starts at i
+        rise = np.flatnonzero(r[1:] - r[:-1] > jump_m)  # run ends at j
+    spikes = []
+    for start in drop:
+        ends = rise[(rise >= start) & (rise < start + max_beams)]
+        if ends.size == 0:
+            continue
+        run = np.arange(start, ends[0] + 1)
+        if np.all(valid[run]) and np.all(r[run].max() + jump_m < r[[start - 1, min(ends[0] + 1,
+                                                                                    n - 1)]]):
+            spikes.append(run)
+    return spikes
+
+
+def fit_line(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """Total-least-squares line ``n . p = d`` through (M, 2) points; returns (unit n, d)."""
+    centre = points.mean(axis=0)
+    _, _, Vt = np.linalg.svd(points - centre)
+    normal = Vt[-1]
+    return normal, float(normal @ centre)
+
+
+def ransac_lines(
+    points: np.ndarray, angles_rad: np.ndarray, config: LaserLandmarkConfig,
+    rng: np.random.Generator,
+) -> list[tuple[np.ndarray, float]]:
+    """Lines ``(n, d)`` found by the tutorial's RANSAC among (M, 2) scan points.
+
+    Args:
+        points: (M, 2) valid scan points in the sensor frame [m].
+        angles_rad: (M,) their beam angles.
+        config: N (trials), S (samples), D (window), X (distance), C (consensus).
+        rng: random generator.
+    """
+    free = np.ones(points.shape[0], dtype=bool)
+    lines: list[tuple[np.ndarray, float]] = []
+    for _ in range(config.ransac_trials):
+        available = np.flatnonzero(free)
+        if available.shape[0] < config.ransac_consensus:
+            break
+        centre = available[rng.integers(available.shape[0])]
+        window = available[np.abs(angles_rad[available] - angles_rad[centre])
+                           <= config.ransac_window_rad]
+        if window.shape[0] < config.ransac_samples:
+            continue
+        sample = rng.choice(window, size=config.ransac_samples, replace=False)
+        normal, d = fit_line(points[sample])
+        support = available[np.abs(points[available] @ normal - d)
+                            <= config.ransac_max_distance_m]
+        if support.shape[0] < config.ransac_consensus:
+            continue
+        normal, d = fit_line(points[support])
+        support = available[np.abs(points[available] @ normal - d)
+                            <= config.ransac_max_distance_m]
+        lines.append((normal, d))
+        free[support] = False
+    return lines
+
+
+def extract_laser_landmarks(
+    angles_rad: np.ndarray,
+    ranges_m: np.ndarray,
+    max_range_m: float,
+    config: LaserLandmarkConfig,
+    rng: np.random.Generator,
+    pose_dr: np.ndarray | None = None,
+) -> RangeBearing:
+    """Spike and line landmarks of one scan as range-bearing sightings (ids unknown).
+
+    Args:
+        angles_rad: (B,) beam angles in the robot frame (counter-clockwise from the heading).
+        ranges_m: (B,) ranges [m]; ``>= max_range_m`` or NaN means no return.
+        max_range_m: the sensor's maximum range.
+        config: thresholds.
+        rng: random generator for RANSAC.
+        pose_dr: (3,) dead-reckoning pose [x, y, theta] used to drop the perpendicular from
+            the odometry frame's origin (None: from the sensor itself).
+
+    Returns:
+        Sightings with ``UNKNOWN_ID``: spikes first, then line feet.
+    """
+    limit = max_range_m if config.max_valid_range_m is None else min(
+        max_range_m, config.max_valid_range_m)
+    ranges = np.asarray(ranges_m, dtype=float)
+    with np.errstate(invalid="ignore"):
+        valid = np.isfinite(ranges) & (ranges < limit) & (ranges > 0)
+    angles_rad = np.asarray(angles_rad, dtype=float)
+    spikes = find_spikes(ranges, valid, config.spike_jump_m, config.spike_max_beams)
+    r_out = [float(ranges[run].min()) for run in spikes]
+    b_out = [float(angles_rad[run].mean()) for run in spikes]
+    keep = valid.copy()
+    for run in spikes:
+        keep[run] = False
+    pts = np.column_stack([ranges[keep] * np.cos(angles_rad[keep]),
+                           ranges[keep] * np.sin(angles_rad[keep])])
+    if pose_dr is None:
+        origin_r = np.zeros(2)
+    else:  # the odometry frame's origin seen from the robot
+        x, y, th = pose_dr
+        c, s = np.cos(th), np.sin(th)
+        origin_r = np.array([-c * x - s * y, s * x - c * y])
+    for normal, d in ransac_lines(pts, angles_rad[keep], config, rng):
+        foot = origin_r - (normal @ origin_r - d) * normal
+        r_out.append(float(np.hypot(*foot)))
+        b_out.append(float(np.arctan2(foot[1], foot[0])))
+    r = np.array(r_out, dtype=float)
+    return RangeBearing(
+        landmark_ids=np.full(r.shape[0], UNKNOWN_ID, dtype=np.int64),
+        ranges_m=r,
+        bearings_rad=np.array(b_out, dtype=float),
+        sigma_range_m=np.maximum(config.sigma_range_fraction * r, MIN_SIGMA_RANGE_M),
+        sigma_bearing_rad=np.full(r.shape[0], config.sigma_bearing_rad),
+    )

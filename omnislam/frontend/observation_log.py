@@ -1,0 +1,276 @@
+"""The ObservationLog: what the front end saw, frame by frame, cached on disk for every estimator.
+
+File format (``.npz``, compressed, ``allow_pickle=False``): a ``meta`` JSON string with
+``format``, ``version``, ``dataset_id``, ``config_hash``, ``config`` and ``stats``, and flat
+arrays per record type with CSR offsets (``*_offsets`` of length N + 1, ``*_present`` masks
+telling a frame with no record from one with an empty record). A log is keyed by the dataset
+fingerprint and the configuration hash: ``load_observation_log`` refuses a file whose key
+differs from the expected one (``StaleLogError``), so a changed configuration or a re-rendered
+dataset never reuses a stale cache.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from omnislam.core.types import Bearings, FrameInput, Odometry, RangeBearing, VerticalLines
+from omnislam.errors import DataError
+
+LOG_FORMAT = "omnislam-observation-log"
+#: bump when the layout changes; older files are refused
+LOG_FORMAT_VERSION = 1
+
+
+class StaleLogError(DataError):
+    """A cached log was built from another dataset or with another configuration."""
+
+
+@dataclass(frozen=True, slots=True)
+class ObservationLog:
+    """One FrameInput per frame of a Sequence, plus what is needed to audit the front end.
+
+    Attributes:
+        dataset_id: fingerprint of the sequence (``dataset_fingerprint``).
+        config_hash: hash of the front-end configuration (``config.config_hash``).
+        frames: one FrameInput per frame (odometry always; bearings on processed images).
+        pixels: per frame, (K, 2) image positions [px] of the bearings' keypoints (None on
+            frames without bearings); aligned with ``frames[i].bearings``.
+        config: the configuration as plain data (for reports).
+        stats: counts and seconds per stage.
+    """
+
+    dataset_id: str
+    config_hash: str
+    frames: tuple[FrameInput, ...]
+    pixels: tuple[np.ndarray | None, ...]
+    config: Mapping[str, Any] = field(default_factory=dict)
+    stats: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if len(self.pixels) != len(self.frames):
+            raise DataError("ObservationLog: one pixels entry per frame is required")
+        for frame, px in zip(self.frames, self.pixels, strict=True):
+            k = 0 if frame.bearings is None else len(frame.bearings)
+            if (px is None) != (frame.bearings is None) or (px is not None and px.shape != (k, 2)):
+                raise DataError(f"ObservationLog: pixels of frame {frame.index} do not match")
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    @property
+    def image_frames(self) -> np.ndarray:
+        """(M,) indices of the frames with bearings."""
+        return np.array([f.index for f in self.frames if f.bearings is not None], dtype=np.int64)
+
+
+def dataset_fingerprint(sequence: Any) -> str:
+    """``name-<12 hex>``: the sequence's name and a hash of its stamps, odometry and images.
+
+    Args:
+        sequence: an ``omnislam.datasets.Sequence``.
+    """
+    digest = hashlib.sha256()
+    for array in (sequence.stamps_s, sequence.odometry_r, sequence.image_frames):
+        digest.update(np.ascontiguousarray(array).tobytes())
+    digest.update(str(sequence.laser is not None).encode())
+    digest.update(str(sequence.range_bearing is not None).encode())
+    calibration = getattr(sequence.calibration, "to_dict", None)
+    if calibration is not None:
+        digest.update(json.dumps(calibration(), sort_keys=True, default=str).encode())
+    return f"{sequence.name}-{digest.hexdigest()[:12]}"
+
+
+# --- writing --------------------------------------------------------------------------------
+def _csr(records: list[Any], fields: dict[str, tuple[str, tuple[int, ...], type]],
+         prefix: str) -> dict[str, np.ndarray]:
+    """Concatenate per-frame records into flat arrays + offsets + a presence mask."""
+    present = np.array([r is not None for r in records], dtype=bool)
+    counts = [0 if r is None else len(r) for r in records]
+    out = {
+        f"{prefix}_present": present,
+        f"{prefix}_offsets": np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+    }
+    for key, (attr, tail, dtype) in fields.items():
+        chunks = [np.asarray(getattr(r, attr) if attr else r, dtype=dtype).reshape(-1, *tail)
+                  for r in records if r is not None]
+        out[f"{prefix}_{key}"] = (np.concatenate(chunks) if chunks
+                                  else np.zeros((0, *tail), dtype=dtype))
+    return out
+
+
+_BEARINGS = {
+    "ids": ("landmark_ids", (), np.int64),
+    "vectors": ("unit_vectors_r", (3,), float),
+    "sigmas": ("sigmas_rad", (), float),
+}
+_RANGE_BEARING = {
+    "ids": ("landmark_ids", (), np.int64),
+    "ranges": ("ranges_m", (), float),
+    "bearings": ("bearings_rad", (), float),
+    "sigma_range": ("sigma_range_m", (), float),
+    "sigma_bearing": ("sigma_bearing_rad", (), float),
+}
+_LINES = {
+    "bearings": ("bearings_rad", (), float),
+    "sigma": ("sigma_bearing_rad", (), float),
+    "means_left": ("means_left", (3,), float),
+    "means_right": ("means_right", (3,), float),
+    "ids": ("landmark_ids", (), np.int64),
+}
+
+
+def save_observation_log(log: ObservationLog, path: str | Path) -> None:
+    """Write ``log`` to ``path`` (compressed npz), atomically (temporary file + rename)."""
+    path = Path(path)
+    frames = log.frames
+    arrays: dict[str, np.ndarray] = {
+        "index": np.array([f.index for f in frames], dtype=np.int64),
+        "stamps_s": np.array([f.odometry.stamp_s for f in frames], dtype=float),
+        "odometry": np.array([f.odometry.delta for f in frames], dtype=float).reshape(-1, 3),
+    }
+    arrays |= _csr([f.bearings for f in frames], _BEARINGS, "bearings")
+    arrays |= _csr(list(log.pixels), {"pixels": ("", (2,), float)}, "pixels")
+    arrays |= _csr([f.range_bearing for f in frames], _RANGE_BEARING, "rb")
+    lines = [f.vertical_lines for f in frames]
+    arrays |= _csr(lines, _LINES, "lines")
+    width = next((v.profiles.shape[2] for v in lines if v is not None and len(v)), 1)
+    arrays["lines_profiles"] = (
+        np.concatenate([v.profiles for v in lines if v is not None and len(v)])
+        if any(v is not None and len(v) for v in lines)
+        else np.zeros((0, 3, width))
+    )
+    meta = {
+        "format": LOG_FORMAT,
+        "version": LOG_FORMAT_VERSION,
+        "dataset_id": log.dataset_id,
+        "config_hash": log.config_hash,
+        "config": dict(log.config),
+        "stats": dict(log.stats),
+    }
+    arrays["meta"] = np.array(json.dumps(meta, sort_keys=True))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(suffix=".npz", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            np.savez_compressed(handle, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+# --- reading --------------------------------------------------------------------------------
+def read_log_key(path: str | Path) -> tuple[str, str]:
+    """``(dataset_id, config_hash)`` of a log file without reading its arrays."""
+    return tuple(_read_meta(Path(path))[k] for k in ("dataset_id", "config_hash"))  # type: ignore[return-value]
+
+
+def _read_meta(path: Path, data: Any | None = None) -> dict[str, Any]:
+    try:
+        if data is None:
+            with np.load(path, allow_pickle=False) as npz:
+                text = str(npz["meta"])
+        else:
+            text = str(data["meta"])
+        meta = json.loads(text)
+    except (OSError, KeyError, ValueError, EOFError) as exc:
+        raise DataError(f"not an observation log: {exc}", path) from exc
+    if not isinstance(meta, dict) or meta.get("format") != LOG_FORMAT:
+        raise DataError("not an observation log", path)
+    if meta.get("version") != LOG_FORMAT_VERSION:
+        raise StaleLogError(
+            f"log format version {meta.get('version')!r}, expected {LOG_FORMAT_VERSION}", path
+        )
+    return meta
+
+
+def load_observation_log(
+    path: str | Path, *, dataset_id: str | None = None, config_hash: str | None = None
+) -> ObservationLog:
+    """Read a log, refusing it when its key differs from the expected one.
+
+    Args:
+        path: the ``.npz`` file.
+        dataset_id: expected dataset fingerprint (None: accept any).
+        config_hash: expected configuration hash (None: accept any).
+
+    Raises:
+        StaleLogError: the file was built for another dataset, configuration or format version.
+        DataError: the file is missing or malformed.
+    """
+    path = Path(path)
+    try:
+        npz = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, EOFError) as exc:
+        raise DataError(f"cannot read observation log: {exc}", path) from exc
+    with npz as data:
+        meta = _read_meta(path, data)
+        if dataset_id is not None and meta["dataset_id"] != dataset_id:
+            raise StaleLogError(
+                f"built for dataset {meta['dataset_id']}, not {dataset_id}", path
+            )
+        if config_hash is not None and meta["config_hash"] != config_hash:
+            raise StaleLogError(
+                f"built with configuration {meta['config_hash']}, not {config_hash}", path
+            )
+        try:
+            arrays = {key: data[key] for key in data.files if key != "meta"}
+            frames, pixels = _frames_from_arrays(arrays)
+        except (KeyError, ValueError, IndexError) as exc:
+            raise DataError(f"malformed observation log: {exc}", path) from exc
+    return ObservationLog(
+        dataset_id=meta["dataset_id"],
+        config_hash=meta["config_hash"],
+        frames=frames,
+        pixels=pixels,
+        config=meta.get("config", {}),
+        stats=meta.get("stats", {}),
+    )
+
+
+def _slices(arrays: dict[str, np.ndarray], prefix: str, i: int) -> slice | None:
+    if not arrays[f"{prefix}_present"][i]:
+        return None
+    offsets = arrays[f"{prefix}_offsets"]
+    return slice(int(offsets[i]), int(offsets[i + 1]))
+
+
+def _frames_from_arrays(
+    a: dict[str, np.ndarray],
+) -> tuple[tuple[FrameInput, ...], tuple[np.ndarray | None, ...]]:
+    frames: list[FrameInput] = []
+    pixels: list[np.ndarray | None] = []
+    for i, index in enumerate(a["index"]):
+        s = _slices(a, "bearings", i)
+        bearings = None if s is None else Bearings(
+            a["bearings_ids"][s], a["bearings_vectors"][s], a["bearings_sigmas"][s]
+        )
+        p = _slices(a, "pixels", i)
+        pixels.append(None if p is None else np.array(a["pixels_pixels"][p]))
+        r = _slices(a, "rb", i)
+        rb = None if r is None else RangeBearing(
+            a["rb_ids"][r], a["rb_ranges"][r], a["rb_bearings"][r], a["rb_sigma_range"][r],
+            a["rb_sigma_bearing"][r],
+        )
+        v = _slices(a, "lines", i)
+        lines = None if v is None else VerticalLines(
+            a["lines_bearings"][v], a["lines_sigma"][v], a["lines_profiles"][v],
+            a["lines_means_left"][v], a["lines_means_right"][v], a["lines_ids"][v],
+        )
+        frames.append(FrameInput(
+            index=int(index),
+            odometry=Odometry(a["odometry"][i], float(a["stamps_s"][i])),
+            bearings=bearings,
+            range_bearing=rb,
+            vertical_lines=lines,
+        ))
+    return tuple(frames), tuple(pixels)

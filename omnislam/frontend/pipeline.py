@@ -1,0 +1,251 @@
+"""Sequence -> ObservationLog: the shared front end, run once per sequence and configuration.
+
+Every frame of the Sequence becomes one FrameInput with its odometry. Images are processed
+asynchronously (thesis 4.5): only every k-th image, or the first image after d metres of
+odometry (Barra & Costa process one every 37.5 cm), go through SIFT -> groups -> tracks;
+the other frames carry odometry (and range-bearing sightings) only. Bearings are unit vectors
+in the robot frame from the camera's viewpoint with the angular sigma of their pixel
+(``CameraModel.angular_sigma``: larger towards the mirror rim, thesis eq. 4.23).
+
+Because the whole sequence is processed before any estimator runs, tracks with fewer than
+``TrackConfig.min_track_length`` sightings (features seen once, unmatched) are dropped from the
+log: no estimator can use them.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from omnislam.core.se import se2_compose
+from omnislam.core.types import Bearings, FrameInput, Odometry, RangeBearing
+from omnislam.errors import DataError
+from omnislam.frontend.config import FrontendConfig, ScheduleConfig, ScheduleMode, config_hash
+from omnislam.frontend.config import config_to_dict as _config_to_dict
+from omnislam.frontend.groups import group_features
+from omnislam.frontend.observation_log import (
+    ObservationLog,
+    StaleLogError,
+    dataset_fingerprint,
+    load_observation_log,
+    save_observation_log,
+)
+from omnislam.frontend.sift import SiftExtractor, detection_mask
+from omnislam.frontend.timing import StageClock
+from omnislam.frontend.tracks import LandmarkTracker
+
+#: default seed of the RANSAC generator when none is injected
+DEFAULT_SEED = 0
+
+
+def schedule_images(
+    image_frames: np.ndarray, odometry_r: np.ndarray, config: ScheduleConfig
+) -> np.ndarray:
+    """The frames whose images are processed.
+
+    Args:
+        image_frames: (K,) frames that have an image, increasing.
+        odometry_r: (N, 3) odometry of every frame (row i: motion from frame i-1 to i).
+        config: every k-th image, or every d metres.
+
+    Returns:
+        (M,) the subset of ``image_frames`` to process.
+    """
+    image_frames = np.asarray(image_frames, dtype=np.int64)
+    if image_frames.size == 0:
+        return image_frames
+    if config.mode is ScheduleMode.EVERY_K:
+        return image_frames[:: config.every_k]
+    travelled = np.concatenate([[0.0], np.cumsum(np.hypot(odometry_r[1:, 0],
+                                                          odometry_r[1:, 1]))])
+    chosen = [int(image_frames[0])]
+    for frame in image_frames[1:]:
+        if travelled[frame] - travelled[chosen[-1]] >= config.every_m:
+            chosen.append(int(frame))
+    return np.array(chosen, dtype=np.int64)
+
+
+def log_key(config: FrontendConfig, max_images: int | None = None) -> str:
+    """The configuration key of a log: ``config_hash``, suffixed when images were limited."""
+    key = config_hash(config)
+    return key if max_images is None else f"{key}-first{max_images}"
+
+
+def _merge_sightings(a: RangeBearing | None, b: RangeBearing | None) -> RangeBearing | None:
+    if a is None or b is None:
+        return a if b is None else b
+    return RangeBearing(
+        np.concatenate([a.landmark_ids, b.landmark_ids]),
+        np.concatenate([a.ranges_m, b.ranges_m]),
+        np.concatenate([a.bearings_rad, b.bearings_rad]),
+        np.concatenate([a.sigma_range_m, b.sigma_range_m]),
+        np.concatenate([a.sigma_bearing_rad, b.sigma_bearing_rad]),
+    )
+
+
+def run_frontend(
+    sequence: Any,
+    config: FrontendConfig | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+    max_images: int | None = None,
+    progress: bool = False,
+) -> ObservationLog:
+    """Run the front end over a Sequence.
+
+    Args:
+        sequence: an ``omnislam.datasets.Sequence`` (its ``calibration`` must be a CameraRig
+            when it has images).
+        config: the configuration (default ``FrontendConfig()``: OMNI_THESIS SIFT).
+        rng: generator for RANSAC (default: seeded with ``DEFAULT_SEED``).
+        max_images: process at most this many images (the log still has every frame).
+        progress: show a tqdm bar on stderr.
+
+    Returns:
+        The ObservationLog; ``stats`` holds counts and seconds per stage.
+    """
+    config = config if config is not None else FrontendConfig()
+    rng = rng if rng is not None else np.random.default_rng(DEFAULT_SEED)
+    n = len(sequence)
+    processed = np.zeros(0, dtype=np.int64)
+    if sequence.image_loader is not None:
+        processed = schedule_images(sequence.image_frames, sequence.odometry_r, config.schedule)
+        if max_images is not None:
+            processed = processed[:max_images]
+    rig = sequence.calibration
+    if processed.size and rig is None:
+        raise DataError(f"{sequence.name}: images without a camera calibration")
+
+    clock = StageClock()
+    raw: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
+    lines: dict[int, Any] = {}
+    if processed.size:
+        camera = rig.camera
+        mask = detection_mask(camera.mask(), (camera.height, camera.width))
+        extractor = SiftExtractor(config.sift)
+        tracker = LandmarkTracker(rig.viewpoint_r, config, rng, clock)
+        pose_dr = np.zeros(3)
+        todo = set(processed.tolist())
+        bar = None
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=int(processed.size), desc="frontend", unit="img", file=sys.stderr)
+        for i in range(n):
+            if i > 0:
+                pose_dr = se2_compose(pose_dr, sequence.odometry_r[i])
+            if i not in todo:
+                continue
+            with clock("load"):
+                image = sequence.image(i)
+            with clock("extract"):
+                features = extractor.extract(image, mask)
+            with clock("group"):
+                groups = group_features(features.pixels, features.sizes_px, features.contrast,
+                                        config.groups)
+                rays_r = rig.rays_r(features.pixels)
+            before = dict(clock.seconds)
+            start = time.perf_counter()
+            tracked = tracker.process(features.descriptors, groups, rays_r, pose_dr)
+            inner = sum(clock.seconds.get(k, 0.0) - before.get(k, 0.0) for k in clock.seconds)
+            clock.add("track", time.perf_counter() - start - inner)
+            idx = tracked.feature_index
+            raw[i] = (tracked.track_ids, rays_r[idx], features.pixels[idx],
+                      camera.angular_sigma(features.pixels[idx], config.tracks.sigma_px))
+            if config.vertical_edges.enabled:
+                from omnislam.frontend.vertical_edges import extract_vertical_lines
+
+                with clock("vertical_edges"):
+                    lines[i] = extract_vertical_lines(image, rig, config.vertical_edges)
+            if bar is not None:
+                bar.update(1)
+        if bar is not None:
+            bar.close()
+        sightings = tracker.sightings
+        raw = {i: (tracker.canonical_ids(ids), *rest) for i, (ids, *rest) in raw.items()}
+    else:
+        sightings = np.zeros(0, dtype=np.int64)
+
+    laser_sightings: dict[int, RangeBearing] = {}
+    if sequence.laser is not None and config.laser.enabled:
+        from omnislam.frontend.laser_landmarks import extract_laser_landmarks
+
+        scans = sequence.laser
+        pose = np.zeros(3)
+        with clock("laser"):
+            for i in range(n):
+                if i > 0:
+                    pose = se2_compose(pose, sequence.odometry_r[i])
+                ranges = scans.ranges_m[i]
+                if np.all(np.isnan(ranges)):
+                    continue
+                laser_sightings[i] = extract_laser_landmarks(
+                    scans.angles_rad, ranges, scans.max_range_m, config.laser, rng, pose
+                )
+
+    keep_track = sightings >= config.tracks.min_track_length
+    frames: list[FrameInput] = []
+    pixels: list[np.ndarray | None] = []
+    n_bearings = []
+    for i in range(n):
+        bearings = None
+        px = None
+        if i in raw:
+            ids, rays, pix, sigmas = raw[i]
+            ok = keep_track[ids] & np.isfinite(sigmas) & (sigmas > 0)
+            rays = rays[ok] / np.linalg.norm(rays[ok], axis=1, keepdims=True)
+            bearings = Bearings(ids[ok], rays, sigmas[ok])
+            px = pix[ok]
+            n_bearings.append(len(bearings))
+        given = sequence.range_bearing[i] if sequence.range_bearing is not None else None
+        frames.append(FrameInput(
+            index=i,
+            odometry=Odometry(sequence.odometry_r[i], sequence.stamps_s[i]),
+            bearings=bearings,
+            range_bearing=_merge_sightings(given, laser_sightings.get(i)),
+            vertical_lines=lines.get(i),
+        ))
+        pixels.append(px)
+    stats: dict[str, float] = {f"seconds_{k}": v for k, v in clock.seconds.items()}
+    stats |= {
+        "images_processed": float(len(raw)),
+        "tracks_total": float(sightings.shape[0]),
+        "tracks_kept": float(keep_track.sum()),
+        "sightings_per_image_median": float(np.median(n_bearings)) if n_bearings else 0.0,
+    }
+    return ObservationLog(
+        dataset_id=dataset_fingerprint(sequence),
+        config_hash=log_key(config, max_images),
+        frames=tuple(frames),
+        pixels=tuple(pixels),
+        config=_config_to_dict(config),
+        stats=stats,
+    )
+
+
+def cached_frontend(
+    sequence: Any,
+    path: str | Path,
+    config: FrontendConfig | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+    progress: bool = False,
+) -> ObservationLog:
+    """Load the log at ``path`` if it was built from this sequence and configuration, else
+    run the front end and write it there.
+    """
+    config = config if config is not None else FrontendConfig()
+    path = Path(path)
+    if path.exists():
+        try:
+            return load_observation_log(path, dataset_id=dataset_fingerprint(sequence),
+                                        config_hash=log_key(config))
+        except StaleLogError:
+            pass
+    log = run_frontend(sequence, config, rng=rng, progress=progress)
+    save_observation_log(log, path)
+    return log

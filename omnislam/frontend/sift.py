@@ -1,0 +1,183 @@
+"""SIFT keypoints and descriptors on the raw omnidirectional image (Lowe 2004; thesis 4.1).
+
+The detector runs on the unwarped catadioptric image, restricted to the camera's usable ring
+(thesis Fig. 5.15) shrunk by a margin so that the sharp border of the ring does not produce
+keypoints of its own. Two backends:
+
+- OpenCV (``cv2.SIFT``), the default: ~25 ms per 640 x 640 frame on one core;
+- COLMAP's SIFT through ``pycolmap.FeatureExtractor`` (~5x slower; ``pycolmap.Sift`` is
+  deprecated), for users who want COLMAP-compatible features.
+
+Presets are ``config.LOWE`` (C = 0.03, R = 10) and ``config.OMNI_THESIS`` (R ~ 2, thesis 4.1.2,
+eq. 4.15: the principal-curvature ratio is larger on omni images).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from omnislam._optional import require
+from omnislam.errors import DataError
+from omnislam.frontend.config import SiftBackend, SiftConfig
+
+#: descriptor length of SIFT (4 x 4 cells x 8 orientations)
+DESCRIPTOR_SIZE = 128
+#: the usable ring is shrunk by this many pixels before detection
+MASK_MARGIN_PX = 4
+
+
+@dataclass(frozen=True, slots=True)
+class Features:
+    """The keypoints of one image.
+
+    Attributes:
+        pixels: (N, 2) ``[u, v]`` keypoint positions [px] (pixel-centre convention of
+            ``omnislam.camera.base``).
+        sizes_px: (N,) keypoint diameters (scale) [px].
+        angles_rad: (N,) dominant gradient orientations [rad].
+        contrast: (N,) detector response |D(x^)| (thesis eq. 4.9; backend-specific units).
+        descriptors: (N, 128) float32 descriptors, L2-normalised to 512 (OpenCV's scale).
+    """
+
+    pixels: np.ndarray
+    sizes_px: np.ndarray
+    angles_rad: np.ndarray
+    contrast: np.ndarray
+    descriptors: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.pixels.shape[0])
+
+    def subset(self, index: np.ndarray) -> Features:
+        """The features selected by an index or boolean mask."""
+        return Features(
+            self.pixels[index],
+            self.sizes_px[index],
+            self.angles_rad[index],
+            self.contrast[index],
+            self.descriptors[index],
+        )
+
+    @staticmethod
+    def empty() -> Features:
+        return Features(
+            np.zeros((0, 2)),
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros((0, DESCRIPTOR_SIZE), dtype=np.float32),
+        )
+
+
+def detection_mask(usable: np.ndarray | None, shape: tuple[int, int]) -> np.ndarray:
+    """uint8 detection mask: the usable region eroded by ``MASK_MARGIN_PX`` (255 = detect).
+
+    Args:
+        usable: (H, W) bool usable region (``CameraModel.mask()``), or None for the whole image.
+        shape: (H, W) of the image.
+    """
+    if usable is None:
+        return np.full(shape, 255, dtype=np.uint8)
+    usable = np.asarray(usable, dtype=bool)
+    if usable.shape != shape:
+        raise DataError(f"mask shape {usable.shape} differs from the image's {shape}")
+    cv2 = require("cv2")
+    size = 2 * MASK_MARGIN_PX + 1
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+    return cv2.erode(usable.astype(np.uint8) * 255, kernel)
+
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    image = np.asarray(image)
+    if image.ndim == 3 and image.shape[2] == 3:
+        cv2 = require("cv2")
+        return cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
+    if image.ndim == 2:
+        return image
+    raise DataError(f"expected an (H, W) or (H, W, 3) image, got shape {image.shape}")
+
+
+class SiftExtractor:
+    """Extracts SIFT features with one configuration (the detector object is built once).
+
+    Args:
+        config: detector settings and backend (``config.LOWE``, ``config.OMNI_THESIS``...).
+    """
+
+    def __init__(self, config: SiftConfig) -> None:
+        self.config = config
+        if config.backend is SiftBackend.OPENCV:
+            cv2 = require("cv2")
+            # OpenCV divides contrastThreshold by the number of layers (see cv2.SIFT_create);
+            # Lowe's C is per layer, hence the product.
+            self._sift = cv2.SIFT_create(
+                nfeatures=config.max_features,
+                nOctaveLayers=config.n_octave_layers,
+                contrastThreshold=config.contrast_threshold * config.n_octave_layers,
+                edgeThreshold=config.edge_threshold,
+                sigma=config.sigma,
+            )
+        else:
+            pycolmap = require("pycolmap")
+            options = pycolmap.FeatureExtractionOptions()
+            options.use_gpu = False
+            options.num_threads = 1
+            sift = options.sift
+            sift.peak_threshold = config.contrast_threshold / config.n_octave_layers
+            sift.edge_threshold = config.edge_threshold
+            sift.octave_resolution = config.n_octave_layers
+            sift.first_octave = -1 if config.upsample_first_octave else 0
+            if config.max_features:
+                sift.max_num_features = config.max_features
+            self._sift = pycolmap.FeatureExtractor.create(options, pycolmap.Device.cpu)
+
+    def extract(self, image: np.ndarray, mask: np.ndarray | None = None) -> Features:
+        """Detect and describe keypoints.
+
+        Args:
+            image: (H, W, 3) RGB or (H, W) grey uint8 image.
+            mask: (H, W) uint8 detection mask from ``detection_mask`` (None: whole image).
+
+        Returns:
+            The features, strongest first is not guaranteed.
+        """
+        grey = _grey(image)
+        if self.config.backend is SiftBackend.OPENCV:
+            return self._extract_opencv(grey, mask)
+        return self._extract_pycolmap(grey, mask)
+
+    def _extract_opencv(self, grey: np.ndarray, mask: np.ndarray | None) -> Features:
+        keypoints, descriptors = self._sift.detectAndCompute(grey, mask)
+        if not keypoints:
+            return Features.empty()
+        pixels = np.array([k.pt for k in keypoints], dtype=float)
+        return Features(
+            pixels=pixels,
+            sizes_px=np.array([k.size for k in keypoints], dtype=float),
+            angles_rad=np.deg2rad([k.angle for k in keypoints]),
+            contrast=np.array([k.response for k in keypoints], dtype=float),
+            descriptors=np.ascontiguousarray(descriptors, dtype=np.float32),
+        )
+
+    def _extract_pycolmap(self, grey: np.ndarray, mask: np.ndarray | None) -> Features:
+        keypoints, descriptors = self._sift.extract_from_uint8_array(
+            np.ascontiguousarray(grey)
+        )
+        if len(keypoints) == 0:
+            return Features.empty()
+        # COLMAP puts the top-left image corner at (0, 0): pixel centres are at +0.5.
+        pixels = np.array([(k.x - 0.5, k.y - 0.5) for k in keypoints], dtype=float)
+        scales = np.array([k.compute_scale() for k in keypoints], dtype=float)
+        angles = np.array([k.compute_orientation() for k in keypoints], dtype=float)
+        raw = np.asarray(descriptors.data, dtype=np.float32)
+        norms = np.maximum(np.linalg.norm(raw, axis=1, keepdims=True), 1e-12)
+        # COLMAP gives no contrast; its features come sorted by it, so use the rank instead.
+        contrast = np.linspace(1.0, 0.5, len(keypoints))
+        features = Features(pixels, 2.0 * scales, angles, contrast, 512.0 * raw / norms)
+        if mask is None:
+            return features
+        u = np.clip(np.round(pixels[:, 0]).astype(int), 0, mask.shape[1] - 1)
+        v = np.clip(np.round(pixels[:, 1]).astype(int), 0, mask.shape[0] - 1)
+        return features.subset(mask[v, u] > 0)

@@ -1,0 +1,351 @@
+"""Geometric verification of matches on the sphere: RANSAC essential matrix on bearing vectors.
+
+A catadioptric camera with a single viewpoint is a calibrated central camera, so two images
+are related by the essential matrix acting on **unit bearing vectors**, whatever the mirror:
+with ``f1``, ``f2`` the bearings of one world point in viewpoint frames 1 and 2, and
+``(R, t)`` the pose of viewpoint 2 in frame 1 (``lambda1 f1 = t + lambda2 R f2``),
+
+    f1^T E f2 = 0,        E = [t]_x R                                   (Hartley & Zisserman 9.6)
+
+Unlike ``cv2.findEssentialMat`` nothing assumes a pinhole or points in front of an image
+plane: bearings cover the whole sphere. The residual is the **angular epipolar error**, the
+angle between a bearing and the epipolar plane of its partner, ``asin(|f1^T E f2| / |E f2|)``
+(and symmetrically with ``E^T f1``); the larger of the two is used.
+
+Hypotheses come from the linear 8-point algorithm on unit vectors (already well conditioned;
+no Hartley normalisation is needed) projected onto the essential manifold, drawn in batches
+and scored together. The odometry prior (the robot's planar motion between the two images and
+the mount of the viewpoint on the robot) **seeds** RANSAC (its own E is the first hypothesis),
+**guides** the sampling (samples are drawn from matches that roughly agree with it) and
+**guards** the result (a model whose rotation disagrees with odometry is refused). When the
+baseline is too small for epipolar geometry, the pure-rotation model ``f1 = R f2`` is
+verified instead (2-point Kabsch hypotheses).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from omnislam.frontend.config import VerificationConfig
+
+#: minimum sample of the linear essential-matrix solver
+SAMPLE_ESSENTIAL = 8
+#: minimum sample of the rotation solver
+SAMPLE_ROTATION = 2
+#: hypotheses drawn and scored together
+BATCH = 16
+#: pure-rotation mode tolerates the parallax of points at least this far away [m]
+NEAR_DEPTH_M = 1.0
+#: matches whose error under the prior exceeds this are not sampled (still scored) [rad]
+PRIOR_GATE_RAD = 0.06
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """(3, 3) cross-product matrix ``[v]_x``."""
+    x, y, z = v
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def rotation_angle(R: np.ndarray) -> float:
+    """Angle of a rotation matrix [rad]."""
+    return float(math.acos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)))
+
+
+@dataclass(frozen=True, slots=True)
+class RelativePose:
+    """Pose of viewpoint 2 in viewpoint frame 1: ``p_1 = R p_2 + t``.
+
+    Attributes:
+        R: (3, 3) rotation.
+        t: (3,) translation [m] (unit length when estimated from images: scale is unknown).
+    """
+
+    R: np.ndarray
+    t: np.ndarray
+
+    @classmethod
+    def from_planar_motion(cls, delta_r: np.ndarray, viewpoint_r: np.ndarray) -> RelativePose:
+        """The viewpoint motion implied by a planar robot motion.
+
+        Args:
+            delta_r: (3,) [dx, dy, dtheta] of robot pose 2 in robot frame 1 [m, m, rad].
+            viewpoint_r: (3,) the camera viewpoint in the robot frame [m] (the viewpoint frame
+                is the robot frame translated to it).
+        """
+        dx, dy, dth = (float(x) for x in delta_r)
+        c, s = math.cos(dth), math.sin(dth)
+        R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        v = np.asarray(viewpoint_r, dtype=float)
+        return cls(R, R @ v + np.array([dx, dy, 0.0]) - v)
+
+    @property
+    def baseline_m(self) -> float:
+        return float(np.linalg.norm(self.t))
+
+    def essential(self) -> np.ndarray:
+        """(3, 3) ``E = [t]_x R`` (``f1^T E f2 = 0``)."""
+        return skew(self.t) @ self.R
+
+
+class ModelKind(enum.Enum):
+    """Which two-view model verified the matches."""
+
+    ESSENTIAL = "essential"
+    ROTATION = "rotation"  # baseline below min_baseline_m
+    NONE = "none"  # too few matches, or verification disabled
+
+
+@dataclass(frozen=True, slots=True)
+class VerificationResult:
+    """Outcome of RANSAC.
+
+    Attributes:
+        inliers: (N,) bool.
+        kind: the model used.
+        pose: the estimated relative pose (t unit; zero for rotation-only), or None.
+        iterations: hypotheses drawn.
+    """
+
+    inliers: np.ndarray
+    kind: ModelKind
+    pose: RelativePose | None
+    iterations: int
+
+    @property
+    def n_inliers(self) -> int:
+        return int(self.inliers.sum())
+
+
+# --- models ---------------------------------------------------------------------------------
+def epipolar_errors(E: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """Angular epipolar error of bearing pairs under one or many essential matrices.
+
+    Args:
+        E: (3, 3) or (M, 3, 3) essential matrices (``f1^T E f2 = 0``).
+        f1: (N, 3) unit bearings in frame 1.
+        f2: (N, 3) unit bearings in frame 2.
+
+    Returns:
+        (N,) or (M, N) ``asin(|f1^T E f2| / min(|E f2|, |E^T f1|))`` [rad]: the larger of the
+        two angles between a bearing and its partner's epipolar plane.
+    """
+    single = E.ndim == 2
+    Es = E[None] if single else E
+    n1 = np.einsum("mij,nj->mni", Es, f2)  # epipolar plane normals in frame 1
+    n2 = np.einsum("mji,nj->mni", Es, f1)  # ... in frame 2
+    algebraic = np.abs(np.einsum("ni,mni->mn", f1, n1))
+    scale = np.minimum(np.linalg.norm(n1, axis=2), np.linalg.norm(n2, axis=2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sine = np.where(scale > 1e-12, algebraic / scale, 0.0)
+    err = np.arcsin(np.clip(sine, 0.0, 1.0))
+    return err[0] if single else err
+
+
+def essential_from_bearings(f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """Linear 8-point essential matrices from bearing pairs (batched).
+
+    Solves ``A e = 0`` with rows ``kron(f1, f2)`` in the least-squares sense (smallest right
+    singular vector) and projects onto the essential manifold (singular values (1, 1, 0)).
+
+    Args:
+        f1: (N, 3) or (M, N, 3) bearings in frame 1, N >= 8.
+        f2: same shape, frame 2.
+
+    Returns:
+        (3, 3) or (M, 3, 3) essential matrices of unit Frobenius norm / sqrt(2).
+    """
+    single = f1.ndim == 2
+    a = f1[None] if single else f1
+    b = f2[None] if single else f2
+    A = (a[:, :, :, None] * b[:, :, None, :]).reshape(a.shape[0], a.shape[1], 9)
+    if A.shape[1] > 9:  # least squares via the 9 x 9 normal matrix (cheaper for many rows)
+        _, vecs = np.linalg.eigh(np.swapaxes(A, 1, 2) @ A)
+        e = vecs[:, :, 0]
+    else:
+        _, _, Vt = np.linalg.svd(A, full_matrices=True)
+        e = Vt[:, -1, :]
+    E = e.reshape(-1, 3, 3)
+    U, _, Vt = np.linalg.svd(E)
+    E = U @ np.diag([1.0, 1.0, 0.0]) @ Vt
+    return E[0] if single else E
+
+
+def _depths(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """(N, 2) depths ``(lambda1, lambda2)`` solving ``lambda1 f1 - lambda2 R f2 = t`` (LSQ)."""
+    g = f2 @ R.T
+    # normal equations of the 3 x 2 system [f1, -g] [l1, l2]^T = t, per point
+    a11 = np.ones(f1.shape[0])
+    a12 = -np.sum(f1 * g, axis=1)
+    a22 = np.ones(f1.shape[0])
+    b1 = f1 @ t
+    b2 = -(g @ t)
+    det = a11 * a22 - a12 * a12
+    with np.errstate(divide="ignore", invalid="ignore"):
+        l1 = (a22 * b1 - a12 * b2) / det
+        l2 = (a11 * b2 - a12 * b1) / det
+    return np.column_stack([l1, l2])
+
+
+def decompose_essential(E: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> RelativePose:
+    """The (R, t) of ``E = [t]_x R`` that puts most points in front of both viewpoints.
+
+    Args:
+        E: (3, 3) essential matrix.
+        f1, f2: (N, 3) inlier bearings used for the cheirality test.
+
+    Returns:
+        The relative pose with unit ``t``.
+    """
+    U, _, Vt = np.linalg.svd(E)
+    if np.linalg.det(U) < 0:
+        U = -U
+    if np.linalg.det(Vt) < 0:
+        Vt = -Vt
+    W = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    best, best_front = None, -1
+    for R in (U @ W @ Vt, U @ W.T @ Vt):
+        for t in (U[:, 2], -U[:, 2]):
+            depths = _depths(R, t, f1, f2)
+            front = int(np.sum(np.all(depths > 0, axis=1)))
+            if front > best_front:
+                best, best_front = RelativePose(R, t.copy()), front
+    assert best is not None
+    return best
+
+
+def rotation_errors(R: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """Angle between ``f1`` and ``R f2`` [rad] for one (3, 3) or many (M, 3, 3) rotations."""
+    single = R.ndim == 2
+    Rs = R[None] if single else R
+    cos = np.einsum("ni,mij,nj->mn", f1, Rs, f2)
+    err = np.arccos(np.clip(cos, -1.0, 1.0))
+    return err[0] if single else err
+
+
+def rotation_from_bearings(f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """Rotations with ``f1 ~ R f2`` (Kabsch / orthogonal Procrustes), batched like the 8-point."""
+    single = f1.ndim == 2
+    a = f1[None] if single else f1
+    b = f2[None] if single else f2
+    H = np.swapaxes(b, 1, 2) @ a  # sum f2 f1^T
+    U, _, Vt = np.linalg.svd(H)
+    d = np.sign(np.linalg.det(np.swapaxes(Vt, 1, 2) @ np.swapaxes(U, 1, 2)))
+    D = np.zeros((a.shape[0], 3, 3))
+    D[:, 0, 0] = 1.0
+    D[:, 1, 1] = 1.0
+    D[:, 2, 2] = d
+    R = np.swapaxes(Vt, 1, 2) @ D @ np.swapaxes(U, 1, 2)
+    return R[0] if single else R
+
+
+# --- RANSAC ---------------------------------------------------------------------------------
+def _needed_iterations(inlier_ratio: float, sample: int, confidence: float) -> float:
+    good = inlier_ratio**sample
+    if good <= 0.0:
+        return math.inf
+    if good >= 1.0:
+        return 0.0
+    return math.log(1.0 - confidence) / math.log(1.0 - good)
+
+
+def verify_matches(
+    f1: np.ndarray,
+    f2: np.ndarray,
+    prior: RelativePose | None,
+    config: VerificationConfig,
+    rng: np.random.Generator,
+    *,
+    guided: bool = True,
+) -> VerificationResult:
+    """RANSAC on bearing pairs, seeded, guided and guarded by an odometry prior.
+
+    Args:
+        f1: (N, 3) unit bearings of the matches in viewpoint frame 1.
+        f2: (N, 3) unit bearings in viewpoint frame 2.
+        prior: the relative pose predicted by odometry (None: unguided, unchecked).
+        config: threshold, confidence, iteration cap, minimum inliers, baseline and
+            rotation tolerance.
+        rng: random generator (injected for reproducibility).
+        guided: False does not restrict the sampling to matches that agree with the prior
+            (its model is still scored as one hypothesis, and its rotation still guards):
+            for re-recognition after a loop, where dead reckoning may have drifted.
+
+    Returns:
+        The inlier mask and the model; all False when fewer than ``config.min_inliers``
+        matches agree on one model.
+    """
+    n = f1.shape[0]
+    none = VerificationResult(np.zeros(n, dtype=bool), ModelKind.NONE, None, 0)
+    if not config.enabled:
+        return VerificationResult(np.ones(n, dtype=bool), ModelKind.NONE, None, 0)
+    rotation_only = prior is not None and prior.baseline_m < config.min_baseline_m
+    sample = SAMPLE_ROTATION if rotation_only else SAMPLE_ESSENTIAL
+    if n < max(config.min_inliers, sample):
+        return none
+    if rotation_only:
+        assert prior is not None
+        threshold = config.threshold_rad + prior.baseline_m / NEAR_DEPTH_M
+        solve, errors = rotation_from_bearings, rotation_errors
+        seed = prior.R
+    else:
+        threshold = config.threshold_rad
+        solve, errors = essential_from_bearings, epipolar_errors
+        seed = prior.essential() if prior is not None else None
+
+    pool = np.arange(n)
+    best_model, best_inliers = None, np.zeros(n, dtype=bool)
+    if seed is not None:
+        seed_err = errors(seed, f1, f2)
+        best_model, best_inliers = seed, seed_err < threshold
+        agreeing = np.flatnonzero(seed_err < max(PRIOR_GATE_RAD, threshold))
+        if guided and agreeing.shape[0] >= 2 * sample:
+            pool = agreeing
+
+    def acceptable(model: np.ndarray, inliers: np.ndarray) -> bool:
+        """Guard: the rotation of the model agrees with the odometry prior."""
+        if prior is None:
+            return True
+        if rotation_only:
+            R = model
+        else:
+            R = decompose_essential(model, f1[inliers], f2[inliers]).R
+        return rotation_angle(R @ prior.R.T) <= config.prior_rotation_tol_rad
+
+    iterations = 0
+    needed = float(config.max_iterations)
+    while iterations < min(needed, config.max_iterations):
+        keys = rng.random((BATCH, pool.shape[0]))
+        picks = pool[np.argpartition(keys, sample - 1, axis=1)[:, :sample]]
+        models = solve(f1[picks], f2[picks])
+        inliers = errors(models, f1, f2) < threshold
+        counts = inliers.sum(axis=1)
+        iterations += BATCH
+        for m in np.argsort(-counts):
+            if counts[m] <= best_inliers.sum():
+                break
+            if acceptable(models[m], inliers[m]):
+                best_model, best_inliers = models[m], inliers[m]
+                break
+        needed = _needed_iterations(best_inliers.sum() / pool.shape[0], sample,
+                                    config.confidence)
+
+    if best_model is None or best_inliers.sum() < max(config.min_inliers, sample):
+        return VerificationResult(np.zeros(n, dtype=bool), ModelKind.NONE, None, iterations)
+    # local optimisation: refit on all inliers while the consensus grows
+    for _ in range(2):
+        refit = solve(f1[best_inliers], f2[best_inliers])
+        refit_inliers = errors(refit, f1, f2) < threshold
+        if refit_inliers.sum() < best_inliers.sum() or not acceptable(refit, refit_inliers):
+            break
+        best_model, best_inliers = refit, refit_inliers
+    if rotation_only:
+        pose = RelativePose(best_model, np.zeros(3))
+        kind = ModelKind.ROTATION
+    else:
+        pose = decompose_essential(best_model, f1[best_inliers], f2[best_inliers])
+        kind = ModelKind.ESSENTIAL
+    return VerificationResult(best_inliers, kind, pose, iterations)

@@ -1,0 +1,201 @@
+"""Vertical lines with their colour profiles (Barra & Costa, sec. 2).
+
+- **Perspective camera** with a horizontal optical axis (camera rows level): a vertical world
+  line projects to an image column. Pixels with a strong, mostly horizontal gradient vote for
+  their column; columns supported over ``min_support`` of the image height are lines; the
+  column (sub-pixel: vote-weighted mean around the peak) gives a ray, hence a bearing.
+- **Omnidirectional camera** with a vertical mirror axis: a vertical world line projects to a
+  **radial** segment, so the image azimuth about the image of the axis gives the bearing.
+  Pixels whose gradient is mostly tangential vote for their azimuth bin; peaks with enough
+  radial support are lines; their azimuth is turned into a robot-frame bearing through the
+  camera model (this handles mirrored images).
+
+Each line carries the PMC (mean colour profile: 3 bands x (2n + 1) samples across the line,
+ordered from the robot's left to its right, i.e. by decreasing bearing) and the MC (mean colour
+of the n samples on each side).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from omnislam._optional import require
+from omnislam.core.types import UNKNOWN_ID, VerticalLines
+from omnislam.frontend.config import VerticalEdgeConfig
+
+#: peaks closer than this many bins/columns are one line (non-maximum suppression)
+NMS_RADIUS = 3
+
+
+def _gradients(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    cv2 = require("cv2")
+    grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY).astype(np.float32) if image.ndim == 3 \
+        else image.astype(np.float32)
+    gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3) / 4.0
+    gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3) / 4.0
+    return gx, gy
+
+
+def _peaks(score: np.ndarray, minimum: float, circular: bool) -> np.ndarray:
+    """Indices of local maxima of ``score`` (within NMS_RADIUS) at least ``minimum``."""
+    n = score.shape[0]
+    padded = np.concatenate([score[-NMS_RADIUS:], score, score[:NMS_RADIUS]]) if circular \
+        else np.pad(score, NMS_RADIUS, constant_values=-np.inf)
+    windows = np.lib.stride_tricks.sliding_window_view(padded, 2 * NMS_RADIUS + 1)[:n]
+    is_max = (score >= windows.max(axis=1)) & (score >= minimum)
+    # keep the first of equal neighbours
+    shifted = np.roll(score, 1) == score
+    return np.flatnonzero(is_max & ~(shifted & np.roll(is_max, 1)))
+
+
+def _parabola_peak(strength: np.ndarray, peak: int) -> float:
+    """Sub-pixel position of a maximum: vertex of the parabola through three samples."""
+    if peak == 0 or peak == strength.shape[0] - 1:
+        return float(peak)
+    left, mid, right = strength[peak - 1], strength[peak], strength[peak + 1]
+    curvature = left - 2.0 * mid + right
+    if curvature >= 0:
+        return float(peak)
+    return float(peak + 0.5 * (left - right) / curvature)
+
+
+def _sample_colours(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(..., 3) nearest-pixel colours (out-of-image samples are NaN)."""
+    h, w = image.shape[:2]
+    ui = np.round(u).astype(int)
+    vi = np.round(v).astype(int)
+    inside = (ui >= 0) & (ui < w) & (vi >= 0) & (vi < h)
+    out = np.full((*u.shape, 3), np.nan)
+    out[inside] = image[vi[inside], ui[inside], :3]
+    return out
+
+
+def _nanmean(values: np.ndarray, axis: int) -> np.ndarray:
+    """Mean ignoring NaN (NaN where every sample is NaN, without a warning)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanmean(values, axis=axis)
+
+
+def _lines(bearings: np.ndarray, profiles: np.ndarray, config: VerticalEdgeConfig,
+           ) -> VerticalLines:
+    n = config.profile_half_width
+    profiles = np.nan_to_num(profiles, nan=0.0)
+    return VerticalLines(
+        bearings_rad=bearings,
+        sigma_bearing_rad=np.full(bearings.shape[0], config.sigma_bearing_rad),
+        profiles=profiles,
+        means_left=profiles[:, :, :n].mean(axis=2) if bearings.size else np.zeros((0, 3)),
+        means_right=profiles[:, :, n + 1:].mean(axis=2) if bearings.size else np.zeros((0, 3)),
+        landmark_ids=np.full(bearings.shape[0], UNKNOWN_ID, dtype=np.int64),
+    )
+
+
+def extract_vertical_lines(image: np.ndarray, rig: object, config: VerticalEdgeConfig,
+                           ) -> VerticalLines:
+    """Vertical lines of one image, with bearings in the robot frame and colour profiles.
+
+    Args:
+        image: (H, W, 3) RGB uint8.
+        rig: the ``omnislam.camera.CameraRig``; a pinhole camera is treated as perspective,
+            any other model as omnidirectional with a vertical axis.
+        config: thresholds and profile size.
+    """
+    from omnislam.camera.pinhole import PinholeCamera
+
+    camera = rig.camera  # type: ignore[attr-defined]
+    if isinstance(camera, PinholeCamera):
+        return _perspective(image, rig, config)
+    return _omni(image, rig, config)
+
+
+def _bearing(rays_r: np.ndarray) -> np.ndarray:
+    return np.arctan2(rays_r[:, 1], rays_r[:, 0])
+
+
+def _perspective(image: np.ndarray, rig: object, config: VerticalEdgeConfig) -> VerticalLines:
+    gx, gy = _gradients(image)
+    magnitude = np.hypot(gx, gy)
+    direction_ok = np.abs(gy) <= np.tan(config.max_direction_error_rad) * np.abs(gx)
+    edge = (magnitude >= config.min_gradient) & direction_ok
+    votes = edge.sum(axis=0).astype(float)
+    strength = np.where(edge, np.abs(gx), 0.0).sum(axis=0)
+    height = gx.shape[0]
+    score = votes / height
+    peaks = _peaks(score, config.min_support, circular=False)
+    columns = np.array([_parabola_peak(strength, p) for p in peaks])
+    cv_mid = (height - 1) / 2.0
+    if columns.size == 0:
+        return _lines(np.zeros(0), np.zeros((0, 3, 2 * config.profile_half_width + 1)), config)
+    rays = rig.rays_r(np.column_stack([columns, np.full(columns.shape, cv_mid)]))  # type: ignore[attr-defined]
+    bearings = _bearing(rays)
+    # profile: columns u - n .. u + n (left to right in the image = decreasing bearing)
+    n = config.profile_half_width
+    k = np.arange(-n, n + 1)
+    rows = np.arange(height)
+    u = columns[:, None, None] + k[None, :, None] + 0 * rows[None, None, :]
+    v = np.broadcast_to(rows[None, None, :].astype(float), u.shape)
+    colours = _sample_colours(image, u, v)  # (L, W, H, 3)
+    profiles = _nanmean(colours, axis=2).transpose(0, 2, 1)
+    return _lines(bearings, profiles, config)
+
+
+def _omni(image: np.ndarray, rig: object, config: VerticalEdgeConfig) -> VerticalLines:
+    camera = rig.camera  # type: ignore[attr-defined]
+    viewpoint = rig.viewpoint_r  # type: ignore[attr-defined]
+    centre, _ = rig.project_r(viewpoint[None, :] + [[0.0, 0.0, -1.0]])  # type: ignore[attr-defined]
+    cu, cv = centre[0]
+    mask = camera.mask()
+    gx, gy = _gradients(image)
+    rows, cols = np.nonzero(mask)
+    du, dv = cols - cu, rows - cv
+    radius = np.hypot(du, dv)
+    azimuth = np.arctan2(dv, du)
+    g_u, g_v = gx[rows, cols], gy[rows, cols]
+    g_radial = np.abs(g_u * du + g_v * dv) / np.maximum(radius, 1e-9)
+    g_tangential = np.abs(-g_u * dv + g_v * du) / np.maximum(radius, 1e-9)
+    edge = (np.hypot(g_u, g_v) >= config.min_gradient) & (
+        g_radial <= np.tan(config.max_direction_error_rad) * g_tangential)
+    bins = config.azimuth_bins
+    index = np.floor((azimuth + np.pi) / (2 * np.pi) * bins).astype(int) % bins
+    # support: fraction of the ring's integer radii holding an edge pixel within +-1 bin
+    r_in, r_out = float(radius.min()), float(radius.max())
+    r_index = np.round(radius - r_in).astype(int)
+    n_radii = int(r_index.max()) + 1
+    occupied = np.zeros((bins, n_radii), dtype=bool)
+    occupied[index[edge], r_index[edge]] = True
+    spread = occupied | np.roll(occupied, 1, axis=0) | np.roll(occupied, -1, axis=0)
+    score = spread.sum(axis=1) / n_radii
+    peaks = _peaks(score, config.min_support, circular=True)
+    if peaks.size == 0:
+        return _lines(np.zeros(0), np.zeros((0, 3, 2 * config.profile_half_width + 1)), config)
+    # azimuth: gradient-weighted mean of the edge pixels within +-1.5 bins of the peak
+    width = 2 * np.pi / bins
+    peak_phi = (peaks + 0.5) * width - np.pi
+    e_phi = azimuth[edge]
+    e_w = np.hypot(g_u, g_v)[edge]
+    offset = (e_phi[None, :] - peak_phi[:, None] + np.pi) % (2 * np.pi) - np.pi
+    near = np.abs(offset) <= 1.5 * width
+    weights = np.where(near, e_w[None, :], 0.0)
+    phi = peak_phi + (weights * offset).sum(axis=1) / np.maximum(weights.sum(axis=1), 1e-12)
+    r_mid = 0.5 * (r_in + r_out)
+    pixels = np.column_stack([cu + r_mid * np.cos(phi), cv + r_mid * np.sin(phi)])
+    bearings = _bearing(rig.rays_r(pixels))  # type: ignore[attr-defined]
+    # profile samples at azimuths phi + k step, over the supported radii
+    n = config.profile_half_width
+    k = np.arange(-n, n + 1)
+    probe = rig.rays_r(np.column_stack([cu + r_mid * np.cos(phi + 1e-3),  # type: ignore[attr-defined]
+                                        cv + r_mid * np.sin(phi + 1e-3)]))
+    turn = np.sign(np.sin(_bearing(probe) - bearings))  # +1: image azimuth grows leftwards
+    radii = np.linspace(r_in, r_out, 24)
+    ang = phi[:, None] - turn[:, None] * k[None, :] * config.profile_step_rad  # left -> right
+    u = cu + radii[None, None, :] * np.cos(ang)[:, :, None]
+    v = cv + radii[None, None, :] * np.sin(ang)[:, :, None]
+    colours = _sample_colours(image, u, v)
+    inside = mask[np.clip(np.round(v).astype(int), 0, mask.shape[0] - 1),
+                  np.clip(np.round(u).astype(int), 0, mask.shape[1] - 1)]
+    colours[~inside] = np.nan
+    profiles = _nanmean(colours, axis=2).transpose(0, 2, 1)
+    return _lines(bearings, profiles, config)

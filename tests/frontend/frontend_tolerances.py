@@ -1,0 +1,21 @@
+"""Tolerances and sizes of the front-end tests, named in one place."""
+
+#: two sightings in one track see true points closer than this [m] (the issue's criterion)
+SAME_POINT_M = 0.05
+#: minimum track precision with geometric verification
+MIN_TRACK_PRECISION = 0.99
+#: minimum median number of verified bearings per processed image
+MIN_SIGHTINGS_PER_IMAGE = 30
+#: minimum median number of sightings of a track
+MIN_TRACK_LENGTH = 5
+#: images of the demo preset rendered for the tests (~0.2 m apart, half its loop)
+DEMO_IMAGES = 24
+#: images of corridor21 rendered for the vertical-edge tests
+CORRIDOR_IMAGES = 12
+
+#: a door-frame edge counts as detected within this of its true bearing [rad]
+LINE_MATCH_RAD = 0.0175
+#: fraction of the door-frame edges in view that must be detected
+MIN_LINE_RECALL = 0.9
+#: median bearing error of the detected edges [rad] (0.5 deg)
+MAX_LINE_MEDIAN_RAD = 0.0087

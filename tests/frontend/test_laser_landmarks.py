@@ -1,0 +1,67 @@
+"""Laser landmarks (SLAM for Dummies): spikes and RANSAC lines as range-bearing sightings."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from omnislam.core.types import UNKNOWN_ID
+from omnislam.frontend.config import LaserLandmarkConfig
+from omnislam.frontend.laser_landmarks import extract_laser_landmarks
+
+#: a pole sighting lies within this of the pole's near surface [m] / bearing [rad]
+RANGE_TOL_M = 0.03
+BEARING_TOL_RAD = np.deg2rad(1.0)
+
+
+def _room_scan(pole=(1.5, 0.5), radius=0.05, half=(3.0, 2.0), beams=360):
+    """Exact ranges from the origin in a rectangular room with one round pole."""
+    angles = np.linspace(-np.pi, np.pi, beams, endpoint=False)
+    c, s = np.cos(angles), np.sin(angles)
+    with np.errstate(divide="ignore"):
+        tx = np.where(c != 0, half[0] / np.abs(c), np.inf)
+        ty = np.where(s != 0, half[1] / np.abs(s), np.inf)
+    ranges = np.minimum(tx, ty)
+    # ray-circle intersection
+    p = np.array(pole)
+    b = c * p[0] + s * p[1]
+    disc = b**2 - (p @ p - radius**2)
+    hit = disc >= 0
+    t = b - np.sqrt(np.where(hit, disc, 0.0))
+    ranges = np.where(hit & (t > 0), np.minimum(ranges, t), ranges)
+    return angles, ranges
+
+
+def test_a_pole_is_a_spike_and_walls_are_perpendicular_feet(rng):
+    angles, ranges = _room_scan()
+    ranges = ranges + rng.normal(scale=0.005, size=ranges.shape)
+    sightings = extract_laser_landmarks(angles, ranges, 30.0, LaserLandmarkConfig(), rng)
+    assert np.all(sightings.landmark_ids == UNKNOWN_ID)
+    pole_range = np.hypot(1.5, 0.5) - 0.05
+    pole = (np.abs(sightings.ranges_m - pole_range) < RANGE_TOL_M) & (
+        np.abs(sightings.bearings_rad - np.arctan2(0.5, 1.5)) < np.deg2rad(3.0))
+    assert pole.sum() == 1
+    # the four walls: feet of the perpendiculars from the sensor
+    expected = [(3.0, 0.0), (2.0, np.pi / 2), (3.0, np.pi), (2.0, -np.pi / 2)]
+    for r, b in expected:
+        d_b = np.abs((sightings.bearings_rad - b + np.pi) % (2 * np.pi) - np.pi)
+        close = (np.abs(sightings.ranges_m - r) < RANGE_TOL_M) & (d_b < BEARING_TOL_RAD)
+        assert close.any(), (r, b)
+    assert np.all(sightings.sigma_range_m > 0) and np.all(sightings.sigma_bearing_rad > 0)
+
+
+def test_readings_beyond_the_valid_range_are_ignored(rng):
+    angles, ranges = _room_scan(half=(12.0, 2.0))
+    sightings = extract_laser_landmarks(angles, ranges, 30.0, LaserLandmarkConfig(), rng)
+    assert np.all(sightings.ranges_m < 8.1)  # the far walls at 12 m are not lines
+
+
+def test_line_feet_come_from_the_odometry_origin_when_a_pose_is_given(rng):
+    angles, ranges = _room_scan()
+    # robot at (1, 0) facing +y in the odometry frame: the wall x_robot = 3 is the world
+    # line y_w = -3 ... its foot from the world origin is (0, -3) -> robot frame (-3, 1)
+    pose = np.array([1.0, 0.0, np.pi / 2])
+    sightings = extract_laser_landmarks(angles, ranges, 30.0, LaserLandmarkConfig(), rng, pose)
+    foot_r = np.array([3.0, 1.0])
+    r, b = np.hypot(*foot_r), np.arctan2(foot_r[1], foot_r[0])
+    d_b = np.abs((sightings.bearings_rad - b + np.pi) % (2 * np.pi) - np.pi)
+    assert np.any((np.abs(sightings.ranges_m - r) < RANGE_TOL_M) & (d_b < BEARING_TOL_RAD))

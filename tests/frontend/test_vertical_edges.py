@@ -1,0 +1,64 @@
+"""Vertical lines (Barra & Costa): door-frame edges in view, bearings, colour profiles."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from frontend_tolerances import LINE_MATCH_RAD, MAX_LINE_MEDIAN_RAD, MIN_LINE_RECALL
+
+from omnislam.frontend.config import VerticalEdgeConfig
+from omnislam.frontend.evaluation import bearing_errors, visible_line_bearings
+from omnislam.frontend.vertical_edges import extract_vertical_lines
+
+CONFIG = VerticalEdgeConfig(enabled=True)
+
+
+def _recall_and_errors(folder_path, frames=None):
+    from omnislam.datasets.synthetic.loader import SyntheticFolder, load_synthetic
+
+    sequence = load_synthetic(folder_path)
+    folder = SyntheticFolder(folder_path)
+    lines_w = np.array([(v.x_m, v.y_m) for v in folder.world.vertical_lines])
+    errors = []
+    for i in sequence.image_frames[:frames]:
+        lines = extract_vertical_lines(sequence.image(i), sequence.calibration, CONFIG)
+        assert lines.profiles.shape == (len(lines), 3, 2 * CONFIG.profile_half_width + 1)
+        truth = visible_line_bearings(lines_w, folder.groundtruth.poses_w[i],
+                                      sequence.calibration, folder.ground_truth_maps(i).points_w)
+        errors.append(bearing_errors(lines.bearings_rad, truth))
+    errors = np.concatenate(errors)
+    assert errors.size >= 10
+    found = errors < LINE_MATCH_RAD
+    return found.mean(), np.median(errors[found])
+
+
+@pytest.mark.filterwarnings("ignore:loadtxt")
+def test_door_frames_in_a_perspective_corridor(corridor_folder):
+    recall, median = _recall_and_errors(corridor_folder)
+    assert recall >= MIN_LINE_RECALL
+    assert median <= MAX_LINE_MEDIAN_RAD
+
+
+def test_radial_edges_in_omni_images(demo_folder):
+    recall, median = _recall_and_errors(demo_folder, frames=8)
+    assert recall >= MIN_LINE_RECALL
+    assert median <= MAX_LINE_MEDIAN_RAD
+
+
+def test_profiles_see_a_dark_frame_on_a_light_wall():
+    """A synthetic perspective image: a dark vertical band; MC left/right and PMC shape."""
+    from omnislam.camera.pinhole import PinholeCamera
+    from omnislam.camera.rig import CameraRig
+
+    image = np.full((120, 160, 3), 200, dtype=np.uint8)
+    image[:, 80:, :] = (40, 30, 20)  # a dark region right of column 79.5
+    rTc = np.eye(4)
+    rTc[:3, :3] = [[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]
+    rig = CameraRig(PinholeCamera(fx=100.0, fy=100.0, cu=79.5, cv=59.5, width=160, height=120),
+                    rTc)
+    lines = extract_vertical_lines(image, rig, CONFIG)
+    assert len(lines) == 1
+    assert abs(lines.bearings_rad[0]) < np.deg2rad(0.5)  # the principal column: straight ahead
+    np.testing.assert_allclose(lines.means_left[0], 200, atol=1)
+    np.testing.assert_allclose(lines.means_right[0], (40, 30, 20), atol=1)
+    assert lines.profiles[0, 0, 0] > lines.profiles[0, 0, -1]
