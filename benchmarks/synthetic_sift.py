@@ -25,6 +25,19 @@ from omnislam.datasets.synthetic.simulate import simulate
 BLIND_X_M = (40.0, 110.0)
 
 
+def longest_stretch_m(xy: np.ndarray, ok: np.ndarray) -> float:
+    """Longest path length [m] over consecutive frames that all satisfy ``ok``."""
+    best, start = 0.0, None
+    steps = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))]
+    for i, good in enumerate(np.append(ok, False)):
+        if good and start is None:
+            start = i
+        elif not good and start is not None:
+            best = max(best, steps[i - 1] - steps[start])
+            start = None
+    return float(best)
+
+
 def keypoints(cv2, sift, frame, mask) -> list:
     gray = cv2.cvtColor(frame.image, cv2.COLOR_RGB2GRAY)
     return sift.detect(gray, mask)
@@ -68,6 +81,8 @@ def main() -> None:
         span = np.ptp(sim.poses_w[frames, 0]) if frames.size else 0.0
         print(f"blind corridor: {span:.1f} m covered; frames with < 20 landmark keypoints: "
               f"{np.mean(on_landmarks < 20):.1%}")
+        print(f"longest stretch with < 20 landmark keypoints in every frame: "
+              f"{longest_stretch_m(sim.poses_w[frames, :2], on_landmarks < 20):.1f} m")
     else:
         print(f"frames with >= 300 keypoints: {np.mean(counts >= 300):.1%}")
 

@@ -12,18 +12,20 @@ each cell's own peak; elsewhere it is the process's peak so far (an upper bound)
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 import time
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
 from omnislam.compare.rundir import GRAPH_G2O, RunConfig, RunRecord
 from omnislam.core.types import UNKNOWN_ID, FrameInput
+from omnislam.datasets.sequence import GroundTruth
 from omnislam.errors import ConfigError, DataError
 
 _STATUS = Path("/proc/self/status")
@@ -121,13 +123,16 @@ def execute_run(spec: RunSpec) -> RunRecord:
     dataset_options = {k: v for k, v in spec.options.items() if k in loader_keys}
     estimator_options = {k: v for k, v in spec.options.items() if k not in loader_keys}
     sequence = load_dataset(resolved, dataset_options)
-    frames = _frame_source(sequence, spec.log)
-    if spec.log is not None:
-        replayed = tuple(frames)
-        frames = iter(replayed)
-        has_bearings = any(f.bearings is not None and len(f.bearings) for f in replayed)
-    else:
+    ground_truth = sequence.ground_truth
+    if spec.log is None:
+        frames: Iterator[FrameInput] = sequence.frame_inputs()
         has_bearings = False
+        track_truth = False
+    else:
+        replay = _load_log(sequence, spec.log)
+        frames = iter(replay.frames)
+        has_bearings = any(f.bearings is not None and len(f.bearings) for f in replay.frames)
+        ground_truth, track_truth = _with_track_truth(sequence, replay, Path(spec.log))
 
     sightings = [rb for rb in sequence.range_bearing or () if rb is not None and len(rb)]
     known = bool(sightings) and all(np.all(rb.landmark_ids != UNKNOWN_ID) for rb in sightings)
@@ -164,17 +169,17 @@ def execute_run(spec: RunSpec) -> RunRecord:
         frames=len(sequence),
         total_s=float(step_s.sum() + final_s),
         peak_rss_mb=round(peak_rss_mb(), 1),
-        ground_truth_kind=sequence.ground_truth.kind.value,
-        ground_truth_note=sequence.ground_truth.note,
+        ground_truth_kind=ground_truth.kind.value,
+        ground_truth_note=ground_truth.note,
         source=sequence.source,
         seed=spec.seed,
         dataset_options=dataset_options,
         estimator_options=estimator_options,
-        landmark_ids_from_truth=known and spec.log is None,
+        landmark_ids_from_truth=(known and spec.log is None) or track_truth,
         frontend_log=None if spec.log is None else str(spec.log),
         frontend_config_hash=None if spec.log is None else _log_config_hash(spec.log),
     )
-    return RunRecord(config, estimate, step_s, sequence.ground_truth, attachments)
+    return RunRecord(config, estimate, step_s, ground_truth, attachments)
 
 
 def _sensor_height_m(calibration: object) -> float | None:
@@ -189,13 +194,8 @@ def _log_config_hash(log: str | Path) -> str:
     return read_log_key(Path(log))[1]
 
 
-def _frame_source(sequence: object, log: str | None) -> Iterator[FrameInput]:
-    """The frames to feed: the dataset's own, or a front-end ObservationLog (RunSpec.log).
-
-    The log must have been built from this very sequence (its fingerprint is checked).
-    """
-    if log is None:
-        return sequence.frame_inputs()  # type: ignore[attr-defined]
+def _load_log(sequence: object, log: str) -> Any:
+    """The front-end ObservationLog to replay (RunSpec.log), built from this very sequence."""
     try:
         from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
     except ImportError as exc:
@@ -206,7 +206,47 @@ def _frame_source(sequence: object, log: str | None) -> Iterator[FrameInput]:
             f"the observation log has {len(replay.frames)} frames, the dataset {len(sequence)}",  # type: ignore[arg-type]
             Path(log),
         )
-    return iter(replay.frames)
+    return replay
+
+
+def _with_track_truth(sequence: Any, replay: Any, log: Path) -> tuple[GroundTruth, bool]:
+    """Ground truth whose landmarks are the true points of the front end's tracks.
+
+    With per-pixel ground truth (``Sequence.point_map_loader``: synthetic renders) every track
+    of the log has a true 3-D position (``frontend.evaluation.track_truth``); the estimators'
+    landmarks carry the track ids, so landmark error associates by id. The points are cached
+    next to the log (``LOG.truth.npz``, keyed by the log's dataset and configuration).
+
+    Returns:
+        (ground truth, True) with the track landmarks, or (the sequence's, False) without
+        per-pixel ground truth.
+    """
+    if sequence.point_map_loader is None:
+        return sequence.ground_truth, False
+    cache = log.with_name(log.name + ".truth.npz")
+    key = f"{replay.dataset_id}:{replay.config_hash}"
+    ids = points = None
+    try:
+        with np.load(cache, allow_pickle=False) as data:
+            if str(data["key"]) == key:
+                ids, points = data["ids"], data["points_w"]
+    except (OSError, KeyError, ValueError):
+        pass
+    if ids is None:
+        from omnislam.frontend.evaluation import track_truth, true_sightings
+
+        ids, points = track_truth(true_sightings(replay, sequence.point_map_loader))
+        with tempfile.NamedTemporaryFile(dir=log.parent, suffix=".npz", delete=False) as tmp:
+            np.savez_compressed(tmp, key=np.array(key), ids=ids, points_w=points)
+        os.replace(tmp.name, cache)
+    truth = replace(
+        sequence.ground_truth,
+        landmark_ids=ids,
+        landmarks_w=points,
+        note=sequence.ground_truth.note
+        + "; landmarks: true 3-D points of the front end's tracks (per-pixel ground truth)",
+    )
+    return truth, True
 
 
 def _export_graph(estimator: object) -> dict[str, bytes]:

@@ -104,6 +104,9 @@ class Sequence:
         laser: laser scans, or None.
         image_loader: ``image_loader(i)`` reads image i (H, W, 3) uint8, or None.
         image_frames: (K,) indices of the frames that have an image.
+        point_map_loader: ``point_map_loader(i)`` returns the world point each pixel of image i
+            sees, (H, W, 3) [m] with NaN where none (synthetic renders), or None. It gives the
+            true position of any keypoint, hence of every front-end landmark.
         calibration: the camera rig (``omnislam.camera``), or None.
         ground_truth: see GroundTruth.
         info: short facts for ``dataset list`` and reports (sensor names, counts, warnings).
@@ -121,6 +124,7 @@ class Sequence:
     laser: LaserScans | None = None
     image_loader: Callable[[int], np.ndarray] | None = None
     image_frames: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    point_map_loader: Callable[[int], np.ndarray] | None = None
     calibration: object | None = None
     info: Mapping[str, str] = field(default_factory=dict)
 

@@ -61,16 +61,13 @@ def point_at_pixels(points_w: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     c01, c11 = points_w[v0 + 1, u0], points_w[v0 + 1, u0 + 1]
     corners = np.stack([c00, c10, c01, c11], axis=1).astype(float)
     bilinear = (1 - a) * (1 - b) * c00 + a * (1 - b) * c10 + (1 - a) * b * c01 + a * b * c11
-    spread = np.max(np.linalg.norm(corners - corners.mean(axis=1, keepdims=True), axis=2),
-                    axis=1)
+    spread = np.max(np.linalg.norm(corners - corners.mean(axis=1, keepdims=True), axis=2), axis=1)
     smooth = np.all(np.isfinite(corners), axis=(1, 2)) & (spread < SAME_POINT_M)
     nearest = points_w[np.round(v).astype(int), np.round(u).astype(int)].astype(float)
     return np.where(smooth[:, None], bilinear, nearest)
 
 
-def true_sightings(
-    log: ObservationLog, points_w_of: Callable[[int], np.ndarray]
-) -> Sightings:
+def true_sightings(log: ObservationLog, points_w_of: Callable[[int], np.ndarray]) -> Sightings:
     """Look up the true world point of every sighting.
 
     Args:
@@ -88,8 +85,12 @@ def true_sightings(
         points.append(point_at_pixels(points_w_of(frame.index), px))
     if not frames:
         return Sightings(np.zeros(0, int), np.zeros(0), np.zeros(0, int), np.zeros((0, 3)))
-    return Sightings(np.concatenate(frames), np.concatenate(stamps), np.concatenate(tracks),
-                     np.concatenate(points))
+    return Sightings(
+        np.concatenate(frames),
+        np.concatenate(stamps),
+        np.concatenate(tracks),
+        np.concatenate(points),
+    )
 
 
 def track_precision(s: Sightings, tol_m: float = SAME_POINT_M) -> tuple[float, int]:
@@ -112,6 +113,34 @@ def track_precision(s: Sightings, tol_m: float = SAME_POINT_M) -> tuple[float, i
         good += int(np.sum(d[iu] <= tol_m))
         total += iu[0].shape[0]
     return (good / total if total else 1.0), total
+
+
+def track_truth(s: Sightings, tol_m: float = SAME_POINT_M) -> tuple[np.ndarray, np.ndarray]:
+    """The true 3-D point of every consistent track: ground truth for landmark error.
+
+    A track's point is the median of its sightings' true points; a track is kept only when every
+    sighting with a known point lies within ``tol_m`` of that median (a track that wandered
+    between surfaces has no single true position and is left out of the evaluation).
+
+    Returns:
+        (ids (T,), points_w (T, 3) [m]).
+    """
+    known = np.all(np.isfinite(s.points_w), axis=1)
+    order = np.argsort(s.track[known], kind="stable")
+    tracks = s.track[known][order]
+    points = s.points_w[known][order]
+    bounds = np.flatnonzero(np.diff(tracks)) + 1
+    ids, centres = [], []
+    for t, p in zip(np.split(tracks, bounds), np.split(points, bounds), strict=True):
+        if not t.size:
+            continue
+        centre = np.median(p, axis=0)
+        if np.all(np.linalg.norm(p - centre, axis=1) <= tol_m):
+            ids.append(int(t[0]))
+            centres.append(centre)
+    if not ids:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    return np.array(ids, dtype=np.int64), np.array(centres)
 
 
 def track_lengths(log: ObservationLog) -> np.ndarray:
@@ -163,7 +192,10 @@ def reassociation_rate(
 
 
 def visible_line_bearings(
-    lines_w: np.ndarray, wTr: np.ndarray, rig: object, points_w: np.ndarray,
+    lines_w: np.ndarray,
+    wTr: np.ndarray,
+    rig: object,
+    points_w: np.ndarray,
     tol_m: float = 0.12,
 ) -> np.ndarray:
     """True robot-frame bearings of the vertical-line landmarks visible in one image.

@@ -144,6 +144,34 @@ class NoiseModels:
         return model
 
 
+def condition_odometry_covariance(cov_r: np.ndarray, min_sigma_m: float) -> np.ndarray:
+    """Raise an odometry covariance so its translation given the rotation has std >= a floor.
+
+    The conditional covariance of the translation given the heading change is the Schur
+    complement ``S = C_tt - C_tr C_rr^-1 C_rt`` (t = [dx, dy], r = dtheta). Adding ``a I`` to
+    ``C_tt`` adds ``a I`` to ``S``; ``a = max(0, min_sigma_m^2 - lambda_min(S))`` makes every
+    direction of ``S`` at least ``min_sigma_m^2`` and leaves a covariance that already satisfies
+    it untouched. Why the graph needs it: ``GraphSLAMConfig.odometry_min_sigma_m``.
+
+    Args:
+        cov_r: (3, 3) covariance of the robot-frame delta [dx, dy, dtheta] [m^2, m^2, rad^2].
+        min_sigma_m: the floor [m].
+
+    Returns:
+        (3, 3) the conditioned covariance (``cov_r`` itself when nothing had to change).
+    """
+    schur = cov_r[:2, :2]
+    if cov_r[2, 2] > 0:
+        schur = schur - np.outer(cov_r[:2, 2], cov_r[2, :2]) / cov_r[2, 2]
+    missing = min_sigma_m**2 - np.linalg.eigvalsh(schur)[0]
+    if missing <= 0:
+        return cov_r
+    out = np.array(cov_r, dtype=float)
+    out[0, 0] += missing
+    out[1, 1] += missing
+    return out
+
+
 def between_pose2(i: int, j: int, delta_r: np.ndarray, cov_r: np.ndarray) -> Any:
     """Odometry factor from pose i to pose j: ``iTj = delta_r`` with covariance ``cov_r``."""
     return gtsam.BetweenFactorPose2(

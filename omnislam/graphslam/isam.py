@@ -62,6 +62,9 @@ CREATED_ID_BASE = 1_000_000_000
 
 _RANGE_BEARING = RangeBearing2D()
 
+#: smallest angle between a measured bearing and its mapped landmark that counts as an outlier
+_BEARING_GATE_RAD = np.radians(20.0)
+
 
 @dataclass(frozen=True, slots=True)
 class GraphSLAMInfo:
@@ -81,6 +84,8 @@ class GraphSLAMInfo:
         sightings_ambiguous: unlabelled sightings dropped between the two gates.
         sightings_ignored: sightings the mode cannot use (unknown ids of bearing-only tracks,
             a modality other than the mode's).
+        sightings_gated: bearings of mapped landmarks pointing away from them (outliers of
+            the front end's association), not added to the graph.
     """
 
     mode: Mode
@@ -95,6 +100,7 @@ class GraphSLAMInfo:
     sightings_associated: int
     sightings_ambiguous: int
     sightings_ignored: int
+    sightings_gated: int = 0
 
 
 def resolve_mode(frame: FrameInput) -> Mode:
@@ -142,7 +148,9 @@ class GraphSLAM:
         self._fixed_odometry_cov = (
             None
             if self.config.odometry_sigmas is None
-            else np.diag(np.square(self.config.odometry_sigmas))
+            else fx.condition_odometry_covariance(
+                np.diag(np.square(self.config.odometry_sigmas)), self.config.odometry_min_sigma_m
+            )
         )
         self._isam: Any = None
         self._buffer: list[FrameInput] = []
@@ -150,11 +158,10 @@ class GraphSLAM:
         self._latest = self._initial_pose.copy()  # newest pose estimate [x, y, theta]
         self._latest_pose2 = fx.pose2(self._initial_pose)  # the same as a gtsam.Pose2
         self._guess = self._initial_pose.copy()  # initial guess of the frame being added
-        self._odometry_noise = (
-            None
-            if self.config.odometry_sigmas is None
-            else gtsam.noiseModel.Diagonal.Sigmas(np.asarray(self.config.odometry_sigmas))
-        )
+        self._odometry_noise = None
+        if self._fixed_odometry_cov is not None:
+            sigmas = np.sqrt(np.diag(self._fixed_odometry_cov))
+            self._odometry_noise = gtsam.noiseModel.Diagonal.Sigmas(sigmas)
         self._frames = 0
         # landmarks in the graph: id -> row of the cached positions (used by the association)
         self._landmark_row: dict[int, int] = {}
@@ -162,6 +169,8 @@ class GraphSLAM:
         self._landmarks_xy = np.zeros((64, 2))
         self._next_created_id = CREATED_ID_BASE
         self._created = self._associated = self._ambiguous = self._ignored = 0
+        self._gated = 0  # bearings of mapped landmarks rejected by the outlier gate
+        self._landmark_point_w: dict[int, np.ndarray] = {}  # 3-D landmarks at insertion
 
     # ------------------------------------------------------------------ protocol
 
@@ -212,6 +221,7 @@ class GraphSLAM:
             sightings_associated=self._associated,
             sightings_ambiguous=self._ambiguous,
             sightings_ignored=self._ignored,
+            sightings_gated=self._gated,
         )
 
     def factor_graph(self) -> Any:
@@ -277,6 +287,9 @@ class GraphSLAM:
                 cov = frame.odometry.covariance
             else:
                 cov = self._motion.covariance(delta)
+            # a factor far more precise than the poses' absolute uncertainty makes iSAM2's
+            # Cholesky reject the clique (see GraphSLAMConfig.odometry_min_sigma_m)
+            cov = fx.condition_odometry_covariance(cov, self.config.odometry_min_sigma_m)
             if omni:
                 graph.add(
                     fx.between_pose3(
@@ -368,11 +381,31 @@ class GraphSLAM:
                 continue
             factor = fx.bearing_3d(k, lid, ray, self._noise.isotropic(2, sigma))
             if lid in self._landmark_row:
+                if self._bearing_outlier(lid, ray, sigma):
+                    self._gated += 1
+                    continue
                 graph.add(factor)
             else:
                 self._delayed.hold(lid, k, ray, factor)
                 touched.append(lid)
         self._insert_ready(k, touched, graph, values, point3=True)
+
+    def _bearing_outlier(self, lid: int, ray_r: np.ndarray, sigma_rad: float) -> bool:
+        """True when a bearing of a mapped landmark points away from the landmark.
+
+        The angle between the measured ray and the direction from the guessed viewpoint to the
+        landmark (its position when it was inserted) is gated at max(5 sigma, 20 deg): a wrong
+        front-end association can point anywhere, and a Unit3 bearing error near 180 deg has a
+        degenerate Jacobian that makes iSAM2 throw "Indeterminate linear system".
+        """
+        point = self._landmark_point_w.get(lid)
+        if point is None:
+            return False
+        c, s = np.cos(self._guess[2]), np.sin(self._guess[2])
+        ray_w = np.array([c * ray_r[0] - s * ray_r[1], s * ray_r[0] + c * ray_r[1], ray_r[2]])
+        to_point = point - np.array([self._guess[0], self._guess[1], self.config.sensor_height_m])
+        cosine = ray_w @ to_point / max(np.linalg.norm(to_point), 1e-12)
+        return bool(cosine < np.cos(max(5.0 * sigma_rad, _BEARING_GATE_RAD)))
 
     def _add_bearings_2d(self, k: int, lines: VerticalLines, graph: Any, values: Any) -> None:
         touched: list[int] = []
@@ -403,6 +436,7 @@ class GraphSLAM:
                 continue
             if point3:
                 values.insert(fx.landmark_key(lid), gtsam.Point3(insertion.point_w))
+                self._landmark_point_w[lid] = np.asarray(insertion.point_w, dtype=float)
             else:
                 values.insert(fx.landmark_key(lid), gtsam.Point2(insertion.point_w[:2]))
             for factor in insertion.factors:

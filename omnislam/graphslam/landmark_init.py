@@ -26,6 +26,16 @@ from omnislam.core.triangulation import triangulate_rays
 _MIN_EIGENVALUE = 1e-6
 
 
+def _subtended_rad(origins_w: np.ndarray, point_w: np.ndarray) -> float:
+    """Largest angle at ``point_w`` between the directions to any two of ``origins_w``."""
+    to_origins = origins_w - point_w
+    norms = np.linalg.norm(to_origins, axis=1)
+    if np.any(norms < 1e-9):
+        return 0.0
+    unit = to_origins / norms[:, None]
+    return float(np.arccos(np.clip(unit @ unit.T, -1.0, 1.0)).max())
+
+
 @dataclass(slots=True)
 class PendingTrack:
     """A track not yet in the graph: its sightings and the factors they became.
@@ -112,7 +122,12 @@ class DelayedInsertion:
             origins[k], wRs = viewpoint(frame)
             rays_w[k] = wRs @ ray_s
         result = triangulate_rays(origins, rays_w)
-        if result.parallax_rad < self._min_parallax_rad:
+        # parallax is the angle the viewpoints subtend at the point, not the spread of the ray
+        # directions: rays from one viewpoint (a robot turning on the spot, a mismatched track)
+        # can differ by degrees and still meet at the viewpoint itself, at zero depth
+        if min(result.parallax_rad, _subtended_rad(origins, result.point_w)) < (
+            self._min_parallax_rad
+        ):
             return None
         if not result.in_front or result.min_eigenvalue < _MIN_EIGENVALUE * len(track.frames):
             self._rejected += 1

@@ -72,6 +72,13 @@ def _odometry(poses_true: np.ndarray, rng: np.random.Generator) -> tuple[np.ndar
     return deltas, np.asarray(dr)
 
 
+def _odometry_chain(start: np.ndarray, frames: list[FrameInput]) -> np.ndarray:
+    poses = [start]
+    for frame in frames[1:]:
+        poses.append(se2_compose(poses[-1], frame.odometry.delta))
+    return np.asarray(poses)
+
+
 def _ring_landmarks(
     m: int, rng: np.random.Generator, center: np.ndarray, r_in: float, r_out: float
 ) -> np.ndarray:
@@ -155,6 +162,46 @@ def simulate_omni(
             )
         )
     return Scenario(frames, poses, lms, dr)
+
+
+def simulate_stopping(
+    rng: np.random.Generator, cruise: int = 60, stopping: int = 40, speed_m: float = 1.0
+) -> Scenario:
+    """A car-like run that drives away from its start, then slows geometrically to a stop.
+
+    Victoria Park's failure in miniature: after the cruise the poses are ~1 m uncertain in
+    absolute terms, while the motion model (``MotionNoise()`` defaults) makes each creeping
+    step's lateral motion known to ~0.1 mm. Sightings as on Victoria Park: trees in two rows
+    6 m either side, range-bearing noise 0.5 m / 0.05 rad, 15 m range, known ids.
+    """
+    steps = np.concatenate([np.full(cruise, speed_m), speed_m * 0.8 ** np.arange(1, stopping + 1)])
+    x = np.concatenate([[0.0], np.cumsum(steps)])
+    y = 0.3 * np.sin(x / 10.0)
+    poses = np.column_stack([x, y, np.arctan2(np.gradient(y), np.gradient(x))])
+    along = np.arange(5.0, x[-1] + 20.0, 8.0)
+    lms = np.column_stack([along, np.where(np.arange(len(along)) % 2, 6.0, -6.0)])
+    model, rb_model = OdometryMotionModel(MotionNoise()), RangeBearing2D()
+    frames = []
+    for k in range(len(poses)):
+        delta = np.zeros(3)
+        if k:
+            delta = model.sample_delta(se2_between(poses[k - 1], poses[k]), rng)
+        z, _, _ = rb_model.predict(np.broadcast_to(poses[k], (len(lms), 3)), lms)
+        seen = np.flatnonzero(z[:, 0] < 15.0)
+        frames.append(
+            FrameInput(
+                index=k,
+                odometry=Odometry(delta, float(k)),
+                range_bearing=RangeBearing(
+                    seen,
+                    z[seen, 0] + 0.5 * rng.standard_normal(len(seen)),
+                    z[seen, 1] + 0.05 * rng.standard_normal(len(seen)),
+                    0.5,
+                    0.05,
+                ),
+            )
+        )
+    return Scenario(frames, poses, lms, _odometry_chain(poses[0], frames))
 
 
 def hide_ids(frames: list[FrameInput]) -> list[FrameInput]:

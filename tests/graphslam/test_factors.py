@@ -107,3 +107,16 @@ def test_robust_models_downweight_only_with_a_kernel(kernel):
         assert isinstance(model, gtsam.noiseModel.Diagonal)
     else:
         assert np.all(np.asarray(weight) < 0.2)
+
+
+def test_odometry_conditioning_floors_translation_given_rotation():
+    floor = 1e-3
+    # lateral motion nearly determined by the heading change (a creeping car)
+    cov = np.array([[1e-6, 0.0, 0.0], [0.0, 2e-8, 1e-8], [0.0, 1e-8, 1e-8]])
+    out = fx.condition_odometry_covariance(cov, floor)
+    schur = out[:2, :2] - np.outer(out[:2, 2], out[2, :2]) / out[2, 2]
+    np.testing.assert_allclose(np.linalg.eigvalsh(schur)[0], floor**2, rtol=1e-9)
+    np.testing.assert_array_equal(out[:, 2], cov[:, 2])  # rotation untouched
+    # a covariance that already respects the floor is returned unchanged
+    fine = np.diag([1e-4, 4e-6, 4e-6])
+    assert fx.condition_odometry_covariance(fine, floor) is fine

@@ -213,6 +213,7 @@ def load_synthetic(path: str | Path) -> Sequence:
         laser=laser,
         image_loader=folder.image if images else None,
         image_frames=np.array(images, dtype=np.int64),
+        point_map_loader=(lambda i: folder.ground_truth_maps(i).points_w) if images else None,
         calibration=folder.rig,
         info={
             "preset": str(meta["preset"]),
