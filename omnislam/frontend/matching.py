@@ -12,6 +12,7 @@ enough of the group matched.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -100,6 +101,17 @@ def match_brute_force(
     return unique_train(ratio_test(distances, indices, config.ratio))
 
 
+def _seed_flann(cv2: Any, seed: int) -> None:
+    """Seed the generator OpenCV's FLANN draws its randomised kd-trees from (``cv::theRNG``).
+
+    Nothing else seeds it: the trees, hence the approximate neighbours, would depend on
+    whatever used the generator earlier in the process, and two runs of the front end on the
+    same data could give different logs. Seeding from the index size makes every index
+    reproducible.
+    """
+    cv2.setRNGSeed(int(seed) & 0x7FFFFFFF)
+
+
 class MapIndex:
     """FLANN kd-tree over the descriptors of the map's landmarks (the thesis's BBF search).
 
@@ -132,6 +144,7 @@ class MapIndex:
             index_params = {"algorithm": 1, "trees": config.flann_trees}  # FLANN_INDEX_KDTREE
             self._flann = cv2.FlannBasedMatcher(index_params, {"checks": config.flann_checks})
             self._flann.add([self._descriptors])
+            _seed_flann(cv2, self._descriptors.shape[0])
             self._flann.train()
 
     def __len__(self) -> int:
