@@ -12,9 +12,16 @@ from __future__ import annotations
 
 from typing import Any
 
-from omnislam.graphslam.config import GraphSLAMConfig, Mode, RobustKernel
+from omnislam.graphslam.config import Factorization, GraphSLAMConfig, Mode, RobustKernel
 
-__all__ = ["BatchGraphSLAM", "GraphSLAM", "GraphSLAMConfig", "Mode", "RobustKernel"]
+__all__ = [
+    "BatchGraphSLAM",
+    "Factorization",
+    "GraphSLAM",
+    "GraphSLAMConfig",
+    "Mode",
+    "RobustKernel",
+]
 
 
 def __getattr__(name: str) -> Any:

@@ -48,7 +48,7 @@ from omnislam.graphslam.association import (
     associate,
     sighting_points,
 )
-from omnislam.graphslam.config import GraphSLAMConfig, Mode
+from omnislam.graphslam.config import Factorization, GraphSLAMConfig, Mode
 from omnislam.graphslam.landmark_init import (
     ConsistentInsertion,
     DelayedInsertion,
@@ -244,6 +244,11 @@ class GraphSLAM:
         params = gtsam.ISAM2Params()
         params.setRelinearizeThreshold(self.config.relinearize_threshold)
         params.relinearizeSkip = self.config.relinearize_skip
+        factorization = self.config.factorization
+        if factorization is Factorization.AUTO:
+            omni = self._mode is Mode.OMNI
+            factorization = Factorization.QR if omni else Factorization.CHOLESKY
+        params.setFactorization(factorization.name)
         self._isam = gtsam.ISAM2(params)
 
     def _require_started(self) -> None:
@@ -386,7 +391,7 @@ class GraphSLAM:
                     continue
                 graph.add(factor)
             else:
-                self._delayed.hold(lid, k, ray, factor)
+                self._delayed.hold(lid, k, ray, factor, sigma)
                 touched.append(lid)
         self._insert_ready(k, touched, graph, values, point3=True)
 

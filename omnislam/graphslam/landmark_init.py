@@ -22,6 +22,8 @@ import numpy as np
 
 from omnislam.core.triangulation import triangulate_rays
 
+#: a triangulated point must lie within this many angular sigmas of every ray of its track
+_CONSISTENCY_SIGMAS = 4.0
 #: relative floor of the smallest eigenvalue of sum(I - d d^T) (near-parallel rays are rejected)
 _MIN_EIGENVALUE = 1e-6
 
@@ -43,11 +45,13 @@ class PendingTrack:
     Attributes:
         frames: frame index of each sighting.
         rays_s: unit bearing of each sighting in its sensor frame (3,) (z = 0 in 2-D modes).
+        sigmas_rad: angular standard deviation of each sighting (0: not checked).
         factors: the held-back factor of each sighting.
     """
 
     frames: list[int] = field(default_factory=list)
     rays_s: list[np.ndarray] = field(default_factory=list)
+    sigmas_rad: list[float] = field(default_factory=list)
     factors: list[Any] = field(default_factory=list)
 
 
@@ -59,8 +63,9 @@ class DelayedInsertionStats:
         tracks_inserted: tracks triangulated and added to the graph.
         tracks_pending: tracks still held back (never qualified so far).
         sightings_pending: held-back sightings of the pending tracks.
-        triangulations_rejected: attempts whose point lay behind a ray or whose rays were
-            (nearly) parallel in 3-D although the pairwise parallax passed.
+        triangulations_rejected: attempts whose point lay behind a ray, whose rays were
+            (nearly) parallel in 3-D although the pairwise parallax passed, or whose point
+            missed one of the rays by more than ``_CONSISTENCY_SIGMAS`` of its noise.
     """
 
     tracks_inserted: int
@@ -93,11 +98,14 @@ class DelayedInsertion:
         self._inserted = 0
         self._rejected = 0
 
-    def hold(self, track_id: int, frame: int, ray_s: np.ndarray, factor: Any) -> None:
+    def hold(
+        self, track_id: int, frame: int, ray_s: np.ndarray, factor: Any, sigma_rad: float = 0.0
+    ) -> None:
         """Hold back one sighting of a track that is not in the graph."""
         track = self._pending.setdefault(track_id, PendingTrack())
         track.frames.append(frame)
         track.rays_s.append(ray_s)
+        track.sigmas_rad.append(sigma_rad)
         track.factors.append(factor)
 
     def try_insert(
@@ -130,6 +138,16 @@ class DelayedInsertion:
         ):
             return None
         if not result.in_front or result.min_eigenvalue < _MIN_EIGENVALUE * len(track.frames):
+            self._rejected += 1
+            return None
+        # every ray must pass within its noise of the point: a track with one wrong sighting
+        # (a front-end mismatch) would enter the graph badly conditioned and pull it apart
+        to_point = result.point_w - origins
+        to_point /= np.linalg.norm(to_point, axis=1, keepdims=True)
+        miss_rad = np.arccos(np.clip(np.sum(to_point * rays_w, axis=1), -1.0, 1.0))
+        if np.any(miss_rad > _CONSISTENCY_SIGMAS * np.asarray(track.sigmas_rad)) and all(
+            track.sigmas_rad
+        ):
             self._rejected += 1
             return None
         del self._pending[track_id]
