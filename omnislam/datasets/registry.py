@@ -82,6 +82,7 @@ FORMATS: dict[DatasetFormat, FormatSpec] = {
     DatasetFormat.SYNTHETIC: FormatSpec(
         "omnislam.datasets.synthetic:is_synthetic_folder",
         "omnislam.datasets.synthetic:load_synthetic",
+        {"association": Association.parse},
     ),
 }
 

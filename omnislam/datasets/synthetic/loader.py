@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from omnislam.core.se import se2_from_se3
-from omnislam.core.types import RangeBearing
+from omnislam.core.types import UNKNOWN_ID, RangeBearing
+from omnislam.datasets._common import Association
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, LaserScans, Sequence
 from omnislam.datasets.synthetic.raycast import plane_distances
 from omnislam.datasets.synthetic.writer import FORMAT_NAME, FORMAT_VERSION, frame_name
@@ -166,8 +167,15 @@ def read_ground_truth_maps(path: str | Path, index: int) -> GroundTruthMaps:
     return SyntheticFolder(path).ground_truth_maps(index)
 
 
-def load_synthetic(path: str | Path) -> Sequence:
-    """Read a synthetic folder as a Sequence (images on demand, exact ground truth)."""
+def load_synthetic(path: str | Path, association: Association = Association.KNOWN) -> Sequence:
+    """Read a synthetic folder as a Sequence (images on demand, exact ground truth).
+
+    Args:
+        path: the folder.
+        association: KNOWN hands the pole sightings' true ids to the estimators; UNKNOWN
+            replaces them by ``UNKNOWN_ID`` (the thesis's experiments, where the filter must
+            associate by itself; evaluation still uses the true map).
+    """
     folder = SyntheticFolder(path)
     root = folder.path
     odometry = _read_csv(root / "odometry.csv", 7)
@@ -182,8 +190,10 @@ def load_synthetic(path: str | Path) -> Sequence:
     sightings = []
     for i in range(n):
         rows = poles[frames == i]
-        sightings.append(RangeBearing(rows[:, 1].astype(np.int64), rows[:, 2], rows[:, 3],
-                                      rows[:, 4], rows[:, 5]))
+        ids = rows[:, 1].astype(np.int64)
+        if association is Association.UNKNOWN:
+            ids = np.full_like(ids, UNKNOWN_ID)
+        sightings.append(RangeBearing(ids, rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5]))
     laser_path = root / "laser.npz"
     try:
         with np.load(laser_path, allow_pickle=False) as data:
