@@ -132,32 +132,49 @@ def _write_covariances(path: Path, key: str, keys: np.ndarray, covariances: np.n
     path.write_text("\n".join(lines) + "\n")
 
 
+def _read_keyed_csv(path: Path, header: str) -> tuple[np.ndarray, np.ndarray]:
+    """A CSV whose first column is an integer key and whose other columns are numbers.
+
+    Returns:
+        (keys (M,), values (M, columns - 1)).
+
+    Raises:
+        DataError: unreadable file, wrong header, column count or non-numeric field (naming the
+            line).
+    """
+    path = Path(path)
+    columns = header.count(",") + 1
+    try:
+        text = path.read_text().splitlines()
+    except OSError as exc:
+        raise DataError(f"cannot read the file ({exc})", path) from exc
+    if not text or text[0].strip() != header:
+        raise DataError(f"line 1: expected the header '{header}'", path)
+    keys, values = [], []
+    for number, line in enumerate(text[1:], start=2):
+        if not line.strip():
+            continue
+        fields = line.split(",")
+        if len(fields) != columns:
+            raise DataError(f"line {number}: expected {columns} columns, got {len(fields)}", path)
+        try:
+            keys.append(int(fields[0]))
+            values.append([float(v) for v in fields[1:]])
+        except ValueError:
+            raise DataError(f"line {number}: non-numeric field in {line!r}", path) from None
+    return np.asarray(keys, dtype=np.int64), np.asarray(values, dtype=float).reshape(
+        -1, columns - 1
+    )
+
+
 def read_covariances_csv(path: Path, key: str) -> tuple[np.ndarray, np.ndarray]:
     """``KEY,c00,...,c22`` CSV -> (keys (M,), covariances (M, 3, 3)).
 
     Raises:
         DataError: wrong header, column count or non-numeric field (naming the line).
     """
-    path = Path(path)
-    try:
-        text = path.read_text().splitlines()
-    except OSError as exc:
-        raise DataError(f"cannot read the file ({exc})", path) from exc
-    if not text or text[0].strip() != f"{key},{_COV_COLUMNS}":
-        raise DataError(f"line 1: expected the header '{key},{_COV_COLUMNS}'", path)
-    keys, values = [], []
-    for number, line in enumerate(text[1:], start=2):
-        if not line.strip():
-            continue
-        fields = line.split(",")
-        if len(fields) != 10:
-            raise DataError(f"line {number}: expected 10 columns, got {len(fields)}", path)
-        try:
-            keys.append(int(fields[0]))
-            values.append([float(v) for v in fields[1:]])
-        except ValueError:
-            raise DataError(f"line {number}: non-numeric field in {line!r}", path) from None
-    return np.asarray(keys, dtype=np.int64), np.asarray(values, dtype=float).reshape(-1, 3, 3)
+    keys, values = _read_keyed_csv(path, f"{key},{_COV_COLUMNS}")
+    return keys, values.reshape(-1, 3, 3)
 
 
 def read_landmarks_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -166,26 +183,7 @@ def read_landmarks_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
     Raises:
         DataError: wrong header, column count or non-numeric field (naming the line).
     """
-    path = Path(path)
-    try:
-        text = path.read_text().splitlines()
-    except OSError as exc:
-        raise DataError(f"cannot read the file ({exc})", path) from exc
-    if not text or text[0].strip() != "id,x,y,z":
-        raise DataError("line 1: expected the header 'id,x,y,z'", path)
-    ids, points = [], []
-    for number, line in enumerate(text[1:], start=2):
-        if not line.strip():
-            continue
-        fields = line.split(",")
-        if len(fields) != 4:
-            raise DataError(f"line {number}: expected 4 columns, got {len(fields)}", path)
-        try:
-            ids.append(int(fields[0]))
-            points.append([float(v) for v in fields[1:]])
-        except ValueError:
-            raise DataError(f"line {number}: non-numeric field in {line!r}", path) from None
-    return np.asarray(ids, dtype=np.int64), np.asarray(points, dtype=float).reshape(-1, 3)
+    return _read_keyed_csv(path, "id,x,y,z")
 
 
 def _read_timing(path: Path) -> np.ndarray:

@@ -30,13 +30,13 @@ import io
 import json
 import os
 import shutil
-import tempfile
 from collections.abc import Callable, Mapping
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from omnislam._files import atomic_write_text
 from omnislam.compare.evaluation import EvaluationOptions
 from omnislam.compare.execute import execute_run
 from omnislam.compare.grid import Cell, Grid, column_label, safe_name
@@ -170,17 +170,6 @@ def check_results_dir(out_dir: Path) -> None:
         )
 
 
-def _atomic_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _matches(cell_dir: Path, cell: Cell) -> bool:
     """True when ``cell_dir`` holds a finished run of exactly ``cell.spec``."""
     if not (cell_dir / METRICS).is_file() or not (cell_dir / CONFIG).is_file():
@@ -261,7 +250,7 @@ def write_summary(result: GridResult) -> None:
     """Write ``results.json`` and ``results.csv`` atomically (cells finished so far)."""
     rows = [_row(o) for o in result.outcomes]
     summary = {"grid": result.grid.name, "cells": rows}
-    _atomic_text(result.out_dir / RESULTS_JSON, json.dumps(summary, indent=2) + "\n")
+    atomic_write_text(result.out_dir / RESULTS_JSON, json.dumps(summary, indent=2) + "\n")
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(["cell", "dataset", "estimator", "override", "seed", "status", *CSV_METRICS])
@@ -271,7 +260,7 @@ def write_summary(result: GridResult) -> None:
             [row[k] for k in ("cell", "dataset", "estimator", "override", "seed", "status")]
             + ["" if metrics.get(k) is None else metrics.get(k) for k in CSV_METRICS]
         )
-    _atomic_text(result.out_dir / RESULTS_CSV, buffer.getvalue())
+    atomic_write_text(result.out_dir / RESULTS_CSV, buffer.getvalue())
 
 
 def prepare_frontend_logs(grid: Grid, out_dir: Path) -> Grid:
@@ -345,7 +334,7 @@ def run_grid(
     cells_dir.mkdir(parents=True, exist_ok=True)
     for stale in cells_dir.glob(".*"):  # staging folders of an interrupted invocation
         shutil.rmtree(stale, ignore_errors=True)
-    _atomic_text(out_dir / GRID_COPY, grid.text)
+    atomic_write_text(out_dir / GRID_COPY, grid.text)
     grid = prepare_frontend_logs(grid, out_dir)
 
     outcomes: dict[str, CellOutcome] = {}

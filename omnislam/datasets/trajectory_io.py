@@ -11,13 +11,12 @@ half-written file. Readers raise ``DataError`` naming the file and the line.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
+from omnislam._files import atomic_write_text
 from omnislam.core.se import quat_wxyz_from_se3, se3_from_xyz_quat
 from omnislam.core.types import Trajectory
 from omnislam.errors import DataError
@@ -46,19 +45,6 @@ def _numeric_rows(path: Path, columns: int) -> Iterator[tuple[int, np.ndarray]]:
         if not np.all(np.isfinite(values)):
             raise DataError(f"line {number}: NaN or infinite value", path)
         yield number, values
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def read_tum(path: str | Path) -> Trajectory:
@@ -93,7 +79,7 @@ def write_tum(path: str | Path, trajectory: Trajectory) -> None:
     )
     lines = ["# timestamp tx ty tz qx qy qz qw"]
     lines += [" ".join(_FORMAT % v for v in row) for row in rows]
-    _atomic_write(Path(path), "\n".join(lines) + "\n")
+    atomic_write_text(Path(path), "\n".join(lines) + "\n")
 
 
 def read_kitti(path: str | Path, stamps_s: np.ndarray | None = None) -> Trajectory:
@@ -126,4 +112,6 @@ def read_kitti(path: str | Path, stamps_s: np.ndarray | None = None) -> Trajecto
 def write_kitti(path: str | Path, trajectory: Trajectory) -> None:
     """Write a trajectory as a KITTI pose file (atomically; stamps are not stored)."""
     rows = trajectory.poses_w[:, :3, :4].reshape(-1, 12)
-    _atomic_write(Path(path), "".join(" ".join(_FORMAT % v for v in row) + "\n" for row in rows))
+    atomic_write_text(
+        Path(path), "".join(" ".join(_FORMAT % v for v in row) + "\n" for row in rows)
+    )

@@ -63,7 +63,7 @@ def test_writer_leaves_no_partial_file_on_error(tmp_path, trajectory, monkeypatc
     def broken(*args, **kwargs):
         raise OSError("disk full")
 
-    monkeypatch.setattr("omnislam.datasets.trajectory_io.os.replace", broken)
+    monkeypatch.setattr("omnislam._files.os.replace", broken)
     with pytest.raises(OSError):
         write_tum(target, Trajectory.from_se2([0.0], [[1.0, 2.0, 0.3]]))
     assert target.read_text() == before
