@@ -24,6 +24,8 @@ from matplotlib.patches import Ellipse  # noqa: E402
 
 #: resolution of every figure [dots per inch]; small, reports are committed
 DPI = 72
+#: timing plots of longer runs show per-bin percentiles instead of every step
+TIMING_BINS = 200
 #: covariance ellipses are drawn at this many standard deviations
 ELLIPSE_SIGMA = 2.0
 _TRUTH_STYLE = {"color": "black", "linewidth": 1.4, "linestyle": "--"}
@@ -47,10 +49,19 @@ class LandmarkSeries:
 
 
 def _png(figure: Figure) -> bytes:
+    """The figure as PNG bytes, quantised to a 256-colour palette (a third of the size of
+    matplotlib's RGBA output, indistinguishable for line plots; reports embed many figures)."""
+    from PIL import Image
+
     FigureCanvasAgg(figure)
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png", dpi=DPI, bbox_inches="tight")
-    return buffer.getvalue()
+    buffer.seek(0)
+    with Image.open(buffer) as image:
+        palette = image.convert("RGB").quantize(colors=256, method=Image.Quantize.MEDIANCUT)
+        out = io.BytesIO()
+        palette.save(out, format="PNG", optimize=True)
+    return out.getvalue()
 
 
 def trajectories_png(
@@ -143,11 +154,25 @@ def error_over_distance_png(
 
 
 def timing_png(title: str, steps_ms: Sequence[Series]) -> bytes:
-    """Per-step wall time against frame index [ms] (log scale), one line per estimator."""
+    """Per-step wall time against frame index [ms] (log scale), one line per estimator.
+
+    Long runs are summarised per bin of consecutive frames (at most ``TIMING_BINS`` bins): the
+    line is the bin's median step time, the shade spans its 5th to 95th percentile.
+    """
     figure = Figure(figsize=(9.0, 3.2))
     ax = figure.add_subplot()
     for s in steps_ms:
-        ax.plot(s.xy[:, 0], np.maximum(s.xy[:, 1], 1e-4), linewidth=0.6, label=s.label)
+        frames, ms = s.xy[:, 0], np.maximum(s.xy[:, 1], 1e-4)
+        if frames.size > TIMING_BINS:
+            bins = np.array_split(np.arange(frames.size), TIMING_BINS)
+            centre = np.array([frames[b].mean() for b in bins])
+            low, mid, high = (
+                np.array([np.percentile(ms[b], q) for b in bins]) for q in (5, 50, 95)
+            )
+            (line,) = ax.plot(centre, mid, linewidth=0.8, label=s.label)
+            ax.fill_between(centre, low, high, color=line.get_color(), alpha=0.2, linewidth=0)
+        else:
+            ax.plot(frames, ms, linewidth=0.6, label=s.label)
     ax.set(title=title, xlabel="frame", ylabel="step time [ms]", yscale="log")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8, loc="upper left")
