@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import csv
 import enum
+import hashlib
 import io
 import json
 import os
@@ -263,6 +264,13 @@ def write_summary(result: GridResult) -> None:
     atomic_write_text(result.out_dir / RESULTS_CSV, buffer.getvalue())
 
 
+def _log_name(dataset: str) -> str:
+    """File name of a dataset's front-end log: its last path component plus a short hash of the
+    full argument (two folders of the same name never share a log)."""
+    digest = hashlib.sha1(dataset.encode()).hexdigest()[:10]
+    return f"{safe_name(Path(dataset).name)}-{digest}.npz"
+
+
 def prepare_frontend_logs(grid: Grid, out_dir: Path) -> Grid:
     """Run the shared front end once per dataset with images; every cell replays its log.
 
@@ -289,7 +297,7 @@ def prepare_frontend_logs(grid: Grid, out_dir: Path) -> Grid:
             continue
         from omnislam.frontend.pipeline import cached_frontend
 
-        path = out_dir / LOGS / f"{safe_name(dataset)}.npz"
+        path = out_dir / LOGS / _log_name(dataset)
         path.parent.mkdir(parents=True, exist_ok=True)
         cached_frontend(sequence, path, progress=True)
         logs[dataset] = str(path)
