@@ -86,6 +86,7 @@ class GraphSLAMInfo:
             a modality other than the mode's).
         sightings_gated: bearings of mapped landmarks pointing away from them (outliers of
             the front end's association), not added to the graph.
+        factorization_fallbacks: Cholesky failures recovered by rebuilding with QR (AUTO).
     """
 
     mode: Mode
@@ -101,6 +102,7 @@ class GraphSLAMInfo:
     sightings_ambiguous: int
     sightings_ignored: int
     sightings_gated: int = 0
+    factorization_fallbacks: int = 0
 
 
 def resolve_mode(frame: FrameInput) -> Mode:
@@ -170,6 +172,9 @@ class GraphSLAM:
         self._next_created_id = CREATED_ID_BASE
         self._created = self._associated = self._ambiguous = self._ignored = 0
         self._gated = 0  # bearings of mapped landmarks rejected by the outlier gate
+        self._fallbacks = 0  # Cholesky failures recovered by rebuilding with QR
+        self._factorization = Factorization.CHOLESKY
+        self._all_factors = gtsam.NonlinearFactorGraph()  # every factor so far (for a rebuild)
         self._landmark_point_w: dict[int, np.ndarray] = {}  # 3-D landmarks at insertion
 
     # ------------------------------------------------------------------ protocol
@@ -222,6 +227,7 @@ class GraphSLAM:
             sightings_ambiguous=self._ambiguous,
             sightings_ignored=self._ignored,
             sightings_gated=self._gated,
+            factorization_fallbacks=self._fallbacks,
         )
 
     def factor_graph(self) -> Any:
@@ -240,16 +246,49 @@ class GraphSLAM:
 
     # ------------------------------------------------------------------ graph building
 
-    def _start(self) -> None:
+    def _start(self, factorization: Factorization | None = None) -> None:
         params = gtsam.ISAM2Params()
         params.setRelinearizeThreshold(self.config.relinearize_threshold)
         params.relinearizeSkip = self.config.relinearize_skip
-        factorization = self.config.factorization
-        if factorization is Factorization.AUTO:
-            omni = self._mode is Mode.OMNI
-            factorization = Factorization.QR if omni else Factorization.CHOLESKY
-        params.setFactorization(factorization.name)
+        if factorization is None:
+            factorization = self.config.factorization
+        self._factorization = (
+            Factorization.CHOLESKY if factorization is Factorization.AUTO else factorization
+        )
+        params.setFactorization(self._factorization.name)
         self._isam = gtsam.ISAM2(params)
+
+    def _update(self, graph: Any, values: Any, frame_index: int) -> None:
+        """One iSAM2 update; with AUTO factorisation, a Cholesky failure rebuilds with QR.
+
+        The rebuild re-adds every factor so far, linearised at iSAM2's current linearisation
+        point (the new variables at their initial guesses), to a fresh QR-factorising iSAM2,
+        which the rest of the run keeps using.
+        """
+        try:
+            self._isam.update(graph, values)
+        except RuntimeError as exc:
+            if not (
+                self.config.factorization is Factorization.AUTO
+                and self._factorization is Factorization.CHOLESKY
+            ):
+                raise EstimationError(f"iSAM2 update at frame {frame_index} failed: {exc}") from exc
+            point = gtsam.Values(self._isam.getLinearizationPoint())
+            for key in values.keys():
+                if point.exists(key):
+                    point.erase(key)
+            point.insert(values)
+            self._all_factors.push_back(graph)
+            self._start(Factorization.QR)
+            self._fallbacks += 1
+            try:
+                self._isam.update(self._all_factors, point)
+            except RuntimeError as exc2:
+                raise EstimationError(
+                    f"iSAM2 update at frame {frame_index} failed, also with QR: {exc2}"
+                ) from exc2
+            return
+        self._all_factors.push_back(graph)
 
     def _require_started(self) -> None:
         if self._isam is None:
@@ -329,10 +368,7 @@ class GraphSLAM:
             values.insert(fx.pose_key(k), guess2)
 
         self._add_sightings(k, frame, graph, values)
-        try:
-            self._isam.update(graph, values)
-        except RuntimeError as exc:
-            raise EstimationError(f"iSAM2 update at frame {frame.index} failed: {exc}") from exc
+        self._update(graph, values, frame.index)
         if omni:
             self._latest = fx.planar_from_pose3(self._isam.calculateEstimatePose3(fx.pose_key(k)))
             self._latest_pose2 = fx.pose2(self._latest)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from graphslam_scenarios import (
@@ -19,7 +21,14 @@ from graphslam_scenarios import (
 
 from omnislam.core.types import Estimator, FrameInput, Odometry
 from omnislam.errors import EstimationError
-from omnislam.graphslam import BatchGraphSLAM, GraphSLAM, GraphSLAMConfig, Mode, RobustKernel
+from omnislam.graphslam import (
+    BatchGraphSLAM,
+    Factorization,
+    GraphSLAM,
+    GraphSLAMConfig,
+    Mode,
+    RobustKernel,
+)
 from omnislam.graphslam import factors as fx
 
 gtsam = pytest.importorskip("gtsam")
@@ -188,10 +197,17 @@ def test_a_creeping_robot_does_not_make_isam2_indeterminate():
     Cholesky throws "Indeterminate linear system". The graph's 1 mm floor prevents it.
     """
     scenario = simulate_stopping(np.random.default_rng(0))
-    # the old behaviour: only the motion model's own floor
+    # the old behaviour: only the motion model's own floor, Cholesky without the QR fallback
+    old = GraphSLAMConfig(odometry_min_sigma_m=1e-4, factorization=Factorization.CHOLESKY)
     with pytest.raises(EstimationError, match="Indeterminate"):
-        run(GraphSLAM(GraphSLAMConfig(odometry_min_sigma_m=1e-4)), scenario.frames)
+        run(GraphSLAM(old), scenario.frames)
+    # the AUTO factorisation recovers by rebuilding with QR, and gives the same estimate
+    rescued = GraphSLAM(replace(old, factorization=Factorization.AUTO))
+    rescued_estimate = run(rescued, scenario.frames)
+    assert rescued.info().factorization_fallbacks == 1
     estimator = GraphSLAM(GraphSLAMConfig())
     estimate = run(estimator, scenario.frames)
+    assert estimator.info().factorization_fallbacks == 0
     assert len(estimate.trajectory) == len(scenario.frames)
+    assert scenario.ate(rescued_estimate.trajectory.se2) < 3.0
     assert scenario.ate(estimate.trajectory.se2) < 3.0  # 100 m of sparse 0.5 m-noise sightings
