@@ -29,7 +29,7 @@ import numpy as np
 from omnislam._optional import require
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.motion import OdometryMotionModel
-from omnislam.core.se import se2_compose, se3_from_se2
+from omnislam.core.se import se2_compose, se2_from_se3, se3_from_se2
 from omnislam.core.types import (
     UNKNOWN_ID,
     Bearings,
@@ -613,9 +613,7 @@ class GraphSLAM:
             sTr = np.eye(4)
             sTr[2, 3] = -self.config.sensor_height_m
             poses_w = wTs @ sTr
-            planar = np.column_stack(
-                [poses_w[:, 0, 3], poses_w[:, 1, 3], np.arctan2(wTs[:, 1, 0], wTs[:, 0, 0])]
-            )
+            planar = se2_from_se3(poses_w)
             landmarks_w = gtsam.utilities.extractPoint3(values).reshape(-1, 3)
         else:
             planar = gtsam.utilities.extractPose2(values).reshape(-1, 3)
