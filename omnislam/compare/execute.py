@@ -23,6 +23,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction, reassign_ids
 from omnislam.compare.rundir import GRAPH_G2O, RunConfig, RunRecord
 from omnislam.core.types import UNKNOWN_ID, FrameInput
 from omnislam.datasets.sequence import GroundTruth
@@ -53,8 +54,9 @@ class RunSpec:
         dataset: registered name or path.
         estimator: estimator name (a key of ``omnislam.estimators.ESTIMATORS``).
         seed: random seed (None: fresh entropy).
-        options: ``--set`` options; keys the dataset's loader accepts go to the loader, the
-            others to the estimator.
+        options: ``--set`` options; keys the dataset's loader accepts go to the loader,
+            ``wrong_id_fraction`` to the harness (``compare.perturb``: re-label that fraction
+            of the sightings with wrong ids), the others to the estimator.
         log: a front-end ObservationLog to replay instead of the dataset's own sightings
             (the hook of the shared front end; None = the dataset's sightings).
     """
@@ -120,8 +122,10 @@ def execute_run(spec: RunSpec) -> RunRecord:
     check_estimator(spec.estimator)
     resolved = resolve(spec.dataset)
     loader_keys = resolved.option_names()
-    dataset_options = {k: v for k, v in spec.options.items() if k in loader_keys}
-    estimator_options = {k: v for k, v in spec.options.items() if k not in loader_keys}
+    options = dict(spec.options)
+    wrong_fraction = parse_fraction(options.pop(WRONG_ID_OPTION, "0"))
+    dataset_options = {k: v for k, v in options.items() if k in loader_keys}
+    estimator_options = {k: v for k, v in options.items() if k not in loader_keys}
     sequence = load_dataset(resolved, dataset_options)
     ground_truth = sequence.ground_truth
     if spec.log is None:
@@ -133,6 +137,12 @@ def execute_run(spec: RunSpec) -> RunRecord:
         frames = iter(replay.frames)
         has_bearings = any(f.bearings is not None and len(f.bearings) for f in replay.frames)
         ground_truth, track_truth = _with_track_truth(sequence, replay, Path(spec.log))
+    reassigned = 0
+    if wrong_fraction > 0:
+        # its own stream, so the estimator draws the same numbers with and without it
+        perturb_rng = np.random.default_rng(np.random.SeedSequence(spec.seed).spawn(1)[0])
+        perturbed, reassigned = reassign_ids(frames, wrong_fraction, perturb_rng)
+        frames = iter(perturbed)
 
     sightings = [rb for rb in sequence.range_bearing or () if rb is not None and len(rb)]
     known = bool(sightings) and all(np.all(rb.landmark_ids != UNKNOWN_ID) for rb in sightings)
@@ -178,6 +188,8 @@ def execute_run(spec: RunSpec) -> RunRecord:
         landmark_ids_from_truth=(known and spec.log is None) or track_truth,
         frontend_log=None if spec.log is None else str(spec.log),
         frontend_config_hash=None if spec.log is None else _log_config_hash(spec.log),
+        wrong_id_fraction=wrong_fraction,
+        sightings_reassigned=reassigned,
     )
     return RunRecord(config, estimate, step_s, ground_truth, attachments)
 

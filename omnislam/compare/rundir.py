@@ -76,6 +76,9 @@ class RunConfig:
         frontend_log: the front-end ObservationLog replayed (None: the dataset's own sightings).
         frontend_config_hash: the configuration hash of that log (a changed front end never
             reuses a finished cell).
+        wrong_id_fraction: the harness re-labelled this fraction of the sightings with another
+            landmark's id before the run (``compare.perturb``; 0 = the sightings as given).
+        sightings_reassigned: how many sightings that re-labelled.
     """
 
     dataset: str
@@ -94,6 +97,8 @@ class RunConfig:
     landmark_ids_from_truth: bool = False
     frontend_log: str | None = None
     frontend_config_hash: str | None = None
+    wrong_id_fraction: float = 0.0
+    sightings_reassigned: int = 0
 
 
 @dataclass(frozen=True, slots=True)

@@ -41,6 +41,7 @@ from omnislam._files import atomic_write_text
 from omnislam.compare.evaluation import EvaluationOptions
 from omnislam.compare.execute import execute_run
 from omnislam.compare.grid import Cell, Grid, column_label, safe_name
+from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction
 from omnislam.compare.rundir import (
     CONFIG,
     METRICS,
@@ -181,6 +182,11 @@ def _matches(cell_dir: Path, cell: Cell) -> bool:
         return False
     spec = cell.spec
     options = {**config.dataset_options, **config.estimator_options}
+    wanted = dict(spec.options)
+    try:
+        wrong_fraction = parse_fraction(wanted.pop(WRONG_ID_OPTION, "0"))
+    except ConfigError:
+        return False
     if spec.log is not None:
         from omnislam.frontend.observation_log import read_log_key
 
@@ -192,7 +198,8 @@ def _matches(cell_dir: Path, cell: Cell) -> bool:
         config.dataset == spec.dataset
         and config.estimator == spec.estimator
         and config.seed == spec.seed
-        and options == dict(spec.options)
+        and options == wanted
+        and config.wrong_id_fraction == wrong_fraction
     )
 
 

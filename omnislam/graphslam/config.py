@@ -103,6 +103,10 @@ class GraphSLAMConfig:
             (default 0.1; stable on all seeds, DESIGN.md).
         relinearize_skip: iSAM2 checks for relinearisation every this many updates (default 1:
             the GTSAM default of 10 diverged on one of four seeds, DESIGN.md).
+        adaptive_reorder_threshold: when iSAM2's Bayes tree holds more than this many times
+            the non-zeros a fresh batch ordering would give, GTSAM re-orders and re-eliminates
+            the whole tree (``ISAM2Params.enableAdaptiveReorder``, GTSAM 4.3); None disables
+            it. Incremental orderings fill in badly once bearing-only tracks close loops.
         min_sightings: sightings a bearing-only track needs before it is triangulated and
             inserted (default 3).
         min_parallax_deg: largest angle between a track's world rays needed before insertion
@@ -144,6 +148,7 @@ class GraphSLAMConfig:
     planar_sigma_rad: float = 1e-3
     relinearize_threshold: float = 0.1
     relinearize_skip: int = 1
+    adaptive_reorder_threshold: float | None = None
     min_sightings: int = 3
     min_parallax_deg: float = 3.0
     min_consistent_sightings: int = 1
@@ -193,6 +198,11 @@ class GraphSLAMConfig:
             )
         if self.robust_threshold is not None and not self.robust_threshold > 0:
             raise ConfigError(f"robust_threshold must be positive, got {self.robust_threshold}")
+        if self.adaptive_reorder_threshold is not None and not self.adaptive_reorder_threshold > 1:
+            raise ConfigError(
+                "adaptive_reorder_threshold must be > 1 (a ratio of non-zeros) or unset, "
+                f"got {self.adaptive_reorder_threshold}"
+            )
 
     @property
     def kernel_threshold(self) -> float:

@@ -87,6 +87,10 @@ class GraphSLAMInfo:
         sightings_gated: bearings of mapped landmarks pointing away from them (outliers of
             the front end's association), not added to the graph.
         factorization_fallbacks: Cholesky failures recovered by rebuilding with QR (AUTO).
+        batch_reorders: updates in which iSAM2 re-ordered and re-eliminated the whole Bayes
+            tree (when most variables were affected, or by ``adaptive_reorder_threshold``).
+        tree_nonzeros: non-zeros of the Bayes tree's conditionals after the latest update
+            (its fill-in).
     """
 
     mode: Mode
@@ -103,6 +107,8 @@ class GraphSLAMInfo:
     sightings_ignored: int
     sightings_gated: int = 0
     factorization_fallbacks: int = 0
+    batch_reorders: int = 0
+    tree_nonzeros: int = 0
 
 
 def resolve_mode(frame: FrameInput) -> Mode:
@@ -173,6 +179,7 @@ class GraphSLAM:
         self._created = self._associated = self._ambiguous = self._ignored = 0
         self._gated = 0  # bearings of mapped landmarks rejected by the outlier gate
         self._fallbacks = 0  # Cholesky failures recovered by rebuilding with QR
+        self._reorders = 0  # updates that re-ordered the whole Bayes tree
         self._factorization = Factorization.CHOLESKY
         self._all_factors = gtsam.NonlinearFactorGraph()  # every factor so far (for a rebuild)
         self._landmark_point_w: dict[int, np.ndarray] = {}  # 3-D landmarks at insertion
@@ -228,6 +235,8 @@ class GraphSLAM:
             sightings_ignored=self._ignored,
             sightings_gated=self._gated,
             factorization_fallbacks=self._fallbacks,
+            batch_reorders=self._reorders,
+            tree_nonzeros=0 if self._isam is None else int(self._isam.treeNnz()),
         )
 
     def factor_graph(self) -> Any:
@@ -256,6 +265,9 @@ class GraphSLAM:
             Factorization.CHOLESKY if factorization is Factorization.AUTO else factorization
         )
         params.setFactorization(self._factorization.name)
+        if self.config.adaptive_reorder_threshold is not None:
+            params.enableAdaptiveReorder = True
+            params.adaptiveReorderThreshold = self.config.adaptive_reorder_threshold
         self._isam = gtsam.ISAM2(params)
 
     def _update(self, graph: Any, values: Any, frame_index: int) -> None:
@@ -266,7 +278,7 @@ class GraphSLAM:
         which the rest of the run keeps using.
         """
         try:
-            self._isam.update(graph, values)
+            result = self._isam.update(graph, values)
         except RuntimeError as exc:
             if not (
                 self.config.factorization is Factorization.AUTO
@@ -288,6 +300,7 @@ class GraphSLAM:
                     f"iSAM2 update at frame {frame_index} failed, also with QR: {exc2}"
                 ) from exc2
             return
+        self._reorders += bool(result.getBatchReorderTriggered())
         self._all_factors.push_back(graph)
 
     def _require_started(self) -> None:

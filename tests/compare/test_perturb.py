@@ -1,0 +1,103 @@
+"""Wrong ids on purpose (compare.perturb) and the harness option that applies them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from omnislam.compare.execute import RunSpec, execute_run
+from omnislam.compare.perturb import reassign_ids
+from omnislam.core.types import UNKNOWN_ID, Bearings, FrameInput, Odometry, RangeBearing
+from omnislam.errors import ConfigError
+
+
+def frames(count: int, rng: np.random.Generator) -> list[FrameInput]:
+    """Frames with 12 labelled bearings (ids 0..39), 2 unlabelled, and 3 range-bearings."""
+    out = []
+    for k in range(count):
+        ids = np.concatenate([rng.choice(40, 12, replace=False), [UNKNOWN_ID, UNKNOWN_ID]])
+        rays = rng.normal(size=(14, 3))
+        rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+        out.append(
+            FrameInput(
+                k,
+                Odometry(np.array([0.1, 0.0, 0.01]), float(k)),
+                bearings=Bearings(ids, rays, np.full(14, 0.01)),
+                range_bearing=RangeBearing(np.array([3, 5, 7]), np.ones(3), np.zeros(3), 0.1, 0.01),
+            )
+        )
+    return out
+
+
+def test_reassigned_sightings_take_another_id_of_their_own_frame(rng):
+    clean = frames(300, rng)
+    wrong, count = reassign_ids(clean, 0.2, np.random.default_rng(1))
+    changed = 0
+    for before, after in zip(clean, wrong, strict=True):
+        assert after.odometry is before.odometry
+        for name in ("bearings", "range_bearing"):
+            a, b = getattr(before, name), getattr(after, name)
+            np.testing.assert_array_equal(
+                getattr(a, "unit_vectors_r", getattr(a, "ranges_m", None)),
+                getattr(b, "unit_vectors_r", getattr(b, "ranges_m", None)),
+            )
+            moved = a.landmark_ids != b.landmark_ids
+            changed += int(moved.sum())
+            assert np.all(a.landmark_ids[a.landmark_ids == UNKNOWN_ID] == UNKNOWN_ID)
+            assert np.all(b.landmark_ids[a.landmark_ids == UNKNOWN_ID] == UNKNOWN_ID)
+            assert set(b.landmark_ids[moved].tolist()) <= set(a.landmark_ids.tolist())
+    assert changed == count
+    labelled = 300 * 15
+    # binomial(4500, 0.2): sd 27, the count lands within 4 sd of 900
+    assert abs(count - 0.2 * labelled) < 4 * np.sqrt(labelled * 0.2 * 0.8)
+
+
+def test_reassignment_is_deterministic_and_zero_is_the_identity(rng):
+    clean = frames(20, rng)
+    a, na = reassign_ids(clean, 0.3, np.random.default_rng(7))
+    b, nb = reassign_ids(clean, 0.3, np.random.default_rng(7))
+    assert na == nb > 0
+    for fa, fb in zip(a, b, strict=True):
+        np.testing.assert_array_equal(fa.bearings.landmark_ids, fb.bearings.landmark_ids)
+    same, none = reassign_ids(clean, 0.0, np.random.default_rng(7))
+    assert none == 0 and all(x is y for x, y in zip(same, clean, strict=True))
+
+
+def lonely(index: int, landmark: int) -> FrameInput:
+    return FrameInput(
+        index,
+        Odometry(np.zeros(3), float(index)),
+        range_bearing=RangeBearing(np.array([landmark] * 2), np.ones(2), np.zeros(2), 0.1, 0.01),
+    )
+
+
+def test_a_frame_with_a_single_id_borrows_a_wrong_one_from_the_whole_input():
+    out, count = reassign_ids([lonely(0, 4), lonely(1, 9)], 0.99, np.random.default_rng(0))
+    assert count > 0
+    ids = np.concatenate([f.range_bearing.landmark_ids for f in out])
+    assert set(ids.tolist()) <= {4, 9} and not np.array_equal(ids, [4, 4, 9, 9])
+    alone, none = reassign_ids([lonely(0, 4)], 0.99, np.random.default_rng(0))
+    assert none == 0 and alone[0].range_bearing.landmark_ids.tolist() == [4, 4]
+
+
+@pytest.mark.parametrize("fraction", [-0.1, 1.0, 2.0])
+def test_a_fraction_outside_0_1_is_refused(fraction):
+    with pytest.raises(ConfigError, match="wrong_id_fraction"):
+        reassign_ids([], fraction, np.random.default_rng(0))
+
+
+def test_the_harness_option_relabels_sightings_and_records_it(shared_data):
+    clean = execute_run(RunSpec("mrclam6-r1", "deadreckoning", seed=3))
+    wrong = execute_run(
+        RunSpec("mrclam6-r1", "deadreckoning", seed=3, options={"wrong_id_fraction": "0.2"})
+    )
+    assert clean.config.wrong_id_fraction == 0.0 and clean.config.sightings_reassigned == 0
+    assert wrong.config.wrong_id_fraction == 0.2
+    assert 230 < wrong.config.sightings_reassigned < 385  # 20% of 1534: 307, sd 16
+    assert "wrong_id_fraction" not in wrong.config.estimator_options
+    # dead reckoning ignores sightings: the perturbation must not touch anything else
+    np.testing.assert_array_equal(
+        clean.estimate.trajectory.poses_w, wrong.estimate.trajectory.poses_w
+    )
+    with pytest.raises(ConfigError, match="wrong_id_fraction"):
+        execute_run(RunSpec("mrclam6-r1", "deadreckoning", options={"wrong_id_fraction": "x"}))
