@@ -8,7 +8,8 @@ Because slots mean the same landmark in every particle, all trees have the same 
 slot's path from the root is a function of its index only. Node payloads therefore live in flat
 arrays (mean (C, d), cov (C, d, d), ...), with child indices (C, 2) and one root index per
 particle, and all particles' paths are walked together with vectorised gathers, one tree level
-at a time.
+at a time. Row 0 is a null node (absent payload, itself as both children) that stands for every
+absent subtree, so walks and copies need no special case for missing nodes.
 
 Two layouts:
 
@@ -39,8 +40,9 @@ import numpy as np
 
 from omnislam.fastslam.landmark_store import LandmarkBlock
 
-_NULL = -1
-#: token that no particle ever holds (nodes shared from birth)
+#: row 0 is the null node: absent payload (zeros), both children itself, never written
+_NULL = 0
+#: token that no particle ever holds (nodes shared from birth, and the null node)
 _SHARED_TOKEN = 0
 
 
@@ -77,7 +79,7 @@ class LandmarkTree:
         self._nodes = LandmarkBlock.empty(capacity, self._dim, self._ray_dim)
         self._children = np.full((capacity, 2), _NULL, dtype=np.int64)
         self._token = np.zeros(capacity, dtype=np.int64)
-        self._used = 0
+        self._used = 1  # the null node
         self._roots = np.full(self._p, _NULL, dtype=np.int64)
         self._tokens = np.arange(1, self._p + 1, dtype=np.int64)
         self._next_token = self._p + 1
@@ -104,8 +106,8 @@ class LandmarkTree:
 
     @property
     def nodes_in_use(self) -> int:
-        """Node rows in use (live nodes plus garbage not yet reclaimed)."""
-        return self._used
+        """Node rows in use (live nodes plus garbage not yet reclaimed; the null node aside)."""
+        return self._used - 1
 
     @property
     def memory_bytes(self) -> int:
@@ -114,23 +116,46 @@ class LandmarkTree:
         return int(sum(a.nbytes for a in arrays) + self._roots.nbytes + self._tokens.nbytes)
 
     def live_nodes(self) -> int:
-        """Number of nodes reachable from some particle's root."""
-        return int(self._mark().sum())
+        """Number of nodes reachable from some particle's root (the null node aside)."""
+        return int(self._mark().sum()) - 1
 
     # -- paths ----------------------------------------------------------------------------------
 
     def _paths(self, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Path key and depth of each slot: the bits of ``key`` below ``depth`` steer left/right.
+        """Heap position and depth of each slot's node: the bits of ``key`` below its leading
+        one, read from the top, steer left (0) / right (1) from the root.
 
-        ALL_NODES: key = slot + 1 (heap position), depth = floor(log2(key)).
-        LEAF_ONLY: key = slot, depth = tree height.
+        ALL_NODES: key = slot + 1, depth = floor(log2(key)).
+        LEAF_ONLY: key = slot + 2**height (the leaves of the complete tree), depth = height.
         """
         slots = np.asarray(slots, dtype=np.int64)
         if self._layout is TreeLayout.ALL_NODES:
             key = slots + 1
             depth = np.frexp(key.astype(float))[1].astype(np.int64) - 1
             return key, depth
-        return slots, np.full(slots.shape, self._height, dtype=np.int64)
+        return slots + (1 << self._height), np.full(slots.shape, self._height, dtype=np.int64)
+
+    def _walk(self, roots: np.ndarray, prefixes: np.ndarray) -> np.ndarray:
+        """Nodes (L, N) met by N walks that start at ``roots`` and follow the heap positions
+        ``prefixes`` (L, N) one level per row (vectorised child lookups, one per level).
+
+        The null node is its own child, so a walk that leaves the tree stays on it.
+        """
+        nodes = np.empty(prefixes.shape, dtype=np.int64)
+        nodes[0] = roots
+        flat = self._children.reshape(-1)
+        for level in range(1, prefixes.shape[0]):
+            np.take(flat, 2 * nodes[level - 1] + (prefixes[level] & 1), out=nodes[level])
+        return nodes
+
+    @staticmethod
+    def _prefixes(key: np.ndarray, depth: np.ndarray) -> np.ndarray:
+        """(L, N) heap positions of the ancestors of each key at levels 0..L-1, L = max depth +
+        1; past its own depth a key's row continues along left children (never used as a
+        path node, see ``scatter``)."""
+        max_depth = int(depth.max(initial=0))
+        aligned = key << (max_depth - depth)
+        return aligned[None, :] >> np.arange(max_depth, -1, -1, dtype=np.int64)[:, None]
 
     # -- the LandmarkStore protocol -----------------------------------------------------------
 
@@ -148,10 +173,11 @@ class LandmarkTree:
             grow = height - self._height
             if grow > 0:
                 self._height = height
-                present = self._roots >= 0
+                present = self._roots != _NULL
                 if np.any(present):
+                    # reserve first: a compaction would renumber the roots
+                    self._reserve(grow * int(np.count_nonzero(present)))
                     unique_roots, inverse = np.unique(self._roots[present], return_inverse=True)
-                    self._reserve(grow * unique_roots.size)
                     current = unique_roots
                     for _ in range(grow):
                         new = self._allocate(current.size)
@@ -163,103 +189,65 @@ class LandmarkTree:
         return slots
 
     def gather(self, particles: np.ndarray, slots: np.ndarray) -> LandmarkBlock:
-        """Walk all N paths level by level with vectorised child lookups."""
+        """Walk all N paths level by level with vectorised child lookups (absent slots end on
+        the null node, whose payload is all zeros)."""
         particles = np.asarray(particles, dtype=np.int64)
         key, depth = self._paths(slots)
-        node = self._find(particles, key, depth)
         self.node_visits += int((depth + 1).sum())
-        found = node >= 0
-        block = self._nodes.take(np.maximum(node, 0))
-        if not found.all():
-            missing = ~found
-            block.mean[missing] = 0.0
-            block.cov[missing] = 0.0
-            block.status[missing] = 0
-            block.existence[missing] = 0
-            block.ray[missing] = 0.0
-        return block
-
-    def _find(self, particles: np.ndarray, key: np.ndarray, depth: np.ndarray) -> np.ndarray:
-        node = self._roots[particles]
-        max_depth = int(depth.max(initial=0))
-        for level in range(1, max_depth + 1):
-            deeper = depth >= level
-            bit = (key >> np.maximum(depth - level, 0)) & 1
-            child = self._children[np.maximum(node, 0), bit]
-            node = np.where(deeper, np.where(node >= 0, child, _NULL), node)
-        return node
+        nodes = self._walk(self._roots[particles], self._prefixes(key, depth))
+        return self._nodes.take(nodes[depth, np.arange(depth.size)])
 
     def scatter(self, particles: np.ndarray, slots: np.ndarray, block: LandmarkBlock) -> None:
-        """Path copying: every node on the N paths not owned by the writing particle is copied,
-        level by level (pairs of one particle share the copies of their common prefix)."""
+        """Path copying: every node on the N paths not owned by the writing particle is copied
+        once (pairs of one particle share the copies of their common prefix).
+
+        With the pairs sorted by (particle, left-aligned key), the pairs that pass through one
+        node of one particle's tree at level l form a run; the last pair of a run reaches that
+        level iff any does (shallower keys sort first among equal aligned keys), so it
+        represents the node. All levels are decided at once on (L, N) arrays; only the walk
+        is a loop over levels.
+        """
         particles = np.asarray(particles, dtype=np.int64)
         n = particles.shape[0]
         if n == 0:
             return
         key, depth = self._paths(slots)
-        max_depth = int(depth.max(initial=0))
-        self._reserve(n * (max_depth + 1))
         self.node_visits += int((depth + 1).sum())
+        max_depth = int(depth.max(initial=0))
+        order = np.lexsort((depth, key << (max_depth - depth), particles))
+        who, key, depth = particles[order], key[order], depth[order]
+        prefixes = self._prefixes(key, depth)  # (L, N)
+        levels = np.arange(max_depth + 1)[:, None]
+        last = np.ones(prefixes.shape, dtype=bool)  # last pair of its run, per level
+        last[:, :-1] = (prefixes[:, 1:] != prefixes[:, :-1]) | (who[1:] != who[:-1])
+        on_path = levels <= depth
+        represents = last & on_path
+        self._reserve(int(np.count_nonzero(represents)))
 
-        # level 0: one root per writing particle
-        copies: list[tuple[np.ndarray, np.ndarray]] = []
-        writers, inverse = np.unique(particles, return_inverse=True)
-        roots = self._roots[writers]
-        roots = self._own(roots, self._tokens[writers], copies)
-        self._roots[writers] = roots
-        current = roots[inverse]
+        nodes = self._walk(self._roots[who], prefixes)
+        tokens = self._tokens[who]
+        copy = represents & (self._token[nodes] != tokens)
+        level, pair = np.nonzero(copy)
+        source = nodes[copy]
+        new = self._allocate(source.size)
+        self._children[new] = self._children[source]
+        self._token[new] = tokens[pair]
+        self._nodes.put(new, self._nodes.take(source))
+        nodes[copy] = new
 
-        shift = np.int64(max_depth + 1)
-        for level in range(1, max_depth + 1):
-            active = np.flatnonzero(depth >= level)
-            prefix = key[active] >> (depth[active] - level)
-            _, first, inverse = np.unique(
-                (particles[active] << shift) | prefix, return_index=True, return_inverse=True
-            )
-            heads = active[first]
-            parent = current[heads]
-            bit = prefix[first] & 1
-            child = self._own(self._children[parent, bit], self._tokens[particles[heads]], copies)
-            self._children[parent, bit] = child
-            current[active] = child[inverse]
-        if copies:  # one batched payload copy for every node copied on the paths
-            source = np.concatenate([c[0] for c in copies])
-            target = np.concatenate([c[1] for c in copies])
-            payload = self._nodes.take(np.maximum(source, 0))
-            absent = source < 0
-            if absent.any():
-                payload.mean[absent] = 0.0
-                payload.cov[absent] = 0.0
-                payload.status[absent] = 0
-                payload.existence[absent] = 0
-                payload.ray[absent] = 0.0
-            self._nodes.put(target, payload)
-        self._nodes.put(current, block)
+        # every pair's node at each level is its run's representative
+        column = np.where(last, np.arange(n), n)
+        run_end = np.minimum.accumulate(column[:, ::-1], axis=1)[:, ::-1]
+        linked = level > 0
+        child_level, child_pair = level[linked], pair[linked]
+        parent = nodes[child_level - 1, run_end[child_level - 1, child_pair]]
+        flat = self._children.reshape(-1)
+        flat[2 * parent + (prefixes[child_level, child_pair] & 1)] = new[linked]
+        self._roots[who[pair[~linked]]] = new[~linked]
 
-    def _own(
-        self, nodes: np.ndarray, tokens: np.ndarray, copies: list[tuple[np.ndarray, np.ndarray]]
-    ) -> np.ndarray:
-        """Nodes writable by the particles holding ``tokens``: copies of the ones they do not
-        own, new absent nodes for null ones (capacity must have been reserved).
-
-        Child pointers are copied at once (the walk needs them); the payload copies are
-        appended to ``copies`` as (source, target) and done in one batch by the caller.
-        """
-        owned = (nodes >= 0) & (self._token[np.maximum(nodes, 0)] == tokens)
-        need = np.flatnonzero(~owned)
-        if need.size == 0:
-            return nodes
-        source = nodes[need]
-        new = self._allocate(need.size)
-        exists = source >= 0
-        self._children[new] = np.where(
-            exists[:, None], self._children[np.maximum(source, 0)], _NULL
-        )
-        self._token[new] = tokens[need]
-        copies.append((source, new))
-        out = nodes.copy()
-        out[need] = new
-        return out
+        target = np.empty(n, dtype=np.int64)
+        target[order] = nodes[depth, run_end[depth, np.arange(n)]]
+        self._nodes.put(target, block)
 
     def resample(self, ancestors: np.ndarray) -> None:
         """O(P): particle i takes old particle ancestors[i]'s root; see the module docstring
@@ -295,10 +283,6 @@ class LandmarkTree:
         self._nodes.ray[nodes] = 0.0
         self._children[nodes] = _NULL
 
-    def _copy(self, source: np.ndarray, target: np.ndarray) -> None:
-        self._nodes.put(target, self._nodes.take(source))
-        self._children[target] = self._children[source]
-
     def _capacity(self) -> int:
         return int(self._children.shape[0])
 
@@ -312,17 +296,25 @@ class LandmarkTree:
             self._grow(max(2 * self._capacity(), 2 * (self._used + count)))
 
     def _mark(self) -> np.ndarray:
+        """Reachable rows, one tree level per iteration; a node met several times in one level
+        (shared by several parents) is kept once without sorting: each occurrence stamps its
+        position and only the occurrence whose stamp survived goes on."""
         marked = np.zeros(self._used, dtype=bool)
-        frontier = np.unique(self._roots[self._roots >= 0])
+        marked[_NULL] = True
+        stamp = np.empty(self._used, dtype=np.int64)
+        frontier = self._roots[~marked[self._roots]]
         while frontier.size:
+            position = np.arange(frontier.size)
+            stamp[frontier] = position
+            frontier = frontier[stamp[frontier] == position]
             marked[frontier] = True
-            children = self._children[frontier].ravel()
-            children = children[children >= 0]
-            frontier = np.unique(children[~marked[children]])
+            children = self._children[frontier].reshape(-1)
+            frontier = children[~marked[children]]
         return marked
 
     def collect_garbage(self) -> int:
-        """Mark the nodes reachable from the roots and compact them to the front.
+        """Mark the nodes reachable from the roots and compact them to the front (the null
+        node stays at row 0).
 
         Returns:
             the number of nodes reclaimed.
@@ -331,14 +323,13 @@ class LandmarkTree:
         reclaimed = self._used - live.size
         if reclaimed == 0:
             return 0
-        remap = np.full(self._used, _NULL, dtype=np.int64)
+        remap = np.empty(self._used, dtype=np.int64)
         remap[live] = np.arange(live.size)
         n = live.size
         self._nodes.put(np.arange(n), self._nodes.take(live))
-        children = self._children[live]
-        self._children[:n] = np.where(children >= 0, remap[np.maximum(children, 0)], _NULL)
+        self._children[:n] = remap[self._children[live]]
         self._token[:n] = self._token[live]
-        self._roots = np.where(self._roots >= 0, remap[np.maximum(self._roots, 0)], _NULL)
+        self._roots = remap[self._roots]
         self._used = n
         return int(reclaimed)
 
