@@ -29,7 +29,9 @@ particle holding its token; anything else is copied first. After resampling, a p
 was drawn exactly once keeps its token (its nodes are still its own, as the thesis notes: "its
 path is already unique to that particle"); every copy of a particle drawn several times gets a
 fresh token, so all of its nodes become shared and copy-on-write. Unreachable nodes are reclaimed
-by a mark-and-compact pass when the node arrays fill up (amortised O(1) per allocated node).
+by a mark-and-sweep pass into a free list when the node arrays fill up; live nodes never move,
+and the arrays double when over half of them is live, so reclaiming costs amortised O(1) per
+allocated node.
 """
 
 from __future__ import annotations
@@ -79,7 +81,8 @@ class LandmarkTree:
         self._nodes = LandmarkBlock.empty(capacity, self._dim, self._ray_dim)
         self._children = np.full((capacity, 2), _NULL, dtype=np.int64)
         self._token = np.zeros(capacity, dtype=np.int64)
-        self._used = 1  # the null node
+        self._used = 1  # rows ever handed out, the null node included
+        self._free = np.zeros(0, dtype=np.int64)  # reclaimed rows below _used, ascending
         self._roots = np.full(self._p, _NULL, dtype=np.int64)
         self._tokens = np.arange(1, self._p + 1, dtype=np.int64)
         self._next_token = self._p + 1
@@ -107,7 +110,7 @@ class LandmarkTree:
     @property
     def nodes_in_use(self) -> int:
         """Node rows in use (live nodes plus garbage not yet reclaimed; the null node aside)."""
-        return self._used - 1
+        return self._used - 1 - self._free.size
 
     @property
     def memory_bytes(self) -> int:
@@ -175,7 +178,6 @@ class LandmarkTree:
                 self._height = height
                 present = self._roots != _NULL
                 if np.any(present):
-                    # reserve first: a compaction would renumber the roots
                     self._reserve(grow * int(np.count_nonzero(present)))
                     unique_roots, inverse = np.unique(self._roots[present], return_inverse=True)
                     current = unique_roots
@@ -270,8 +272,13 @@ class LandmarkTree:
     # -- node memory --------------------------------------------------------------------------
 
     def _allocate(self, count: int) -> np.ndarray:
-        new = np.arange(self._used, self._used + count)
-        self._used += count
+        """``count`` rows for new nodes: reclaimed rows first, then fresh ones (capacity must
+        have been reserved)."""
+        reused = self._free[:count]
+        self._free = self._free[reused.size :]
+        fresh = count - reused.size
+        new = np.concatenate([reused, np.arange(self._used, self._used + fresh)])
+        self._used += fresh
         self.nodes_allocated += count
         return new
 
@@ -287,13 +294,14 @@ class LandmarkTree:
         return int(self._children.shape[0])
 
     def _reserve(self, count: int) -> None:
-        """Make room for ``count`` new nodes: mark-and-compact first, grow if still over half
+        """Make room for ``count`` new nodes: mark-and-sweep first, grow if still over half
         full (so reclaiming stays amortised O(1) per node)."""
-        if self._used + count <= self._capacity():
+        if count <= self._capacity() - self._used + self._free.size:
             return
         self.collect_garbage()
-        if self._used + count > self._capacity() // 2:
-            self._grow(max(2 * self._capacity(), 2 * (self._used + count)))
+        needed = self._used - self._free.size + count
+        if needed > self._capacity() // 2:
+            self._grow(max(2 * self._capacity(), 2 * needed))
 
     def _mark(self) -> np.ndarray:
         """Reachable rows, one tree level per iteration; a node met several times in one level
@@ -313,24 +321,15 @@ class LandmarkTree:
         return marked
 
     def collect_garbage(self) -> int:
-        """Mark the nodes reachable from the roots and compact them to the front (the null
-        node stays at row 0).
+        """Mark the nodes reachable from the roots and put every other row on the free list
+        (nodes do not move, so no pointer needs rewriting).
 
         Returns:
             the number of nodes reclaimed.
         """
-        live = np.flatnonzero(self._mark())
-        reclaimed = self._used - live.size
-        if reclaimed == 0:
-            return 0
-        remap = np.empty(self._used, dtype=np.int64)
-        remap[live] = np.arange(live.size)
-        n = live.size
-        self._nodes.put(np.arange(n), self._nodes.take(live))
-        self._children[:n] = remap[self._children[live]]
-        self._token[:n] = self._token[live]
-        self._roots = remap[self._roots]
-        self._used = n
+        free = np.flatnonzero(~self._mark())
+        reclaimed = free.size - self._free.size
+        self._free = free
         return int(reclaimed)
 
     def _grow(self, capacity: int) -> None:
