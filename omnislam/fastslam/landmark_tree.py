@@ -5,11 +5,16 @@ share every subtree they have not changed since a common ancestor, so resampling
 indices instead of P maps, and an update costs O(log M) new nodes (path copying).
 
 Because slots mean the same landmark in every particle, all trees have the same *shape*: a
-slot's path from the root is a function of its index only. Node payloads therefore live in flat
-arrays (mean (C, d), cov (C, d, d), ...), with child indices (C, 2) and one root index per
+slot's path from the root is a function of its index only. Nodes therefore live in one flat
+table of int64 rows [left child, right child, owner token, payload row] with one root index per
 particle, and all particles' paths are walked together with vectorised gathers, one tree level
-at a time. Row 0 is a null node (absent payload, itself as both children) that stands for every
-absent subtree, so walks and copies need no special case for missing nodes.
+at a time. Row 0 is a null node (both children itself, payload row 0 = absent) that stands for
+every absent subtree, so walks and copies need no special case for missing nodes.
+
+The landmark estimates (mean (Q, d), cov (Q, d, d), ...) live in a separate payload table that
+nodes point into: a copied node shares its source's payload row, and a write gives the written
+node a fresh payload row. Path copying thus moves 32 bytes per copied node whatever the
+landmark's size, and the payload is moved only where it changes.
 
 Two layouts:
 
@@ -28,10 +33,10 @@ records the token of the particle that created it. A node may be written in plac
 particle holding its token; anything else is copied first. After resampling, a particle that
 was drawn exactly once keeps its token (its nodes are still its own, as the thesis notes: "its
 path is already unique to that particle"); every copy of a particle drawn several times gets a
-fresh token, so all of its nodes become shared and copy-on-write. Unreachable nodes are reclaimed
-by a mark-and-sweep pass into a free list when the node arrays fill up; live nodes never move,
-and the arrays double when over half of them is live, so reclaiming costs amortised O(1) per
-allocated node.
+fresh token, so all of its nodes become shared and copy-on-write. Unreachable nodes and payload
+rows are reclaimed by a mark-and-sweep pass into free lists when a table fills up; live rows
+never move, and a table doubles when over half of it is live, so reclaiming costs amortised
+O(1) per allocated row.
 """
 
 from __future__ import annotations
@@ -42,10 +47,48 @@ import numpy as np
 
 from omnislam.fastslam.landmark_store import LandmarkBlock
 
-#: row 0 is the null node: absent payload (zeros), both children itself, never written
+#: row 0 of both tables: the null node (children itself) and the absent payload (zeros)
 _NULL = 0
 #: token that no particle ever holds (nodes shared from birth, and the null node)
 _SHARED_TOKEN = 0
+#: columns of the node table
+_LEFT, _TOKEN, _PAYLOAD = 0, 2, 3
+_COLUMNS = 4
+
+
+class _Rows:
+    """Row allocation of one growable table: reclaimed rows first, then never used ones.
+
+    Row 0 (the null node / absent payload) is never handed out.
+    """
+
+    def __init__(self) -> None:
+        self.used = 1  # rows ever handed out, row 0 included
+        self.free = np.zeros(0, dtype=np.int64)  # reclaimed rows below ``used``, ascending
+
+    @property
+    def in_use(self) -> int:
+        """Rows holding live data or garbage not yet reclaimed, row 0 included."""
+        return self.used - self.free.size
+
+    def available(self, capacity: int) -> int:
+        return capacity - self.used + self.free.size
+
+    def allocate(self, count: int) -> np.ndarray:
+        reused = self.free[:count]
+        self.free = self.free[reused.size :]
+        fresh = count - reused.size
+        rows = np.concatenate([reused, np.arange(self.used, self.used + fresh)])
+        self.used += fresh
+        return rows
+
+    def sweep(self, live: np.ndarray) -> int:
+        """Put every row not marked in ``live`` (used,) on the free list; returns how many
+        rows that reclaimed."""
+        free = np.flatnonzero(~live)
+        reclaimed = free.size - self.free.size
+        self.free = free
+        return int(reclaimed)
 
 
 class TreeLayout(Enum):
@@ -70,7 +113,8 @@ class LandmarkTree:
         n_particles: P.
         dim: landmark dimension d (2 or 3).
         ray_dim: 6 for bearing-only landmarks (stored ray), else 0.
-        initial_capacity: node rows allocated up front (grown by doubling).
+        initial_capacity: node rows allocated up front (grown by doubling; the payload table
+            starts at a quarter of it).
         layout: the thesis's all-nodes tree or Montemerlo's leaf-only tree.
         """
         self._p = int(n_particles)
@@ -78,11 +122,10 @@ class LandmarkTree:
         self._ray_dim = int(ray_dim)
         self._layout = layout
         capacity = max(4, int(initial_capacity))
-        self._nodes = LandmarkBlock.empty(capacity, self._dim, self._ray_dim)
-        self._children = np.full((capacity, 2), _NULL, dtype=np.int64)
-        self._token = np.zeros(capacity, dtype=np.int64)
-        self._used = 1  # rows ever handed out, the null node included
-        self._free = np.zeros(0, dtype=np.int64)  # reclaimed rows below _used, ascending
+        self._links = np.zeros((capacity, _COLUMNS), dtype=np.int64)
+        self._node_rows = _Rows()
+        self._payload = LandmarkBlock.empty(max(4, capacity // 4), self._dim, self._ray_dim)
+        self._payload_rows = _Rows()
         self._roots = np.full(self._p, _NULL, dtype=np.int64)
         self._tokens = np.arange(1, self._p + 1, dtype=np.int64)
         self._next_token = self._p + 1
@@ -110,12 +153,12 @@ class LandmarkTree:
     @property
     def nodes_in_use(self) -> int:
         """Node rows in use (live nodes plus garbage not yet reclaimed; the null node aside)."""
-        return self._used - 1 - self._free.size
+        return self._node_rows.in_use - 1
 
     @property
     def memory_bytes(self) -> int:
-        n = self._nodes
-        arrays = (n.mean, n.cov, n.status, n.existence, n.ray, self._children, self._token)
+        n = self._payload
+        arrays = (n.mean, n.cov, n.status, n.existence, n.ray, self._links)
         return int(sum(a.nbytes for a in arrays) + self._roots.nbytes + self._tokens.nbytes)
 
     def live_nodes(self) -> int:
@@ -146,9 +189,10 @@ class LandmarkTree:
         """
         nodes = np.empty(prefixes.shape, dtype=np.int64)
         nodes[0] = roots
-        flat = self._children.reshape(-1)
+        flat = self._links.reshape(-1)
         for level in range(1, prefixes.shape[0]):
-            np.take(flat, 2 * nodes[level - 1] + (prefixes[level] & 1), out=nodes[level])
+            index = _COLUMNS * nodes[level - 1] + (prefixes[level] & 1)
+            np.take(flat, index, out=nodes[level])
         return nodes
 
     @staticmethod
@@ -178,30 +222,30 @@ class LandmarkTree:
                 self._height = height
                 present = self._roots != _NULL
                 if np.any(present):
-                    self._reserve(grow * int(np.count_nonzero(present)))
+                    self._reserve(grow * int(np.count_nonzero(present)), 0)
                     unique_roots, inverse = np.unique(self._roots[present], return_inverse=True)
                     current = unique_roots
                     for _ in range(grow):
                         new = self._allocate(current.size)
-                        self._clear(new)
-                        self._children[new, 0] = current
-                        self._token[new] = _SHARED_TOKEN
+                        self._links[new] = [_NULL, _NULL, _SHARED_TOKEN, _NULL]
+                        self._links[new, _LEFT] = current
                         current = new
                     self._roots[present] = current[inverse]
         return slots
 
     def gather(self, particles: np.ndarray, slots: np.ndarray) -> LandmarkBlock:
         """Walk all N paths level by level with vectorised child lookups (absent slots end on
-        the null node, whose payload is all zeros)."""
+        the null node, whose payload row is all zeros)."""
         particles = np.asarray(particles, dtype=np.int64)
         key, depth = self._paths(slots)
         self.node_visits += int((depth + 1).sum())
         nodes = self._walk(self._roots[particles], self._prefixes(key, depth))
-        return self._nodes.take(nodes[depth, np.arange(depth.size)])
+        return self._payload.take(self._links[nodes[depth, np.arange(depth.size)], _PAYLOAD])
 
     def scatter(self, particles: np.ndarray, slots: np.ndarray, block: LandmarkBlock) -> None:
         """Path copying: every node on the N paths not owned by the writing particle is copied
-        once (pairs of one particle share the copies of their common prefix).
+        once (pairs of one particle share the copies of their common prefix), then each
+        written node gets a fresh payload row.
 
         With the pairs sorted by (particle, left-aligned key), the pairs that pass through one
         node of one particle's tree at level l form a run; the last pair of a run reaches that
@@ -222,19 +266,17 @@ class LandmarkTree:
         levels = np.arange(max_depth + 1)[:, None]
         last = np.ones(prefixes.shape, dtype=bool)  # last pair of its run, per level
         last[:, :-1] = (prefixes[:, 1:] != prefixes[:, :-1]) | (who[1:] != who[:-1])
-        on_path = levels <= depth
-        represents = last & on_path
-        self._reserve(int(np.count_nonzero(represents)))
+        represents = last & (levels <= depth)
+        self._reserve(int(np.count_nonzero(represents)), n)
 
         nodes = self._walk(self._roots[who], prefixes)
         tokens = self._tokens[who]
-        copy = represents & (self._token[nodes] != tokens)
+        copy = represents & (self._links[nodes, _TOKEN] != tokens)
         level, pair = np.nonzero(copy)
-        source = nodes[copy]
-        new = self._allocate(source.size)
-        self._children[new] = self._children[source]
-        self._token[new] = tokens[pair]
-        self._nodes.put(new, self._nodes.take(source))
+        new = self._allocate(level.size)
+        copied = self._links[nodes[copy]]
+        copied[:, _TOKEN] = tokens[pair]
+        self._links[new] = copied
         nodes[copy] = new
 
         # every pair's node at each level is its run's representative
@@ -243,13 +285,14 @@ class LandmarkTree:
         linked = level > 0
         child_level, child_pair = level[linked], pair[linked]
         parent = nodes[child_level - 1, run_end[child_level - 1, child_pair]]
-        flat = self._children.reshape(-1)
-        flat[2 * parent + (prefixes[child_level, child_pair] & 1)] = new[linked]
+        flat = self._links.reshape(-1)
+        flat[_COLUMNS * parent + (prefixes[child_level, child_pair] & 1)] = new[linked]
         self._roots[who[pair[~linked]]] = new[~linked]
 
-        target = np.empty(n, dtype=np.int64)
-        target[order] = nodes[depth, run_end[depth, np.arange(n)]]
-        self._nodes.put(target, block)
+        rows = self._payload_rows.allocate(n)
+        self._payload.put(rows, block)
+        target = nodes[depth, run_end[depth, np.arange(n)]]
+        self._links[target, _PAYLOAD] = rows[order]
 
     def resample(self, ancestors: np.ndarray) -> None:
         """O(P): particle i takes old particle ancestors[i]'s root; see the module docstring
@@ -272,72 +315,60 @@ class LandmarkTree:
     # -- node memory --------------------------------------------------------------------------
 
     def _allocate(self, count: int) -> np.ndarray:
-        """``count`` rows for new nodes: reclaimed rows first, then fresh ones (capacity must
-        have been reserved)."""
-        reused = self._free[:count]
-        self._free = self._free[reused.size :]
-        fresh = count - reused.size
-        new = np.concatenate([reused, np.arange(self._used, self._used + fresh)])
-        self._used += fresh
+        """Rows for ``count`` new nodes (capacity must have been reserved)."""
         self.nodes_allocated += count
-        return new
+        return self._node_rows.allocate(count)
 
-    def _clear(self, nodes: np.ndarray) -> None:
-        self._nodes.mean[nodes] = 0.0
-        self._nodes.cov[nodes] = 0.0
-        self._nodes.status[nodes] = 0
-        self._nodes.existence[nodes] = 0
-        self._nodes.ray[nodes] = 0.0
-        self._children[nodes] = _NULL
-
-    def _capacity(self) -> int:
-        return int(self._children.shape[0])
-
-    def _reserve(self, count: int) -> None:
-        """Make room for ``count`` new nodes: mark-and-sweep first, grow if still over half
-        full (so reclaiming stays amortised O(1) per node)."""
-        if count <= self._capacity() - self._used + self._free.size:
+    def _reserve(self, nodes: int, payloads: int) -> None:
+        """Make room for new nodes and payload rows: mark-and-sweep first, then grow each
+        table that is still over half full (so reclaiming stays amortised O(1) per row)."""
+        node_capacity, payload_capacity = self._links.shape[0], len(self._payload)
+        if nodes <= self._node_rows.available(
+            node_capacity
+        ) and payloads <= self._payload_rows.available(payload_capacity):
             return
         self.collect_garbage()
-        needed = self._used - self._free.size + count
-        if needed > self._capacity() // 2:
-            self._grow(max(2 * self._capacity(), 2 * needed))
+        needed = self._node_rows.in_use + nodes
+        if needed > node_capacity // 2:
+            links = np.zeros((max(2 * node_capacity, 2 * needed), _COLUMNS), dtype=np.int64)
+            links[: self._node_rows.used] = self._links[: self._node_rows.used]
+            self._links = links
+        needed = self._payload_rows.in_use + payloads
+        if needed > payload_capacity // 2:
+            used = np.arange(self._payload_rows.used)
+            payload = LandmarkBlock.empty(
+                max(2 * payload_capacity, 2 * needed), self._dim, self._ray_dim
+            )
+            payload.put(used, self._payload.take(used))
+            self._payload = payload
 
     def _mark(self) -> np.ndarray:
-        """Reachable rows, one tree level per iteration; a node met several times in one level
-        (shared by several parents) is kept once without sorting: each occurrence stamps its
-        position and only the occurrence whose stamp survived goes on."""
-        marked = np.zeros(self._used, dtype=bool)
+        """Reachable node rows, one tree level per iteration; a node met several times in one
+        level (shared by several parents) is kept once without sorting: each occurrence stamps
+        its position and only the occurrence whose stamp survived goes on."""
+        used = self._node_rows.used
+        marked = np.zeros(used, dtype=bool)
         marked[_NULL] = True
-        stamp = np.empty(self._used, dtype=np.int64)
+        stamp = np.empty(used, dtype=np.int64)
         frontier = self._roots[~marked[self._roots]]
         while frontier.size:
             position = np.arange(frontier.size)
             stamp[frontier] = position
             frontier = frontier[stamp[frontier] == position]
             marked[frontier] = True
-            children = self._children[frontier].reshape(-1)
+            children = self._links[frontier, _LEFT : _LEFT + 2].reshape(-1)
             frontier = children[~marked[children]]
         return marked
 
     def collect_garbage(self) -> int:
-        """Mark the nodes reachable from the roots and put every other row on the free list
-        (nodes do not move, so no pointer needs rewriting).
+        """Mark the nodes reachable from the roots and the payload rows they point to, and put
+        every other row on the free lists (rows do not move, so no pointer needs rewriting).
 
         Returns:
             the number of nodes reclaimed.
         """
-        free = np.flatnonzero(~self._mark())
-        reclaimed = free.size - self._free.size
-        self._free = free
-        return int(reclaimed)
-
-    def _grow(self, capacity: int) -> None:
-        used = self._used
-        nodes = LandmarkBlock.empty(capacity, self._dim, self._ray_dim)
-        nodes.put(np.arange(used), self._nodes.take(np.arange(used)))
-        children = np.full((capacity, 2), _NULL, dtype=np.int64)
-        children[:used] = self._children[:used]
-        token = np.zeros(capacity, dtype=np.int64)
-        token[:used] = self._token[:used]
-        self._nodes, self._children, self._token = nodes, children, token
+        marked = self._mark()
+        payload_marked = np.zeros(self._payload_rows.used, dtype=bool)
+        payload_marked[self._links[np.flatnonzero(marked), _PAYLOAD]] = True
+        self._payload_rows.sweep(payload_marked)
+        return self._node_rows.sweep(marked)
