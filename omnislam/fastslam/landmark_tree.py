@@ -335,7 +335,7 @@ class LandmarkTree:
             self._links = links
         needed = self._payload_rows.in_use + payloads
         if needed > payload_capacity // 2:
-            used = np.arange(self._payload_rows.used)
+            used = slice(0, self._payload_rows.used)
             payload = LandmarkBlock.empty(
                 max(2 * payload_capacity, 2 * needed), self._dim, self._ray_dim
             )
