@@ -109,7 +109,8 @@ def refine_proposal(
     K = product(PHT, L_inv)
     mean = pose_mean + stack_major(product(K, y))[..., 0]
     mean[..., 2] = wrap_angle(mean[..., 2])
-    cov = stack_major(symmetrised(P - product(product(K, L), transposed(K))))
+    # Sigma = P - K L K^T = P - K (P H_x^T)^T, as K L = P H_x^T
+    cov = stack_major(symmetrised(P - product(K, transposed(PHT))))
     log_likelihood = -0.5 * (quadratic_form(y, L_inv) + logdet + y.shape[0] * LOG_2PI)
     return ProposalUpdate(mean, cov, log_likelihood)
 
