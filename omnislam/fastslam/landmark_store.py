@@ -65,8 +65,8 @@ class LandmarkBlock:
     def __len__(self) -> int:
         return int(self.status.shape[0])
 
-    def take(self, index: np.ndarray) -> LandmarkBlock:
-        """The rows ``index`` (a copy)."""
+    def take(self, index: np.ndarray | slice) -> LandmarkBlock:
+        """The rows ``index`` (a copy for an index array, a view for a slice)."""
         return LandmarkBlock(
             self.mean[index],
             self.cov[index],
@@ -75,7 +75,7 @@ class LandmarkBlock:
             self.ray[index],
         )
 
-    def put(self, index: np.ndarray, other: LandmarkBlock) -> None:
+    def put(self, index: np.ndarray | slice, other: LandmarkBlock) -> None:
         """Overwrite the rows ``index`` with ``other``."""
         self.mean[index] = other.mean
         self.cov[index] = other.cov

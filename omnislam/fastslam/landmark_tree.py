@@ -5,10 +5,16 @@ share every subtree they have not changed since a common ancestor, so resampling
 indices instead of P maps, and an update costs O(log M) new nodes (path copying).
 
 Because slots mean the same landmark in every particle, all trees have the same *shape*: a
-slot's path from the root is a function of its index only. Node payloads therefore live in flat
-arrays (mean (C, d), cov (C, d, d), ...), with child indices (C, 2) and one root index per
+slot's path from the root is a function of its index only. Nodes therefore live in one flat
+table of int64 rows [left child, right child, owner token, payload row] with one root index per
 particle, and all particles' paths are walked together with vectorised gathers, one tree level
-at a time.
+at a time. Row 0 is a null node (both children itself, payload row 0 = absent) that stands for
+every absent subtree, so walks and copies need no special case for missing nodes.
+
+The landmark estimates (mean (Q, d), cov (Q, d, d), ...) live in a separate payload table that
+nodes point into: a copied node shares its source's payload row, and a write gives the written
+node a fresh payload row. Path copying thus moves 32 bytes per copied node whatever the
+landmark's size, and the payload is moved only where it changes.
 
 Two layouts:
 
@@ -27,8 +33,10 @@ records the token of the particle that created it. A node may be written in plac
 particle holding its token; anything else is copied first. After resampling, a particle that
 was drawn exactly once keeps its token (its nodes are still its own, as the thesis notes: "its
 path is already unique to that particle"); every copy of a particle drawn several times gets a
-fresh token, so all of its nodes become shared and copy-on-write. Unreachable nodes are reclaimed
-by a mark-and-compact pass when the node arrays fill up (amortised O(1) per allocated node).
+fresh token, so all of its nodes become shared and copy-on-write. Unreachable nodes and payload
+rows are reclaimed by a mark-and-sweep pass into free lists when a table fills up; live rows
+never move, and a table doubles when over half of it is live, so reclaiming costs amortised
+O(1) per allocated row.
 """
 
 from __future__ import annotations
@@ -39,9 +47,48 @@ import numpy as np
 
 from omnislam.fastslam.landmark_store import LandmarkBlock
 
-_NULL = -1
-#: token that no particle ever holds (nodes shared from birth)
+#: row 0 of both tables: the null node (children itself) and the absent payload (zeros)
+_NULL = 0
+#: token that no particle ever holds (nodes shared from birth, and the null node)
 _SHARED_TOKEN = 0
+#: columns of the node table
+_LEFT, _TOKEN, _PAYLOAD = 0, 2, 3
+_COLUMNS = 4
+
+
+class _Rows:
+    """Row allocation of one growable table: reclaimed rows first, then never used ones.
+
+    Row 0 (the null node / absent payload) is never handed out.
+    """
+
+    def __init__(self) -> None:
+        self.used = 1  # rows ever handed out, row 0 included
+        self.free = np.zeros(0, dtype=np.int64)  # reclaimed rows below ``used``, ascending
+
+    @property
+    def in_use(self) -> int:
+        """Rows holding live data or garbage not yet reclaimed, row 0 included."""
+        return self.used - self.free.size
+
+    def available(self, capacity: int) -> int:
+        return capacity - self.used + self.free.size
+
+    def allocate(self, count: int) -> np.ndarray:
+        reused = self.free[:count]
+        self.free = self.free[reused.size :]
+        fresh = count - reused.size
+        rows = np.concatenate([reused, np.arange(self.used, self.used + fresh)])
+        self.used += fresh
+        return rows
+
+    def sweep(self, live: np.ndarray) -> int:
+        """Put every row not marked in ``live`` (used,) on the free list; returns how many
+        rows that reclaimed."""
+        free = np.flatnonzero(~live)
+        reclaimed = free.size - self.free.size
+        self.free = free
+        return int(reclaimed)
 
 
 class TreeLayout(Enum):
@@ -66,7 +113,8 @@ class LandmarkTree:
         n_particles: P.
         dim: landmark dimension d (2 or 3).
         ray_dim: 6 for bearing-only landmarks (stored ray), else 0.
-        initial_capacity: node rows allocated up front (grown by doubling).
+        initial_capacity: node rows allocated up front (grown by doubling; the payload table
+            starts at a quarter of it).
         layout: the thesis's all-nodes tree or Montemerlo's leaf-only tree.
         """
         self._p = int(n_particles)
@@ -74,10 +122,10 @@ class LandmarkTree:
         self._ray_dim = int(ray_dim)
         self._layout = layout
         capacity = max(4, int(initial_capacity))
-        self._nodes = LandmarkBlock.empty(capacity, self._dim, self._ray_dim)
-        self._children = np.full((capacity, 2), _NULL, dtype=np.int64)
-        self._token = np.zeros(capacity, dtype=np.int64)
-        self._used = 0
+        self._links = np.zeros((capacity, _COLUMNS), dtype=np.int64)
+        self._node_rows = _Rows()
+        self._payload = LandmarkBlock.empty(max(4, capacity // 4), self._dim, self._ray_dim)
+        self._payload_rows = _Rows()
         self._roots = np.full(self._p, _NULL, dtype=np.int64)
         self._tokens = np.arange(1, self._p + 1, dtype=np.int64)
         self._next_token = self._p + 1
@@ -104,33 +152,57 @@ class LandmarkTree:
 
     @property
     def nodes_in_use(self) -> int:
-        """Node rows in use (live nodes plus garbage not yet reclaimed)."""
-        return self._used
+        """Node rows in use (live nodes plus garbage not yet reclaimed; the null node aside)."""
+        return self._node_rows.in_use - 1
 
     @property
     def memory_bytes(self) -> int:
-        n = self._nodes
-        arrays = (n.mean, n.cov, n.status, n.existence, n.ray, self._children, self._token)
+        n = self._payload
+        arrays = (n.mean, n.cov, n.status, n.existence, n.ray, self._links)
         return int(sum(a.nbytes for a in arrays) + self._roots.nbytes + self._tokens.nbytes)
 
     def live_nodes(self) -> int:
-        """Number of nodes reachable from some particle's root."""
-        return int(self._mark().sum())
+        """Number of nodes reachable from some particle's root (the null node aside)."""
+        return int(self._mark().sum()) - 1
 
     # -- paths ----------------------------------------------------------------------------------
 
     def _paths(self, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Path key and depth of each slot: the bits of ``key`` below ``depth`` steer left/right.
+        """Heap position and depth of each slot's node: the bits of ``key`` below its leading
+        one, read from the top, steer left (0) / right (1) from the root.
 
-        ALL_NODES: key = slot + 1 (heap position), depth = floor(log2(key)).
-        LEAF_ONLY: key = slot, depth = tree height.
+        ALL_NODES: key = slot + 1, depth = floor(log2(key)).
+        LEAF_ONLY: key = slot + 2**height (the leaves of the complete tree), depth = height.
         """
         slots = np.asarray(slots, dtype=np.int64)
         if self._layout is TreeLayout.ALL_NODES:
             key = slots + 1
             depth = np.frexp(key.astype(float))[1].astype(np.int64) - 1
             return key, depth
-        return slots, np.full(slots.shape, self._height, dtype=np.int64)
+        return slots + (1 << self._height), np.full(slots.shape, self._height, dtype=np.int64)
+
+    def _walk(self, roots: np.ndarray, prefixes: np.ndarray) -> np.ndarray:
+        """Nodes (L, N) met by N walks that start at ``roots`` and follow the heap positions
+        ``prefixes`` (L, N) one level per row (vectorised child lookups, one per level).
+
+        The null node is its own child, so a walk that leaves the tree stays on it.
+        """
+        nodes = np.empty(prefixes.shape, dtype=np.int64)
+        nodes[0] = roots
+        flat = self._links.reshape(-1)
+        for level in range(1, prefixes.shape[0]):
+            index = _COLUMNS * nodes[level - 1] + (prefixes[level] & 1)
+            np.take(flat, index, out=nodes[level])
+        return nodes
+
+    @staticmethod
+    def _prefixes(key: np.ndarray, depth: np.ndarray) -> np.ndarray:
+        """(L, N) heap positions of the ancestors of each key at levels 0..L-1, L = max depth +
+        1; past its own depth a key's row continues along left children (never used as a
+        path node, see ``scatter``)."""
+        max_depth = int(depth.max(initial=0))
+        aligned = key << (max_depth - depth)
+        return aligned[None, :] >> np.arange(max_depth, -1, -1, dtype=np.int64)[:, None]
 
     # -- the LandmarkStore protocol -----------------------------------------------------------
 
@@ -148,118 +220,79 @@ class LandmarkTree:
             grow = height - self._height
             if grow > 0:
                 self._height = height
-                present = self._roots >= 0
+                present = self._roots != _NULL
                 if np.any(present):
+                    self._reserve(grow * int(np.count_nonzero(present)), 0)
                     unique_roots, inverse = np.unique(self._roots[present], return_inverse=True)
-                    self._reserve(grow * unique_roots.size)
                     current = unique_roots
                     for _ in range(grow):
                         new = self._allocate(current.size)
-                        self._clear(new)
-                        self._children[new, 0] = current
-                        self._token[new] = _SHARED_TOKEN
+                        self._links[new] = [_NULL, _NULL, _SHARED_TOKEN, _NULL]
+                        self._links[new, _LEFT] = current
                         current = new
                     self._roots[present] = current[inverse]
         return slots
 
     def gather(self, particles: np.ndarray, slots: np.ndarray) -> LandmarkBlock:
-        """Walk all N paths level by level with vectorised child lookups."""
+        """Walk all N paths level by level with vectorised child lookups (absent slots end on
+        the null node, whose payload row is all zeros)."""
         particles = np.asarray(particles, dtype=np.int64)
         key, depth = self._paths(slots)
-        node = self._find(particles, key, depth)
         self.node_visits += int((depth + 1).sum())
-        found = node >= 0
-        block = self._nodes.take(np.maximum(node, 0))
-        if not found.all():
-            missing = ~found
-            block.mean[missing] = 0.0
-            block.cov[missing] = 0.0
-            block.status[missing] = 0
-            block.existence[missing] = 0
-            block.ray[missing] = 0.0
-        return block
-
-    def _find(self, particles: np.ndarray, key: np.ndarray, depth: np.ndarray) -> np.ndarray:
-        node = self._roots[particles]
-        max_depth = int(depth.max(initial=0))
-        for level in range(1, max_depth + 1):
-            deeper = depth >= level
-            bit = (key >> np.maximum(depth - level, 0)) & 1
-            child = self._children[np.maximum(node, 0), bit]
-            node = np.where(deeper, np.where(node >= 0, child, _NULL), node)
-        return node
+        nodes = self._walk(self._roots[particles], self._prefixes(key, depth))
+        return self._payload.take(self._links[nodes[depth, np.arange(depth.size)], _PAYLOAD])
 
     def scatter(self, particles: np.ndarray, slots: np.ndarray, block: LandmarkBlock) -> None:
-        """Path copying: every node on the N paths not owned by the writing particle is copied,
-        level by level (pairs of one particle share the copies of their common prefix)."""
+        """Path copying: every node on the N paths not owned by the writing particle is copied
+        once (pairs of one particle share the copies of their common prefix), then each
+        written node gets a fresh payload row.
+
+        With the pairs sorted by (particle, left-aligned key), the pairs that pass through one
+        node of one particle's tree at level l form a run; the last pair of a run reaches that
+        level iff any does (shallower keys sort first among equal aligned keys), so it
+        represents the node. All levels are decided at once on (L, N) arrays; only the walk
+        is a loop over levels.
+        """
         particles = np.asarray(particles, dtype=np.int64)
         n = particles.shape[0]
         if n == 0:
             return
         key, depth = self._paths(slots)
-        max_depth = int(depth.max(initial=0))
-        self._reserve(n * (max_depth + 1))
         self.node_visits += int((depth + 1).sum())
+        max_depth = int(depth.max(initial=0))
+        order = np.lexsort((depth, key << (max_depth - depth), particles))
+        who, key, depth = particles[order], key[order], depth[order]
+        prefixes = self._prefixes(key, depth)  # (L, N)
+        levels = np.arange(max_depth + 1)[:, None]
+        last = np.ones(prefixes.shape, dtype=bool)  # last pair of its run, per level
+        last[:, :-1] = (prefixes[:, 1:] != prefixes[:, :-1]) | (who[1:] != who[:-1])
+        represents = last & (levels <= depth)
+        self._reserve(int(np.count_nonzero(represents)), n)
 
-        # level 0: one root per writing particle
-        copies: list[tuple[np.ndarray, np.ndarray]] = []
-        writers, inverse = np.unique(particles, return_inverse=True)
-        roots = self._roots[writers]
-        roots = self._own(roots, self._tokens[writers], copies)
-        self._roots[writers] = roots
-        current = roots[inverse]
+        nodes = self._walk(self._roots[who], prefixes)
+        tokens = self._tokens[who]
+        copy = represents & (self._links[nodes, _TOKEN] != tokens)
+        level, pair = np.nonzero(copy)
+        new = self._allocate(level.size)
+        copied = self._links[nodes[copy]]
+        copied[:, _TOKEN] = tokens[pair]
+        self._links[new] = copied
+        nodes[copy] = new
 
-        shift = np.int64(max_depth + 1)
-        for level in range(1, max_depth + 1):
-            active = np.flatnonzero(depth >= level)
-            prefix = key[active] >> (depth[active] - level)
-            _, first, inverse = np.unique(
-                (particles[active] << shift) | prefix, return_index=True, return_inverse=True
-            )
-            heads = active[first]
-            parent = current[heads]
-            bit = prefix[first] & 1
-            child = self._own(self._children[parent, bit], self._tokens[particles[heads]], copies)
-            self._children[parent, bit] = child
-            current[active] = child[inverse]
-        if copies:  # one batched payload copy for every node copied on the paths
-            source = np.concatenate([c[0] for c in copies])
-            target = np.concatenate([c[1] for c in copies])
-            payload = self._nodes.take(np.maximum(source, 0))
-            absent = source < 0
-            if absent.any():
-                payload.mean[absent] = 0.0
-                payload.cov[absent] = 0.0
-                payload.status[absent] = 0
-                payload.existence[absent] = 0
-                payload.ray[absent] = 0.0
-            self._nodes.put(target, payload)
-        self._nodes.put(current, block)
+        # every pair's node at each level is its run's representative
+        column = np.where(last, np.arange(n), n)
+        run_end = np.minimum.accumulate(column[:, ::-1], axis=1)[:, ::-1]
+        linked = level > 0
+        child_level, child_pair = level[linked], pair[linked]
+        parent = nodes[child_level - 1, run_end[child_level - 1, child_pair]]
+        flat = self._links.reshape(-1)
+        flat[_COLUMNS * parent + (prefixes[child_level, child_pair] & 1)] = new[linked]
+        self._roots[who[pair[~linked]]] = new[~linked]
 
-    def _own(
-        self, nodes: np.ndarray, tokens: np.ndarray, copies: list[tuple[np.ndarray, np.ndarray]]
-    ) -> np.ndarray:
-        """Nodes writable by the particles holding ``tokens``: copies of the ones they do not
-        own, new absent nodes for null ones (capacity must have been reserved).
-
-        Child pointers are copied at once (the walk needs them); the payload copies are
-        appended to ``copies`` as (source, target) and done in one batch by the caller.
-        """
-        owned = (nodes >= 0) & (self._token[np.maximum(nodes, 0)] == tokens)
-        need = np.flatnonzero(~owned)
-        if need.size == 0:
-            return nodes
-        source = nodes[need]
-        new = self._allocate(need.size)
-        exists = source >= 0
-        self._children[new] = np.where(
-            exists[:, None], self._children[np.maximum(source, 0)], _NULL
-        )
-        self._token[new] = tokens[need]
-        copies.append((source, new))
-        out = nodes.copy()
-        out[need] = new
-        return out
+        rows = self._payload_rows.allocate(n)
+        self._payload.put(rows, block)
+        target = nodes[depth, run_end[depth, np.arange(n)]]
+        self._links[target, _PAYLOAD] = rows[order]
 
     def resample(self, ancestors: np.ndarray) -> None:
         """O(P): particle i takes old particle ancestors[i]'s root; see the module docstring
@@ -282,72 +315,60 @@ class LandmarkTree:
     # -- node memory --------------------------------------------------------------------------
 
     def _allocate(self, count: int) -> np.ndarray:
-        new = np.arange(self._used, self._used + count)
-        self._used += count
+        """Rows for ``count`` new nodes (capacity must have been reserved)."""
         self.nodes_allocated += count
-        return new
+        return self._node_rows.allocate(count)
 
-    def _clear(self, nodes: np.ndarray) -> None:
-        self._nodes.mean[nodes] = 0.0
-        self._nodes.cov[nodes] = 0.0
-        self._nodes.status[nodes] = 0
-        self._nodes.existence[nodes] = 0
-        self._nodes.ray[nodes] = 0.0
-        self._children[nodes] = _NULL
-
-    def _copy(self, source: np.ndarray, target: np.ndarray) -> None:
-        self._nodes.put(target, self._nodes.take(source))
-        self._children[target] = self._children[source]
-
-    def _capacity(self) -> int:
-        return int(self._children.shape[0])
-
-    def _reserve(self, count: int) -> None:
-        """Make room for ``count`` new nodes: mark-and-compact first, grow if still over half
-        full (so reclaiming stays amortised O(1) per node)."""
-        if self._used + count <= self._capacity():
+    def _reserve(self, nodes: int, payloads: int) -> None:
+        """Make room for new nodes and payload rows: mark-and-sweep first, then grow each
+        table that is still over half full (so reclaiming stays amortised O(1) per row)."""
+        node_capacity, payload_capacity = self._links.shape[0], len(self._payload)
+        if nodes <= self._node_rows.available(
+            node_capacity
+        ) and payloads <= self._payload_rows.available(payload_capacity):
             return
         self.collect_garbage()
-        if self._used + count > self._capacity() // 2:
-            self._grow(max(2 * self._capacity(), 2 * (self._used + count)))
+        needed = self._node_rows.in_use + nodes
+        if needed > node_capacity // 2:
+            links = np.zeros((max(2 * node_capacity, 2 * needed), _COLUMNS), dtype=np.int64)
+            links[: self._node_rows.used] = self._links[: self._node_rows.used]
+            self._links = links
+        needed = self._payload_rows.in_use + payloads
+        if needed > payload_capacity // 2:
+            used = slice(0, self._payload_rows.used)
+            payload = LandmarkBlock.empty(
+                max(2 * payload_capacity, 2 * needed), self._dim, self._ray_dim
+            )
+            payload.put(used, self._payload.take(used))
+            self._payload = payload
 
     def _mark(self) -> np.ndarray:
-        marked = np.zeros(self._used, dtype=bool)
-        frontier = np.unique(self._roots[self._roots >= 0])
+        """Reachable node rows, one tree level per iteration; a node met several times in one
+        level (shared by several parents) is kept once without sorting: each occurrence stamps
+        its position and only the occurrence whose stamp survived goes on."""
+        used = self._node_rows.used
+        marked = np.zeros(used, dtype=bool)
+        marked[_NULL] = True
+        stamp = np.empty(used, dtype=np.int64)
+        frontier = self._roots[~marked[self._roots]]
         while frontier.size:
+            position = np.arange(frontier.size)
+            stamp[frontier] = position
+            frontier = frontier[stamp[frontier] == position]
             marked[frontier] = True
-            children = self._children[frontier].ravel()
-            children = children[children >= 0]
-            frontier = np.unique(children[~marked[children]])
+            children = self._links[frontier, _LEFT : _LEFT + 2].reshape(-1)
+            frontier = children[~marked[children]]
         return marked
 
     def collect_garbage(self) -> int:
-        """Mark the nodes reachable from the roots and compact them to the front.
+        """Mark the nodes reachable from the roots and the payload rows they point to, and put
+        every other row on the free lists (rows do not move, so no pointer needs rewriting).
 
         Returns:
             the number of nodes reclaimed.
         """
-        live = np.flatnonzero(self._mark())
-        reclaimed = self._used - live.size
-        if reclaimed == 0:
-            return 0
-        remap = np.full(self._used, _NULL, dtype=np.int64)
-        remap[live] = np.arange(live.size)
-        n = live.size
-        self._nodes.put(np.arange(n), self._nodes.take(live))
-        children = self._children[live]
-        self._children[:n] = np.where(children >= 0, remap[np.maximum(children, 0)], _NULL)
-        self._token[:n] = self._token[live]
-        self._roots = np.where(self._roots >= 0, remap[np.maximum(self._roots, 0)], _NULL)
-        self._used = n
-        return int(reclaimed)
-
-    def _grow(self, capacity: int) -> None:
-        used = self._used
-        nodes = LandmarkBlock.empty(capacity, self._dim, self._ray_dim)
-        nodes.put(np.arange(used), self._nodes.take(np.arange(used)))
-        children = np.full((capacity, 2), _NULL, dtype=np.int64)
-        children[:used] = self._children[:used]
-        token = np.zeros(capacity, dtype=np.int64)
-        token[:used] = self._token[:used]
-        self._nodes, self._children, self._token = nodes, children, token
+        marked = self._mark()
+        payload_marked = np.zeros(self._payload_rows.used, dtype=bool)
+        payload_marked[self._links[np.flatnonzero(marked), _PAYLOAD]] = True
+        self._payload_rows.sweep(payload_marked)
+        return self._node_rows.sweep(marked)

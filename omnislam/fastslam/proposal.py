@@ -29,10 +29,16 @@ import numpy as np
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.se import wrap_angle
 from omnislam.fastslam.landmark_ekf import (
+    LOG_2PI,
     MeasurementModel,
-    gaussian_log_likelihood,
-    inverse_and_logdet,
+    entry_major,
+    inverse_entry_major,
+    product,
+    quadratic_form,
+    stack_major,
+    symmetrised,
     transpose,
+    transposed,
 )
 
 #: added to the proposal covariance's diagonal before the Cholesky factorisation
@@ -94,17 +100,19 @@ def refine_proposal(
         model: measurement model with pose and landmark Jacobians.
     """
     z_hat, H_x, H_m = model.predict(pose_mean, landmark_mean)
-    y = model.residual(z, z_hat)
-    Q = H_m @ landmark_cov @ transpose(H_m) + R
-    PHT = pose_cov @ transpose(H_x)
-    L = H_x @ PHT + Q
-    L_inv, logdet = inverse_and_logdet(L)
-    K = PHT @ L_inv
-    mean = pose_mean + np.einsum("...ij,...j->...i", K, y)
+    y = entry_major(model.residual(z, z_hat)[..., None])
+    H_x, H_m, P = entry_major(H_x), entry_major(H_m), entry_major(pose_cov)
+    Q = product(product(H_m, entry_major(landmark_cov)), transposed(H_m)) + entry_major(R)
+    PHT = product(P, transposed(H_x))
+    L = product(H_x, PHT) + Q
+    L_inv, logdet = inverse_entry_major(L)
+    K = product(PHT, L_inv)
+    mean = pose_mean + stack_major(product(K, y))[..., 0]
     mean[..., 2] = wrap_angle(mean[..., 2])
-    cov = pose_cov - K @ L @ transpose(K)
-    cov = 0.5 * (cov + transpose(cov))
-    return ProposalUpdate(mean, cov, gaussian_log_likelihood(y, L_inv, logdet))
+    # Sigma = P - K L K^T = P - K (P H_x^T)^T, as K L = P H_x^T
+    cov = stack_major(symmetrised(P - product(K, transposed(PHT))))
+    log_likelihood = -0.5 * (quadratic_form(y, L_inv) + logdet + y.shape[0] * LOG_2PI)
+    return ProposalUpdate(mean, cov, log_likelihood)
 
 
 def sample_poses(mean: np.ndarray, cov: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -161,3 +161,32 @@ def test_tree_update_cost_is_logarithmic():
     before = tree.nodes_allocated
     tree.scatter(np.array([3]), np.array([99_999]), _block(np.array([1.0])))
     assert tree.nodes_allocated - before == int(np.floor(np.log2(100_000))) + 1
+
+
+def test_reclamation_keeps_memory_bounded_over_many_steps():
+    """Node and payload rows are reused after mark-and-sweep: the tables stop growing once the
+    live map is steady, and the maps stay equal to the dense oracle."""
+    rng = np.random.default_rng(8)
+    p, m = 10, 40
+    tree = LandmarkTree(p, 2, initial_capacity=8)
+    dense = DenseLandmarkStore(p, 2)
+    tree.add_landmarks(m)
+    dense.add_landmarks(m)
+    memory = []
+    for step in range(400):
+        who = np.repeat(np.arange(p), 3)
+        slots = np.concatenate([rng.choice(m, 3, replace=False) for _ in range(p)])
+        block = _block(rng.random(who.size))
+        tree.scatter(who, slots, block)
+        dense.scatter(who, slots, block)
+        ancestors = np.sort(rng.integers(0, p, size=p))
+        tree.resample(ancestors)
+        dense.resample(ancestors)
+        if step in (199, 399):
+            memory.append(tree.memory_bytes)
+    assert memory[1] == memory[0]
+    assert tree.live_nodes() <= p * m
+    for particle in range(p):
+        np.testing.assert_array_equal(
+            tree.particle_map(particle).mean, dense.particle_map(particle).mean
+        )

@@ -3,10 +3,19 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
-from omnislam.fastslam.landmark_ekf import ekf_update
+from omnislam.fastslam.landmark_ekf import (
+    ekf_update,
+    entry_major,
+    inverse_entry_major,
+    product,
+    quadratic_form,
+    stack_major,
+    symmetrised,
+)
 from omnislam.fastslam.proposal import motion_prediction, refine_proposal, sample_poses
 
 
@@ -75,3 +84,24 @@ def test_sample_poses_has_the_requested_moments(rng):
     samples = sample_poses(np.tile(mean, (200_000, 1)), np.tile(cov, (200_000, 1, 1)), rng)
     np.testing.assert_allclose(samples.mean(axis=0), mean, atol=2e-3)
     np.testing.assert_allclose(np.cov(samples.T), cov, rtol=0.02, atol=2e-4)
+
+
+@pytest.mark.parametrize("k", [1, 2, 3])
+def test_entry_major_algebra_matches_matmul(rng, k):
+    """The entry-major products, inverse and quadratic form used by the EKF and the proposal
+    equal numpy's stacked matrix algebra."""
+    n = 7
+    A, B = rng.normal(size=(n, k, 3)), rng.normal(size=(n, 3, k))
+    C = rng.normal(size=(n, k, k))
+    S = C @ np.swapaxes(C, 1, 2) + np.eye(k)
+    y = rng.normal(size=(n, k))
+    product_em = stack_major(product(entry_major(A), entry_major(B)))
+    np.testing.assert_allclose(product_em, A @ B, rtol=1e-12)
+    np.testing.assert_allclose(
+        stack_major(symmetrised(entry_major(C))), 0.5 * (C + np.swapaxes(C, 1, 2)), rtol=1e-12
+    )
+    inverse, logdet = inverse_entry_major(entry_major(S))
+    np.testing.assert_allclose(stack_major(inverse), np.linalg.inv(S), rtol=1e-9)
+    np.testing.assert_allclose(logdet, np.linalg.slogdet(S)[1], rtol=1e-12)
+    quadratic = quadratic_form(entry_major(y[..., None]), entry_major(np.linalg.inv(S)))
+    np.testing.assert_allclose(quadratic, np.einsum("ni,nij,nj->n", y, np.linalg.inv(S), y))
