@@ -7,8 +7,9 @@ Each ``step``:
    thesis eq. 4.41) or fixed dataset sigmas; OMNI mode adds the planar prior (z, roll, pitch);
 2. turns the frame's sightings into factors (``factors.py``): range-bearing landmarks enter on
    their first sighting; bearing-only tracks are held back until they can be triangulated
-   (``landmark_init.py``); unlabelled range-bearing sightings are associated first
-   (``association.py``);
+   (``landmark_init.py``) and enter with a weak prior at that point (see
+   ``GraphSLAMConfig.landmark_prior_sigma_m``); unlabelled range-bearing sightings are
+   associated first (``association.py``);
 3. runs one ``ISAM2.update`` and reads back **only the newest pose**
    (``calculateEstimatePose2/3``); the full estimate is computed only in ``estimate()``
    (DESIGN.md: reading everything every step cost as much as the update).
@@ -183,6 +184,7 @@ class GraphSLAM:
         self._factorization = Factorization.CHOLESKY
         self._all_factors = gtsam.NonlinearFactorGraph()  # every factor so far (for a rebuild)
         self._landmark_point_w: dict[int, np.ndarray] = {}  # 3-D landmarks at insertion
+        self._landmark_priors: dict[int, Any] = {}  # weak landmark prior models by dimension
 
     # ------------------------------------------------------------------ protocol
 
@@ -488,14 +490,30 @@ class GraphSLAM:
             insertion = self._delayed.try_insert(lid, self._viewpoint_callback(k))
             if insertion is None:
                 continue
+            key = fx.landmark_key(lid)
+            sigma = self.config.landmark_prior_sigma_m
             if point3:
-                values.insert(fx.landmark_key(lid), gtsam.Point3(insertion.point_w))
+                point = gtsam.Point3(insertion.point_w)
+                values.insert(key, point)
                 self._landmark_point_w[lid] = np.asarray(insertion.point_w, dtype=float)
+                if sigma is not None:  # see GraphSLAMConfig.landmark_prior_sigma_m
+                    graph.add(gtsam.PriorFactorPoint3(key, point, self._landmark_prior(3)))
             else:
-                values.insert(fx.landmark_key(lid), gtsam.Point2(insertion.point_w[:2]))
+                point = gtsam.Point2(insertion.point_w[:2])
+                values.insert(key, point)
+                if sigma is not None:
+                    graph.add(gtsam.PriorFactorPoint2(key, point, self._landmark_prior(2)))
             for factor in insertion.factors:
                 graph.add(factor)
             self._register_landmark(lid, insertion.point_w)
+
+    def _landmark_prior(self, dim: int) -> Any:
+        """The weak prior's noise model (never robust: it is not a measurement)."""
+        model = self._landmark_priors.get(dim)
+        if model is None:
+            sigma = float(self.config.landmark_prior_sigma_m or 0.0)
+            model = self._landmark_priors[dim] = gtsam.noiseModel.Isotropic.Sigma(dim, sigma)
+        return model
 
     def _viewpoint_callback(self, k: int) -> Callable[[int], tuple[np.ndarray, np.ndarray]]:
         """Sensor viewpoint (origin_w, wRs) of a frame: the guess for frame k, iSAM2 before."""
