@@ -236,3 +236,24 @@ def test_adaptive_reorder_bounds_fill_in_and_keeps_the_estimate():
 def test_adaptive_reorder_threshold_must_be_a_ratio_above_one():
     with pytest.raises(ConfigError, match="adaptive_reorder_threshold"):
         GraphSLAMConfig(adaptive_reorder_threshold=0.5)
+
+
+def test_weak_landmark_prior_is_one_factor_per_landmark_and_barely_moves_the_estimate():
+    scenario = simulate_omni(np.random.default_rng(0))
+    with_prior = GraphSLAM(_config(sensor_height_m=SENSOR_HEIGHT_M), scenario.poses_true[0])
+    without = GraphSLAM(
+        _config(sensor_height_m=SENSOR_HEIGHT_M, landmark_prior_sigma_m=None),
+        scenario.poses_true[0],
+    )
+    a, b = run(with_prior, scenario.frames), run(without, scenario.frames)
+    graph = with_prior.factor_graph()
+    priors = [
+        graph.at(i) for i in range(graph.size()) if isinstance(graph.at(i), gtsam.PriorFactorPoint3)
+    ]
+    assert len(priors) == with_prior.info().landmarks == len(a.landmark_ids)
+    np.testing.assert_array_equal(a.landmark_ids, b.landmark_ids)
+    # the runs differ by the prior and by what the outlier gate let through (a few mm)
+    np.testing.assert_allclose(a.trajectory.se2, b.trajectory.se2, atol=0.01)
+    np.testing.assert_allclose(a.landmarks_w, b.landmarks_w, atol=0.02)
+    ate_a, ate_b = scenario.ate(a.trajectory.se2), scenario.ate(b.trajectory.se2)
+    assert abs(ate_a - ate_b) < 0.1 * ate_b
