@@ -1,6 +1,8 @@
 """Evaluate one run: every metric of ``compare.metrics`` on a RunRecord, as metrics.json keys.
 
-Which numbers mean what (every number is labelled with the kind of its ground truth):
+Which numbers mean what (every number is labelled with the kind of its ground truth; when that
+is a reference solution computed by omnislam, ``reference`` names it, e.g. "lm-optimum" for
+gtsam's victoria_park.txt, ``compare.reference``):
 
 * ATE (``ate_*``): SE(2)-aligned position RMSE (``alignment``); ``ate_origin_*``: the first pose
   anchored instead (drift shows fully).
@@ -137,6 +139,7 @@ def evaluate_record(record: RunRecord, options: EvaluationOptions) -> dict[str, 
             "ground_truth": gt.kind.value,
             "ground_truth_label": GROUND_TRUTH_LABELS[gt.kind],
             "ground_truth_note": gt.note,
+            "reference": config.ground_truth_reference,
             "frames": len(estimate.trajectory),
             "step_ms_median": _finite(timing.median_ms),
             "step_ms_p95": _finite(timing.p95_ms),

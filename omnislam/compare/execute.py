@@ -1,9 +1,11 @@
 """Run one estimator on one dataset: the library function behind ``omnislam run`` and the grid.
 
-``execute_run(spec)`` loads the dataset, builds the estimator through the registry, feeds it
-every frame, times each step, and returns a RunRecord (nothing is written; ``write_run_dir``
-does that atomically). The same function runs in the CLI's process and in the grid runner's
-workers, so a cell of a grid and ``omnislam run`` with the same arguments give the same numbers.
+``execute_run(spec)`` loads the dataset (and, for data without ground truth that has a reference
+solution, that reference: ``compare.reference``), builds the estimator through the registry,
+feeds it every frame, times each step, and returns a RunRecord (nothing is written;
+``write_run_dir`` does that atomically). The same function runs in the CLI's process and in the
+grid runner's workers, so a cell of a grid and ``omnislam run`` with the same arguments give the
+same numbers.
 
 Peak memory is measured per run: on Linux the process's resident-set high-water mark is reset
 before the run (``/proc/self/clear_refs``), so a worker process that runs several cells reports
@@ -24,6 +26,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction, reassign_ids
+from omnislam.compare.reference import reference_for
 from omnislam.compare.rundir import GRAPH_G2O, RunConfig, RunRecord
 from omnislam.core.types import UNKNOWN_ID, FrameInput
 from omnislam.datasets.sequence import GroundTruth
@@ -127,7 +130,9 @@ def execute_run(spec: RunSpec) -> RunRecord:
     dataset_options = {k: v for k, v in options.items() if k in loader_keys}
     estimator_options = {k: v for k, v in options.items() if k not in loader_keys}
     sequence = load_dataset(resolved, dataset_options)
-    ground_truth = sequence.ground_truth
+    ground_truth, reference = reference_for(resolved.format, resolved.path, sequence)
+    if reference:  # computing it (when not cached) is not the run's memory
+        reset_peak_rss()
     if spec.log is None:
         frames: Iterator[FrameInput] = sequence.frame_inputs()
         has_bearings = False
@@ -181,6 +186,7 @@ def execute_run(spec: RunSpec) -> RunRecord:
         peak_rss_mb=round(peak_rss_mb(), 1),
         ground_truth_kind=ground_truth.kind.value,
         ground_truth_note=ground_truth.note,
+        ground_truth_reference=reference or None,
         source=sequence.source,
         seed=spec.seed,
         dataset_options=dataset_options,

@@ -70,6 +70,9 @@ class RunConfig:
         peak_rss_mb: peak resident memory of the process [MB].
         ground_truth_kind: ``GroundTruthKind`` value.
         ground_truth_note: the ground truth's note (printed with every number).
+        ground_truth_reference: when the ground truth is a reference solution computed by
+            omnislam (kind ``reference``), its name (e.g. "lm-optimum", see
+            ``compare.reference``); None for recorded ground truth.
         source: the dataset's citation.
         landmark_ids_from_truth: the sightings carried the ground truth's landmark ids, so the
             estimate's ids name true landmarks (landmark error associates by id).
@@ -90,6 +93,7 @@ class RunConfig:
     peak_rss_mb: float
     ground_truth_kind: str = GroundTruthKind.NONE.value
     ground_truth_note: str = ""
+    ground_truth_reference: str | None = None
     source: str = ""
     seed: int | None = None
     dataset_options: Mapping[str, str] = field(default_factory=dict)

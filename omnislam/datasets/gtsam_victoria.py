@@ -17,9 +17,10 @@ sightings with data association solved. One line per factor (format of gtsam's
 * ``BR i l bearing range sigma_bearing sigma_range``: a bearing-range sighting (accepted too).
 
 Poses and landmarks share one id space. Frames are the poses in chain order; the file has no
-time stamps, so frame k gets the nominal stamp k [s]. There is no ground truth: evaluation
-compares against a reference solution (``GroundTruthKind.REFERENCE``, provided by the graph
-SLAM work) when one is given, otherwise reports "no ground truth".
+time stamps, so frame k gets the nominal stamp k [s]. There is no ground truth, and loaders never
+estimate: the Sequence's ground truth is NONE, and ``omnislam run`` scores against the reference
+solution ``omnislam.compare.reference`` computes and caches (the warm-started LM optimum of this
+file's graph, ``GroundTruthKind.REFERENCE``).
 """
 
 from __future__ import annotations
@@ -204,7 +205,8 @@ def load_gtsam_victoria(
         odometry_r=odometry,
         ground_truth=GroundTruth(
             kind=GroundTruthKind.NONE,
-            note="no ground truth; compare against a reference solution (graphslam-batch)",
+            note="no ground truth; runs are scored against the warm-started LM optimum "
+            "(omnislam.compare.reference)",
         ),
         range_bearing=range_bearing,
         odometry_covariance_r=np.concatenate(

@@ -163,7 +163,7 @@ REGISTRY: dict[str, DatasetEntry] = {
         "",
         "gtsam example data victoria_park.txt (from Guivant & Nebot 2001)",
         "odometry steps; landmark sightings with ids",
-        GroundTruthKind.NONE,
+        GroundTruthKind.REFERENCE,
     ),
     "carmen-intel": DatasetEntry(
         "carmen-intel",

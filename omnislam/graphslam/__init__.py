@@ -2,7 +2,8 @@
 
 Modules: ``config`` (modes, kernels, settings), ``factors`` (noise models and factors),
 ``landmark_init`` (delayed insertion of bearing-only tracks), ``association`` (unlabelled
-range-bearing sightings), ``isam`` (the incremental estimator), ``batch`` (LM), ``export`` (g2o).
+range-bearing sightings), ``tentative`` (landmarks the association holds back until
+re-observed), ``isam`` (the incremental estimator), ``batch`` (LM), ``export`` (g2o).
 
 gtsam is imported lazily: ``import omnislam.graphslam`` works without it, and the estimator
 classes raise an error naming the ``graph`` extra when it is missing.

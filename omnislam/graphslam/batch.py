@@ -53,6 +53,30 @@ def optimize_batch(
     )
 
 
+def warm_started_lm(
+    estimator: GraphSLAM, max_iterations: int = 100, relative_error_tol: float = 1e-10
+) -> BatchResult:
+    """LM on every factor of an incremental estimator, started from its iSAM2 solution.
+
+    The one implementation of "the warm-started LM optimum" (``BatchGraphSLAM.estimate``, the
+    reference solution of gtsam's victoria_park.txt in ``omnislam.compare.reference``, and
+    ``benchmarks/graphslam_victoria.py``).
+
+    Args:
+        estimator: a started ``GraphSLAM`` (any subclass; its *iSAM2* estimate is the start).
+        max_iterations, relative_error_tol: LM stopping rules.
+
+    Returns:
+        The BatchResult of ``optimize_batch``.
+    """
+    return optimize_batch(
+        estimator.factor_graph(),
+        GraphSLAM.values(estimator),  # iSAM2's estimate even when ``values`` is overridden
+        max_iterations,
+        relative_error_tol,
+    )
+
+
 class BatchGraphSLAM(GraphSLAM):
     """Incremental steps, then LM on the whole graph in ``estimate()`` (warm-started).
 
@@ -70,11 +94,8 @@ class BatchGraphSLAM(GraphSLAM):
         """Run (or reuse) LM on every factor so far, from the current iSAM2 estimate."""
         self._require_started()
         if self._batch is None or self._batch_frames != self._frames:
-            self._batch = optimize_batch(
-                self.factor_graph(),
-                self._isam.calculateEstimate(),
-                self.config.batch_max_iterations,
-                self.config.batch_relative_error_tol,
+            self._batch = warm_started_lm(
+                self, self.config.batch_max_iterations, self.config.batch_relative_error_tol
             )
             self._batch_frames = self._frames
         return self._batch

@@ -139,6 +139,16 @@ class GraphSLAMConfig:
         association_pose_covariance: add the newest pose's iSAM2 marginal covariance to the
             sightings' covariance in the gate (default True; one marginal per frame with
             unlabelled sightings).
+        association_landmark_marginals: use each nearby candidate landmark's iSAM2 marginal
+            covariance in the gate instead of ``association_landmark_sigma_m`` (default False:
+            one back-substitution per candidate and frame, see ``association.py``).
+        association_min_sightings: sightings a landmark started by the association needs
+            before it enters the graph (default 1: at once). 2 or more holds it as a tentative
+            landmark (``tentative.py``) that is dropped, with its sightings, unless re-observed
+            within ``association_window_frames`` frames: it removes clutter (spurious
+            detections) from the map.
+        association_window_frames: largest gap in frames between consecutive sightings of a
+            tentative landmark (default 10).
         batch_max_iterations: Levenberg-Marquardt iteration limit of batch mode (default 100).
         batch_relative_error_tol: LM relative error decrease at which batch mode stops
             (default 1e-10).
@@ -168,6 +178,9 @@ class GraphSLAMConfig:
     new_landmark_probability: float = 0.9999
     association_landmark_sigma_m: float = 0.3
     association_pose_covariance: bool = True
+    association_landmark_marginals: bool = False
+    association_min_sightings: int = 1
+    association_window_frames: int = 10
     batch_max_iterations: int = 100
     batch_relative_error_tol: float = 1e-10
     compute_covariances: bool = False
@@ -198,6 +211,11 @@ class GraphSLAMConfig:
         if self.min_consistent_sightings < 1:
             raise ConfigError(
                 f"min_consistent_sightings must be >= 1, got {self.min_consistent_sightings}"
+            )
+        if self.association_min_sightings < 1 or self.association_window_frames < 1:
+            raise ConfigError(
+                "association_min_sightings and association_window_frames must be >= 1, got "
+                f"{self.association_min_sightings} and {self.association_window_frames}"
             )
         if self.min_parallax_deg < 0:
             raise ConfigError(f"min_parallax_deg must be >= 0, got {self.min_parallax_deg}")

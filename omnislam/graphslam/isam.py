@@ -47,6 +47,7 @@ from omnislam.graphslam.association import (
     NEW_LANDMARK,
     Gates,
     associate,
+    mahalanobis2,
     sighting_points,
 )
 from omnislam.graphslam.config import Factorization, GraphSLAMConfig, Mode
@@ -55,6 +56,7 @@ from omnislam.graphslam.landmark_init import (
     DelayedInsertion,
     DelayedInsertionStats,
 )
+from omnislam.graphslam.tentative import TentativeLandmarks
 
 gtsam = require("gtsam")
 
@@ -92,6 +94,12 @@ class GraphSLAMInfo:
             tree (when most variables were affected, or by ``adaptive_reorder_threshold``).
         tree_nonzeros: non-zeros of the Bayes tree's conditionals after the latest update
             (its fill-in).
+        tentative_committed: landmarks started by the association that were re-observed and
+            entered the graph (``GraphSLAMConfig.association_min_sightings`` > 1).
+        tentative_dropped: such landmarks not re-observed in time, dropped with their
+            sightings (clutter).
+        tentative_sightings_dropped: sightings dropped with them.
+        tentative_pending: such landmarks still waiting.
     """
 
     mode: Mode
@@ -110,6 +118,10 @@ class GraphSLAMInfo:
     factorization_fallbacks: int = 0
     batch_reorders: int = 0
     tree_nonzeros: int = 0
+    tentative_committed: int = 0
+    tentative_dropped: int = 0
+    tentative_sightings_dropped: int = 0
+    tentative_pending: int = 0
 
 
 def resolve_mode(frame: FrameInput) -> Mode:
@@ -153,6 +165,13 @@ class GraphSLAM:
         )
         self._consistent = ConsistentInsertion(
             self.config.min_consistent_sightings, self._gates.match
+        )
+        self._tentative = (
+            TentativeLandmarks(
+                self.config.association_min_sightings, self.config.association_window_frames
+            )
+            if self.config.association_min_sightings > 1
+            else None
         )
         self._fixed_odometry_cov = (
             None
@@ -219,6 +238,7 @@ class GraphSLAM:
     def info(self) -> GraphSLAMInfo:
         """Counts of what the back end did (see ``GraphSLAMInfo``)."""
         bearing, ranged = self._delayed.stats(), self._consistent.stats()
+        tentative = self._tentative.stats() if self._tentative is not None else None
         delayed = DelayedInsertionStats(
             *(a + b for a, b in zip(_as_tuple(bearing), _as_tuple(ranged), strict=True))
         )
@@ -239,6 +259,10 @@ class GraphSLAM:
             factorization_fallbacks=self._fallbacks,
             batch_reorders=self._reorders,
             tree_nonzeros=0 if self._isam is None else int(self._isam.treeNnz()),
+            tentative_committed=tentative.committed if tentative else 0,
+            tentative_dropped=tentative.dropped if tentative else 0,
+            tentative_sightings_dropped=tentative.sightings_dropped if tentative else 0,
+            tentative_pending=tentative.pending if tentative else 0,
         )
 
     def factor_graph(self) -> Any:
@@ -542,24 +566,41 @@ class GraphSLAM:
     def _add_range_bearing(self, k: int, sightings: RangeBearing, graph: Any, values: Any) -> None:
         ids = sightings.landmark_ids.copy()
         unknown = ids == UNKNOWN_ID
-        created = set()
+        created: set[int] = set()
+        points_w = covariances_w = np.zeros((0, 2))
         if unknown.any():
-            ids[unknown] = self._associate(np.flatnonzero(unknown), sightings)
+            ids[unknown], points_w, covariances_w = self._associate(
+                np.flatnonzero(unknown), sightings
+            )
             created = set(ids[unknown].tolist())
+        unknown_row = np.cumsum(unknown) - 1  # row of each unlabelled sighting in points_w
         delay = self.config.min_consistent_sightings > 1
-        for lid, r, b, s_r, s_b in zip(
-            ids.tolist(),
-            sightings.ranges_m.tolist(),
-            sightings.bearings_rad.tolist(),
-            sightings.sigma_range_m.tolist(),
-            sightings.sigma_bearing_rad.tolist(),
-            strict=True,
+        for i, (lid, r, b, s_r, s_b) in enumerate(
+            zip(
+                ids.tolist(),
+                sightings.ranges_m.tolist(),
+                sightings.bearings_rad.tolist(),
+                sightings.sigma_range_m.tolist(),
+                sightings.sigma_bearing_rad.tolist(),
+                strict=True,
+            )
         ):
             if lid == UNKNOWN_ID:  # ambiguous
                 continue
             factor = fx.bearing_range_2d(k, lid, b, r, self._noise.diagonal(s_b, s_r))
             if lid in self._landmark_row:
                 graph.add(factor)
+                continue
+            if lid in created and self._tentative is not None:  # unlabelled: wait for more
+                row = unknown_row[i]
+                commitment = self._tentative.add(
+                    lid, k, points_w[row], covariances_w[row], factor
+                )
+                if commitment is not None:
+                    values.insert(fx.landmark_key(lid), gtsam.Point2(commitment.point_w))
+                    self._register_landmark(lid, commitment.point_w)
+                    for held in commitment.factors:
+                        graph.add(held)
                 continue
             if not delay or lid in created:
                 xy = _RANGE_BEARING.inverse(self._guess, np.array([r, b]))[0]
@@ -576,8 +617,18 @@ class GraphSLAM:
                 for held in insertion.factors:
                     graph.add(held)
 
-    def _associate(self, rows: np.ndarray, sightings: RangeBearing) -> np.ndarray:
-        """Ids for the unlabelled sightings ``rows``: matched, new (registered) or UNKNOWN_ID."""
+    def _associate(
+        self, rows: np.ndarray, sightings: RangeBearing
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Ids for the unlabelled sightings ``rows``: matched, new or UNKNOWN_ID (ambiguous).
+
+        Candidates are the mapped landmarks near the robot and, with the tentative stage, the
+        tentative landmarks. A new id is registered in the graph by the caller (at once, or
+        through the tentative stage).
+
+        Returns:
+            (ids (K,), the sightings' world points (K, 2) and covariances (K, 2, 2)).
+        """
         pose_cov = None
         if self.config.association_pose_covariance and self._frames > 0:
             # the newest estimated pose (frame k-1) is in the root clique: a cheap marginal
@@ -603,13 +654,28 @@ class GraphSLAM:
             key = fx.landmark_key(self._landmark_ids[row])
             if self._isam.valueExists(key):
                 cached[row] = self._isam.calculateEstimatePoint2(key)
+        candidate_ids = [self._landmark_ids[row] for row in near.tolist()]
+        candidates_xy = cached[near]
+        candidate_covs = self._landmark_covariances(near, points, covs)
+        if self._tentative is not None:
+            self._tentative.expire(self._frames)
+            if len(self._tentative):
+                tentative_ids, tentative_xy, tentative_covs = self._tentative.candidates()
+                candidate_ids += tentative_ids.tolist()
+                candidates_xy = np.concatenate([candidates_xy, tentative_xy])
+                candidate_covs = np.concatenate([candidate_covs, tentative_covs])
         indices, _ = associate(
-            points, covs, cached[near], self.config.association_landmark_sigma_m, self._gates
+            points,
+            covs,
+            candidates_xy,
+            self.config.association_landmark_sigma_m,
+            self._gates,
+            candidate_covs,
         )
         out = np.full(len(rows), UNKNOWN_ID, dtype=np.int64)
         for i, index in enumerate(indices.tolist()):
             if index >= 0:
-                out[i] = self._landmark_ids[int(near[index])]
+                out[i] = candidate_ids[index]
                 self._associated += 1
             elif index == NEW_LANDMARK:
                 out[i] = self._next_created_id
@@ -617,7 +683,28 @@ class GraphSLAM:
                 self._created += 1
             elif index == AMBIGUOUS:
                 self._ambiguous += 1
-        return out
+        return out, points, covs
+
+    def _landmark_covariances(
+        self, rows: np.ndarray, points_w: np.ndarray, point_covariances: np.ndarray
+    ) -> np.ndarray:
+        """Position covariances (M, 2, 2) of the mapped landmarks ``rows`` for the gate.
+
+        ``sigma_l^2 I`` (``association_landmark_sigma_m``), or with
+        ``association_landmark_marginals`` the iSAM2 marginal of each landmark whose distance
+        with ``sigma_l`` is within 4x the new-landmark gate of some sighting (a marginal costs a
+        back-substitution; the far ones could not match anyway unless their marginal were huge).
+        """
+        sigma2 = self.config.association_landmark_sigma_m**2
+        covariances = np.tile(sigma2 * np.eye(2), (len(rows), 1, 1))
+        if not self.config.association_landmark_marginals or not len(rows):
+            return covariances
+        d2 = mahalanobis2(points_w, point_covariances, self._landmarks_xy[rows], covariances)
+        for j in np.flatnonzero(d2.min(axis=0) <= 4.0 * self._gates.new_landmark).tolist():
+            key = fx.landmark_key(self._landmark_ids[int(rows[j])])
+            if self._isam.valueExists(key):
+                covariances[j] = self._isam.marginalCovariance(key)
+        return covariances
 
     # ------------------------------------------------------------------ estimate
 

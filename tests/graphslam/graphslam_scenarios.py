@@ -225,6 +225,44 @@ def hide_ids(frames: list[FrameInput]) -> list[FrameInput]:
     return out
 
 
+def add_clutter(
+    frames: list[FrameInput],
+    rate: float,
+    max_range_m: float,
+    rng: np.random.Generator,
+    sigma_range_m: float = 0.05,
+    sigma_bearing_rad: float = 0.01,
+) -> tuple[list[FrameInput], int]:
+    """Add spurious range-bearing sightings (clutter) with UNKNOWN_ID to the frames.
+
+    Each frame gets a Poisson(``rate``) number of false detections, uniform in range (1 m to
+    ``max_range_m``) and bearing (-pi..pi), never seen twice at one place -- Victoria Park's
+    tree detector firing on passing objects -- with the stated sigmas.
+
+    Returns:
+        (frames with the clutter appended to their sightings, number of clutter sightings).
+    """
+    out, added = [], 0
+    for f in frames:
+        rb = f.range_bearing
+        n = int(rng.poisson(rate))
+        added += n
+        out.append(
+            FrameInput(
+                f.index,
+                f.odometry,
+                range_bearing=RangeBearing(
+                    np.concatenate([rb.landmark_ids, np.full(n, UNKNOWN_ID)]),
+                    np.concatenate([rb.ranges_m, rng.uniform(1.0, max_range_m, n)]),
+                    np.concatenate([rb.bearings_rad, rng.uniform(-np.pi, np.pi, n)]),
+                    np.concatenate([rb.sigma_range_m, np.full(n, sigma_range_m)]),
+                    np.concatenate([rb.sigma_bearing_rad, np.full(n, sigma_bearing_rad)]),
+                ),
+            )
+        )
+    return out, added
+
+
 def corrupt_ids(
     frames: list[FrameInput], fraction: float, landmarks: int, rng: np.random.Generator
 ) -> tuple[list[FrameInput], int]:

@@ -1,0 +1,99 @@
+"""The warm-started LM reference of gtsam graph files, and runs scored against it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+gtsam = pytest.importorskip("gtsam")
+
+from omnislam.compare import reference as ref  # noqa: E402
+from omnislam.compare.execute import RunSpec, execute_run  # noqa: E402
+from omnislam.compare.rundir import evaluate_run  # noqa: E402
+from omnislam.datasets.gtsam_victoria import find_gtsam_file  # noqa: E402
+from omnislam.datasets.sequence import GroundTruthKind  # noqa: E402
+
+GTSAM_FILE = find_gtsam_file()
+pytestmark = pytest.mark.skipif(
+    GTSAM_FILE is None or not GTSAM_FILE.is_file(), reason="gtsam's victoria_park.txt missing"
+)
+
+#: lines of victoria_park.txt kept: 929 poses, 52 landmarks, ~1.5 s for the reference
+PREFIX_LINES = 1500
+#: the reference vs an independent batch LM on the same prefix: positions [m], headings [rad]
+OPTIMUM_TOL_M = 1e-3
+OPTIMUM_TOL_RAD = 1e-4
+
+
+@pytest.fixture
+def prefix(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A truncated copy of victoria_park.txt; the reference cache goes to tmp_path."""
+    monkeypatch.setenv(ref.CACHE_ENV, str(tmp_path / "cache"))
+    lines = GTSAM_FILE.read_text().splitlines(keepends=True)[:PREFIX_LINES]
+    path = tmp_path / "victoria_prefix.txt"
+    path.write_text("".join(lines))
+    return path
+
+
+def independent_lm(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """gtsam's own loader and LM from dead reckoning (no omnislam code): poses, landmarks."""
+    graph, initial = gtsam.load2D(str(path))
+    prior = gtsam.noiseModel.Diagonal.Sigmas(np.full(3, 1e-3))
+    graph.add(gtsam.PriorFactorPose2(0, gtsam.Pose2(), prior))
+    params = gtsam.LevenbergMarquardtParams()
+    params.setMaxIterations(100)
+    params.setRelativeErrorTol(1e-10)
+    values = gtsam.LevenbergMarquardtOptimizer(graph, initial, params).optimize()
+    return gtsam.utilities.extractPose2(values), gtsam.utilities.extractPoint2(values)
+
+
+def test_reference_on_a_prefix_equals_an_independent_batch_lm(prefix):
+    solution = ref.lm_reference(prefix)
+    poses, landmarks = independent_lm(prefix)
+    assert solution.poses_w.shape == poses.shape
+    np.testing.assert_allclose(solution.poses_w[:, :2], poses[:, :2], atol=OPTIMUM_TOL_M)
+    heading = np.angle(np.exp(1j * (solution.poses_w[:, 2] - poses[:, 2])))
+    assert np.abs(heading).max() < OPTIMUM_TOL_RAD
+    np.testing.assert_allclose(solution.landmarks_w, landmarks, atol=OPTIMUM_TOL_M)
+    assert solution.final_error <= solution.initial_error
+
+
+def test_reference_is_cached_by_the_file_hash(prefix, monkeypatch):
+    first = ref.lm_reference(prefix)
+    entries = list(ref.cache_dir().glob("lm-optimum-*.npz"))
+    assert [e.name for e in entries] == [f"lm-optimum-{ref.cache_key(prefix)}.npz"]
+
+    def fail(sequence):
+        raise AssertionError("recomputed although cached")
+
+    monkeypatch.setattr(ref, "compute_lm_reference", fail)
+    again = ref.lm_reference(prefix)
+    np.testing.assert_array_equal(again.poses_w, first.poses_w)
+    np.testing.assert_array_equal(again.landmark_ids, first.landmark_ids)
+    # a changed file gets its own entry
+    prefix.write_text(prefix.read_text() + "ODOMETRY 0 0 0 0 0 1 0 0 1 0 1\n")
+    assert ref.cache_key(prefix) not in entries[0].name
+
+
+@pytest.mark.parametrize("association", ["known", "unknown"])
+def test_runs_on_a_gtsam_graph_are_scored_against_the_lm_optimum(prefix, association):
+    record = execute_run(
+        RunSpec(
+            str(prefix),
+            "graphslam",
+            options={"preset": "victoria-park-gtsam", "association": association},
+        )
+    )
+    assert record.ground_truth.kind is GroundTruthKind.REFERENCE
+    metrics = evaluate_run(record)
+    assert metrics["reference"] == ref.REFERENCE_LM_OPTIMUM
+    assert metrics["ground_truth"] == "reference"
+    assert metrics["ate_rmse_m"] is not None
+    assert metrics["landmark_rmse_m"] is not None
+    assert metrics["landmarks_truth"] == 52
+    if association == "known":  # iSAM2 itself: within the benchmark's 2 cm of the optimum
+        assert metrics["ate_rmse_m"] < 0.02
+        assert metrics["landmark_association"] == "id"
+        assert metrics["landmarks_matched"] == 52
