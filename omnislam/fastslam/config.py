@@ -156,6 +156,12 @@ class FastSLAMConfig:
         association_margin_m: unknown sightings are only compared with landmarks whose last
             known position lies within the largest sighting range plus this margin of the mean
             pose [m] (a coarse gate that keeps association O(nearby landmarks)).
+        bearing_gate_probability: 3-D only: a bearing innovation whose squared Mahalanobis
+            distance exceeds the chi-square quantile of this probability (degrees of freedom = the
+            measurement's dimension) is an outlier -- a feature track that jumped to another
+            point. It neither refines the FastSLAM 2.0 proposal nor updates the landmark EKF, and
+            its weight factor is the Gaussian likelihood truncated at the gate (a robust
+            likelihood: one bad track cannot decide between particles). 1.0 disables the gate.
         existence: the existence index of thesis 5.1.2, or None to keep every landmark forever.
         trajectory: which trajectory ``estimate()`` reports.
         initial_pose_sigma: std of the initial pose (x, y, theta) [m, m, rad]; zero: all
@@ -176,6 +182,7 @@ class FastSLAMConfig:
     min_parallax_rad: float = math.radians(3.0)
     new_landmark_log_likelihood: float = -6.0
     association_margin_m: float = 3.0
+    bearing_gate_probability: float = 0.999
     existence: ExistenceIndexConfig | None = None
     trajectory: TrajectoryMode = TrajectoryMode.WEIGHTED_MEAN
     initial_pose_sigma: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -188,6 +195,8 @@ class FastSLAMConfig:
             raise ConfigError("resample_ess_fraction must be in [0, 1]")
         if self.min_parallax_rad < 0 or self.association_margin_m < 0:
             raise ConfigError("min_parallax_rad and association_margin_m must be non-negative")
+        if not 0.0 < self.bearing_gate_probability <= 1.0:
+            raise ConfigError("bearing_gate_probability must be in (0, 1]")
         if min(self.initial_pose_sigma) < 0:
             raise ConfigError("initial_pose_sigma must be non-negative")
         if self.initial_landmark_capacity < 1:

@@ -38,7 +38,11 @@ from omnislam.core.measurement import (
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.types import Estimate, FrameInput
 from omnislam.errors import ConfigError, DataError
-from omnislam.fastslam.association import NEW_LANDMARK, maximum_likelihood_association
+from omnislam.fastslam.association import (
+    NEW_LANDMARK,
+    chi_square_gate,
+    maximum_likelihood_association,
+)
 from omnislam.fastslam.bearing_landmarks import (
     RAY_DIM,
     first_estimate,
@@ -149,6 +153,9 @@ class FastSLAM:
         self._range_bearing = RangeBearing2D()
         self._bearing = BearingElevation3D(config.sensor_height_m)
         self._range_az_el = RangeAzimuthElevation3D(config.sensor_height_m)
+        #: 3-D validation gates of (azimuth, elevation) and (d, theta, phi) innovations
+        self._bearing_gate = chi_square_gate(config.bearing_gate_probability, 2)
+        self._triangulated_gate = chi_square_gate(config.bearing_gate_probability, 3)
         self._mode: SensorMode | None = None
         self._store: LandmarkStore | None = None
         self._slot_of_id: dict[int, int] = {}
@@ -443,7 +450,10 @@ class FastSLAM:
         """
         assert self._store is not None
         p = len(previous)
-        model = self._range_bearing if self._mode is SensorMode.RANGE_BEARING_2D else self._bearing
+        if self._mode is SensorMode.RANGE_BEARING_2D:
+            model, gate = self._range_bearing, np.inf
+        else:
+            model, gate = self._bearing, self._bearing_gate
         block = self._store.gather(pairs.particle, pairs.slot)
         usable = (block.status == _ESTIMATED) & ~pairs.new_unknown
         log_factors = np.zeros(p)
@@ -462,6 +472,7 @@ class FastSLAM:
                 block.mean[rows],
                 block.cov[rows],
                 model,
+                gate,
             )
             mean[who] = update.mean
             cov[who] = update.cov
@@ -596,7 +607,7 @@ class FastSLAM:
                 block.status[rows] = _ESTIMATED
                 block.ray[rows] = rays[rows]  # eq. 4.28: keep the latest sighting
 
-        # later matches: EKF update (eqs. 4.29-4.37)
+        # later matches: EKF update (eqs. 4.29-4.37), outliers gated out
         if est.size:
             direct = np.ones(est.size, dtype=bool)
             if config.bearing_update is BearingUpdate.TRIANGULATED:
@@ -609,26 +620,47 @@ class FastSLAM:
                     z3, Q = triangulated_measurement(
                         self._range_az_el, wTr[rows], points[ok], sigma[rows], parallax[ok]
                     )
-                    update = ekf_update(
-                        wTr[rows], block.mean[rows], block.cov[rows], z3, Q, self._range_az_el
-                    )
-                    block.mean[rows], block.cov[rows] = update.mean, update.cov
-                    log_likelihood[rows] = update.log_likelihood
-                    block.ray[rows] = rays[rows]
+                    accepted = self._gated_update(
+                        block, rows, wTr[rows], z3, Q, self._range_az_el,
+                        self._triangulated_gate, log_likelihood,
+                    )  # fmt: skip
+                    block.ray[rows[accepted]] = rays[rows[accepted]]
                 direct = ~ok
             rows = est[direct]
             if rows.size:
-                update = ekf_update(
-                    wTr[rows],
-                    block.mean[rows],
-                    block.cov[rows],
-                    sightings.z[obs[rows]],
-                    sightings.R[obs[rows]],
-                    self._bearing,
-                )
-                block.mean[rows], block.cov[rows] = update.mean, update.cov
-                log_likelihood[rows] = update.log_likelihood
+                self._gated_update(
+                    block, rows, wTr[rows], sightings.z[obs[rows]], sightings.R[obs[rows]],
+                    self._bearing, self._bearing_gate, log_likelihood,
+                )  # fmt: skip
         return log_likelihood
+
+    @staticmethod
+    def _gated_update(
+        block: LandmarkBlock,
+        rows: np.ndarray,
+        wTr: np.ndarray,
+        z: np.ndarray,
+        R: np.ndarray,
+        model: RangeAzimuthElevation3D | BearingElevation3D,
+        gate: float,
+        log_likelihood: np.ndarray,
+    ) -> np.ndarray:
+        """EKF update (thesis eqs. 4.33-4.37) of ``block[rows]`` in place, skipping outliers.
+
+        An innovation outside the validation gate (y^T S^-1 y > gate) leaves the landmark as it
+        was; its likelihood, written to ``log_likelihood[rows]``, is truncated at the gate.
+
+        Returns:
+            (len(rows),) True where the update was applied.
+        """
+        update = ekf_update(wTr, block.mean[rows], block.cov[rows], z, R, model)
+        accepted = update.mahalanobis <= gate
+        kept = rows[accepted]
+        block.mean[kept] = update.mean[accepted]
+        block.cov[kept] = update.cov[accepted]
+        truncated = np.minimum(update.mahalanobis, gate)
+        log_likelihood[rows] = update.log_likelihood - 0.5 * (truncated - update.mahalanobis)
+        return accepted
 
     def _apply_existence_index(self, poses: np.ndarray, pairs: _Pairs) -> None:
         """Thesis 5.1.2: -1 for every established landmark predicted inside the sensor's field

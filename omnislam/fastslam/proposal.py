@@ -18,10 +18,16 @@ distribution, N(z; h(mu_prev, mu_m), L) = N(z; z_hat, H_x P H_x^T + H_m Sigma_m 
 sequentially -- each observation with the proposal refined by the previous ones -- the product
 of the factors is the joint predictive likelihood of all observations (chain rule), exact for a
 linear model.
+
+An optional validation gate (``gate``) makes the proposal robust to outlier observations (a
+feature track that jumped to another point): an observation whose innovation lies outside the
+gate, y^T L^-1 y > gate, leaves the proposal unchanged and its importance factor is the
+Gaussian truncated at the gate, N evaluated at Mahalanobis distance sqrt(gate).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,10 +36,11 @@ from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.se import wrap_angle
 from omnislam.fastslam.landmark_ekf import (
     MeasurementModel,
-    gaussian_log_likelihood,
     inverse_and_logdet,
     transpose,
 )
+
+_LOG_2PI = math.log(2.0 * math.pi)
 
 #: added to the proposal covariance's diagonal before the Cholesky factorisation
 _JITTER = 1e-12
@@ -65,12 +72,15 @@ class ProposalUpdate:
     Attributes:
         mean: (N, 3) refined pose mean.
         cov: (N, 3, 3) refined pose covariance.
-        log_likelihood: (N,) log N(z; z_hat, L), the observation's importance factor.
+        log_likelihood: (N,) log N(z; z_hat, L), the observation's importance factor
+            (truncated at the gate for rejected observations).
+        accepted: (N,) False where the observation fell outside the gate and was not used.
     """
 
     mean: np.ndarray
     cov: np.ndarray
     log_likelihood: np.ndarray
+    accepted: np.ndarray
 
 
 def refine_proposal(
@@ -81,6 +91,7 @@ def refine_proposal(
     landmark_mean: np.ndarray,
     landmark_cov: np.ndarray,
     model: MeasurementModel,
+    gate: float = math.inf,
 ) -> ProposalUpdate:
     """Incorporate one observation of an established landmark into each particle's proposal.
 
@@ -92,6 +103,8 @@ def refine_proposal(
         landmark_mean: (N, d) the observed landmarks' means.
         landmark_cov: (N, d, d) their covariances.
         model: measurement model with pose and landmark Jacobians.
+        gate: validation gate on y^T L^-1 y (``association.chi_square_gate``); infinite: every
+            observation is used.
     """
     z_hat, H_x, H_m = model.predict(pose_mean, landmark_mean)
     y = model.residual(z, z_hat)
@@ -104,7 +117,14 @@ def refine_proposal(
     mean[..., 2] = wrap_angle(mean[..., 2])
     cov = pose_cov - K @ L @ transpose(K)
     cov = 0.5 * (cov + transpose(cov))
-    return ProposalUpdate(mean, cov, gaussian_log_likelihood(y, L_inv, logdet))
+    mahalanobis = np.einsum("...i,...ij,...j->...", y, L_inv, y)
+    accepted = mahalanobis <= gate
+    if not accepted.all():
+        mean = np.where(accepted[:, None], mean, pose_mean)
+        cov = np.where(accepted[:, None, None], cov, pose_cov)
+        mahalanobis = np.minimum(mahalanobis, gate)
+    log_likelihood = -0.5 * (mahalanobis + logdet + y.shape[-1] * _LOG_2PI)
+    return ProposalUpdate(mean, cov, log_likelihood, accepted)
 
 
 def sample_poses(mean: np.ndarray, cov: np.ndarray, rng: np.random.Generator) -> np.ndarray:
