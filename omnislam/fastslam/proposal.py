@@ -10,7 +10,10 @@ Thesis eqs. 4.45-4.46 after Montemerlo et al. (2003); the thesis's mean update (
 It is evaluated in the equivalent Kalman form, which needs no inverse of the motion covariance
 P (singular when the robot turns on the spot):
 
-    L     = H_x P H_x^T + Q,   K = P H_x^T L^-1,   mu = mu_prev + K y,   Sigma = P - K L K^T.
+    L     = H_x P H_x^T + Q,   K = P H_x^T L^-1,   mu = mu_prev + K y,   Sigma = P - K L K^T,
+
+with Sigma computed in Joseph form, (I - K H_x) P (I - K H_x)^T + K Q K^T, which stays positive
+semi-definite under rounding when hundreds of bearings refine one proposal (omni camera).
 
 The importance factor of an observation is the likelihood of z under the *predictive*
 distribution, N(z; h(mu_prev, mu_m), L) = N(z; z_hat, H_x P H_x^T + H_m Sigma_m H_m^T + R)
@@ -115,7 +118,10 @@ def refine_proposal(
     K = PHT @ L_inv
     mean = pose_mean + np.einsum("...ij,...j->...i", K, y)
     mean[..., 2] = wrap_angle(mean[..., 2])
-    cov = pose_cov - K @ L @ transpose(K)
+    # Joseph form (I - K H_x) P (I - K H_x)^T + K Q K^T: equal to P - K L K^T for this K, but a
+    # sum of PSD terms, so the covariance stays PSD after hundreds of sequential observations
+    I_KH = np.eye(pose_cov.shape[-1]) - K @ H_x
+    cov = I_KH @ pose_cov @ transpose(I_KH) + K @ Q @ transpose(K)
     cov = 0.5 * (cov + transpose(cov))
     mahalanobis = np.einsum("...i,...ij,...j->...", y, L_inv, y)
     accepted = mahalanobis <= gate
