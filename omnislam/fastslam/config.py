@@ -162,6 +162,11 @@ class FastSLAMConfig:
             point. It neither refines the FastSLAM 2.0 proposal nor updates the landmark EKF, and
             its weight factor is the Gaussian likelihood truncated at the gate (a robust
             likelihood: one bad track cannot decide between particles). 1.0 disables the gate.
+        proposal_max_landmark_std_m: 3-D only: a landmark refines the FastSLAM 2.0 proposal only
+            when its position std sqrt(tr Sigma) is at most this (a converged triangulation;
+            infinite: every established landmark) [m].
+        proposal_max_sightings: 3-D only: at most this many sightings refine the proposal, the
+            best-converged landmarks first (0: no cap).
         existence: the existence index of thesis 5.1.2, or None to keep every landmark forever.
         trajectory: which trajectory ``estimate()`` reports.
         initial_pose_sigma: std of the initial pose (x, y, theta) [m, m, rad]; zero: all
@@ -183,6 +188,8 @@ class FastSLAMConfig:
     new_landmark_log_likelihood: float = -6.0
     association_margin_m: float = 3.0
     bearing_gate_probability: float = 0.999
+    proposal_max_landmark_std_m: float = math.inf
+    proposal_max_sightings: int = 0
     existence: ExistenceIndexConfig | None = None
     trajectory: TrajectoryMode = TrajectoryMode.WEIGHTED_MEAN
     initial_pose_sigma: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -197,6 +204,10 @@ class FastSLAMConfig:
             raise ConfigError("min_parallax_rad and association_margin_m must be non-negative")
         if not 0.0 < self.bearing_gate_probability <= 1.0:
             raise ConfigError("bearing_gate_probability must be in (0, 1]")
+        if self.proposal_max_landmark_std_m <= 0 or self.proposal_max_sightings < 0:
+            raise ConfigError(
+                "proposal_max_landmark_std_m must be positive, proposal_max_sightings >= 0"
+            )
         if min(self.initial_pose_sigma) < 0:
             raise ConfigError("initial_pose_sigma must be non-negative")
         if self.initial_landmark_capacity < 1:

@@ -456,6 +456,8 @@ class FastSLAM:
             model, gate = self._bearing, self._bearing_gate
         block = self._store.gather(pairs.particle, pairs.slot)
         usable = (block.status == _ESTIMATED) & ~pairs.new_unknown
+        if self._mode is SensorMode.BEARINGS_3D:
+            usable &= self._proposal_landmarks(block, pairs, usable)
         log_factors = np.zeros(p)
         refined = np.zeros(p, dtype=bool)
         mean = mean.copy()
@@ -484,6 +486,37 @@ class FastSLAM:
         if plain.any():
             poses[plain] = self._motion.sample(previous[plain], delta, self._rng)
         return poses, log_factors
+
+    def _proposal_landmarks(
+        self, block: LandmarkBlock, pairs: _Pairs, usable: np.ndarray
+    ) -> np.ndarray:
+        """3-D: which established landmarks may refine the FastSLAM 2.0 proposal.
+
+        A landmark triangulated from two rays of little parallax is uncertain in depth and its
+        error is correlated with the poses that triangulated it; the proposal (which treats the
+        observations as independent given the map) then trusts it too much. Only landmarks
+        whose position std sqrt(tr Sigma) is at most ``proposal_max_landmark_std_m`` are used,
+        and of those at most ``proposal_max_sightings`` sightings, the best-converged (smallest
+        mean tr Sigma over the particles) first.
+
+        Returns:
+            (N,) bool over the pairs.
+        """
+        config = self.config
+        trace = np.trace(block.cov, axis1=-2, axis2=-1)
+        keep = trace <= config.proposal_max_landmark_std_m**2
+        cap = config.proposal_max_sightings
+        candidates = usable & keep
+        if cap > 0:
+            obs = pairs.obs[candidates]
+            if np.unique(obs).size > cap:
+                n_obs = int(pairs.obs.max()) + 1
+                total = np.bincount(obs, weights=trace[candidates], minlength=n_obs)
+                count = np.bincount(obs, minlength=n_obs)
+                score = np.where(count > 0, total / np.maximum(count, 1), np.inf)
+                best = np.argsort(score, kind="stable")[:cap]
+                keep &= np.isin(pairs.obs, best)
+        return keep
 
     # -- mapping -------------------------------------------------------------------------------
 
