@@ -146,6 +146,10 @@ class FastSLAMConfig:
         sensor_height_m: height of the omni camera's viewpoint above the ground plane (3-D) [m].
         bearing_update: update of established 3-D landmarks (thesis triangulation or direct).
         triangulation: first 3-D estimate from two rays.
+        triangulated_ray_reuse: the triangulated pseudo-measurement's noise Q (and the first
+            estimate's, eq. 4.27) is multiplied by this: each ray enters two successive
+            triangulations (new ray, then stored sighting), so without inflation its information
+            is counted twice (``bearing_landmarks``). 1.0: the thesis as printed.
         min_parallax_rad: two rays closer than this are not triangulated; the first sighting is
             kept until a ray with enough parallax arrives [rad].
         new_landmark_log_likelihood: log p0, Montemerlo 2003 sec. 3.4.1 / Thrun et al. Table
@@ -184,6 +188,7 @@ class FastSLAMConfig:
     sensor_height_m: float = 0.0
     bearing_update: BearingUpdate = BearingUpdate.TRIANGULATED
     triangulation: TriangulationMethod = TriangulationMethod.MIDPOINT
+    triangulated_ray_reuse: float = 2.0
     min_parallax_rad: float = math.radians(3.0)
     new_landmark_log_likelihood: float = -6.0
     association_margin_m: float = 3.0
@@ -202,6 +207,8 @@ class FastSLAMConfig:
             raise ConfigError("resample_ess_fraction must be in [0, 1]")
         if self.min_parallax_rad < 0 or self.association_margin_m < 0:
             raise ConfigError("min_parallax_rad and association_margin_m must be non-negative")
+        if self.triangulated_ray_reuse < 1.0:
+            raise ConfigError("triangulated_ray_reuse must be >= 1")
         if not 0.0 < self.bearing_gate_probability <= 1.0:
             raise ConfigError("bearing_gate_probability must be in (0, 1]")
         if self.proposal_max_landmark_std_m <= 0 or self.proposal_max_sightings < 0:

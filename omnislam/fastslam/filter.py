@@ -632,7 +632,12 @@ class FastSLAM:
             rows = ray_only[ok]
             if rows.size:
                 z3, Q = triangulated_measurement(
-                    self._range_az_el, wTr[rows], points[ok], sigma[rows], parallax[ok]
+                    self._range_az_el,
+                    wTr[rows],
+                    points[ok],
+                    sigma[rows],
+                    parallax[ok],
+                    config.triangulated_ray_reuse,
                 )
                 block.mean[rows], block.cov[rows] = first_estimate(
                     self._range_az_el, wTr[rows], z3, Q
@@ -651,7 +656,12 @@ class FastSLAM:
                 rows = est[ok]
                 if rows.size:
                     z3, Q = triangulated_measurement(
-                        self._range_az_el, wTr[rows], points[ok], sigma[rows], parallax[ok]
+                        self._range_az_el,
+                        wTr[rows],
+                        points[ok],
+                        sigma[rows],
+                        parallax[ok],
+                        config.triangulated_ray_reuse,
                     )
                     accepted = self._gated_update(
                         block, rows, wTr[rows], z3, Q, self._range_az_el,
