@@ -11,7 +11,8 @@ One step (thesis Fig. 4.1, Fig. 4.11):
    initialised from the sighting (range-bearing) or stores its ray (bearing, eq. 4.24), is
    triangulated at the next sighting (eqs. 4.21, 4.26-4.27) and EKF-updated afterwards
    (eqs. 4.29-4.37). The existence index (sec. 5.1.2) optionally deletes landmarks that keep
-   not being seen where they should be.
+   not being seen where they should be. In 3-D a chi-square validation gate keeps bearings of
+   feature tracks that jumped to another point out of the proposal and the landmark EKFs.
 3. *Weights.* Log-likelihood of the innovations (1.0: eq. 4.47 with S from eq. 4.34; 2.0: the
    predictive likelihood that also includes the pose uncertainty), normalised (eq. 4.48).
 4. *Resampling* with the low-variance sampler, only when ESS (eq. 4.51) drops below a fraction
@@ -664,17 +665,29 @@ class FastSLAM:
                         config.triangulated_ray_reuse,
                     )
                     accepted = self._gated_update(
-                        block, rows, wTr[rows], z3, Q, self._range_az_el,
-                        self._triangulated_gate, log_likelihood,
-                    )  # fmt: skip
+                        block,
+                        rows,
+                        wTr[rows],
+                        z3,
+                        Q,
+                        self._range_az_el,
+                        self._triangulated_gate,
+                        log_likelihood,
+                    )
                     block.ray[rows[accepted]] = rays[rows[accepted]]
                 direct = ~ok
             rows = est[direct]
             if rows.size:
                 self._gated_update(
-                    block, rows, wTr[rows], sightings.z[obs[rows]], sightings.R[obs[rows]],
-                    self._bearing, self._bearing_gate, log_likelihood,
-                )  # fmt: skip
+                    block,
+                    rows,
+                    wTr[rows],
+                    sightings.z[obs[rows]],
+                    sightings.R[obs[rows]],
+                    self._bearing,
+                    self._bearing_gate,
+                    log_likelihood,
+                )
         return log_likelihood
 
     @staticmethod
