@@ -146,10 +146,11 @@ class FastSLAMConfig:
         sensor_height_m: height of the omni camera's viewpoint above the ground plane (3-D) [m].
         bearing_update: update of established 3-D landmarks (thesis triangulation or direct).
         triangulation: first 3-D estimate from two rays.
-        triangulated_ray_reuse: the triangulated pseudo-measurement's noise Q (and the first
-            estimate's, eq. 4.27) is multiplied by this: each ray enters two successive
-            triangulations (new ray, then stored sighting), so without inflation its information
-            is counted twice (``bearing_landmarks``). 1.0: the thesis as printed.
+        triangulated_ray_reuse: with ``BearingUpdate.TRIANGULATED``, the pseudo-measurement's
+            noise Q (and the first estimate's, eq. 4.27) is multiplied by this: each ray enters
+            two successive triangulations (new ray, then stored sighting), so without inflation
+            its information is counted twice (``bearing_landmarks``). 1.0: the thesis as
+            printed. Not applied with ``DIRECT`` updates, where every ray is used once.
         min_parallax_rad: two rays closer than this are not triangulated; the first sighting is
             kept until a ray with enough parallax arrives [rad].
         new_landmark_log_likelihood: log p0, Montemerlo 2003 sec. 3.4.1 / Thrun et al. Table

@@ -612,6 +612,9 @@ class FastSLAM:
         (triangulated pseudo-measurement or direct azimuth/elevation, ``BearingUpdate``)."""
         assert sightings.unit_vectors_r is not None and sightings.sigmas_rad is not None
         config = self.config
+        # each ray enters two triangulations only when later sightings are triangulated too
+        triangulated = config.bearing_update is BearingUpdate.TRIANGULATED
+        ray_reuse = config.triangulated_ray_reuse if triangulated else 1.0
         log_likelihood = np.zeros(len(block))
         rays = world_rays(wTr, sightings.unit_vectors_r[obs], config.sensor_height_m)
         sigma = sightings.sigmas_rad[obs]
@@ -638,7 +641,7 @@ class FastSLAM:
                     points[ok],
                     sigma[rows],
                     parallax[ok],
-                    config.triangulated_ray_reuse,
+                    ray_reuse,
                 )
                 block.mean[rows], block.cov[rows] = first_estimate(
                     self._range_az_el, wTr[rows], z3, Q
@@ -649,7 +652,7 @@ class FastSLAM:
         # later matches: EKF update (eqs. 4.29-4.37), outliers gated out
         if est.size:
             direct = np.ones(est.size, dtype=bool)
-            if config.bearing_update is BearingUpdate.TRIANGULATED:
+            if triangulated:
                 points, valid, parallax = triangulate(
                     config.triangulation, block.ray[est], rays[est]
                 )
@@ -662,7 +665,7 @@ class FastSLAM:
                         points[ok],
                         sigma[rows],
                         parallax[ok],
-                        config.triangulated_ray_reuse,
+                        ray_reuse,
                     )
                     accepted = self._gated_update(
                         block,
