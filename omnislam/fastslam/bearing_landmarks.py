@@ -9,6 +9,12 @@ the spherical-to-Cartesian Jacobian; later sightings update it by EKF (eqs. 4.29
 A bearing gives no range, so the range entry of Q comes from the triangulation geometry: two
 rays with angular noise sigma and parallax gamma fix the distance d to about
 sigma_d = sqrt(2) d sigma / sin(gamma) (the depth error of two-view triangulation).
+
+Each ray enters two successive triangulations -- as the new ray, then as the stored previous
+sighting (eq. 4.28) -- so the thesis's pseudo-measurements count its information twice and the
+landmark covariance becomes overconfident (the thesis ignores this correlation). Q is therefore
+multiplied by the number of triangulations a ray enters (``ray_reuse``, 2; 1 reproduces the
+thesis as printed), the usual covariance inflation for information that is used more than once.
 """
 
 from __future__ import annotations
@@ -68,6 +74,7 @@ def triangulated_measurement(
     points_w: np.ndarray,
     sigma_rad: np.ndarray,
     parallax_rad: np.ndarray,
+    ray_reuse: float = 1.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The "measured" z = (d, theta, phi) of a triangulated point (thesis eq. 4.25) and its
     noise Q (eq. 4.23, diagonal; range std from the parallax, see the module docstring).
@@ -78,6 +85,8 @@ def triangulated_measurement(
         points_w: (N, 3) triangulated points.
         sigma_rad: (N,) angular std of the bearings.
         parallax_rad: (N,) angle between the two rays.
+        ray_reuse: Q is multiplied by this, the number of triangulations each ray enters
+            (module docstring); 1.0: the thesis's Q.
 
     Returns:
         z (N, 3) and Q (N, 3, 3).
@@ -87,7 +96,7 @@ def triangulated_measurement(
     Q = np.zeros((len(z), 3, 3))
     Q[:, 0, 0] = sigma_d**2
     Q[:, 1, 1] = Q[:, 2, 2] = sigma_rad**2
-    return z, Q
+    return z, ray_reuse * Q
 
 
 def first_estimate(

@@ -11,7 +11,8 @@ One step (thesis Fig. 4.1, Fig. 4.11):
    initialised from the sighting (range-bearing) or stores its ray (bearing, eq. 4.24), is
    triangulated at the next sighting (eqs. 4.21, 4.26-4.27) and EKF-updated afterwards
    (eqs. 4.29-4.37). The existence index (sec. 5.1.2) optionally deletes landmarks that keep
-   not being seen where they should be.
+   not being seen where they should be. In 3-D a chi-square validation gate keeps bearings of
+   feature tracks that jumped to another point out of the proposal and the landmark EKFs.
 3. *Weights.* Log-likelihood of the innovations (1.0: eq. 4.47 with S from eq. 4.34; 2.0: the
    predictive likelihood that also includes the pose uncertainty), normalised (eq. 4.48).
 4. *Resampling* with the low-variance sampler, only when ESS (eq. 4.51) drops below a fraction
@@ -38,7 +39,11 @@ from omnislam.core.measurement import (
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.types import Estimate, FrameInput
 from omnislam.errors import ConfigError, DataError
-from omnislam.fastslam.association import NEW_LANDMARK, maximum_likelihood_association
+from omnislam.fastslam.association import (
+    NEW_LANDMARK,
+    chi_square_gate,
+    maximum_likelihood_association,
+)
 from omnislam.fastslam.bearing_landmarks import (
     RAY_DIM,
     first_estimate,
@@ -149,6 +154,9 @@ class FastSLAM:
         self._range_bearing = RangeBearing2D()
         self._bearing = BearingElevation3D(config.sensor_height_m)
         self._range_az_el = RangeAzimuthElevation3D(config.sensor_height_m)
+        #: 3-D validation gates of (azimuth, elevation) and (d, theta, phi) innovations
+        self._bearing_gate = chi_square_gate(config.bearing_gate_probability, 2)
+        self._triangulated_gate = chi_square_gate(config.bearing_gate_probability, 3)
         self._mode: SensorMode | None = None
         self._store: LandmarkStore | None = None
         self._slot_of_id: dict[int, int] = {}
@@ -443,9 +451,14 @@ class FastSLAM:
         """
         assert self._store is not None
         p = len(previous)
-        model = self._range_bearing if self._mode is SensorMode.RANGE_BEARING_2D else self._bearing
+        if self._mode is SensorMode.RANGE_BEARING_2D:
+            model, gate = self._range_bearing, np.inf
+        else:
+            model, gate = self._bearing, self._bearing_gate
         block = self._store.gather(pairs.particle, pairs.slot)
         usable = (block.status == _ESTIMATED) & ~pairs.new_unknown
+        if self._mode is SensorMode.BEARINGS_3D:
+            usable &= self._proposal_landmarks(block, pairs, usable)
         log_factors = np.zeros(p)
         refined = np.zeros(p, dtype=bool)
         mean = mean.copy()
@@ -462,6 +475,7 @@ class FastSLAM:
                 block.mean[rows],
                 block.cov[rows],
                 model,
+                gate,
             )
             mean[who] = update.mean
             cov[who] = update.cov
@@ -473,6 +487,37 @@ class FastSLAM:
         if plain.any():
             poses[plain] = self._motion.sample(previous[plain], delta, self._rng)
         return poses, log_factors
+
+    def _proposal_landmarks(
+        self, block: LandmarkBlock, pairs: _Pairs, usable: np.ndarray
+    ) -> np.ndarray:
+        """3-D: which established landmarks may refine the FastSLAM 2.0 proposal.
+
+        A landmark triangulated from two rays of little parallax is uncertain in depth and its
+        error is correlated with the poses that triangulated it; the proposal (which treats the
+        observations as independent given the map) then trusts it too much. Only landmarks
+        whose position std sqrt(tr Sigma) is at most ``proposal_max_landmark_std_m`` are used,
+        and of those at most ``proposal_max_sightings`` sightings, the best-converged (smallest
+        mean tr Sigma over the particles) first.
+
+        Returns:
+            (N,) bool over the pairs.
+        """
+        config = self.config
+        trace = np.trace(block.cov, axis1=-2, axis2=-1)
+        keep = trace <= config.proposal_max_landmark_std_m**2
+        cap = config.proposal_max_sightings
+        candidates = usable & keep
+        if cap > 0:
+            obs = pairs.obs[candidates]
+            if np.unique(obs).size > cap:
+                n_obs = int(pairs.obs.max()) + 1
+                total = np.bincount(obs, weights=trace[candidates], minlength=n_obs)
+                count = np.bincount(obs, minlength=n_obs)
+                score = np.where(count > 0, total / np.maximum(count, 1), np.inf)
+                best = np.argsort(score, kind="stable")[:cap]
+                keep &= np.isin(pairs.obs, best)
+        return keep
 
     # -- mapping -------------------------------------------------------------------------------
 
@@ -567,6 +612,9 @@ class FastSLAM:
         (triangulated pseudo-measurement or direct azimuth/elevation, ``BearingUpdate``)."""
         assert sightings.unit_vectors_r is not None and sightings.sigmas_rad is not None
         config = self.config
+        # each ray enters two triangulations only when later sightings are triangulated too
+        triangulated = config.bearing_update is BearingUpdate.TRIANGULATED
+        ray_reuse = config.triangulated_ray_reuse if triangulated else 1.0
         log_likelihood = np.zeros(len(block))
         rays = world_rays(wTr, sightings.unit_vectors_r[obs], config.sensor_height_m)
         sigma = sightings.sigmas_rad[obs]
@@ -588,7 +636,12 @@ class FastSLAM:
             rows = ray_only[ok]
             if rows.size:
                 z3, Q = triangulated_measurement(
-                    self._range_az_el, wTr[rows], points[ok], sigma[rows], parallax[ok]
+                    self._range_az_el,
+                    wTr[rows],
+                    points[ok],
+                    sigma[rows],
+                    parallax[ok],
+                    ray_reuse,
                 )
                 block.mean[rows], block.cov[rows] = first_estimate(
                     self._range_az_el, wTr[rows], z3, Q
@@ -596,10 +649,10 @@ class FastSLAM:
                 block.status[rows] = _ESTIMATED
                 block.ray[rows] = rays[rows]  # eq. 4.28: keep the latest sighting
 
-        # later matches: EKF update (eqs. 4.29-4.37)
+        # later matches: EKF update (eqs. 4.29-4.37), outliers gated out
         if est.size:
             direct = np.ones(est.size, dtype=bool)
-            if config.bearing_update is BearingUpdate.TRIANGULATED:
+            if triangulated:
                 points, valid, parallax = triangulate(
                     config.triangulation, block.ray[est], rays[est]
                 )
@@ -607,28 +660,66 @@ class FastSLAM:
                 rows = est[ok]
                 if rows.size:
                     z3, Q = triangulated_measurement(
-                        self._range_az_el, wTr[rows], points[ok], sigma[rows], parallax[ok]
+                        self._range_az_el,
+                        wTr[rows],
+                        points[ok],
+                        sigma[rows],
+                        parallax[ok],
+                        ray_reuse,
                     )
-                    update = ekf_update(
-                        wTr[rows], block.mean[rows], block.cov[rows], z3, Q, self._range_az_el
+                    accepted = self._gated_update(
+                        block,
+                        rows,
+                        wTr[rows],
+                        z3,
+                        Q,
+                        self._range_az_el,
+                        self._triangulated_gate,
+                        log_likelihood,
                     )
-                    block.mean[rows], block.cov[rows] = update.mean, update.cov
-                    log_likelihood[rows] = update.log_likelihood
-                    block.ray[rows] = rays[rows]
+                    block.ray[rows[accepted]] = rays[rows[accepted]]
                 direct = ~ok
             rows = est[direct]
             if rows.size:
-                update = ekf_update(
+                self._gated_update(
+                    block,
+                    rows,
                     wTr[rows],
-                    block.mean[rows],
-                    block.cov[rows],
                     sightings.z[obs[rows]],
                     sightings.R[obs[rows]],
                     self._bearing,
+                    self._bearing_gate,
+                    log_likelihood,
                 )
-                block.mean[rows], block.cov[rows] = update.mean, update.cov
-                log_likelihood[rows] = update.log_likelihood
         return log_likelihood
+
+    @staticmethod
+    def _gated_update(
+        block: LandmarkBlock,
+        rows: np.ndarray,
+        wTr: np.ndarray,
+        z: np.ndarray,
+        R: np.ndarray,
+        model: RangeAzimuthElevation3D | BearingElevation3D,
+        gate: float,
+        log_likelihood: np.ndarray,
+    ) -> np.ndarray:
+        """EKF update (thesis eqs. 4.33-4.37) of ``block[rows]`` in place, skipping outliers.
+
+        An innovation outside the validation gate (y^T S^-1 y > gate) leaves the landmark as it
+        was; its likelihood, written to ``log_likelihood[rows]``, is truncated at the gate.
+
+        Returns:
+            (len(rows),) True where the update was applied.
+        """
+        update = ekf_update(wTr, block.mean[rows], block.cov[rows], z, R, model)
+        accepted = update.mahalanobis <= gate
+        kept = rows[accepted]
+        block.mean[kept] = update.mean[accepted]
+        block.cov[kept] = update.cov[accepted]
+        truncated = np.minimum(update.mahalanobis, gate)
+        log_likelihood[rows] = update.log_likelihood - 0.5 * (truncated - update.mahalanobis)
+        return accepted
 
     def _apply_existence_index(self, poses: np.ndarray, pairs: _Pairs) -> None:
         """Thesis 5.1.2: -1 for every established landmark predicted inside the sensor's field

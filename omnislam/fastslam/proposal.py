@@ -10,7 +10,10 @@ Thesis eqs. 4.45-4.46 after Montemerlo et al. (2003); the thesis's mean update (
 It is evaluated in the equivalent Kalman form, which needs no inverse of the motion covariance
 P (singular when the robot turns on the spot):
 
-    L     = H_x P H_x^T + Q,   K = P H_x^T L^-1,   mu = mu_prev + K y,   Sigma = P - K L K^T.
+    L     = H_x P H_x^T + Q,   K = P H_x^T L^-1,   mu = mu_prev + K y,   Sigma = P - K L K^T,
+
+with Sigma computed in Joseph form, (I - K H_x) P (I - K H_x)^T + K Q K^T, which stays positive
+semi-definite under rounding when hundreds of bearings refine one proposal (omni camera).
 
 The importance factor of an observation is the likelihood of z under the *predictive*
 distribution, N(z; h(mu_prev, mu_m), L) = N(z; z_hat, H_x P H_x^T + H_m Sigma_m H_m^T + R)
@@ -18,10 +21,16 @@ distribution, N(z; h(mu_prev, mu_m), L) = N(z; z_hat, H_x P H_x^T + H_m Sigma_m 
 sequentially -- each observation with the proposal refined by the previous ones -- the product
 of the factors is the joint predictive likelihood of all observations (chain rule), exact for a
 linear model.
+
+An optional validation gate (``gate``) makes the proposal robust to outlier observations (a
+feature track that jumped to another point): an observation whose innovation lies outside the
+gate, y^T L^-1 y > gate, leaves the proposal unchanged and its importance factor is the
+Gaussian truncated at the gate, N evaluated at Mahalanobis distance sqrt(gate).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,12 +80,15 @@ class ProposalUpdate:
     Attributes:
         mean: (N, 3) refined pose mean.
         cov: (N, 3, 3) refined pose covariance.
-        log_likelihood: (N,) log N(z; z_hat, L), the observation's importance factor.
+        log_likelihood: (N,) log N(z; z_hat, L), the observation's importance factor
+            (truncated at the gate for rejected observations).
+        accepted: (N,) False where the observation fell outside the gate and was not used.
     """
 
     mean: np.ndarray
     cov: np.ndarray
     log_likelihood: np.ndarray
+    accepted: np.ndarray
 
 
 def refine_proposal(
@@ -87,6 +99,7 @@ def refine_proposal(
     landmark_mean: np.ndarray,
     landmark_cov: np.ndarray,
     model: MeasurementModel,
+    gate: float = math.inf,
 ) -> ProposalUpdate:
     """Incorporate one observation of an established landmark into each particle's proposal.
 
@@ -98,6 +111,8 @@ def refine_proposal(
         landmark_mean: (N, d) the observed landmarks' means.
         landmark_cov: (N, d, d) their covariances.
         model: measurement model with pose and landmark Jacobians.
+        gate: validation gate on y^T L^-1 y (``association.chi_square_gate``); infinite: every
+            observation is used.
     """
     z_hat, H_x, H_m = model.predict(pose_mean, landmark_mean)
     y = entry_major(model.residual(z, z_hat)[..., None])
@@ -109,10 +124,20 @@ def refine_proposal(
     K = product(PHT, L_inv)
     mean = pose_mean + stack_major(product(K, y))[..., 0]
     mean[..., 2] = wrap_angle(mean[..., 2])
-    # Sigma = P - K L K^T = P - K (P H_x^T)^T, as K L = P H_x^T
-    cov = stack_major(symmetrised(P - product(K, transposed(PHT))))
-    log_likelihood = -0.5 * (quadratic_form(y, L_inv) + logdet + y.shape[0] * LOG_2PI)
-    return ProposalUpdate(mean, cov, log_likelihood)
+    # Joseph form (I - K H_x) P (I - K H_x)^T + K Q K^T: equal to P - K L K^T for this K, but a
+    # sum of PSD terms, so the covariance stays PSD after hundreds of sequential observations
+    I_KH = np.eye(P.shape[0]).reshape(P.shape[0], P.shape[0], *([1] * (P.ndim - 2)))
+    I_KH = I_KH - product(K, H_x)
+    cov = product(product(I_KH, P), transposed(I_KH)) + product(product(K, Q), transposed(K))
+    cov = stack_major(symmetrised(cov))
+    mahalanobis = quadratic_form(y, L_inv)
+    accepted = mahalanobis <= gate
+    if not accepted.all():
+        mean = np.where(accepted[:, None], mean, pose_mean)
+        cov = np.where(accepted[:, None, None], cov, pose_cov)
+        mahalanobis = np.minimum(mahalanobis, gate)
+    log_likelihood = -0.5 * (mahalanobis + logdet + y.shape[0] * LOG_2PI)
+    return ProposalUpdate(mean, cov, log_likelihood, accepted)
 
 
 def sample_poses(mean: np.ndarray, cov: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -106,8 +106,15 @@ SIGMA_BEARING_3D_RAD = 0.005
 BEARING_SCENARIO_NOISE = MotionNoise(a_vv=0.05, a_vw=0.03, a_wv=0.01, a_ww=0.05)
 
 
-def make_bearing_scenario(seed: int, steps: int = 150, max_range_m: float = 8.0) -> Scenario:
-    """The same loop seen by an omni camera: unit bearings to 3-D landmarks with track ids."""
+def make_bearing_scenario(
+    seed: int, steps: int = 150, max_range_m: float = 8.0, outlier_fraction: float = 0.0
+) -> Scenario:
+    """The same loop seen by an omni camera: unit bearings to 3-D landmarks with track ids.
+
+    With ``outlier_fraction`` > 0 that fraction of the sightings (drawn independently) point in
+    a uniformly random direction but keep their track id: a front-end track that jumped to
+    another point, as SIFT tracks on real images sometimes do.
+    """
     rng = np.random.default_rng(seed)
     base = make_scenario(seed, steps=steps, noise=BEARING_SCENARIO_NOISE)
     heights = np.random.default_rng(seed + 1).uniform(0.2, 2.5, len(base.landmarks_w))
@@ -120,6 +127,10 @@ def make_bearing_scenario(seed: int, steps: int = 150, max_range_m: float = 8.0)
         distance = np.linalg.norm(landmarks[:, :2] - pose[:2], axis=1)
         seen = np.flatnonzero(distance <= max_range_m)
         noisy = z[seen] + SIGMA_BEARING_3D_RAD * rng.standard_normal((seen.size, 2))
+        if outlier_fraction > 0:
+            jumped = rng.random(seen.size) < outlier_fraction
+            noisy[jumped, 0] = rng.uniform(-np.pi, np.pi, jumped.sum())
+            noisy[jumped, 1] = rng.uniform(-0.5, 0.5, jumped.sum())
         frames.append(
             FrameInput(
                 index=t,

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
-from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.measurement import BearingElevation3D, RangeBearing2D
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
+from omnislam.fastslam.association import chi_square_gate
 from omnislam.fastslam.landmark_ekf import (
     ekf_update,
     entry_major,
@@ -105,3 +108,62 @@ def test_entry_major_algebra_matches_matmul(rng, k):
     np.testing.assert_allclose(logdet, np.linalg.slogdet(S)[1], rtol=1e-12)
     quadratic = quadratic_form(entry_major(y[..., None]), entry_major(np.linalg.inv(S)))
     np.testing.assert_allclose(quadratic, np.einsum("ni,nij,nj->n", y, np.linalg.inv(S), y))
+
+
+def test_proposal_covariance_stays_positive_definite_over_hundreds_of_bearings(rng):
+    """Omni camera: ~200 bearings refine one proposal, each far more precise than the motion
+    prediction. The covariance must stay symmetric positive definite (Joseph form) so that
+    ``sample_poses`` can factorise it, and match the batch information form."""
+    model = BearingElevation3D(0.85)
+    n, steps = 20, 300
+    mean = np.zeros((n, 3))
+    P0 = np.diag([1e-4, 1e-4, 1e-5])
+    cov = np.tile(P0, (n, 1, 1))
+    information = np.tile(np.linalg.inv(P0), (n, 1, 1))
+    R = np.tile(np.eye(2) * 1e-16, (n, 1, 1))
+    exact_landmark = np.zeros((n, 3, 3))
+    for _ in range(steps):
+        landmarks = np.column_stack([rng.uniform(-4, 4, (n, 2)), rng.uniform(0.0, 2.5, n)])
+        z, H_x, _ = model.predict(np.zeros((n, 3)), landmarks)
+        update = refine_proposal(mean, cov, z, R, landmarks, exact_landmark, model)
+        mean, cov = update.mean, update.cov
+        information += np.swapaxes(H_x, 1, 2) @ np.linalg.inv(R) @ H_x
+        assert np.all(np.linalg.eigvalsh(cov)[:, 0] > 0)
+    np.testing.assert_allclose(cov, np.swapaxes(cov, 1, 2))
+    np.testing.assert_allclose(cov, np.linalg.inv(information), rtol=1e-3, atol=1e-21)
+    sample_poses(mean, cov, rng)  # the Cholesky factorisation succeeds
+
+
+def test_chi_square_gate():
+    assert math.isclose(chi_square_gate(0.999, 2), -2.0 * math.log(0.001))
+    assert math.isclose(chi_square_gate(0.95, 3), 7.814727903251178)
+    assert chi_square_gate(1.0, 2) == math.inf
+
+
+def test_gated_proposal_ignores_an_outlier_and_truncates_its_likelihood(rng):
+    """An innovation outside the gate leaves the proposal as it was; inside, the gate changes
+    nothing. The outlier's factor is the Gaussian at the gate's Mahalanobis distance."""
+    poses, landmarks, cov, _, R = _case(rng)
+    motion = OdometryMotionModel(MotionNoise())
+    x_hat, P = motion_prediction(motion, poses, np.array([0.5, 0.05, 0.2]))
+    model = RangeBearing2D()
+    z, _, _ = model.predict(x_hat, landmarks)
+    z += rng.normal(0.0, [0.1, 0.02], z.shape)  # a one-sigma sensor error
+    gate = chi_square_gate(0.999, 2)
+    plain = refine_proposal(x_hat, P, z, R, landmarks, cov, model)
+    gated = refine_proposal(x_hat, P, z, R, landmarks, cov, model, gate)
+    assert gated.accepted.all()
+    np.testing.assert_array_equal(gated.mean, plain.mean)
+    np.testing.assert_array_equal(gated.cov, plain.cov)
+    np.testing.assert_array_equal(gated.log_likelihood, plain.log_likelihood)
+
+    outlier = z.copy()
+    outlier[0, 1] += 1.0  # a bearing 57 deg off
+    update = refine_proposal(x_hat, P, outlier, R, landmarks, cov, model, gate)
+    assert not update.accepted[0] and update.accepted[1:].all()
+    np.testing.assert_array_equal(update.mean[0], x_hat[0])
+    np.testing.assert_array_equal(update.cov[0], P[0])
+    _, H_x, H_m = model.predict(x_hat[:1], landmarks[:1])
+    L = H_x[0] @ P[0] @ H_x[0].T + H_m[0] @ cov[0] @ H_m[0].T + R[0]
+    at_gate = -0.5 * (gate + np.log(np.linalg.det(2 * np.pi * L)))
+    np.testing.assert_allclose(update.log_likelihood[0], at_gate, rtol=1e-9)
