@@ -3,6 +3,12 @@
 import numpy as np
 import pytest
 
+from omnislam.core.measurement import (
+    Bearing2D,
+    BearingElevation3D,
+    RangeAzimuthElevation3D,
+    RangeBearing2D,
+)
 from omnislam.core.se import wrap_angle, wrap_angle_inplace
 
 PI = np.pi
@@ -50,3 +56,84 @@ def test_wrap_angle_special_values_and_shapes():
     source = np.full(300, 5.0)
     wrap_angle(source)
     assert np.all(source == 5.0)  # wrap_angle never writes into its input
+
+
+def _reference_range_bearing(wTr, landmarks_w):
+    """RangeBearing2D.predict as the textbook expressions (the implementation before the
+    in-place rewrite)."""
+    wTr = np.asarray(wTr, dtype=float)
+    landmarks_w = np.asarray(landmarks_w, dtype=float)
+    dx = landmarks_w[..., 0] - wTr[..., 0]
+    dy = landmarks_w[..., 1] - wTr[..., 1]
+    q = np.maximum(dx * dx + dy * dy, 1e-12)
+    r = np.sqrt(q)
+    z = np.stack([r, _reference_wrap(np.arctan2(dy, dx) - wTr[..., 2])], axis=-1)
+    H_l = np.empty((*z.shape[:-1], 2, 2))
+    H_l[..., 0, 0], H_l[..., 0, 1] = dx / r, dy / r
+    H_l[..., 1, 0], H_l[..., 1, 1] = -dy / q, dx / q
+    H_p = np.zeros((*z.shape[:-1], 2, 3))
+    H_p[..., :, :2] = -H_l
+    H_p[..., 1, 2] = -1.0
+    return z, H_p, H_l
+
+
+def _random_poses(rng, shape, heading_scale=PI):
+    xy = rng.uniform(-10, 10, (*shape, 2))
+    return np.concatenate([xy, rng.uniform(-heading_scale, heading_scale, (*shape, 1))], axis=-1)
+
+
+@pytest.mark.parametrize(
+    ("pose_shape", "landmark_shape"),
+    [((), ()), ((5,), (5,)), ((700,), (700,)), ((300, 1), (300, 8)), ((4, 1), (4, 3)), ((), (9,))],
+)
+@pytest.mark.parametrize("heading_scale", [PI, 3 * PI, 100.0])
+def test_range_bearing_predict_is_bitwise_the_reference(
+    rng, pose_shape, landmark_shape, heading_scale
+):
+    poses = _random_poses(rng, pose_shape, heading_scale)
+    landmarks = rng.uniform(-10, 10, (*landmark_shape, 2))
+    if landmarks.ndim > 1:
+        landmarks[0] = poses.reshape(-1, 3)[0, :2]  # a landmark on the robot: the eps floor
+    for lm in (landmarks, np.concatenate([landmarks, np.ones((*landmark_shape, 1))], axis=-1)):
+        got = RangeBearing2D().predict(poses, lm)
+        for a, b in zip(got, _reference_range_bearing(poses, lm), strict=True):
+            assert a.shape == b.shape
+            np.testing.assert_array_equal(a, b)
+        z, H_p, H_l = RangeBearing2D().predict(poses, lm, jacobians=False)
+        assert H_p is None and H_l is None
+        np.testing.assert_array_equal(z, got[0])
+
+
+@pytest.mark.parametrize(
+    "model", [Bearing2D(), BearingElevation3D(0.3), RangeAzimuthElevation3D(0.3)]
+)
+def test_other_models_skip_jacobians_on_request(rng, model):
+    poses = _random_poses(rng, (50,))
+    landmarks = rng.uniform(-10, 10, (50, model.dim_landmark))
+    z, _, _ = model.predict(poses, landmarks)
+    z_only = model.predict(poses, landmarks, jacobians=False)
+    assert z_only[1] is None and z_only[2] is None
+    np.testing.assert_array_equal(z_only[0], z)
+
+
+@pytest.mark.parametrize(
+    "model", [RangeBearing2D(), Bearing2D(), BearingElevation3D(), RangeAzimuthElevation3D()]
+)
+@pytest.mark.parametrize("shape", [(), (7,), (600,), (20, 40)])
+def test_residual_is_bitwise_the_reference(rng, model, shape):
+    k = model.dim_z
+    measured = rng.uniform(-4 * PI, 4 * PI, (*shape, k))
+    predicted = rng.uniform(-PI, PI, (*shape, k))
+    mask = np.asarray(model.angular)
+    d = measured - predicted
+    np.testing.assert_array_equal(
+        model.residual(measured, predicted), np.where(mask, _reference_wrap(d), d)
+    )
+    # broadcasting measurements against predictions, as data association does
+    z = measured.reshape(-1, k)[:3]
+    z_hat = predicted.reshape(-1, k)[:5]
+    d = z[None, :, None, :] - z_hat[:, None, None, :]
+    np.testing.assert_array_equal(
+        model.residual(z[None, :, None, :], z_hat[:, None, None, :]),
+        np.where(mask, _reference_wrap(d), d),
+    )
