@@ -9,6 +9,7 @@ from omnislam.core.measurement import (
     RangeAzimuthElevation3D,
     RangeBearing2D,
 )
+from omnislam.core.motion import MIN_TRANSLATION_M, MotionNoise, OdometryMotionModel
 from omnislam.core.se import wrap_angle, wrap_angle_inplace
 
 PI = np.pi
@@ -137,3 +138,95 @@ def test_residual_is_bitwise_the_reference(rng, model, shape):
         model.residual(z[None, :, None, :], z_hat[:, None, None, :]),
         np.where(mask, _reference_wrap(d), d),
     )
+
+
+NOISE = MotionNoise(a_vv=0.05, a_vw=0.02, a_wv=0.01, a_ww=0.05)
+
+
+def _reference_decompose(delta_r):
+    delta_r = np.asarray(delta_r, dtype=float)
+    dx, dy, dtheta = delta_r[..., 0], delta_r[..., 1], delta_r[..., 2]
+    trans = np.hypot(dx, dy)
+    sign = np.where(dx < 0, -1.0, 1.0)
+    rot1 = np.where(trans > MIN_TRANSLATION_M, np.arctan2(sign * dy, sign * dx), 0.0)
+    return np.stack([rot1, sign * trans, _reference_wrap(dtheta - rot1)], axis=-1)
+
+
+def _reference_sigmas(noise, components):
+    c = np.abs(np.asarray(components, dtype=float))
+    rot1, trans, rot2 = c[..., 0], c[..., 1], c[..., 2]
+    sigma = np.stack(
+        [
+            noise.a_ww * rot1 + noise.a_vw * trans,
+            noise.a_wv * (rot1 + rot2) + noise.a_vv * trans,
+            noise.a_ww * rot2 + noise.a_vw * trans,
+        ],
+        axis=-1,
+    )
+    return np.maximum(sigma, np.asarray(noise.min_sigma))
+
+
+def _reference_apply(wTr, components):
+    heading = wTr[..., 2] + components[..., 0]
+    x = wTr[..., 0] + components[..., 1] * np.cos(heading)
+    y = wTr[..., 1] + components[..., 1] * np.sin(heading)
+    theta = _reference_wrap(wTr[..., 2] + components[..., 0] + components[..., 2])
+    return np.stack(np.broadcast_arrays(x, y, theta), axis=-1)
+
+
+def _odometry_deltas(rng, n):
+    deltas = np.column_stack(
+        [rng.normal(0, 0.5, n), rng.normal(0, 0.2, n), rng.uniform(-3 * PI, 3 * PI, n)]
+    )
+    special = [
+        [0.0, 0.0, 0.1],
+        [-0.0, 0.0, -PI],
+        [1e-12, -1e-12, PI],
+        [-0.3, 0.01, 0.0],
+        [-0.3, -0.0, 2 * PI],
+        [0.3, 0.0, -2 * PI],
+        [0.0, 0.2, 0.0],
+    ]
+    return np.concatenate([deltas, special])
+
+
+def test_decompose_and_sigmas_of_one_delta_are_bitwise_the_reference(rng):
+    model = OdometryMotionModel(NOISE)
+    zero_floor = OdometryMotionModel(MotionNoise(0.1, 0.0, 0.0, 0.1, min_sigma=(0.0, 0.0, 0.0)))
+    for delta in _odometry_deltas(rng, 2000):
+        components = model.decompose(delta)
+        np.testing.assert_array_equal(components, _reference_decompose(delta))
+        for m in (model, zero_floor):
+            np.testing.assert_array_equal(
+                m.component_sigmas(components), _reference_sigmas(m.noise, components)
+            )
+    many = _odometry_deltas(rng, 50)
+    np.testing.assert_array_equal(model.decompose(many), _reference_decompose(many))
+
+
+@pytest.mark.parametrize(
+    ("pose_shape", "component_shape"), [((), ()), ((100,), (100,)), ((700,), ()), ((), (9,))]
+)
+def test_apply_is_bitwise_the_reference(rng, pose_shape, component_shape):
+    poses = _random_poses(rng, pose_shape, 3 * PI)
+    components = np.concatenate(
+        [rng.normal(0, 1, (*component_shape, 2)), rng.uniform(-PI, PI, (*component_shape, 1))],
+        axis=-1,
+    )
+    got = OdometryMotionModel.apply(poses, components)
+    expected = _reference_apply(poses, components)
+    assert got.shape == expected.shape
+    np.testing.assert_array_equal(got, expected)
+
+
+@pytest.mark.parametrize("n_poses", [1, 100, 1000])
+def test_sample_draws_the_same_stream_and_numbers(rng, n_poses):
+    model = OdometryMotionModel(NOISE)
+    poses = _random_poses(rng, (n_poses,))
+    for delta in _odometry_deltas(rng, 20):
+        a, b = np.random.default_rng(11), np.random.default_rng(11)
+        got = model.sample(poses, delta, a)
+        components = _reference_decompose(delta)
+        noisy = components + _reference_sigmas(NOISE, components) * b.standard_normal((n_poses, 3))
+        np.testing.assert_array_equal(got, _reference_apply(poses, noisy))
+        assert a.random() == b.random()  # the generators are in the same state afterwards
