@@ -70,7 +70,8 @@ class RangeBearing2D:
 
         Returns:
             z [..., 2], H_pose [..., 2, 3] = dz/d(x, y, theta), H_landmark [..., 2, 2];
-            the Jacobians are None with ``jacobians=False``.
+            the Jacobians are None with ``jacobians=False``. The Jacobians are views of
+            entry-major arrays (not C-contiguous).
         """
         # a hot path of FastSLAM: written with in-place ufuncs into the output arrays, same
         # operations (and so bit-for-bit the same numbers) as the textbook expressions
@@ -81,26 +82,29 @@ class RangeBearing2D:
         q = np.multiply(dx, dx, out=np.empty(shape))
         q += dy * dy
         np.maximum(q, _EPS, out=q)
-        z = np.empty((*shape, 2))
-        r = np.sqrt(q, out=z[..., 0])
+        r = np.sqrt(q)
         bearing = np.arctan2(dy, dx, out=np.empty(shape))  # contiguous: wrapped faster
         bearing -= wTr[..., 2]
+        z = np.empty((*shape, 2))
+        z[..., 0] = r
         z[..., 1] = wrap_angle_inplace(bearing)
         if not jacobians:
             return z, None, None
-        H_l = np.empty((*shape, 2, 2))
-        np.divide(dx, r, out=H_l[..., 0, 0])
-        np.divide(dy, r, out=H_l[..., 0, 1])
-        np.divide(dy, q, out=H_l[..., 1, 0])
-        np.negative(H_l[..., 1, 0], out=H_l[..., 1, 0])
-        np.divide(dx, q, out=H_l[..., 1, 1])
-        H_p = np.empty((*shape, 2, 3))
-        for i in range(2):  # entry by entry: a [..., 2, 2] block would iterate in pairs
-            for j in range(2):
-                np.negative(H_l[..., i, j], out=H_p[..., i, j])
-        H_p[..., 0, 2] = 0.0
-        H_p[..., 1, 2] = -1.0
-        return z, H_p, H_l
+        # The Jacobians are filled entry by entry in entry-major memory (2, c, ...), each entry
+        # one contiguous stretch, and returned as [..., 2, c] views of it: the values are the
+        # same, and ``omnislam.fastslam``'s entry-major algebra then gets them without a copy.
+        H_l = np.empty((2, 2, *shape))
+        np.divide(dx, r, out=H_l[0, 0, ...])
+        np.divide(dy, r, out=H_l[0, 1, ...])
+        np.divide(dy, q, out=H_l[1, 0, ...])
+        np.negative(H_l[1, 0, ...], out=H_l[1, 0, ...])
+        np.divide(dx, q, out=H_l[1, 1, ...])
+        H_p = np.empty((2, 3, *shape))
+        np.negative(H_l, out=H_p[:, :2])
+        H_p[0, 2] = 0.0
+        H_p[1, 2] = -1.0
+        stack_axes = (*range(2, len(shape) + 2), 0, 1)
+        return z, H_p.transpose(stack_axes), H_l.transpose(stack_axes)
 
     def residual(self, z_measured: np.ndarray, z_predicted: np.ndarray) -> np.ndarray:
         return _residual(z_measured, z_predicted, self.angular)
