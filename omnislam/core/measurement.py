@@ -8,7 +8,8 @@ position in the world to a measurement in the robot frame, vectorised over leadi
 * ``BearingElevation3D``  z = (azimuth, elevation)             landmark (x, y, z)
 * ``RangeAzimuthElevation3D`` z = (d, theta, phi), thesis eqs. 4.25 / 4.31   landmark (x, y, z)
 
-``predict`` returns (z, H_pose, H_landmark); ``residual`` wraps the angular components;
+``predict`` returns (z, H_pose, H_landmark), or (z, None, None) with ``jacobians=False`` (for
+callers that only need the predicted measurement); ``residual`` wraps the angular components;
 ``inverse`` gives the landmark from a pose and a measurement with its Jacobians (for landmark
 initialisation and EKF augmentation). The 3-D models take the sensor's height above the ground
 plane (``sensor_height_m``): the omni camera's single viewpoint is not on the floor.
@@ -24,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from omnislam.core.se import wrap_angle
+from omnislam.core.se import wrap_angle, wrap_angle_inplace
 
 _EPS = 1e-12
 
@@ -62,23 +63,48 @@ class RangeBearing2D:
     dim_landmark: int = 2
     angular: tuple[bool, ...] = (False, True)
 
-    def predict(self, wTr: np.ndarray, landmarks_w: np.ndarray) -> tuple[np.ndarray, ...]:
+    def predict(
+        self, wTr: np.ndarray, landmarks_w: np.ndarray, *, jacobians: bool = True
+    ) -> tuple[np.ndarray, ...]:
         """Args: wTr [..., 3]; landmarks_w [..., 2] (or [..., 3], z ignored).
 
         Returns:
-            z [..., 2], H_pose [..., 2, 3] = dz/d(x, y, theta), H_landmark [..., 2, 2].
+            z [..., 2], H_pose [..., 2, 3] = dz/d(x, y, theta), H_landmark [..., 2, 2];
+            the Jacobians are None with ``jacobians=False``. The Jacobians are views of
+            entry-major arrays (not C-contiguous).
         """
+        # a hot path of FastSLAM: written with in-place ufuncs into the output arrays, same
+        # operations (and so bit-for-bit the same numbers) as the textbook expressions
+        # q = max(dx^2 + dy^2, eps), z = (sqrt(q), wrap(atan2(dy, dx) - theta)),
+        # H_l = [[dx, dy] / r, [-dy, dx] / q], H_p = [-H_l | (0, -1)^T]
         wTr, dx, dy, _ = _deltas(wTr, landmarks_w)
-        q = np.maximum(dx * dx + dy * dy, _EPS)
+        shape = np.shape(dx)
+        q = np.multiply(dx, dx, out=np.empty(shape))
+        q += dy * dy
+        np.maximum(q, _EPS, out=q)
         r = np.sqrt(q)
-        z = np.stack([r, wrap_angle(np.arctan2(dy, dx) - wTr[..., 2])], axis=-1)
-        H_l = np.empty((*z.shape[:-1], 2, 2))
-        H_l[..., 0, 0], H_l[..., 0, 1] = dx / r, dy / r
-        H_l[..., 1, 0], H_l[..., 1, 1] = -dy / q, dx / q
-        H_p = np.zeros((*z.shape[:-1], 2, 3))
-        H_p[..., :, :2] = -H_l
-        H_p[..., 1, 2] = -1.0
-        return z, H_p, H_l
+        bearing = np.arctan2(dy, dx, out=np.empty(shape))  # contiguous: wrapped faster
+        bearing -= wTr[..., 2]
+        z = np.empty((*shape, 2))
+        z[..., 0] = r
+        z[..., 1] = wrap_angle_inplace(bearing)
+        if not jacobians:
+            return z, None, None
+        # The Jacobians are filled entry by entry in entry-major memory (2, c, ...), each entry
+        # one contiguous stretch, and returned as [..., 2, c] views of it: the values are the
+        # same, and ``omnislam.fastslam``'s entry-major algebra then gets them without a copy.
+        H_l = np.empty((2, 2, *shape))
+        np.divide(dx, r, out=H_l[0, 0, ...])
+        np.divide(dy, r, out=H_l[0, 1, ...])
+        np.divide(dy, q, out=H_l[1, 0, ...])
+        np.negative(H_l[1, 0, ...], out=H_l[1, 0, ...])
+        np.divide(dx, q, out=H_l[1, 1, ...])
+        H_p = np.empty((2, 3, *shape))
+        np.negative(H_l, out=H_p[:, :2])
+        H_p[0, 2] = 0.0
+        H_p[1, 2] = -1.0
+        stack_axes = (*range(2, len(shape) + 2), 0, 1)
+        return z, H_p.transpose(stack_axes), H_l.transpose(stack_axes)
 
     def residual(self, z_measured: np.ndarray, z_predicted: np.ndarray) -> np.ndarray:
         return _residual(z_measured, z_predicted, self.angular)
@@ -112,11 +138,16 @@ class Bearing2D:
     dim_landmark: int = 2
     angular: tuple[bool, ...] = (True,)
 
-    def predict(self, wTr: np.ndarray, landmarks_w: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Returns z [..., 1], H_pose [..., 1, 3], H_landmark [..., 1, 2]."""
+    def predict(
+        self, wTr: np.ndarray, landmarks_w: np.ndarray, *, jacobians: bool = True
+    ) -> tuple[np.ndarray, ...]:
+        """Returns z [..., 1], H_pose [..., 1, 3], H_landmark [..., 1, 2] (None, None with
+        ``jacobians=False``)."""
         wTr, dx, dy, _ = _deltas(wTr, landmarks_w)
-        q = np.maximum(dx * dx + dy * dy, _EPS)
         z = wrap_angle(np.arctan2(dy, dx) - wTr[..., 2])[..., None]
+        if not jacobians:
+            return z, None, None
+        q = np.maximum(dx * dx + dy * dy, _EPS)
         H_l = np.stack([-dy / q, dx / q], axis=-1)[..., None, :]
         H_p = np.concatenate([-H_l, -np.ones((*z.shape[:-1], 1, 1))], axis=-1)
         return z, H_p, H_l
@@ -147,13 +178,18 @@ class BearingElevation3D:
     dim_landmark: int = 3
     angular: tuple[bool, ...] = (True, True)
 
-    def predict(self, wTr: np.ndarray, landmarks_w: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Returns z [..., 2], H_pose [..., 2, 3], H_landmark [..., 2, 3]."""
+    def predict(
+        self, wTr: np.ndarray, landmarks_w: np.ndarray, *, jacobians: bool = True
+    ) -> tuple[np.ndarray, ...]:
+        """Returns z [..., 2], H_pose [..., 2, 3], H_landmark [..., 2, 3] (None, None with
+        ``jacobians=False``)."""
         wTr, dx, dy, dz = _deltas(wTr, landmarks_w, self.sensor_height_m)
         rho2 = np.maximum(dx * dx + dy * dy, _EPS)
         rho = np.sqrt(rho2)
         d2 = rho2 + dz * dz
         z = np.stack([wrap_angle(np.arctan2(dy, dx) - wTr[..., 2]), np.arctan2(dz, rho)], axis=-1)
+        if not jacobians:
+            return z, None, None
         H_l = np.zeros((*z.shape[:-1], 2, 3))
         H_l[..., 0, 0], H_l[..., 0, 1] = -dy / rho2, dx / rho2
         H_l[..., 1, 0] = -dz * dx / (rho * d2)
@@ -187,11 +223,14 @@ class RangeAzimuthElevation3D:
     dim_landmark: int = 3
     angular: tuple[bool, ...] = (False, True, True)
 
-    def predict(self, wTr: np.ndarray, landmarks_w: np.ndarray) -> tuple[np.ndarray, ...]:
+    def predict(
+        self, wTr: np.ndarray, landmarks_w: np.ndarray, *, jacobians: bool = True
+    ) -> tuple[np.ndarray, ...]:
         """Thesis eq. 4.31 and its Jacobian (eq. 4.32, corrected; see module docstring).
 
         Returns:
-            z [..., 3], H_pose [..., 3, 3] = dz/d(x, y, theta), H_landmark [..., 3, 3].
+            z [..., 3], H_pose [..., 3, 3] = dz/d(x, y, theta), H_landmark [..., 3, 3];
+            the Jacobians are None with ``jacobians=False``.
         """
         wTr, dx, dy, dz = _deltas(wTr, landmarks_w, self.sensor_height_m)
         rho2 = np.maximum(dx * dx + dy * dy, _EPS)
@@ -201,6 +240,8 @@ class RangeAzimuthElevation3D:
         z = np.stack(
             [d, wrap_angle(np.arctan2(dy, dx) - wTr[..., 2]), np.arctan2(dz, rho)], axis=-1
         )
+        if not jacobians:
+            return z, None, None
         H_l = np.zeros((*z.shape[:-1], 3, 3))
         H_l[..., 0, 0], H_l[..., 0, 1], H_l[..., 0, 2] = dx / d, dy / d, dz / d
         H_l[..., 1, 0], H_l[..., 1, 1] = -dy / rho2, dx / rho2
@@ -249,5 +290,10 @@ def _residual(
 ) -> np.ndarray:
     """z_measured - z_predicted with angular components wrapped to [-pi, pi)."""
     r = np.asarray(z_measured, dtype=float) - np.asarray(z_predicted, dtype=float)
-    mask = np.asarray(angular)
-    return np.where(mask, wrap_angle(r), r)
+    if np.ndim(r) == 0 or r.shape[-1] != len(angular):  # broadcasts against the mask
+        mask = np.asarray(angular)
+        return np.where(mask, wrap_angle(r), r)
+    for i, is_angle in enumerate(angular):  # r is a new array: wrap its angle columns in place
+        if is_angle:
+            wrap_angle_inplace(r[..., i])
+    return r

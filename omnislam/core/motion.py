@@ -15,14 +15,17 @@ Two details the thesis leaves open are fixed here and documented:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from omnislam.core.se import wrap_angle
+from omnislam.core.se import wrap_angle, wrap_angle_inplace
 
 #: translations below this are treated as pure rotations (rot1 is then undefined) [m]
 MIN_TRANSLATION_M = 1e-9
+
+_TWO_PI = 2.0 * math.pi
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,6 +70,8 @@ class OdometryMotionModel:
         negative trans and rot1 = atan2(-dy, -dx) (see the module docstring).
         """
         delta_r = np.asarray(delta_r, dtype=float)
+        if delta_r.shape == (3,):  # one odometry delta per filter step: skip the array overhead
+            return np.array(_decompose_one(*delta_r.tolist()))
         dx, dy, dtheta = delta_r[..., 0], delta_r[..., 1], delta_r[..., 2]
         trans = np.hypot(dx, dy)
         backwards = dx < 0
@@ -88,6 +93,8 @@ class OdometryMotionModel:
         """Standard deviations of (rot1, trans, rot2) [..., 3], thesis eq. 4.41 (magnitudes)."""
         n = self.noise
         c = np.abs(np.asarray(components, dtype=float))
+        if c.shape == (3,):
+            return np.array(_component_sigmas_one(n, *c.tolist()))
         rot1, trans, rot2 = c[..., 0], c[..., 1], c[..., 2]
         sigma = np.stack(
             [
@@ -132,7 +139,9 @@ class OdometryMotionModel:
         wTr = np.asarray(wTr, dtype=float)
         components = self.decompose(delta_r)
         sigma = self.component_sigmas(components)
-        noisy = components + sigma * rng.standard_normal((wTr.shape[0], 3))
+        noisy = rng.standard_normal((wTr.shape[0], 3))
+        noisy *= sigma  # components + sigma * draws, without the temporaries
+        noisy += components
         return self.apply(wTr, noisy)
 
     @staticmethod
@@ -140,11 +149,18 @@ class OdometryMotionModel:
         """Thesis eq. 4.44: x' = x + [t cos(theta + rot1), t sin(theta + rot1), rot1 + rot2]."""
         wTr = np.asarray(wTr, dtype=float)
         components = np.asarray(components, dtype=float)
-        heading = wTr[..., 2] + components[..., 0]
-        x = wTr[..., 0] + components[..., 1] * np.cos(heading)
-        y = wTr[..., 1] + components[..., 1] * np.sin(heading)
-        theta = wrap_angle(wTr[..., 2] + components[..., 0] + components[..., 2])
-        return np.stack(np.broadcast_arrays(x, y, theta), axis=-1)
+        out = np.empty(np.broadcast_shapes(wTr.shape, components.shape))
+        # in place into the output: the same operations as the formula above, term by term
+        heading = np.add(wTr[..., 2], components[..., 0], out=np.empty(out.shape[:-1]))
+        x = np.cos(heading, out=out[..., 0])
+        x *= components[..., 1]
+        x += wTr[..., 0]
+        y = np.sin(heading, out=out[..., 1])
+        y *= components[..., 1]
+        y += wTr[..., 1]
+        heading += components[..., 2]  # theta + rot1 + rot2
+        out[..., 2] = wrap_angle_inplace(heading)
+        return out
 
     def apply_jacobians(
         self, wTr: np.ndarray, components: np.ndarray
@@ -204,3 +220,33 @@ class OdometryMotionModel:
         return V @ np.diag(self.component_sigmas(components) ** 2) @ V.T + np.diag(
             [floor, floor, 0.0]
         )
+
+
+def _decompose_one(dx: float, dy: float, dtheta: float) -> tuple[float, float, float]:
+    """``OdometryMotionModel.decompose`` of one delta, on Python floats.
+
+    numpy's ``hypot`` / ``arctan2`` are kept (``math``'s differ in the last bit), and Python's
+    float ``%`` is the same floored modulo as numpy's: the result equals the array version's.
+    """
+    trans = float(np.hypot(dx, dy))
+    sign = -1.0 if dx < 0 else 1.0
+    rot1 = float(np.arctan2(sign * dy, sign * dx)) if trans > MIN_TRANSLATION_M else 0.0
+    rot2 = (dtheta - rot1 + math.pi) % _TWO_PI - math.pi
+    return rot1, sign * trans, rot2
+
+
+def _component_sigmas_one(
+    n: MotionNoise, rot1: float, trans: float, rot2: float
+) -> tuple[float, float, float]:
+    """``OdometryMotionModel.component_sigmas`` of one (|rot1|, |trans|, |rot2|), on floats."""
+    floor_rot1, floor_trans, floor_rot2 = n.min_sigma
+    return (
+        _maximum(n.a_ww * rot1 + n.a_vw * trans, floor_rot1),
+        _maximum(n.a_wv * (rot1 + rot2) + n.a_vv * trans, floor_trans),
+        _maximum(n.a_ww * rot2 + n.a_vw * trans, floor_rot2),
+    )
+
+
+def _maximum(value: float, floor: float) -> float:
+    """``np.maximum`` of two floats (a NaN ``value`` propagates)."""
+    return value if value != value or value >= floor else floor
