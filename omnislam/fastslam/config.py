@@ -68,6 +68,21 @@ class BearingUpdate(Enum):
     DIRECT = "direct"
 
 
+class ProposalUpdateMode(Enum):
+    """How FastSLAM 2.0 refines a particle's pose proposal by its matched observations.
+
+    SEQUENTIAL: Montemerlo 2003 / thesis eqs. 4.45-4.46, one observation after the other,
+        relinearised at the refined mean after each (the default; every published number).
+    JOINT: all matched observations of a particle in one Gaussian update linearised at the
+        motion-prediction mean (``proposal.joint_proposal``): the same result for a linear
+        model, one vectorised pass over all (particle, observation) pairs instead of a loop over
+        the observations.
+    """
+
+    SEQUENTIAL = "sequential"
+    JOINT = "joint"
+
+
 class TriangulationMethod(Enum):
     """How two rays give a first landmark position (thesis sec. 4.3).
 
@@ -167,6 +182,8 @@ class FastSLAMConfig:
             point. It neither refines the FastSLAM 2.0 proposal nor updates the landmark EKF, and
             its weight factor is the Gaussian likelihood truncated at the gate (a robust
             likelihood: one bad track cannot decide between particles). 1.0 disables the gate.
+        proposal_update: FastSLAM 2.0 only: sequential (Montemerlo 2003, the default) or joint
+            refinement of the proposal by the matched observations (``ProposalUpdateMode``).
         proposal_max_landmark_std_m: 3-D only: a landmark refines the FastSLAM 2.0 proposal only
             when its position std sqrt(tr Sigma) is at most this (a converged triangulation;
             infinite: every established landmark) [m].
@@ -197,6 +214,7 @@ class FastSLAMConfig:
     new_landmark_log_likelihood: float = -6.0
     association_margin_m: float = 3.0
     bearing_gate_probability: float = 0.999
+    proposal_update: ProposalUpdateMode = ProposalUpdateMode.SEQUENTIAL
     proposal_max_landmark_std_m: float = math.inf
     proposal_max_sightings: int = 40
     existence: ExistenceIndexConfig | None = None

@@ -54,6 +54,7 @@ from omnislam.fastslam.bearing_landmarks import (
 from omnislam.fastslam.config import (
     BearingUpdate,
     FastSLAMConfig,
+    ProposalUpdateMode,
     ResamplingScheme,
     SensorMode,
     StoreKind,
@@ -66,7 +67,12 @@ from omnislam.fastslam.landmark_ekf import ekf_update, initialize_from_inverse
 from omnislam.fastslam.landmark_store import LandmarkBlock, LandmarkStatus, LandmarkStore
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.particles import ParticleSet, PathHistory
-from omnislam.fastslam.proposal import motion_prediction, refine_proposal, sample_poses
+from omnislam.fastslam.proposal import (
+    joint_proposal,
+    motion_prediction,
+    refine_proposal,
+    sample_poses,
+)
 from omnislam.fastslam.resampling import (
     multinomial_resample,
     stratified_resample,
@@ -439,7 +445,9 @@ class FastSLAM:
         pairs: _Pairs,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Thesis 4.45-4.46 / Montemerlo 2003: refine each particle's motion prediction by its
-        sightings of established landmarks, one after the other, and sample from the result.
+        sightings of established landmarks, one after the other, and sample from the result
+        (``ProposalUpdateMode.SEQUENTIAL``); or all of them in one update linearised at the
+        prediction (``JOINT``, ``proposal.joint_proposal``).
 
         Particles without such sightings sample from the motion model itself (as FastSLAM 1.0).
         In 3-D the proposal uses the direct (azimuth, elevation) model: the thesis's
@@ -459,28 +467,46 @@ class FastSLAM:
         usable = (block.status == _ESTIMATED) & ~pairs.new_unknown
         if self._mode is SensorMode.BEARINGS_3D:
             usable &= self._proposal_landmarks(block, pairs, usable)
-        log_factors = np.zeros(p)
         refined = np.zeros(p, dtype=bool)
-        mean = mean.copy()
-        cov = cov.copy()
-        for k in np.unique(pairs.obs[usable]):
-            rows = np.flatnonzero(usable & (pairs.obs == k))
-            who = pairs.particle[rows]  # one row per particle for a given sighting
-            n = rows.size
-            update = refine_proposal(
-                mean[who],
-                cov[who],
-                np.broadcast_to(sightings.z[k], (n, sightings.z.shape[1])),
-                np.broadcast_to(sightings.R[k], (n, *sightings.R.shape[1:])),
+        if self.config.proposal_update is ProposalUpdateMode.JOINT:
+            # all of a particle's sightings in one update at the prediction (joint_proposal)
+            rows = np.flatnonzero(usable)
+            obs = pairs.obs[rows]
+            joint = joint_proposal(
+                mean,
+                cov,
+                pairs.particle[rows],
+                sightings.z[obs],
+                sightings.R[obs],
                 block.mean[rows],
                 block.cov[rows],
                 model,
                 gate,
             )
-            mean[who] = update.mean
-            cov[who] = update.cov
-            log_factors[who] += update.log_likelihood
-            refined[who] = True
+            mean, cov, log_factors = joint.mean, joint.cov, joint.log_likelihood
+            refined[pairs.particle[rows]] = True
+        else:
+            log_factors = np.zeros(p)
+            mean = mean.copy()
+            cov = cov.copy()
+            for k in np.unique(pairs.obs[usable]):
+                rows = np.flatnonzero(usable & (pairs.obs == k))
+                who = pairs.particle[rows]  # one row per particle for a given sighting
+                n = rows.size
+                update = refine_proposal(
+                    mean[who],
+                    cov[who],
+                    np.broadcast_to(sightings.z[k], (n, sightings.z.shape[1])),
+                    np.broadcast_to(sightings.R[k], (n, *sightings.R.shape[1:])),
+                    block.mean[rows],
+                    block.cov[rows],
+                    model,
+                    gate,
+                )
+                mean[who] = update.mean
+                cov[who] = update.cov
+                log_factors[who] += update.log_likelihood
+                refined[who] = True
         poses = np.empty_like(previous)
         poses[refined] = sample_poses(mean[refined], cov[refined], self._rng)
         plain = ~refined
