@@ -1,7 +1,8 @@
 """FastSLAM speed and memory scaling (issue #7).
 
 1. Cost per particle-observation on a small 2-D world (8 landmarks, ~6 sightings per step) at
-   100 and 1000 particles, FastSLAM 1.0 and 2.0, tree store. Goal: <= 1 us.
+   100 and 1000 particles, FastSLAM 1.0 and 2.0 (sequential and joint proposal, stepped
+   interleaved in the same run), tree store. Goal: <= 1 us.
 2. Step time with 1k, 10k and 100k landmarks in the map and a fixed 6 sightings per step,
    resampling every step (the worst case for the dense store): tree vs dense. Goal for the
    tree: <= 1.5x growth from 1k to 100k.
@@ -37,6 +38,7 @@ from omnislam.fastslam import (
     StoreKind,
     Variant,
 )
+from omnislam.fastslam.config import ProposalUpdateMode
 
 NOISE = MotionNoise(a_vv=0.05, a_vw=0.02, a_wv=0.01, a_ww=0.05)
 SIGMA_R, SIGMA_B = 0.05, 0.01
@@ -76,26 +78,50 @@ def timed_step(slam: FastSLAM, frame: FrameInput) -> tuple[float, float]:
 
 
 def per_particle_observation(quick: bool) -> list[str]:
+    """FastSLAM 1.0, 2.0 with the sequential proposal and 2.0 with the joint one, stepped
+    interleaved frame by frame (each filter on its own rng) so that all see the same load of a
+    shared machine; the joint row also gives its median CPU time relative to sequential's."""
     steps, warm = (60, 10) if quick else (200, 20)
     frames = small_world(steps)
     sightings = np.mean([len(f.range_bearing) for f in frames])
     rows = [
         f"## cost per particle-observation (8 landmarks, {sightings:.1f} sightings/step, "
-        f"tree store, median of {steps - warm} steps)",
-        "| variant | particles | step ms | CPU ms | us / particle-observation | CPU us / p-o |",
-        "|---|---:|---:|---:|---:|---:|",
+        f"tree store, median of {steps - warm} steps, the variants stepped interleaved)",
+        "| variant | proposal | particles | step ms | CPU ms | us / particle-observation "
+        "| CPU us / p-o | CPU vs sequential |",
+        "|---|---|---:|---:|---:|---:|---:|---:|",
     ]
-    for variant in Variant:
-        for n in (100, 1000):
-            config = FastSLAMConfig(variant=variant, n_particles=n, motion_noise=NOISE)
-            slam = FastSLAM(config, np.random.default_rng(1))
-            times = np.array([timed_step(slam, frame) for frame in frames])[warm:]
-            k = np.array([len(f.range_bearing) for f in frames[warm:]])
-            per = np.median(times / (n * k)[:, None], axis=0) * 1e6
-            ms = np.median(times, axis=0) * 1e3
+    k = np.array([len(f.range_bearing) for f in frames[warm:]])
+    kinds = [
+        (Variant.FASTSLAM1, ProposalUpdateMode.SEQUENTIAL),
+        (Variant.FASTSLAM2, ProposalUpdateMode.SEQUENTIAL),
+        (Variant.FASTSLAM2, ProposalUpdateMode.JOINT),
+    ]
+    for n in (100, 1000):
+        filters = [
+            FastSLAM(
+                FastSLAMConfig(
+                    variant=variant, n_particles=n, motion_noise=NOISE, proposal_update=mode
+                ),
+                np.random.default_rng(1),
+            )
+            for variant, mode in kinds
+        ]
+        times = np.array([[timed_step(slam, frame) for slam in filters] for frame in frames])
+        times = times[warm:]  # (steps, filter, wall/CPU)
+        sequential_cpu = times[:, 1, 1]
+        for i, (variant, mode) in enumerate(kinds):
+            per = np.median(times[:, i] / (n * k)[:, None], axis=0) * 1e6
+            ms = np.median(times[:, i], axis=0) * 1e3
+            proposal = mode.value if variant is Variant.FASTSLAM2 else "-"
+            ratio = (
+                f"{np.median(times[:, i, 1] / sequential_cpu):.2f}x"
+                if variant is Variant.FASTSLAM2
+                else ""
+            )
             rows.append(
-                f"| {variant.value} | {n} | {ms[0]:.2f} | {ms[1]:.2f} | {per[0]:.2f} | "
-                f"{per[1]:.2f} |"
+                f"| {variant.value} | {proposal} | {n} | {ms[0]:.2f} | {ms[1]:.2f} | "
+                f"{per[0]:.2f} | {per[1]:.2f} | {ratio} |"
             )
     return rows
 
