@@ -222,7 +222,9 @@ class FastSLAM:
         particles.reweight(log_factors)
         self._history.record(frame.stamp_s, particles)
         self.last_ess = particles.effective_sample_size()
-        if self.last_ess < self.config.resample_ess_fraction * len(particles):
+        fraction = self.config.resample_ess_fraction
+        # fraction 1 means "every step": ESS of equal weights is P only up to rounding
+        if fraction >= 1.0 or self.last_ess < fraction * len(particles):
             self._resample()
 
     def estimate(self) -> Estimate:

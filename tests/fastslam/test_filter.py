@@ -286,3 +286,20 @@ def test_fastslam2_3d_with_a_restricted_proposal(option):
     )
     ate, dead_reckoning = _bearing_ates(config, OUTLIER_FRACTION)
     assert ate < ATE_FRACTION_OF_DEAD_RECKONING_3D * dead_reckoning
+
+
+@pytest.mark.parametrize("n", [3, 10, 100])
+def test_resample_fraction_one_resamples_every_step_and_zero_never(n):
+    """A first sighting leaves the weights equal, and their ESS is P only up to rounding
+    (3.0, 10.000000000000005, 100.00000000000011): fraction 1.0 must still resample."""
+    first = FrameInput(
+        0,
+        Odometry(np.zeros(3), 0.0),
+        range_bearing=RangeBearing(np.array([1]), np.array([2.0]), np.array([0.3]), 0.1, 0.01),
+    )
+    for fraction, expected in ((1.0, 1), (0.0, 0)):
+        slam = FastSLAM(
+            _config(Variant.FASTSLAM1, n, resample_ess_fraction=fraction), np.random.default_rng(0)
+        )
+        slam.step(first)
+        assert slam.resample_count == expected
