@@ -14,12 +14,14 @@ each cell's own peak; elsewhere it is the process's peak so far (an upper bound)
 
 from __future__ import annotations
 
+import enum
+import json
 import os
 import sys
 import tempfile
 import time
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, is_dataclass, replace
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -27,7 +29,7 @@ import numpy as np
 
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction, reassign_ids
 from omnislam.compare.reference import reference_for
-from omnislam.compare.rundir import GRAPH_G2O, RunConfig, RunRecord
+from omnislam.compare.rundir import ESTIMATOR_INFO, GRAPH_G2O, RunConfig, RunRecord
 from omnislam.core.types import UNKNOWN_ID, FrameInput
 from omnislam.datasets.sequence import GroundTruth
 from omnislam.errors import ConfigError, DataError
@@ -174,7 +176,7 @@ def execute_run(spec: RunSpec) -> RunRecord:
     start = clock()
     estimate = estimator.estimate()
     final_s = clock() - start
-    attachments = _export_graph(estimator)
+    attachments = {**_export_graph(estimator), **_estimator_info(estimator)}
 
     config = RunConfig(
         dataset=spec.dataset,
@@ -275,3 +277,18 @@ def _export_graph(estimator: object) -> dict[str, bytes]:
         path = Path(tmp) / GRAPH_G2O
         estimator.export_g2o(path)
         return {GRAPH_G2O: path.read_bytes()} if path.is_file() else {}
+
+
+def _estimator_info(estimator: object) -> dict[str, bytes]:
+    """The estimator's ``info()`` record (a dataclass of counts) as a JSON attachment."""
+    info = getattr(estimator, "info", None)
+    if not callable(info):
+        return {}
+    record = info()
+    if not is_dataclass(record) or isinstance(record, type):
+        return {}
+    fields = {
+        key: value.value if isinstance(value, enum.Enum) else value
+        for key, value in asdict(record).items()
+    }
+    return {ESTIMATOR_INFO: (json.dumps(fields, indent=1, sort_keys=True) + "\n").encode()}

@@ -11,7 +11,9 @@ Files (DESIGN.md, command-line contract):
 * ``pose_covariances.csv`` (``frame,c00,...,c22``: covariance of [x, y, yaw] per pose, row-major)
   and ``landmark_covariances.csv`` (``id,c00,...,c22``: position covariance [m^2]) when the
   estimator provides covariances.
-* attachments an estimator exports (e.g. ``graph.g2o``), stored verbatim.
+* attachments an estimator exports (e.g. ``graph.g2o``), stored verbatim, and
+  ``estimator_info.json``: the counts an estimator's ``info()`` reports at the end of the run
+  (graphslam: landmarks inserted and pending, sightings gated, factorisation fallbacks, ...).
 * ``metrics.json``: written by ``omnislam evaluate``.
 
 A RUN_DIR is written atomically: everything goes into a hidden temporary folder next to it,
@@ -48,8 +50,9 @@ POSE_COVARIANCES = "pose_covariances.csv"
 LANDMARK_COVARIANCES = "landmark_covariances.csv"
 #: attachment an estimator with a factor graph may export (see compare.execute.GraphExporter)
 GRAPH_G2O = "graph.g2o"
+ESTIMATOR_INFO = "estimator_info.json"
 #: file names an attachment may take (kept small so a RUN_DIR stays a known set of files)
-ATTACHMENTS = (GRAPH_G2O,)
+ATTACHMENTS = (GRAPH_G2O, ESTIMATOR_INFO)
 _COV_COLUMNS = ",".join(f"c{r}{c}" for r in range(3) for c in range(3))
 
 
