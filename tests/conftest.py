@@ -11,6 +11,16 @@ REPO_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO_ROOT.parent / "shared" / "data"
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _private_cache(tmp_path_factory: pytest.TempPathFactory):
+    """Caches the code writes (the victoria-park-gtsam LM reference) go to a temporary folder,
+    never to the user's ``~/.cache``."""
+    patch = pytest.MonkeyPatch()
+    patch.setenv("OMNISLAM_CACHE", str(tmp_path_factory.mktemp("omnislam-cache")))
+    yield
+    patch.undo()
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20081105)
