@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from omnislam.compare.execute import _sensor_height_m
 from omnislam.compare.metrics import umeyama
 from omnislam.compare.rundir import read_run_dir
+from omnislam.core.se import se2_rotate_vectors
 from omnislam.core.triangulation import triangulate_rays
 from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
@@ -32,12 +32,8 @@ from omnislam.frontend.observation_log import dataset_fingerprint, load_observat
 
 def world_rays(poses: np.ndarray, frame: np.ndarray, rays_r: np.ndarray, height: float):
     """Origins and directions in the world of robot-frame rays seen at ``poses[frame]``."""
-    x, y, theta = poses[frame].T
-    c, s = np.cos(theta), np.sin(theta)
-    directions = np.column_stack(
-        [c * rays_r[:, 0] - s * rays_r[:, 1], s * rays_r[:, 0] + c * rays_r[:, 1], rays_r[:, 2]]
-    )
-    return np.column_stack([x, y, np.full(len(x), height)]), directions
+    origins = np.column_stack([poses[frame, :2], np.full(len(frame), height)])
+    return origins, se2_rotate_vectors(poses[frame], rays_r)
 
 
 def main() -> None:
@@ -50,7 +46,7 @@ def main() -> None:
     record = read_run_dir(args.run_dir)
     estimate, truth = record.estimate, record.ground_truth
     sequence = load_dataset(resolve(record.config.dataset_path), {})
-    height = _sensor_height_m(sequence.calibration)
+    height = float(sequence.calibration.viewpoint_r[2])  # the omni rig's single viewpoint
     replay = load_observation_log(args.log, dataset_id=dataset_fingerprint(sequence))
 
     poses_est, poses_true = (

@@ -142,6 +142,20 @@ def se2_transform_points(aTb: np.ndarray, points_b: np.ndarray) -> np.ndarray:
     return np.stack([x, y], axis=-1)
 
 
+def se2_rotate_vectors(aTb: np.ndarray, vectors_b: np.ndarray) -> np.ndarray:
+    """Rotate 3-D vectors [..., 3] from planar frame b into frame a (about z; z unchanged).
+
+    The direction part of a bearing seen from a robot at pose ``aTb`` = [x, y, theta]; the
+    translation is not applied (directions, not points).
+    """
+    aTb = np.asarray(aTb, dtype=float)
+    v = np.asarray(vectors_b, dtype=float)
+    c, s = np.cos(aTb[..., 2]), np.sin(aTb[..., 2])
+    x = c * v[..., 0] - s * v[..., 1]
+    y = s * v[..., 0] + c * v[..., 1]
+    return np.stack([x, y, v[..., 2]], axis=-1)
+
+
 def se3_from_se2(aTb: np.ndarray, z: np.ndarray | float = 0.0) -> np.ndarray:
     """Planar poses [..., 3] -> SE(3) [..., 4, 4] with rotation about z and height ``z``."""
     aTb = np.asarray(aTb, dtype=float)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from omnislam.core.measurement import RangeAzimuthElevation3D
+from omnislam.core.se import se2_rotate_vectors
 from omnislam.core.triangulation import triangulate_ground_plane, triangulate_midpoint
 from omnislam.fastslam.config import TriangulationMethod
 
@@ -39,9 +40,7 @@ def world_rays(wTr: np.ndarray, unit_vectors_r: np.ndarray, sensor_height_m: flo
     Returns:
         (N, 6) [origin_w (3), direction_w (3)].
     """
-    c, s = np.cos(wTr[:, 2]), np.sin(wTr[:, 2])
-    u = unit_vectors_r
-    direction = np.stack([c * u[:, 0] - s * u[:, 1], s * u[:, 0] + c * u[:, 1], u[:, 2]], axis=-1)
+    direction = se2_rotate_vectors(wTr, unit_vectors_r)
     origin = np.stack([wTr[:, 0], wTr[:, 1], np.full(len(wTr), sensor_height_m)], axis=-1)
     return np.concatenate([origin, direction], axis=-1)
 

@@ -30,7 +30,7 @@ import numpy as np
 from omnislam._optional import require
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.motion import OdometryMotionModel
-from omnislam.core.se import se2_compose, se2_from_se3, se3_from_se2
+from omnislam.core.se import se2_compose, se2_from_se3, se2_rotate_vectors, se3_from_se2
 from omnislam.core.types import (
     UNKNOWN_ID,
     Bearings,
@@ -481,8 +481,7 @@ class GraphSLAM:
         point = self._landmark_point_w.get(lid)
         if point is None:
             return False
-        c, s = np.cos(self._guess[2]), np.sin(self._guess[2])
-        ray_w = np.array([c * ray_r[0] - s * ray_r[1], s * ray_r[0] + c * ray_r[1], ray_r[2]])
+        ray_w = se2_rotate_vectors(self._guess, ray_r)
         to_point = point - np.array([self._guess[0], self._guess[1], self.config.sensor_height_m])
         cosine = ray_w @ to_point / max(np.linalg.norm(to_point), 1e-12)
         return bool(cosine < np.cos(max(5.0 * sigma_rad, _BEARING_GATE_RAD)))

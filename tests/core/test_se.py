@@ -10,6 +10,7 @@ from omnislam.core.se import (
     se2_from_matrix,
     se2_from_se3,
     se2_inverse,
+    se2_rotate_vectors,
     se2_to_matrix,
     se3_exp,
     se3_from_se2,
@@ -75,3 +76,11 @@ def test_quaternion_round_trip(rng):
     assert np.all(q[:, 0] >= 0)
     np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-12)
     np.testing.assert_allclose(se3_from_xyz_quat(T[:, :3, 3], q), T, atol=1e-12)
+
+
+def test_se2_rotate_vectors_is_the_rotation_of_the_planar_pose(rng):
+    poses = rng.normal(size=(20, 3)) * [5.0, 5.0, 3.0]
+    vectors = rng.normal(size=(20, 3))
+    expected = np.einsum("nij,nj->ni", se3_from_se2(poses)[:, :3, :3], vectors)
+    np.testing.assert_allclose(se2_rotate_vectors(poses, vectors), expected, atol=1e-12)
+    np.testing.assert_allclose(se2_rotate_vectors(poses[3], vectors[3]), expected[3], atol=1e-12)
