@@ -657,20 +657,9 @@ class FastSLAM:
 
         # first match: triangulate (eq. 4.21) and Sigma = R Q R^T (eqs. 4.26-4.27)
         if ray_only.size:
-            points, valid, parallax = triangulate(
-                config.triangulation, block.ray[ray_only], rays[ray_only]
-            )
-            ok = valid & (parallax >= config.min_parallax_rad)
+            ok, z3, Q = self._triangulated(block, ray_only, rays, wTr, sigma, ray_reuse)
             rows = ray_only[ok]
             if rows.size:
-                z3, Q = triangulated_measurement(
-                    self._range_az_el,
-                    wTr[rows],
-                    points[ok],
-                    sigma[rows],
-                    parallax[ok],
-                    ray_reuse,
-                )
                 block.mean[rows], block.cov[rows] = first_estimate(
                     self._range_az_el, wTr[rows], z3, Q
                 )
@@ -681,20 +670,9 @@ class FastSLAM:
         if est.size:
             direct = np.ones(est.size, dtype=bool)
             if triangulated:
-                points, valid, parallax = triangulate(
-                    config.triangulation, block.ray[est], rays[est]
-                )
-                ok = valid & (parallax >= config.min_parallax_rad)
+                ok, z3, Q = self._triangulated(block, est, rays, wTr, sigma, ray_reuse)
                 rows = est[ok]
                 if rows.size:
-                    z3, Q = triangulated_measurement(
-                        self._range_az_el,
-                        wTr[rows],
-                        points[ok],
-                        sigma[rows],
-                        parallax[ok],
-                        ray_reuse,
-                    )
                     accepted = self._gated_update(
                         block,
                         rows,
@@ -720,6 +698,32 @@ class FastSLAM:
                     log_likelihood,
                 )
         return log_likelihood
+
+    def _triangulated(
+        self,
+        block: LandmarkBlock,
+        rows: np.ndarray,
+        rays: np.ndarray,
+        wTr: np.ndarray,
+        sigma: np.ndarray,
+        ray_reuse: float,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Triangulate the stored ray of ``block[rows]`` with the new one (eq. 4.21) where the
+        parallax allows, as a (d, theta, phi) pseudo-measurement with noise Q (eqs. 4.25-4.27).
+
+        Returns:
+            ((len(rows),) True where it triangulated, z3 (K, 3), Q (K, 3, 3) of those K rows).
+        """
+        config = self.config
+        points, valid, parallax = triangulate(config.triangulation, block.ray[rows], rays[rows])
+        ok = valid & (parallax >= config.min_parallax_rad)
+        kept = rows[ok]
+        if not kept.size:
+            return ok, np.zeros((0, 3)), np.zeros((0, 3, 3))
+        z3, Q = triangulated_measurement(
+            self._range_az_el, wTr[kept], points[ok], sigma[kept], parallax[ok], ray_reuse
+        )
+        return ok, z3, Q
 
     @staticmethod
     def _gated_update(
