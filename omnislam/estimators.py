@@ -2,18 +2,21 @@
 
 Every back end exposes one factory with the signature of ``EstimatorFactory``; ``omnislam run``
 and the comparison runner build estimators only through ``make_estimator``, so a new back end
-plugs in by adding one line to ``ESTIMATORS``. Factories raise ConfigError for options they do
-not know, so a typo on ``--set`` never passes silently.
+plugs in by adding one line to ``ESTIMATORS``: where its factory lives and which modalities
+(``core.modality``) it consumes. ``make_estimator`` resolves the modality once, by the shared
+rule, and hands it to the factory in ``SequenceInfo.modality``. Factories raise ConfigError for
+options they do not know, so a typo on ``--set`` never passes silently.
 """
 
 from __future__ import annotations
 
 import importlib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from omnislam.core.modality import MODALITY_OPTION, Modality, resolve_modality
 from omnislam.core.types import Estimator
 from omnislam.errors import ConfigError
 
@@ -25,8 +28,9 @@ class SequenceInfo:
     Attributes:
         name: the sequence's name.
         frames: number of frames.
-        has_range_bearing: the frames carry range-bearing sightings.
-        has_bearings: the frames carry omni bearings (from the front end's log).
+        modalities: the observation streams the frames carry (with the front-end log's).
+        modality: the stream the estimator consumes, resolved by ``make_estimator``
+            (``core.modality.resolve_modality``); None before that.
         known_association: sightings carry landmark ids (not UNKNOWN_ID).
         sigma_range_m, sigma_bearing_rad: the loader's sighting noise, when it states one.
         sensor_height_m: height of the omni camera's single viewpoint above the ground plane
@@ -36,8 +40,8 @@ class SequenceInfo:
 
     name: str
     frames: int
-    has_range_bearing: bool = False
-    has_bearings: bool = False
+    modalities: frozenset[Modality] = frozenset()
+    modality: Modality | None = None
     known_association: bool = False
     sigma_range_m: float | None = None
     sigma_bearing_rad: float | None = None
@@ -48,15 +52,35 @@ class SequenceInfo:
 #: factory(info, options, rng) -> Estimator
 EstimatorFactory = Callable[[SequenceInfo, Mapping[str, str], np.random.Generator], Estimator]
 
-#: estimator name -> "module:factory" (imported only when that estimator is used)
-ESTIMATORS: dict[str, str] = {
-    "deadreckoning": "omnislam.deadreckoning:make_estimator",
-    "graphslam": "omnislam.graphslam:make_estimator",
-    "graphslam-batch": "omnislam.graphslam:make_batch_estimator",
-    "fastslam1": "omnislam.fastslam:make_fastslam1",
-    "fastslam2": "omnislam.fastslam:make_fastslam2",
-    "ukf": "omnislam.ukf:make_estimator",
-    "ekfslam": "omnislam.ekfslam:make_estimator",
+
+@dataclass(frozen=True, slots=True)
+class EstimatorEntry:
+    """One registered estimator.
+
+    Attributes:
+        target: ``"module:factory"``, imported only when the estimator is used.
+        modalities: the observation streams it consumes; empty for estimators that use no
+            sightings at all (dead reckoning).
+    """
+
+    target: str
+    modalities: frozenset[Modality]
+
+
+_SLAM_2D_3D = frozenset({Modality.RANGE_BEARING_2D, Modality.BEARINGS_3D})
+_GRAPH = frozenset(Modality)
+
+#: estimator name -> where its factory lives and what it consumes
+ESTIMATORS: dict[str, EstimatorEntry] = {
+    "deadreckoning": EstimatorEntry("omnislam.deadreckoning:make_estimator", frozenset()),
+    "graphslam": EstimatorEntry("omnislam.graphslam:make_estimator", _GRAPH),
+    "graphslam-batch": EstimatorEntry("omnislam.graphslam:make_batch_estimator", _GRAPH),
+    "fastslam1": EstimatorEntry("omnislam.fastslam:make_fastslam1", _SLAM_2D_3D),
+    "fastslam2": EstimatorEntry("omnislam.fastslam:make_fastslam2", _SLAM_2D_3D),
+    "ukf": EstimatorEntry("omnislam.ukf:make_estimator", frozenset({Modality.VERTICAL_LINES})),
+    "ekfslam": EstimatorEntry(
+        "omnislam.ekfslam:make_estimator", frozenset({Modality.RANGE_BEARING_2D})
+    ),
 }
 
 
@@ -68,12 +92,36 @@ def estimator_factory(name: str) -> EstimatorFactory:
     """
     if name not in ESTIMATORS:
         raise ConfigError(f"unknown estimator {name!r}; known: {', '.join(ESTIMATORS)}")
-    module_name, attribute = ESTIMATORS[name].split(":")
+    target = ESTIMATORS[name].target
+    module_name, attribute = target.split(":")
     module = importlib.import_module(module_name)
     factory = getattr(module, attribute, None)
     if factory is None:
-        raise ConfigError(f"estimator {name!r} is not available yet ({ESTIMATORS[name]})")
+        raise ConfigError(f"estimator {name!r} is not available yet ({target})")
     return factory
+
+
+def resolve_estimator_modality(
+    name: str, info: SequenceInfo, options: Mapping[str, str]
+) -> Modality | None:
+    """The stream estimator ``name`` consumes on this sequence (None: it uses no sightings).
+
+    ``options[MODALITY_OPTION]`` (``--set modality=NAME``) overrides the shared rule.
+
+    Raises:
+        ConfigError: unknown estimator or modality name, or no usable stream (the message
+            names the data's modalities and the estimator's).
+    """
+    if name not in ESTIMATORS:
+        raise ConfigError(f"unknown estimator {name!r}; known: {', '.join(ESTIMATORS)}")
+    accepted = ESTIMATORS[name].modalities
+    text = options.get(MODALITY_OPTION)
+    override = None if text is None else Modality.parse(text)
+    if not accepted:
+        if override is not None:
+            raise ConfigError(f"{name} uses no sightings; {MODALITY_OPTION} does not apply")
+        return None
+    return resolve_modality(info.modalities, accepted, override, estimator=name, dataset=info.name)
 
 
 def make_estimator(
@@ -90,5 +138,11 @@ def make_estimator(
 
     Returns:
         An object implementing the Estimator protocol.
+
+    Raises:
+        ConfigError: unknown estimator or option, or no modality the estimator can use.
     """
-    return estimator_factory(name)(info, dict(options), rng)
+    factory = estimator_factory(name)
+    modality = resolve_estimator_modality(name, info, options)
+    rest = {k: v for k, v in options.items() if k != MODALITY_OPTION}
+    return factory(replace(info, modality=modality), rest, rng)

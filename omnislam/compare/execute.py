@@ -30,6 +30,7 @@ import numpy as np
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction, reassign_ids
 from omnislam.compare.reference import reference_for
 from omnislam.compare.rundir import ESTIMATOR_INFO, GRAPH_G2O, RunConfig, RunRecord
+from omnislam.core.modality import modalities_of
 from omnislam.core.types import UNKNOWN_ID, FrameInput
 from omnislam.datasets.sequence import GroundTruth
 from omnislam.errors import ConfigError, DataError
@@ -137,12 +138,12 @@ def execute_run(spec: RunSpec) -> RunRecord:
         reset_peak_rss()
     if spec.log is None:
         frames: Iterator[FrameInput] = sequence.frame_inputs()
-        has_bearings = False
+        modalities = modalities_of(sequence.frame_inputs())
         track_truth = False
     else:
         replay = _load_log(sequence, spec.log)
         frames = iter(replay.frames)
-        has_bearings = any(f.bearings is not None and len(f.bearings) for f in replay.frames)
+        modalities = modalities_of(replay.frames)
         ground_truth, track_truth = _with_track_truth(sequence, replay, Path(spec.log))
     reassigned = 0
     if wrong_fraction > 0:
@@ -156,8 +157,7 @@ def execute_run(spec: RunSpec) -> RunRecord:
     info = SequenceInfo(
         name=sequence.name,
         frames=len(sequence),
-        has_range_bearing=bool(sightings),
-        has_bearings=has_bearings,
+        modalities=modalities,
         known_association=known,
         sigma_range_m=float(sightings[0].sigma_range_m[0]) if sightings else None,
         sigma_bearing_rad=float(sightings[0].sigma_bearing_rad[0]) if sightings else None,

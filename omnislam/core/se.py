@@ -73,6 +73,30 @@ def se2_compose(aTb: np.ndarray, bTc: np.ndarray) -> np.ndarray:
     return np.stack(np.broadcast_arrays(x, y, theta), axis=-1)
 
 
+def se2_integrate(deltas_r: np.ndarray, wT0: np.ndarray | None = None) -> np.ndarray:
+    """Dead reckoning: the poses wT0, wT0 * d_1, wT0 * d_1 * d_2, ... of odometry steps.
+
+    The one integration of odometry in the package (dead reckoning, the graphs' initial guess,
+    the front end's predicted poses). ``deltas_r[0]`` is the step *into* the first frame and is
+    not applied: frame 0 sits at ``wT0`` (``FrameInput`` convention).
+
+    Args:
+        deltas_r: (N, 3) robot-frame steps [dx, dy, dtheta] into each frame.
+        wT0: (3,) pose of frame 0 in the world; the origin by default.
+
+    Returns:
+        (N, 3) poses of the frames in the world [x, y, theta].
+    """
+    deltas = np.asarray(deltas_r, dtype=float).reshape(-1, 3)
+    poses = np.empty_like(deltas)
+    if not len(deltas):
+        return poses
+    poses[0] = np.zeros(3) if wT0 is None else np.asarray(wT0, dtype=float).reshape(3)
+    for k in range(1, len(deltas)):  # sequential: each pose depends on the last
+        poses[k] = se2_compose(poses[k - 1], deltas[k])
+    return poses
+
+
 def se2_inverse(aTb: np.ndarray) -> np.ndarray:
     """bTa for planar poses [..., 3]."""
     aTb = np.asarray(aTb, dtype=float)

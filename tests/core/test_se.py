@@ -84,3 +84,18 @@ def test_se2_rotate_vectors_is_the_rotation_of_the_planar_pose(rng):
     expected = np.einsum("nij,nj->ni", se3_from_se2(poses)[:, :3, :3], vectors)
     np.testing.assert_allclose(se2_rotate_vectors(poses, vectors), expected, atol=1e-12)
     np.testing.assert_allclose(se2_rotate_vectors(poses[3], vectors[3]), expected[3], atol=1e-12)
+
+
+def test_se2_integrate_composes_steps_after_the_first_frame():
+    from omnislam.core.se import se2_compose, se2_integrate
+
+    rng = np.random.default_rng(3)
+    deltas = rng.normal(scale=0.3, size=(6, 3))
+    start = np.array([1.0, -2.0, 0.4])
+    poses = se2_integrate(deltas, start)
+    assert np.array_equal(poses[0], start)
+    pose = start
+    for k in range(1, 6):
+        pose = se2_compose(pose, deltas[k])
+        assert np.array_equal(poses[k], pose)  # bit-for-bit the incremental composition
+    assert se2_integrate(np.zeros((0, 3))).shape == (0, 3)
