@@ -7,6 +7,7 @@ whoever receives it. Frames and units are in the names: ``wTr`` is the robot in 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
@@ -286,4 +287,30 @@ class Estimator(Protocol):
 
     def estimate(self) -> Estimate:
         """The estimate after the frames consumed so far."""
+        ...
+
+
+@runtime_checkable
+class Introspectable(Protocol):
+    """Optional: an estimator that counts what it did (fallbacks, gated sightings, ...).
+
+    ``info()`` returns a frozen dataclass of plain values (numbers, strings, enums); the harness
+    stores it in the RUN_DIR as ``estimator_info.json``.
+    """
+
+    def info(self) -> object:
+        """The counts so far, as a frozen dataclass."""
+        ...
+
+
+@runtime_checkable
+class Exporting(Protocol):
+    """Optional: an estimator that exports files of its own (``graph.g2o`` of a factor graph).
+
+    ``attachments()`` maps a RUN_DIR file name to its bytes; the harness writes them into the
+    RUN_DIR with the estimate, atomically, and reports link them.
+    """
+
+    def attachments(self) -> Mapping[str, bytes]:
+        """File name -> content, after the last frame."""
         ...
