@@ -1,10 +1,18 @@
-"""Atomic file writes: a failure never leaves a half-written file behind."""
+"""File helpers: atomic writes (a failure never leaves a half-written file behind), safe names."""
 
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from pathlib import Path
+
+_SAFE = re.compile(r"[^A-Za-z0-9._=+-]+")
+
+
+def safe_name(text: str) -> str:
+    """``text`` reduced to characters safe in a file or folder name."""
+    return _SAFE.sub("-", text).strip("-") or "x"
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:

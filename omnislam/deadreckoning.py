@@ -8,7 +8,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from omnislam.core.se import se2_compose
+from omnislam.core.se import se2_integrate
 from omnislam.core.types import Estimate, FrameInput, Trajectory
 from omnislam.errors import ConfigError
 
@@ -29,20 +29,16 @@ class DeadReckoning:
             raise ConfigError(f"initial_pose_w must have shape (3,), got {start.shape}")
         self._start = start
         self._stamps_s: list[float] = []
-        self._poses: list[np.ndarray] = []
+        self._deltas_r: list[np.ndarray] = []
 
     def step(self, frame: FrameInput) -> None:
-        """Compose the frame's odometry (the first frame places the start pose)."""
-        if self._poses:
-            pose = se2_compose(self._poses[-1], frame.odometry.delta)
-        else:
-            pose = self._start.copy()
-        self._poses.append(pose)
+        """Record the frame's odometry (the first frame places the start pose)."""
+        self._deltas_r.append(frame.odometry.delta)
         self._stamps_s.append(frame.stamp_s)
 
     def estimate(self) -> Estimate:
-        """The composed path so far (no landmarks, no covariances)."""
-        poses = np.array(self._poses).reshape(-1, 3)
+        """The composed path so far (``core.se.se2_integrate``; no landmarks, no covariances)."""
+        poses = se2_integrate(np.array(self._deltas_r).reshape(-1, 3), self._start)
         return Estimate(trajectory=Trajectory.from_se2(np.array(self._stamps_s), poses))
 
 

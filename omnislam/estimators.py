@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from omnislam.core.modality import MODALITY_OPTION, Modality, resolve_modality
-from omnislam.core.types import Estimator
+from omnislam.core.types import Estimator, PriorMap
 from omnislam.errors import ConfigError
 
 
@@ -35,6 +35,8 @@ class SequenceInfo:
         sigma_range_m, sigma_bearing_rad: the loader's sighting noise, when it states one.
         sensor_height_m: height of the omni camera's single viewpoint above the ground plane
             (from the calibration rig), when the sequence has a camera.
+        prior_map: the map known before the run (``Sequence.prior_map``, or the landmarks of
+            an earlier RUN_DIR), for localisers; None when there is none.
         facts: the sequence's ``info`` mapping (free-form, for logging).
     """
 
@@ -46,6 +48,7 @@ class SequenceInfo:
     sigma_range_m: float | None = None
     sigma_bearing_rad: float | None = None
     sensor_height_m: float | None = None
+    prior_map: PriorMap | None = None
     facts: Mapping[str, str] = field(default_factory=dict)
 
 

@@ -1,8 +1,11 @@
 """``omnislam run DATASET --estimator NAME --out RUN_DIR [--seed N] [--set K=V ...] [--log LOG]``.
 
 Loads the dataset (registered name or path), builds the estimator, feeds it every frame, times
-each step, and writes RUN_DIR atomically (see ``omnislam.compare.rundir``). ``--set`` keys that
-the dataset's loader accepts (e.g. ``robot=3``) go to the loader, the others to the estimator.
+each step, and writes RUN_DIR atomically (see ``omnislam.compare.rundir``). A dataset with
+images replays the shared front end's log: ``--log LOG``, or the log computed once and cached
+(``omnislam.compare.execute.frontend_log_for``). ``--set`` keys that the dataset's loader
+accepts (e.g. ``robot=3``) go to the loader; ``modality``, ``prior_map`` and
+``wrong_id_fraction`` to the harness; the others to the estimator.
 """
 
 from __future__ import annotations
@@ -22,13 +25,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="loader or estimator option (repeatable)",
+        help="loader, harness (modality=NAME, prior_map=RUN_DIR, wrong_id_fraction=F) or "
+        "estimator option (repeatable)",
     )
     p.add_argument(
         "--log",
         default=None,
         metavar="LOG",
-        help="front-end ObservationLog to replay (not yet available)",
+        help="front-end ObservationLog to replay (default for a dataset with images: the "
+        "shared front end's log, computed once and cached)",
     )
     p.set_defaults(handler=run)
 
@@ -76,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         options=parse_set(args.options),
         log=args.log,
     )
-    record = execute_run(spec)
+    record = execute_run(spec, progress=True)
     write_run_dir(out, record)
     config = record.config
     print(

@@ -1,11 +1,14 @@
 """Run one estimator on one dataset: the library function behind ``omnislam run`` and the grid.
 
 ``execute_run(spec)`` loads the dataset (and, for data without ground truth that has a reference
-solution, that reference: ``compare.reference``), builds the estimator through the registry,
-feeds it every frame, times each step, and returns a RunRecord (nothing is written;
-``write_run_dir`` does that atomically). The same function runs in the CLI's process and in the
-grid runner's workers, so a cell of a grid and ``omnislam run`` with the same arguments give the
-same numbers.
+solution, that reference: ``compare.reference``), replays the shared front end's log when the
+dataset has images (``spec.log``, or the cached log ``frontend_log_for`` computes), builds the
+estimator through the registry, feeds it every frame, times each step, and returns a RunRecord.
+The RUN_DIR itself is written by ``write_run_dir``, atomically; what ``execute_run`` may write is
+cache: the front-end log of an image dataset run without ``--log`` (``cache_dir()/logs``) and
+the true points of a log's tracks next to the log (``LOG.truth.npz``). The same function runs in
+the CLI's process and in the grid runner's workers, so a cell of a grid and ``omnislam run``
+with the same arguments give the same numbers.
 
 Peak memory is measured per run: on Linux the process's resident-set high-water mark is reset
 before the run (``/proc/self/clear_refs``), so a worker process that runs several cells reports
@@ -15,41 +18,32 @@ each cell's own peak; elsewhere it is the process's peak so far (an upper bound)
 from __future__ import annotations
 
 import enum
+import hashlib
 import json
 import os
 import sys
 import tempfile
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, is_dataclass, replace
 from pathlib import Path
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
 import numpy as np
 
+from omnislam._files import safe_name
+from omnislam.compare.cache import LOGS, cache_dir
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction, reassign_ids
+from omnislam.compare.prior import PRIOR_MAP_OPTION, prior_map_from_run_dir
 from omnislam.compare.reference import reference_for
-from omnislam.compare.rundir import ESTIMATOR_INFO, GRAPH_G2O, RunConfig, RunRecord
+from omnislam.compare.rundir import ATTACHMENTS, ESTIMATOR_INFO, RunConfig, RunRecord
 from omnislam.core.modality import modalities_of
-from omnislam.core.types import UNKNOWN_ID, FrameInput
+from omnislam.core.types import UNKNOWN_ID, Exporting, Introspectable
 from omnislam.datasets.sequence import GroundTruth
 from omnislam.errors import ConfigError, DataError
 
 _STATUS = Path("/proc/self/status")
 _CLEAR_REFS = Path("/proc/self/clear_refs")
-
-
-@runtime_checkable
-class GraphExporter(Protocol):
-    """Optional protocol: an estimator with a factor graph exports it as g2o text.
-
-    ``execute_run`` stores the file as the RUN_DIR attachment ``graph.g2o`` and reports copy
-    it into their exports. Estimators without a graph simply do not implement it.
-    """
-
-    def export_g2o(self, path: Path) -> object:
-        """Write the current graph to ``path`` in g2o format."""
-        ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,7 +58,8 @@ class RunSpec:
             ``wrong_id_fraction`` to the harness (``compare.perturb``: re-label that fraction
             of the sightings with wrong ids), the others to the estimator.
         log: a front-end ObservationLog to replay instead of the dataset's own sightings
-            (the hook of the shared front end; None = the dataset's sightings).
+            (the hook of the shared front end). None: a dataset with images replays the
+            cached log of ``frontend_log_for``; one without keeps its own sightings.
     """
 
     dataset: str
@@ -106,23 +101,25 @@ def check_estimator(name: str) -> None:
     estimator_factory(name)
 
 
-def execute_run(spec: RunSpec) -> RunRecord:
+def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
     """Run ``spec.estimator`` on ``spec.dataset`` and return what a RUN_DIR holds.
 
     Args:
         spec: the run.
+        progress: say on stderr what takes time (running the front end, with a progress bar).
 
     Returns:
         RunRecord with the final estimate, per-step wall times [s] and the sequence's ground
         truth.
 
     Raises:
-        ConfigError: unknown estimator or option, a log that is not available.
+        ConfigError: unknown estimator or option, a log that is not available, no modality the
+            estimator can use on the data.
         DataError: missing or malformed data.
     """
     import omnislam
     from omnislam.datasets.registry import load_dataset, resolve
-    from omnislam.estimators import SequenceInfo, make_estimator
+    from omnislam.estimators import SequenceInfo, make_estimator, resolve_estimator_modality
 
     reset_peak_rss()
     check_estimator(spec.estimator)
@@ -130,40 +127,47 @@ def execute_run(spec: RunSpec) -> RunRecord:
     loader_keys = resolved.option_names()
     options = dict(spec.options)
     wrong_fraction = parse_fraction(options.pop(WRONG_ID_OPTION, "0"))
+    prior_run = options.pop(PRIOR_MAP_OPTION, None)
     dataset_options = {k: v for k, v in options.items() if k in loader_keys}
     estimator_options = {k: v for k, v in options.items() if k not in loader_keys}
     sequence = load_dataset(resolved, dataset_options)
+    if prior_run is not None:
+        sequence = replace(sequence, prior_map=prior_map_from_run_dir(prior_run))
     ground_truth, reference = reference_for(resolved.format, resolved.path, sequence)
-    if reference:  # computing it (when not cached) is not the run's memory
+    log = spec.log
+    if log is None:
+        computed = frontend_log_for(sequence, spec.dataset, cache_dir() / LOGS, progress)
+        log = None if computed is None else str(computed)
+    if reference or log is not None:  # computing them (when not cached) is not the run's memory
         reset_peak_rss()
-    if spec.log is None:
-        frames: Iterator[FrameInput] = sequence.frame_inputs()
-        modalities = modalities_of(sequence.frame_inputs())
+    if log is None:
+        frames = list(sequence.frame_inputs())
         track_truth = False
     else:
-        replay = _load_log(sequence, spec.log)
-        frames = iter(replay.frames)
-        modalities = modalities_of(replay.frames)
-        ground_truth, track_truth = _with_track_truth(sequence, replay, Path(spec.log))
+        replay = _load_log(sequence, log)
+        frames = list(sequence.frame_inputs(replay.frames))
+        ground_truth, track_truth = _with_track_truth(sequence, replay, Path(log))
     reassigned = 0
     if wrong_fraction > 0:
         # its own stream, so the estimator draws the same numbers with and without it
         perturb_rng = np.random.default_rng(np.random.SeedSequence(spec.seed).spawn(1)[0])
-        perturbed, reassigned = reassign_ids(frames, wrong_fraction, perturb_rng)
-        frames = iter(perturbed)
+        perturbed, reassigned = reassign_ids(iter(frames), wrong_fraction, perturb_rng)
+        frames = list(perturbed)
 
     sightings = [rb for rb in sequence.range_bearing or () if rb is not None and len(rb)]
     known = bool(sightings) and all(np.all(rb.landmark_ids != UNKNOWN_ID) for rb in sightings)
     info = SequenceInfo(
         name=sequence.name,
         frames=len(sequence),
-        modalities=modalities,
+        modalities=modalities_of(frames),
         known_association=known,
         sigma_range_m=float(sightings[0].sigma_range_m[0]) if sightings else None,
         sigma_bearing_rad=float(sightings[0].sigma_bearing_rad[0]) if sightings else None,
         sensor_height_m=_sensor_height_m(sequence.calibration),
+        prior_map=sequence.prior_map,
         facts=sequence.info,
     )
+    modality = resolve_estimator_modality(spec.estimator, info, estimator_options)
     rng = np.random.default_rng(spec.seed)
     estimator = make_estimator(spec.estimator, info, estimator_options, rng)
 
@@ -176,7 +180,7 @@ def execute_run(spec: RunSpec) -> RunRecord:
     start = clock()
     estimate = estimator.estimate()
     final_s = clock() - start
-    attachments = {**_export_graph(estimator), **_estimator_info(estimator)}
+    attachments = {**_attachments(estimator), **_estimator_info(estimator)}
 
     config = RunConfig(
         dataset=spec.dataset,
@@ -193,13 +197,52 @@ def execute_run(spec: RunSpec) -> RunRecord:
         seed=spec.seed,
         dataset_options=dataset_options,
         estimator_options=estimator_options,
-        landmark_ids_from_truth=(known and spec.log is None) or track_truth,
-        frontend_log=None if spec.log is None else str(spec.log),
-        frontend_config_hash=None if spec.log is None else _log_config_hash(spec.log),
+        landmark_ids_from_truth=(known and log is None) or track_truth,
+        frontend_log=None if log is None else str(log),
+        frontend_config_hash=None if log is None else _log_config_hash(log),
         wrong_id_fraction=wrong_fraction,
         sightings_reassigned=reassigned,
+        modality=None if modality is None else modality.value,
+        prior_map=prior_run,
     )
     return RunRecord(config, estimate, step_s, ground_truth, attachments)
+
+
+def log_file_name(dataset: str) -> str:
+    """File name of a dataset's front-end log: its last path component plus a short hash of the
+    full argument (two folders of the same name never share a log)."""
+    digest = hashlib.sha1(dataset.encode()).hexdigest()[:10]
+    return f"{safe_name(Path(dataset).name)}-{digest}.npz"
+
+
+def frontend_log_for(
+    sequence: Any, dataset: str, folder: Path, progress: bool = False
+) -> Path | None:
+    """The shared front end's log of a dataset with images, computed once and cached.
+
+    ``frontend.pipeline.cached_frontend`` writes (or reuses, when the dataset and the front
+    end's configuration are unchanged) ``folder/<log_file_name(dataset)>``. The grid runner
+    calls it once per dataset so that every cell replays the same observations; ``omnislam
+    run`` without ``--log`` calls it too, so a run and a grid cell measure the same experiment.
+
+    Returns:
+        The log's path, or None for a dataset without images (its own sightings are used).
+    """
+    if sequence.image_loader is None or not len(sequence.image_frames):
+        return None
+    from omnislam.frontend.pipeline import cached_frontend
+
+    path = folder / log_file_name(dataset)
+    if progress:
+        print(
+            f"omnislam: shared front end on {dataset} ({len(sequence.image_frames)} images; "
+            f"cached in {path})",
+            file=sys.stderr,
+            flush=True,
+        )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    cached_frontend(sequence, path, progress=progress)
+    return path
 
 
 def _sensor_height_m(calibration: object) -> float | None:
@@ -269,22 +312,22 @@ def _with_track_truth(sequence: Any, replay: Any, log: Path) -> tuple[GroundTrut
     return truth, True
 
 
-def _export_graph(estimator: object) -> dict[str, bytes]:
-    """The estimator's g2o export as an attachment, when it implements GraphExporter."""
-    if not isinstance(estimator, GraphExporter):
+def _attachments(estimator: object) -> dict[str, bytes]:
+    """The files an ``Exporting`` estimator exports (``graph.g2o``), by RUN_DIR file name."""
+    if not isinstance(estimator, Exporting):
         return {}
-    with tempfile.TemporaryDirectory(prefix="omnislam-g2o-") as tmp:
-        path = Path(tmp) / GRAPH_G2O
-        estimator.export_g2o(path)
-        return {GRAPH_G2O: path.read_bytes()} if path.is_file() else {}
+    files = dict(estimator.attachments())
+    unknown = sorted(set(files) - set(ATTACHMENTS))
+    if unknown:
+        raise ConfigError(f"estimator attachments not known to the RUN_DIR: {unknown}")
+    return files
 
 
 def _estimator_info(estimator: object) -> dict[str, bytes]:
-    """The estimator's ``info()`` record (a dataclass of counts) as a JSON attachment."""
-    info = getattr(estimator, "info", None)
-    if not callable(info):
+    """An ``Introspectable`` estimator's ``info()`` record (a dataclass of counts) as JSON."""
+    if not isinstance(estimator, Introspectable):
         return {}
-    record = info()
+    record = estimator.info()
     if not is_dataclass(record) or isinstance(record, type):
         return {}
     fields = {

@@ -24,19 +24,18 @@ problem, so a bad grid writes nothing.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
 
+from omnislam._files import safe_name
 from omnislam.compare.evaluation import EvaluationOptions
 from omnislam.compare.execute import RunSpec, check_estimator
 from omnislam.errors import ConfigError, OmnislamError
 
 _TOP_KEYS = {"name", "datasets", "estimators", "seeds", "overrides", "evaluation"}
-_SAFE = re.compile(r"[^A-Za-z0-9._=+-]+")
 
 
 @dataclass(frozen=True, slots=True)
@@ -90,11 +89,6 @@ def column_label(cell: Cell) -> str:
     if cell.override_label:
         return f"{cell.estimator_label} [{cell.override_label}]"
     return cell.estimator_label
-
-
-def safe_name(text: str) -> str:
-    """``text`` reduced to characters safe in a folder name."""
-    return _SAFE.sub("-", text).strip("-") or "x"
 
 
 def _options(raw: object, where: str, path: Path) -> dict[str, str]:

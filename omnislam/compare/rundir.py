@@ -85,6 +85,10 @@ class RunConfig:
         wrong_id_fraction: the harness re-labelled this fraction of the sightings with another
             landmark's id before the run (``compare.perturb``; 0 = the sightings as given).
         sightings_reassigned: how many sightings that re-labelled.
+        modality: the observation stream the estimator consumed (``core.modality``), None for
+            one that uses no sightings.
+        prior_map: the RUN_DIR whose landmarks were the prior map (``--set prior_map=``), or
+            None (the dataset's own prior map, if any).
     """
 
     dataset: str
@@ -106,6 +110,8 @@ class RunConfig:
     frontend_config_hash: str | None = None
     wrong_id_fraction: float = 0.0
     sightings_reassigned: int = 0
+    modality: str | None = None
+    prior_map: str | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -314,3 +314,60 @@ class Exporting(Protocol):
     def attachments(self) -> Mapping[str, bytes]:
         """File name -> content, after the last frame."""
         ...
+
+
+@dataclass(frozen=True, slots=True)
+class PriorMap:
+    """A map known before the run: what a localiser (the vertical-line UKF) localises against.
+
+    SLAM estimators ignore it. Landmarks are points in the world frame; vertical lines are
+    points on the floor plane (z = 0) whose line is vertical, optionally with the photometric
+    descriptors of Barra & Costa (mean colour left and right of the line, MC); walls are the
+    2-D segments that decide occlusion.
+
+    Attributes:
+        source: where it comes from, one line (e.g. "surveyed landmarks (MR.CLAM)").
+        landmark_ids: (M,) ids, matching the ids of the sightings when the data have ids.
+        points_w: (M, 3) positions in the world frame [m] (z = 0 for 2-D maps).
+        vertical_line: (M,) True where the landmark is a vertical line.
+        means_left, means_right: (M, 3) mean colour per band left/right of each vertical line
+            (NaN rows where unknown), or None when the map has no descriptors.
+        walls_w: (W, 2, 2) wall segments [[x0, y0], [x1, y1]] in the world frame [m].
+        initial_pose_w: (3,) pose [x, y, theta] of the run's first frame in the map's frame,
+            when known (a localiser starts there), else None.
+    """
+
+    source: str
+    landmark_ids: np.ndarray
+    points_w: np.ndarray
+    vertical_line: np.ndarray | None = None
+    means_left: np.ndarray | None = None
+    means_right: np.ndarray | None = None
+    walls_w: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+    initial_pose_w: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.initial_pose_w is not None:
+            pose = _frozen(self.initial_pose_w, float, (3,), "PriorMap.initial_pose_w")
+            _set(self, "initial_pose_w", pose)
+        ids = _frozen(self.landmark_ids, np.int64, (None,), "PriorMap.landmark_ids")
+        m = ids.shape[0]
+        if np.unique(ids).size != m:
+            raise DataError("PriorMap.landmark_ids must be unique")
+        _set(self, "landmark_ids", ids)
+        _set(self, "points_w", _frozen(self.points_w, float, (m, 3), "PriorMap.points_w"))
+        lines = np.zeros(m, dtype=bool) if self.vertical_line is None else self.vertical_line
+        _set(self, "vertical_line", _frozen(lines, bool, (m,), "PriorMap.vertical_line"))
+        if (self.means_left is None) != (self.means_right is None):
+            raise DataError("PriorMap: give both means_left and means_right, or neither")
+        if self.means_left is not None:
+            for name in ("means_left", "means_right"):
+                values = np.array(getattr(self, name), dtype=float)
+                if values.shape != (m, 3) or np.isinf(values).any():
+                    raise DataError(f"PriorMap.{name} must be ({m}, 3) without infinities")
+                values.setflags(write=False)
+                _set(self, name, values)
+        _set(self, "walls_w", _frozen(self.walls_w, float, (None, 2, 2), "PriorMap.walls_w"))
+
+    def __len__(self) -> int:
+        return int(self.landmark_ids.shape[0])

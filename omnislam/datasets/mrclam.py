@@ -32,7 +32,7 @@ import numpy as np
 
 from omnislam.core.ackermann import integrate_unicycle
 from omnislam.core.se import wrap_angle
-from omnislam.core.types import Trajectory
+from omnislam.core.types import PriorMap, Trajectory
 from omnislam.datasets._common import (
     Association,
     group_sightings,
@@ -233,6 +233,12 @@ def load_mrclam(
         if valid[0]:
             initial_pose = poses_true[0]
 
+    prior_map = PriorMap(
+        source="surveyed landmarks (MR.CLAM Landmark_Groundtruth.dat)",
+        landmark_ids=ground_truth.landmark_ids,
+        points_w=ground_truth.landmarks_w,
+        initial_pose_w=initial_pose,
+    )
     unknown = sightings.unknown_barcodes
     if unknown:
         log.warning(
@@ -263,6 +269,7 @@ def load_mrclam(
         ground_truth=ground_truth,
         initial_pose_w=initial_pose,
         range_bearing=range_bearing,
+        prior_map=prior_map,
         info=info,
     )
 

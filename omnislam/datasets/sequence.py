@@ -2,19 +2,31 @@
 
 A Sequence holds what the sensors gave (odometry, range-bearing sightings, laser scans, images
 read on demand) and the ground truth, aligned to one list of frame stamps. It never estimates.
-``frame_inputs()`` turns the sensor data that need no image processing into the FrameInput
-records estimators consume; the front end adds bearings from images on top.
+``frame_input(i, ...)`` is the one builder of the FrameInput records estimators consume: the
+loaders' direct sightings, and the front end's bearings, vertical lines and laser landmarks on
+top (``frame_inputs(observations)`` replays a front-end log with the sequence's own odometry).
+A sequence may carry a ``PriorMap`` (surveyed landmarks, a synthetic world's line map) for
+localisers.
 """
 
 from __future__ import annotations
 
 import enum
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from omnislam.core.types import FrameInput, Odometry, RangeBearing, Trajectory, _frozen
+from omnislam.core.types import (
+    Bearings,
+    FrameInput,
+    Odometry,
+    PriorMap,
+    RangeBearing,
+    Trajectory,
+    VerticalLines,
+    _frozen,
+)
 from omnislam.errors import DataError
 
 
@@ -85,6 +97,13 @@ class LaserScans:
         object.__setattr__(self, "max_range_m", float(self.max_range_m))
 
 
+class _Default:
+    """Marker type of "the loader's own sightings" in ``Sequence.frame_input``."""
+
+
+_DEFAULT = _Default()
+
+
 @dataclass(frozen=True, slots=True)
 class Sequence:
     """One run: frame stamps, odometry between frames, sensor data, ground truth.
@@ -109,6 +128,8 @@ class Sequence:
             true position of any keypoint, hence of every front-end landmark.
         calibration: the camera rig (``omnislam.camera``), or None.
         ground_truth: see GroundTruth.
+        prior_map: a map known before the run (surveyed landmarks, a world's line map and
+            walls), for localisers; None when the data have none.
         info: short facts for ``dataset list`` and reports (sensor names, counts, warnings).
     """
 
@@ -126,6 +147,7 @@ class Sequence:
     image_frames: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     point_map_loader: Callable[[int], np.ndarray] | None = None
     calibration: object | None = None
+    prior_map: PriorMap | None = None
     info: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -174,15 +196,67 @@ class Sequence:
             raise DataError(f"{self.name}: the sequence has no images")
         return self.image_loader(index)
 
-    def frame_inputs(self) -> Iterator[FrameInput]:
-        """Yield one FrameInput per frame with odometry and direct (non-image) sightings."""
-        for i in range(len(self)):
-            sightings = self.range_bearing[i] if self.range_bearing is not None else None
-            cov = None
-            if self.odometry_covariance_r is not None and i > 0:
-                cov = self.odometry_covariance_r[i]
-            yield FrameInput(
-                index=i,
-                odometry=Odometry(self.odometry_r[i], self.stamps_s[i], cov),
-                range_bearing=sightings,
+    def frame_input(
+        self,
+        index: int,
+        *,
+        bearings: Bearings | None = None,
+        range_bearing: RangeBearing | _Default | None = _DEFAULT,
+        vertical_lines: VerticalLines | None = None,
+    ) -> FrameInput:
+        """The FrameInput of frame ``index``: its odometry (with the stated covariance, from
+        frame 1 on) and sightings.
+
+        Args:
+            index: the frame.
+            bearings: omni bearings of the front end, or None.
+            range_bearing: range-bearing sightings; by default the loader's own
+                (``self.range_bearing[index]``); the front end passes those merged with its
+                laser landmarks.
+            vertical_lines: vertical lines of the front end, or None.
+        """
+        if isinstance(range_bearing, _Default):
+            range_bearing = self.range_bearing[index] if self.range_bearing is not None else None
+        cov = None
+        if self.odometry_covariance_r is not None and index > 0:
+            cov = self.odometry_covariance_r[index]
+        return FrameInput(
+            index=index,
+            odometry=Odometry(self.odometry_r[index], self.stamps_s[index], cov),
+            bearings=bearings,
+            range_bearing=range_bearing,
+            vertical_lines=vertical_lines,
+        )
+
+    def frame_inputs(
+        self, observations: Iterable[FrameInput] | None = None
+    ) -> Iterator[FrameInput]:
+        """Yield one FrameInput per frame.
+
+        Args:
+            observations: a front-end log's frames (one per frame, in order): their bearings,
+                range-bearing sightings and vertical lines replace the loader's sightings;
+                odometry always comes from the sequence. None: the loader's sightings only.
+
+        Raises:
+            DataError: the observations do not have one frame per frame of the sequence.
+        """
+        if observations is None:
+            for i in range(len(self)):
+                yield self.frame_input(i)
+            return
+        count = 0
+        for count, seen in enumerate(observations, start=1):
+            if seen.index != count - 1 or count > len(self):
+                raise DataError(
+                    f"{self.name}: observation frame {seen.index} does not follow frame "
+                    f"{count - 2} of {len(self)}"
+                )
+            yield self.frame_input(
+                seen.index,
+                bearings=seen.bearings,
+                range_bearing=seen.range_bearing,
+                vertical_lines=seen.vertical_lines,
             )
+        if count != len(self):
+            raise DataError(f"{self.name}: observations for {count} of {len(self)} frames")

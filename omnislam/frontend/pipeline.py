@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from omnislam.core.se import se2_compose
-from omnislam.core.types import Bearings, FrameInput, Odometry, RangeBearing
+from omnislam.core.se import se2_integrate
+from omnislam.core.types import Bearings, FrameInput, RangeBearing
 from omnislam.errors import DataError
 from omnislam.frontend.config import FrontendConfig, ScheduleConfig, ScheduleMode, config_hash
 from omnislam.frontend.config import config_to_dict as _config_to_dict
@@ -128,7 +128,7 @@ def run_frontend(
         mask = detection_mask(camera.mask(), (camera.height, camera.width))
         extractor = SiftExtractor(config.sift)
         tracker = LandmarkTracker(rig.viewpoint_r, config, rng, clock)
-        pose_dr = np.zeros(3)
+        poses_dr = se2_integrate(sequence.odometry_r)
         todo = set(processed.tolist())
         bar = None
         if progress:
@@ -136,8 +136,6 @@ def run_frontend(
 
             bar = tqdm(total=int(processed.size), desc="frontend", unit="img", file=sys.stderr)
         for i in range(n):
-            if i > 0:
-                pose_dr = se2_compose(pose_dr, sequence.odometry_r[i])
             if i not in todo:
                 continue
             with clock("load"):
@@ -150,7 +148,7 @@ def run_frontend(
                 rays_r = rig.rays_r(features.pixels)
             before = dict(clock.seconds)
             start = time.perf_counter()
-            tracked = tracker.process(features.descriptors, groups, rays_r, pose_dr)
+            tracked = tracker.process(features.descriptors, groups, rays_r, poses_dr[i])
             inner = sum(clock.seconds.get(k, 0.0) - before.get(k, 0.0) for k in clock.seconds)
             clock.add("track", time.perf_counter() - start - inner)
             idx = tracked.feature_index
@@ -175,16 +173,14 @@ def run_frontend(
         from omnislam.frontend.laser_landmarks import extract_laser_landmarks
 
         scans = sequence.laser
-        pose = np.zeros(3)
+        poses_dr = se2_integrate(sequence.odometry_r)
         with clock("laser"):
             for i in range(n):
-                if i > 0:
-                    pose = se2_compose(pose, sequence.odometry_r[i])
                 ranges = scans.ranges_m[i]
                 if np.all(np.isnan(ranges)):
                     continue
                 laser_sightings[i] = extract_laser_landmarks(
-                    scans.angles_rad, ranges, scans.max_range_m, config.laser, rng, pose
+                    scans.angles_rad, ranges, scans.max_range_m, config.laser, rng, poses_dr[i]
                 )
 
     keep_track = sightings >= config.tracks.min_track_length
@@ -202,9 +198,8 @@ def run_frontend(
             px = pix[ok]
             n_bearings.append(len(bearings))
         given = sequence.range_bearing[i] if sequence.range_bearing is not None else None
-        frames.append(FrameInput(
-            index=i,
-            odometry=Odometry(sequence.odometry_r[i], sequence.stamps_s[i]),
+        frames.append(sequence.frame_input(
+            i,
             bearings=bearings,
             range_bearing=_merge_sightings(given, laser_sightings.get(i)),
             vertical_lines=lines.get(i),

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from omnislam.core.se import se2_from_se3
-from omnislam.core.types import UNKNOWN_ID, RangeBearing
+from omnislam.core.types import UNKNOWN_ID, PriorMap, RangeBearing
 from omnislam.datasets._common import Association
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, LaserScans, Sequence
 from omnislam.datasets.synthetic.raycast import plane_distances
@@ -205,6 +205,18 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
         root / "images").is_dir() else []
     gt_traj = folder.groundtruth
     meta = folder.meta
+    world = folder.world
+    landmark_ids = landmarks[:, 0].astype(np.int64)
+    line_ids = {line.landmark_id for line in world.vertical_lines}
+    walls = np.array([[w.x0_m, w.y0_m, w.x1_m, w.y1_m] for w in world.walls_2d])
+    prior_map = PriorMap(
+        source="the world's 2-D map (landmarks.csv: poles and vertical lines; walls.csv)",
+        landmark_ids=landmark_ids,
+        points_w=landmarks[:, 1:4],
+        vertical_line=np.isin(landmark_ids, sorted(line_ids)),
+        walls_w=walls.reshape(-1, 2, 2),
+        initial_pose_w=se2_from_se3(gt_traj.poses_w[0]),
+    )
     return Sequence(
         name=root.name,
         source=f"synthetic preset {meta['preset']} (seed {meta['seed']}): {meta['source']}",
@@ -215,7 +227,7 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
         ground_truth=GroundTruth(
             kind=GroundTruthKind.EXACT,
             trajectory=gt_traj,
-            landmark_ids=landmarks[:, 0].astype(np.int64),
+            landmark_ids=landmark_ids,
             landmarks_w=landmarks[:, 1:4],
             note="exact: the renderer's own poses and landmark positions",
         ),
@@ -225,6 +237,7 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
         image_frames=np.array(images, dtype=np.int64),
         point_map_loader=(lambda i: folder.ground_truth_maps(i).points_w) if images else None,
         calibration=folder.rig,
+        prior_map=prior_map,
         info={
             "preset": str(meta["preset"]),
             "seed": str(meta["seed"]),
