@@ -80,7 +80,6 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
     "graphslam-batch": EstimatorEntry("omnislam.graphslam:make_batch_estimator", _GRAPH),
     "fastslam1": EstimatorEntry("omnislam.fastslam:make_fastslam1", _SLAM_2D_3D),
     "fastslam2": EstimatorEntry("omnislam.fastslam:make_fastslam2", _SLAM_2D_3D),
-    "ukf": EstimatorEntry("omnislam.ukf:make_estimator", frozenset({Modality.VERTICAL_LINES})),
     "ekfslam": EstimatorEntry(
         "omnislam.ekfslam:make_estimator", frozenset({Modality.RANGE_BEARING_2D})
     ),

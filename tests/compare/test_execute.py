@@ -4,8 +4,13 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+import pytest
+
 from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.compare.rundir import ESTIMATOR_INFO, read_run_dir, write_run_dir
+from omnislam.deadreckoning import DeadReckoning
+from omnislam.errors import ConfigError, DataError
 
 
 def test_graphslam_counts_are_written_next_to_the_estimate(shared_data, tmp_path):
@@ -16,11 +21,73 @@ def test_graphslam_counts_are_written_next_to_the_estimate(shared_data, tmp_path
     assert info["frames"] == record.config.frames
     assert info["landmarks"] == len(record.estimate.landmark_ids) == 15
     assert info["factorization_fallbacks"] == 0
-    assert read_run_dir(tmp_path / "run").attachments[ESTIMATOR_INFO] == (
-        tmp_path / "run" / ESTIMATOR_INFO
-    ).read_bytes()
+    assert (
+        read_run_dir(tmp_path / "run").attachments[ESTIMATOR_INFO]
+        == (tmp_path / "run" / ESTIMATOR_INFO).read_bytes()
+    )
 
 
 def test_an_estimator_without_info_writes_none(shared_data):
     record = execute_run(RunSpec("mrclam6-r1", "deadreckoning", seed=0))
     assert ESTIMATOR_INFO not in record.attachments
+
+
+def test_the_resolved_modality_is_recorded(shared_data):
+    record = execute_run(RunSpec("mrclam6-r1", "fastslam1", seed=0))
+    assert record.config.modality == "range-bearing-2d"
+    assert execute_run(RunSpec("mrclam6-r1", "deadreckoning")).config.modality is None
+
+
+def test_a_modality_the_data_lack_is_one_clear_error(shared_data):
+    spec = RunSpec("mrclam6-r1", "graphslam", options={"modality": "bearings-3d"})
+    with pytest.raises(ConfigError) as raised:
+        execute_run(spec)
+    assert "has: range-bearing-2d" in str(raised.value)
+    assert "\n" not in str(raised.value)
+
+
+def test_prior_map_from_an_earlier_run_reaches_the_estimator(shared_data, tmp_path, monkeypatch):
+    import omnislam.estimators as registry
+
+    mapped = execute_run(RunSpec("mrclam6-r1", "graphslam", seed=0))
+    write_run_dir(tmp_path / "map", mapped)
+    seen = {}
+
+    def capture(info, options, rng):
+        seen["info"] = info
+        return DeadReckoning()
+
+    monkeypatch.setattr(registry, "estimator_factory", lambda name: capture)
+    record = execute_run(
+        RunSpec("mrclam6-r1", "deadreckoning", options={"prior_map": str(tmp_path / "map")})
+    )
+    prior = seen["info"].prior_map
+    assert record.config.prior_map == str(tmp_path / "map")
+    assert np.array_equal(prior.landmark_ids, mapped.estimate.landmark_ids)
+    assert np.allclose(prior.points_w, mapped.estimate.landmarks_w, atol=1e-9)
+    assert np.allclose(prior.initial_pose_w, 0.0, atol=1e-12)
+
+
+def test_the_datasets_own_prior_map_reaches_the_estimator(shared_data, monkeypatch):
+    import omnislam.estimators as registry
+
+    seen = {}
+
+    def capture(info, options, rng):
+        seen["info"] = info
+        return DeadReckoning()
+
+    monkeypatch.setattr(registry, "estimator_factory", lambda name: capture)
+    execute_run(RunSpec("mrclam6-r1", "deadreckoning"))
+    assert len(seen["info"].prior_map) == 15
+
+
+def test_prior_map_of_a_missing_or_empty_run_is_refused(shared_data, tmp_path):
+    with pytest.raises(ConfigError, match="prior_map"):
+        execute_run(RunSpec("mrclam6-r1", "deadreckoning", options={"prior_map": "nope"}))
+    empty = execute_run(RunSpec("mrclam6-r1", "deadreckoning"))
+    write_run_dir(tmp_path / "dr", empty)
+    with pytest.raises(DataError, match="no landmarks"):
+        execute_run(
+            RunSpec("mrclam6-r1", "deadreckoning", options={"prior_map": str(tmp_path / "dr")})
+        )

@@ -112,3 +112,19 @@ def test_sift_matches_agree_with_the_ground_truth(demo_folder, demo_sim):
     correct = (ids >= 0) & (err < CORRECT_PX)
     assert correct.mean() >= 0.8, f"{correct.mean():.2f} of {len(good)} matches correct"
     assert np.median(err[correct]) <= 1.5
+
+
+def test_the_prior_map_is_the_worlds_2d_map(demo_folder):
+    from omnislam.datasets.synthetic.loader import SyntheticFolder, load_synthetic
+
+    sequence = load_synthetic(demo_folder)
+    prior, world = sequence.prior_map, SyntheticFolder(demo_folder).world
+    assert prior is not None
+    assert np.array_equal(prior.landmark_ids, sequence.ground_truth.landmark_ids)
+    lines = {line.landmark_id: (line.x_m, line.y_m) for line in world.vertical_lines}
+    assert set(prior.landmark_ids[prior.vertical_line].tolist()) == set(lines)
+    for lid, point in zip(prior.landmark_ids.tolist(), prior.points_w, strict=True):
+        if lid in lines:
+            assert np.allclose(point, [*lines[lid], 0.0])
+    assert len(prior.walls_w) == len(world.walls_2d) > 0
+    assert np.allclose(prior.initial_pose_w, sequence.initial_pose_w)

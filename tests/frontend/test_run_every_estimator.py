@@ -1,0 +1,51 @@
+"""``omnislam run SYNTH --estimator X --out R`` works for every registered estimator.
+
+A rendered omni folder carries two streams (the front end's bearings and the pole sightings);
+without ``--log`` the run computes (once, cached) and replays the shared front end's log, and
+the one modality rule picks the omni bearings for every estimator that consumes them.
+"""
+
+from __future__ import annotations
+
+import pytest
+import yaml
+
+from omnislam.cli import main
+from omnislam.compare.rundir import CONFIG, GRAPH_G2O
+from omnislam.core.modality import Modality
+from omnislam.estimators import ESTIMATORS
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def runs(demo_folder, tmp_path_factory):
+    out = tmp_path_factory.mktemp("runs")
+    codes = {}
+    for name in ESTIMATORS:
+        codes[name] = main(
+            ["run", str(demo_folder), "--estimator", name, "--out", str(out / name), "--seed", "0"]
+        )
+    return out, codes
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_runs_without_flags_on_the_shared_front_end(runs, name):
+    out, codes = runs
+    assert codes[name] == 0
+    config = yaml.safe_load((out / name / CONFIG).read_text())
+    assert config["frontend_log"]  # the front end's log, not the pole sightings alone
+    expected = {Modality.BEARINGS_3D} & ESTIMATORS[name].modalities
+    if ESTIMATORS[name].modalities:
+        assert Modality(config["modality"]) in (expected or ESTIMATORS[name].modalities)
+    else:
+        assert config["modality"] is None
+
+
+def test_graphslam_exports_a_graph_gtsam_reads(runs):
+    gtsam = pytest.importorskip("gtsam")
+    out, _ = runs
+    path = out / "graphslam" / GRAPH_G2O
+    assert path.is_file()
+    graph, values = gtsam.readG2o(str(path), True)
+    assert graph.size() > 0 and values.size() > 0

@@ -1,0 +1,106 @@
+"""omnislam's own layer order: every import (top-level or lazy) points down or sideways.
+
+``core`` <- ``camera`` <- ``datasets``, ``frontend`` <- estimators <- ``compare`` <- ``cli``
+(DESIGN.md), with the package's base modules (errors, optional extras, file helpers) below
+everything; an estimator package never imports another estimator package, so shared algebra
+has to live in ``core``.
+"""
+
+import ast
+from pathlib import Path
+
+import omnislam
+
+ROOT = Path(omnislam.__file__).parent
+BASE = ("omnislam.errors", "omnislam._optional", "omnislam._files")
+ESTIMATOR_PACKAGES = (
+    "omnislam.graphslam",
+    "omnislam.fastslam",
+    "omnislam.ukf",
+    "omnislam.ekfslam",
+    "omnislam.deadreckoning",
+)
+LAYERS = (
+    BASE,
+    ("omnislam.core",),
+    ("omnislam.camera",),
+    ("omnislam.datasets", "omnislam.frontend"),
+    (*ESTIMATOR_PACKAGES, "omnislam.estimators", "omnislam.options"),
+    ("omnislam.compare",),
+    ("omnislam.cli", "omnislam.__main__"),
+)
+
+
+def _owner(module: str, groups: tuple[str, ...]) -> str | None:
+    return next((g for g in groups if module == g or module.startswith(g + ".")), None)
+
+
+def layer_of(module: str) -> int | None:
+    for level, groups in enumerate(LAYERS):
+        if _owner(module, groups) is not None:
+            return level
+    return None
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def imports_of(path: Path) -> set[str]:
+    """Every omnislam module ``path`` imports, at any depth of the file (lazy imports too)."""
+    tree = ast.parse(path.read_text())
+    package = module_name(path) if path.name == "__init__.py" else module_name(path.parent)
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                found.add(".".join([*base, node.module] if node.module else base))
+            elif node.module:
+                found.add(node.module)
+    return {name for name in found if name == "omnislam" or name.startswith("omnislam.")}
+
+
+def violations() -> list[str]:
+    bad = []
+    for path in sorted(ROOT.rglob("*.py")):
+        source = module_name(path)
+        level = layer_of(source)
+        if source == "omnislam":
+            continue
+        assert level is not None, f"{source} belongs to no layer: add it to LAYERS"
+        for target in sorted(imports_of(path)):
+            if target == "omnislam":
+                continue
+            target_level = layer_of(target)
+            assert target_level is not None, f"{source} imports {target}, which has no layer"
+            if target_level > level:
+                bad.append(f"{source} -> {target} (layer {level} imports layer {target_level})")
+            own = _owner(source, ESTIMATOR_PACKAGES)
+            other = _owner(target, ESTIMATOR_PACKAGES)
+            if own is not None and other is not None and own != other:
+                bad.append(f"{source} -> {target} (one estimator imports another)")
+    return bad
+
+
+def test_every_module_has_a_layer_and_imports_point_down():
+    assert violations() == []
+
+
+def test_the_checker_sees_lazy_and_relative_imports(tmp_path):
+    sample = tmp_path / "omnislam" / "core" / "sample.py"
+    sample.parent.mkdir(parents=True)
+    sample.write_text(
+        "def f():\n    from omnislam.compare import report\n"
+        "from . import se\nimport omnislam.cli\n"
+    )
+    global ROOT
+    saved, ROOT = ROOT, tmp_path / "omnislam"
+    try:
+        assert imports_of(sample) == {"omnislam.compare", "omnislam.core", "omnislam.cli"}
+    finally:
+        ROOT = saved
+    assert layer_of("omnislam.compare.report") > layer_of("omnislam.core.se")
