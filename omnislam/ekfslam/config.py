@@ -27,6 +27,12 @@ class EKFSLAMConfig:
         gate_probability: the validation gate nu^T S^-1 nu <= lambda with lambda the chi-square
             quantile (2 dof) of this probability ("Associação de dados"); 0.99 -> lambda = 9.21.
             Sightings without ids only.
+        new_landmark_gate_probability: a sighting of unknown id outside the validation gate of
+            every landmark but inside this wider gate (chi-square quantile, 2 dof; 0.99999 ->
+            23.0) of one of them is ambiguous: it is discarded instead of starting a new
+            landmark. Without it, a landmark whose estimate has become overconfident (the EKF's
+            linearisation at loop closure) is duplicated as soon as two sightings miss its gate.
+            Must be >= ``gate_probability``.
         min_sightings: N of "Associação de dados": a sighting of unknown id is associated only
             with landmarks seen at least N times; a landmark seen fewer times is tentative (kept
             outside the filter state) and enters the state (augmentation, "Passo 3") at its N-th
@@ -45,6 +51,7 @@ class EKFSLAMConfig:
     motion_noise: MotionNoise = field(default_factory=MotionNoise)
     initial_pose_sigma: tuple[float, float, float] = (1e-3, 1e-3, 1e-3)
     gate_probability: float = 0.99
+    new_landmark_gate_probability: float = 0.99999
     min_sightings: int = 2
     tentative_window_frames: int = 20
     known_gate_probability: float = 1.0
@@ -54,6 +61,11 @@ class EKFSLAMConfig:
     def __post_init__(self) -> None:
         if not 0.0 < self.gate_probability < 1.0:
             raise ConfigError(f"gate_probability must be in (0, 1), got {self.gate_probability}")
+        if not self.gate_probability <= self.new_landmark_gate_probability < 1.0:
+            raise ConfigError(
+                "new_landmark_gate_probability must be in [gate_probability, 1), "
+                f"got {self.new_landmark_gate_probability}"
+            )
         if not 0.0 < self.known_gate_probability <= 1.0:
             raise ConfigError(
                 f"known_gate_probability must be in (0, 1], got {self.known_gate_probability}"

@@ -38,6 +38,8 @@ class EKFSLAMInfo:
         associated: sightings that updated the state (by id or through the gate).
         gated: sightings of unknown id outside every state landmark's gate (they went to the
             tentative landmarks), plus sightings with ids rejected by ``known_gate_probability``.
+        ambiguous: sightings of unknown id outside every validation gate but inside the wider
+            new-landmark gate of a landmark: discarded.
         created: landmarks added to the state (augmentations).
         tentative_created: tentative landmarks started (sightings that matched nothing).
         tentative_dropped: tentative landmarks dropped, not re-observed within the window.
@@ -49,6 +51,7 @@ class EKFSLAMInfo:
     sightings: int
     associated: int
     gated: int
+    ambiguous: int
     created: int
     tentative_created: int
     tentative_dropped: int
@@ -82,6 +85,7 @@ class EKFSLAM:
             start, np.diag(sigma**2), self.config.initial_landmark_capacity, self.model
         )
         self._gate = chi_square_gate(self.config.gate_probability, 2)
+        self._new_gate = chi_square_gate(self.config.new_landmark_gate_probability, 2)
         self._known_gate = chi_square_gate(self.config.known_gate_probability, 2)
         self._slot_ids: list[int] = []  # landmark id of each state slot
         self._slot_of_id: dict[int, int] = {}
@@ -92,7 +96,16 @@ class EKFSLAM:
         self._poses: list[np.ndarray] = []
         self._pose_covs: list[np.ndarray] = []
         self._counts = dict.fromkeys(
-            ("sightings", "associated", "gated", "created", "tentative_created", "dropped"), 0
+            (
+                "sightings",
+                "associated",
+                "gated",
+                "ambiguous",
+                "created",
+                "tentative_created",
+                "dropped",
+            ),
+            0,
         )
 
     # -- Estimator protocol ---------------------------------------------------------------------
@@ -140,6 +153,7 @@ class EKFSLAM:
             sightings=c["sightings"],
             associated=c["associated"],
             gated=c["gated"],
+            ambiguous=c["ambiguous"],
             created=c["created"],
             tentative_created=c["tentative_created"],
             tentative_dropped=c["dropped"],
@@ -184,7 +198,10 @@ class EKFSLAM:
             best = nearest_gated(d2, self._gate)
             if best is None:
                 self._counts["gated"] += 1
-                unmatched.append(row)
+                if d2.size and d2.min() <= self._new_gate:
+                    self._counts["ambiguous"] += 1
+                else:
+                    unmatched.append(row)
                 continue
             slot = int(candidates[best])
             used.add(slot)
