@@ -1,0 +1,95 @@
+"""Data association of SLAM for Dummies ("Associação de dados"): nearest neighbour + gate + counter.
+
+The tutorial's policy for sightings without ids:
+
+1. each sighting is paired with the nearest landmark seen at least N times;
+2. the pair passes the validation gate nu^T S^-1 nu <= lambda: the same landmark, re-observed;
+3. otherwise the sighting is a new landmark with its counter set to 1.
+
+Here "nearest" is the smallest Mahalanobis distance among the gated pairs (the tutorial notes it
+is better than the Euclidean one it used), and a landmark seen fewer than N times is *tentative*:
+it is kept outside the filter state (``TentativeLandmarks``), matched by the same gate on world
+positions, and enters the state at its N-th sighting. A tentative landmark not re-observed
+within a window of frames is dropped. ``nearest_gated`` chooses among landmarks of the state,
+``TentativeLandmarks`` holds the others.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def nearest_gated(d2: np.ndarray, gate: float) -> int | None:
+    """Index of the smallest squared Mahalanobis distance ``d2`` if it is inside ``gate``."""
+    if d2.size == 0:
+        return None
+    best = int(np.argmin(d2))
+    return best if d2[best] <= gate else None
+
+
+@dataclass
+class TentativeLandmarks:
+    """Landmarks seen fewer than N times: world positions, covariances and counters.
+
+    Each candidate stores the world point of its latest sighting, l = g(x_r, z), with the
+    covariance J_xr P_rr J_xr^T + J_z R J_z^T of that point (robot and sighting uncertainty);
+    a new point matches a candidate when the squared Mahalanobis distance of their difference
+    under the sum of the two covariances is inside the gate (the correlation through the robot
+    pose is ignored: the test is conservative, it accepts more than the exact one).
+    """
+
+    points_w: list[np.ndarray] = field(default_factory=list)
+    covariances: list[np.ndarray] = field(default_factory=list)
+    counts: list[int] = field(default_factory=list)
+    last_frame: list[int] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.counts)
+
+    def match(
+        self, point_w: np.ndarray, cov: np.ndarray, gate: float, taken: set[int]
+    ) -> int | None:
+        """The nearest candidate (Mahalanobis) inside ``gate``, not among ``taken``, or None."""
+        if not self.counts:
+            return None
+        diff = np.asarray(self.points_w) - point_w  # (k, 2)
+        S = np.asarray(self.covariances) + cov  # (k, 2, 2)
+        d2 = np.einsum("ki,kij,kj->k", diff, np.linalg.inv(S), diff)
+        if taken:
+            d2[list(taken)] = np.inf
+        return nearest_gated(d2, gate)
+
+    def add(self, point_w: np.ndarray, cov: np.ndarray, frame: int) -> int:
+        """A new candidate seen once; returns its index."""
+        self.points_w.append(np.asarray(point_w, dtype=float))
+        self.covariances.append(np.asarray(cov, dtype=float))
+        self.counts.append(1)
+        self.last_frame.append(frame)
+        return len(self.counts) - 1
+
+    def observe(self, index: int, point_w: np.ndarray, cov: np.ndarray, frame: int) -> int:
+        """Count one more sighting of candidate ``index`` (latest point kept); returns the count."""
+        self.points_w[index] = np.asarray(point_w, dtype=float)
+        self.covariances[index] = np.asarray(cov, dtype=float)
+        self.counts[index] += 1
+        self.last_frame[index] = frame
+        return self.counts[index]
+
+    def remove(self, indices: list[int]) -> None:
+        """Forget the candidates at ``indices``."""
+        drop = set(indices)
+        keep = [i for i in range(len(self.counts)) if i not in drop]
+        self.points_w = [self.points_w[i] for i in keep]
+        self.covariances = [self.covariances[i] for i in keep]
+        self.counts = [self.counts[i] for i in keep]
+        self.last_frame = [self.last_frame[i] for i in keep]
+
+    def drop_stale(self, frame: int, window: int) -> int:
+        """Drop candidates last seen more than ``window`` frames before ``frame``; returns how
+        many were dropped."""
+        stale = [i for i, last in enumerate(self.last_frame) if frame - last > window]
+        if stale:
+            self.remove(stale)
+        return len(stale)

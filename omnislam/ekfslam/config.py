@@ -1,0 +1,86 @@
+"""Configuration of the EKF-SLAM baseline: one frozen dataclass with documented defaults.
+
+One set of defaults serves every dataset: the sighting noise comes from the data
+(``RangeBearing.sigma_range_m`` / ``sigma_bearing_rad`` per sighting), the odometry noise from the
+shared motion model (or from the log's own odometry covariance, when it states one).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+from omnislam.core.motion import MotionNoise
+from omnislam.errors import ConfigError
+
+
+@dataclass(frozen=True, slots=True)
+class EKFSLAMConfig:
+    """Everything the EKF-SLAM estimator needs.
+
+    Attributes:
+        motion_noise: alpha coefficients of the shared odometry model (thesis eqs. 4.40-4.41),
+            the process noise Q of SLAM for Dummies' "Passo 1"; the same defaults as the other
+            back ends. Unused for frames whose odometry carries its own covariance.
+        initial_pose_sigma: std of the first pose (x, y, theta) [m, m, rad]. SLAM for Dummies
+            ("A matriz de covariância") advises a small non-zero initial uncertainty; 1 mm /
+            1 mrad, like graphslam's prior on the first pose, anchors the map frame there.
+        gate_probability: the validation gate nu^T S^-1 nu <= lambda with lambda the chi-square
+            quantile (2 dof) of this probability ("Associação de dados"); 0.99 -> lambda = 9.21.
+            Sightings without ids only.
+        new_landmark_gate_probability: a sighting of unknown id outside the validation gate of
+            every landmark but inside this wider gate (chi-square quantile, 2 dof; 0.99999 ->
+            23.0) of one of them is ambiguous: it is discarded instead of starting a new
+            landmark. Without it, a landmark whose estimate has become overconfident (the EKF's
+            linearisation at loop closure) is duplicated as soon as two sightings miss its gate.
+            Must be >= ``gate_probability``.
+        min_sightings: N of "Associação de dados": a sighting of unknown id is associated only
+            with landmarks seen at least N times; a landmark seen fewer times is tentative (kept
+            outside the filter state) and enters the state (augmentation, "Passo 3") at its N-th
+            sighting. 1: every unmatched sighting becomes a landmark at once.
+        tentative_window_frames: a tentative landmark not re-observed within this many frames
+            is dropped (a spurious detection).
+        known_gate_probability: an optional outlier gate for sightings *with* ids: an update
+            whose innovation lies outside the chi-square quantile of this probability is
+            skipped. 1.0 (default): ids are trusted and every sighting is used.
+        ignore_ids: treat every sighting as of unknown id (nearest-neighbour association even
+            when the data carry ids).
+        initial_landmark_capacity: landmark slots preallocated in the state; the arrays double
+            when full.
+    """
+
+    motion_noise: MotionNoise = field(default_factory=MotionNoise)
+    initial_pose_sigma: tuple[float, float, float] = (1e-3, 1e-3, 1e-3)
+    gate_probability: float = 0.99
+    new_landmark_gate_probability: float = 0.99999
+    min_sightings: int = 2
+    tentative_window_frames: int = 20
+    known_gate_probability: float = 1.0
+    ignore_ids: bool = False
+    initial_landmark_capacity: int = 64
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.gate_probability < 1.0:
+            raise ConfigError(f"gate_probability must be in (0, 1), got {self.gate_probability}")
+        if not self.gate_probability <= self.new_landmark_gate_probability < 1.0:
+            raise ConfigError(
+                "new_landmark_gate_probability must be in [gate_probability, 1), "
+                f"got {self.new_landmark_gate_probability}"
+            )
+        if not 0.0 < self.known_gate_probability <= 1.0:
+            raise ConfigError(
+                f"known_gate_probability must be in (0, 1], got {self.known_gate_probability}"
+            )
+        if self.min_sightings < 1:
+            raise ConfigError(f"min_sightings must be >= 1, got {self.min_sightings}")
+        if self.tentative_window_frames < 1:
+            raise ConfigError(
+                f"tentative_window_frames must be >= 1, got {self.tentative_window_frames}"
+            )
+        if len(self.initial_pose_sigma) != 3 or min(self.initial_pose_sigma) < 0:
+            raise ConfigError("initial_pose_sigma must be three non-negative stds")
+        if self.initial_landmark_capacity < 1:
+            raise ConfigError("initial_landmark_capacity must be >= 1")
+
+    def with_(self, **changes: object) -> EKFSLAMConfig:
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)

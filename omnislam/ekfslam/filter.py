@@ -1,0 +1,257 @@
+"""EKF-SLAM, the baseline of "SLAM for Dummies" (Riisgaard & Blas), as an omnislam Estimator.
+
+Per frame (tutorial, "Perspetiva do processo"): (1) predict with the odometry; (2) update with
+the sightings of landmarks already in the state; (3) add new landmarks to the state. Sightings
+with ids are associated by id (a new id is augmented at once); sightings of unknown id
+(``UNKNOWN_ID``) by the tutorial's nearest neighbour with validation gate and counter
+(``association``). The Gaussian and the three steps are in ``state.SlamGaussian``.
+
+Within a frame every update uses the state corrected by the previous ones (sequential updates);
+new landmarks are added after all updates of the frame, from the corrected pose. Landmarks
+created from sightings of unknown id get the smallest ids not used yet (a log should not mix
+sightings with and without ids of the same landmarks).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.motion import OdometryMotionModel
+from omnislam.core.types import UNKNOWN_ID, Estimate, FrameInput, RangeBearing, Trajectory
+from omnislam.ekfslam.association import TentativeLandmarks, nearest_gated
+from omnislam.ekfslam.config import EKFSLAMConfig
+from omnislam.ekfslam.gating import chi_square_gate
+from omnislam.ekfslam.state import SlamGaussian
+
+
+@dataclass(frozen=True, slots=True)
+class EKFSLAMInfo:
+    """What the filter did so far (``estimator_info.json``).
+
+    Attributes:
+        landmarks: landmarks in the state.
+        tentative: landmarks of unknown id seen fewer than N times, waiting outside the state.
+        sightings: sightings consumed.
+        associated: sightings that updated the state (by id or through the gate).
+        gated: sightings of unknown id outside every state landmark's gate (they went to the
+            tentative landmarks), plus sightings with ids rejected by ``known_gate_probability``.
+        ambiguous: sightings of unknown id outside every validation gate but inside the wider
+            new-landmark gate of a landmark: discarded.
+        created: landmarks added to the state (augmentations).
+        tentative_created: tentative landmarks started (sightings that matched nothing).
+        tentative_dropped: tentative landmarks dropped, not re-observed within the window.
+        capacity: landmark slots allocated.
+    """
+
+    landmarks: int
+    tentative: int
+    sightings: int
+    associated: int
+    gated: int
+    ambiguous: int
+    created: int
+    tentative_created: int
+    tentative_dropped: int
+    capacity: int
+
+
+class EKFSLAM:
+    """EKF-SLAM over 2-D point landmarks seen by range and bearing.
+
+    Args:
+        config: the filter's configuration.
+        motion: the odometry motion model used for prediction (injected; by default the shared
+            model with ``config.motion_noise``).
+        initial_pose_w: (3,) pose of the first frame; the origin by default (evaluation aligns).
+    """
+
+    name = "ekfslam"
+
+    def __init__(
+        self,
+        config: EKFSLAMConfig | None = None,
+        motion: OdometryMotionModel | None = None,
+        initial_pose_w: np.ndarray | None = None,
+    ) -> None:
+        self.config = EKFSLAMConfig() if config is None else config
+        self.motion = OdometryMotionModel(self.config.motion_noise) if motion is None else motion
+        self.model = RangeBearing2D()
+        start = np.zeros(3) if initial_pose_w is None else np.asarray(initial_pose_w, float)
+        sigma = np.asarray(self.config.initial_pose_sigma, dtype=float)
+        self.state = SlamGaussian(
+            start, np.diag(sigma**2), self.config.initial_landmark_capacity, self.model
+        )
+        self._gate = chi_square_gate(self.config.gate_probability, 2)
+        self._new_gate = chi_square_gate(self.config.new_landmark_gate_probability, 2)
+        self._known_gate = chi_square_gate(self.config.known_gate_probability, 2)
+        self._slot_ids: list[int] = []  # landmark id of each state slot
+        self._slot_of_id: dict[int, int] = {}
+        self._next_id = 0
+        self._tentative = TentativeLandmarks()
+        self._frames = 0
+        self._stamps_s: list[float] = []
+        self._poses: list[np.ndarray] = []
+        self._pose_covs: list[np.ndarray] = []
+        self._counts = dict.fromkeys(
+            (
+                "sightings",
+                "associated",
+                "gated",
+                "ambiguous",
+                "created",
+                "tentative_created",
+                "dropped",
+            ),
+            0,
+        )
+
+    # -- Estimator protocol ---------------------------------------------------------------------
+
+    def step(self, frame: FrameInput) -> None:
+        """Predict with the frame's odometry (not for the first frame, which sits at the initial
+        pose), update with its range-bearing sightings, add new landmarks."""
+        if self._frames > 0:
+            odometry = frame.odometry
+            self.state.predict(self.motion, odometry.delta, odometry.covariance)
+        sightings = frame.range_bearing
+        if sightings is not None and len(sightings):
+            self._observe(sightings)
+        self._counts["dropped"] += self._tentative.drop_stale(
+            self._frames, self.config.tentative_window_frames
+        )
+        self._frames += 1
+        self._stamps_s.append(frame.stamp_s)
+        self._poses.append(self.state.pose)
+        self._pose_covs.append(self.state.pose_cov)
+
+    def estimate(self) -> Estimate:
+        """The filtered pose of every frame (the estimate at that frame, not smoothed) with its
+        covariance, and the current map with the landmark covariances (z = 0)."""
+        poses = np.asarray(self._poses).reshape(-1, 3)
+        n = self.state.n_landmarks
+        landmarks_w = np.zeros((n, 3))
+        landmarks_w[:, :2] = self.state.landmarks
+        covs = np.zeros((n, 3, 3))
+        covs[:, :2, :2] = self.state.landmark_covariances()
+        return Estimate(
+            trajectory=Trajectory.from_se2(np.asarray(self._stamps_s), poses),
+            landmark_ids=np.asarray(self._slot_ids, dtype=np.int64),
+            landmarks_w=landmarks_w,
+            landmark_covariances=covs,
+            pose_covariances=np.asarray(self._pose_covs).reshape(-1, 3, 3),
+        )
+
+    def info(self) -> EKFSLAMInfo:
+        """The counts so far."""
+        c = self._counts
+        return EKFSLAMInfo(
+            landmarks=self.state.n_landmarks,
+            tentative=len(self._tentative),
+            sightings=c["sightings"],
+            associated=c["associated"],
+            gated=c["gated"],
+            ambiguous=c["ambiguous"],
+            created=c["created"],
+            tentative_created=c["tentative_created"],
+            tentative_dropped=c["dropped"],
+            capacity=self.state.capacity,
+        )
+
+    # -- one frame's sightings ------------------------------------------------------------------
+
+    def _observe(self, sightings: RangeBearing) -> None:
+        state = self.state
+        z_all = np.column_stack([sightings.ranges_m, sightings.bearings_rad])
+        R_all = np.zeros((len(sightings), 2, 2))
+        R_all[:, 0, 0] = sightings.sigma_range_m**2
+        R_all[:, 1, 1] = sightings.sigma_bearing_rad**2
+        ids = sightings.landmark_ids
+        if self.config.ignore_ids:
+            ids = np.full_like(ids, UNKNOWN_ID)
+        self._counts["sightings"] += len(sightings)
+        new_known: list[tuple[int, int]] = []  # (row, id) of ids not in the state yet
+        unmatched: list[int] = []  # rows of unknown-id sightings outside every gate
+        used: set[int] = set()  # state slots updated in this frame (one sighting each)
+        for row, landmark_id in enumerate(ids.tolist()):
+            z, R = z_all[row], R_all[row]
+            if landmark_id != UNKNOWN_ID:
+                slot = self._slot_of_id.get(landmark_id)
+                if slot is None:
+                    if all(landmark_id != other for _, other in new_known):
+                        new_known.append((row, landmark_id))
+                    continue
+                if np.isfinite(self._known_gate):
+                    d2, _ = state.mahalanobis_all(z, R, np.array([slot]))
+                    if d2[0] > self._known_gate:
+                        self._counts["gated"] += 1
+                        continue
+                state.update(slot, z, R)
+                self._counts["associated"] += 1
+                continue
+            free = np.ones(state.n_landmarks, dtype=bool)
+            free[list(used)] = False
+            candidates = np.flatnonzero(free)
+            d2, _ = state.mahalanobis_all(z, R, candidates)
+            best = nearest_gated(d2, self._gate)
+            if best is None:
+                self._counts["gated"] += 1
+                if d2.size and d2.min() <= self._new_gate:
+                    self._counts["ambiguous"] += 1
+                else:
+                    unmatched.append(row)
+                continue
+            slot = int(candidates[best])
+            used.add(slot)
+            state.update(slot, z, R)
+            self._counts["associated"] += 1
+        if len(sightings):
+            state.symmetrise()
+        # Passo 3: new landmarks, from the pose corrected by this frame's updates
+        for row, landmark_id in new_known:
+            self._add_landmark(z_all[row], R_all[row], landmark_id)
+        self._tentative_step(unmatched, z_all, R_all)
+
+    def _tentative_step(self, rows: list[int], z_all: np.ndarray, R_all: np.ndarray) -> None:
+        """Match unmatched sightings to tentative landmarks (the tutorial's counter); promote a
+        candidate into the state at its N-th sighting."""
+        if not rows:
+            return
+        state = self.state
+        pose, P_rr = state.pose, state.pose_cov
+        taken: set[int] = set()
+        promote: list[tuple[int, int]] = []  # (candidate index, row)
+        for row in rows:
+            z, R = z_all[row], R_all[row]
+            point, J_xr, J_z = self.model.inverse(pose, z)
+            cov = J_xr @ P_rr @ J_xr.T + J_z @ R @ J_z.T
+            index = self._tentative.match(point, cov, self._gate, taken)
+            if index is None:
+                if self.config.min_sightings <= 1:
+                    self._add_landmark(z, R, None)
+                    continue
+                index = self._tentative.add(point, cov, self._frames)
+                self._counts["tentative_created"] += 1
+                taken.add(index)
+                continue
+            taken.add(index)
+            if (
+                self._tentative.observe(index, point, cov, self._frames)
+                >= self.config.min_sightings
+            ):
+                promote.append((index, row))
+        for _, row in promote:
+            self._add_landmark(z_all[row], R_all[row], None)
+        self._tentative.remove([index for index, _ in promote])
+
+    def _add_landmark(self, z: np.ndarray, R: np.ndarray, landmark_id: int | None) -> None:
+        slot = self.state.augment(z, R)
+        if landmark_id is None:
+            while self._next_id in self._slot_of_id:
+                self._next_id += 1
+            landmark_id = self._next_id
+        self._slot_ids.append(int(landmark_id))
+        self._slot_of_id[int(landmark_id)] = slot
+        self._counts["created"] += 1

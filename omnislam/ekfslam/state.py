@@ -1,0 +1,282 @@
+"""The EKF-SLAM Gaussian: the joint state [x_r, y_r, theta_r, x_1, y_1, ...] and its covariance.
+
+SLAM for Dummies ("O EKF", "As matrizes"): the state X holds the robot pose and the position of
+every landmark, P their joint covariance. Both live in preallocated arrays whose capacity doubles
+when a landmark does not fit, so augmentation never reallocates per landmark. The three EKF steps
+touch only what the sparse structure of the models requires:
+
+* ``predict`` (tutorial "Passo 1"): the odometry moves only the robot, so only the robot block
+  P_rr and the robot-map cross-covariances P_rm change: O(n) for n landmarks.
+* ``update`` (tutorial "Passo 2"): a sighting of landmark i has a Jacobian H with non-zeros only
+  in the robot's three and the landmark's two columns (the tutorial's H_i); P H^T is gathered
+  from those five columns of P (O(n)) and the covariance is corrected by a rank-4 product: O(n^2),
+  never a dense 2 x (3 + 2n) H times P.
+* ``augment`` (tutorial "Passo 3", left as TODO in the translation; SEEDS.md errata): a new
+  landmark l = g(x_r, z) enters with the Jacobians J_xr and J_z of "As jacobianas específicas do
+  SLAM": P_ll = J_xr P_rr J_xr^T + J_z R J_z^T, P_lx = J_xr P_rx. O(n).
+
+All angles are in radians; the robot heading stays wrapped to [-pi, pi).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.motion import OdometryMotionModel
+from omnislam.core.se import se2_compose_jacobians, wrap_angle
+
+#: dimension of the robot pose block
+POSE_DIM = 3
+#: dimension of one landmark block
+LANDMARK_DIM = 2
+
+
+def landmark_columns(slot: int) -> slice:
+    """The state indices of landmark ``slot`` (0-based): 3 + 2 slot, 3 + 2 slot + 1."""
+    start = POSE_DIM + LANDMARK_DIM * slot
+    return slice(start, start + LANDMARK_DIM)
+
+
+class SlamGaussian:
+    """Mean and covariance of the EKF-SLAM state, with the three EKF steps.
+
+    Args:
+        pose_w: (3,) initial robot pose [x, y, theta] in the world.
+        pose_cov: (3, 3) its covariance.
+        capacity: landmark slots preallocated.
+        model: the range-bearing measurement model (``core.measurement``).
+    """
+
+    def __init__(
+        self,
+        pose_w: np.ndarray,
+        pose_cov: np.ndarray,
+        capacity: int = 64,
+        model: RangeBearing2D | None = None,
+    ) -> None:
+        self.model = RangeBearing2D() if model is None else model
+        size = POSE_DIM + LANDMARK_DIM * max(int(capacity), 1)
+        self._x = np.zeros(size)
+        self._P = np.zeros((size, size))
+        self._x[:POSE_DIM] = np.asarray(pose_w, dtype=float).reshape(POSE_DIM)
+        self._P[:POSE_DIM, :POSE_DIM] = np.asarray(pose_cov, dtype=float).reshape(3, 3)
+        self.n_landmarks = 0
+
+    # -- views ----------------------------------------------------------------------------------
+
+    @property
+    def dim(self) -> int:
+        """3 + 2 n."""
+        return POSE_DIM + LANDMARK_DIM * self.n_landmarks
+
+    @property
+    def capacity(self) -> int:
+        """Landmark slots allocated."""
+        return (self._x.shape[0] - POSE_DIM) // LANDMARK_DIM
+
+    @property
+    def mean(self) -> np.ndarray:
+        """(3 + 2n,) view of X (writes change the state)."""
+        return self._x[: self.dim]
+
+    @property
+    def cov(self) -> np.ndarray:
+        """(3 + 2n, 3 + 2n) view of P (writes change the state)."""
+        d = self.dim
+        return self._P[:d, :d]
+
+    @property
+    def pose(self) -> np.ndarray:
+        """(3,) copy of the robot pose [x, y, theta]."""
+        return self._x[:POSE_DIM].copy()
+
+    @property
+    def pose_cov(self) -> np.ndarray:
+        """(3, 3) copy of P_rr."""
+        return self._P[:POSE_DIM, :POSE_DIM].copy()
+
+    @property
+    def landmarks(self) -> np.ndarray:
+        """(n, 2) copy of the landmark positions [m]."""
+        return self._x[POSE_DIM : self.dim].reshape(-1, LANDMARK_DIM).copy()
+
+    def landmark_covariances(self, slots: np.ndarray | None = None) -> np.ndarray:
+        """(m, 2, 2) diagonal blocks P_ii of the given landmark slots (all by default)."""
+        slots = np.arange(self.n_landmarks) if slots is None else np.asarray(slots, dtype=int)
+        rows = POSE_DIM + LANDMARK_DIM * slots[:, None, None] + np.arange(2)[None, :, None]
+        cols = POSE_DIM + LANDMARK_DIM * slots[:, None, None] + np.arange(2)[None, None, :]
+        return self._P[rows, cols]
+
+    # -- Passo 1: prediction --------------------------------------------------------------------
+
+    def predict(
+        self,
+        motion: OdometryMotionModel,
+        delta_r: np.ndarray,
+        delta_cov: np.ndarray | None = None,
+    ) -> None:
+        """Move the robot by one odometry step (SLAM for Dummies "Passo 1"), O(n).
+
+        The mean is the shared motion model's g(x_r, u) (thesis eq. 4.44); A = dg/dx_r its
+        Jacobian (the tutorial's A, exact for the rot1-trans-rot2 model); the process noise is the
+        odometry covariance in the robot frame rotated into the world, Q = J_u Sigma_u J_u^T, with
+        Sigma_u the log's own covariance when given, else ``motion.covariance`` (thesis 4.41
+        linearised). Then (tutorial, with its A P A corrected to A P A^T):
+
+            P_rr' = A P_rr A^T + Q,    P_rm' = A P_rm,    P_mr' = P_rm'^T.
+
+        Args:
+            motion: the odometry motion model.
+            delta_r: (3,) robot-frame motion [dx, dy, dtheta].
+            delta_cov: (3, 3) covariance of ``delta_r`` or None.
+        """
+        delta_r = np.asarray(delta_r, dtype=float)
+        pose = self._x[:POSE_DIM].copy()
+        components = motion.decompose(delta_r)
+        A, _ = motion.apply_jacobians(pose, components)
+        _, J_u = se2_compose_jacobians(pose, delta_r)
+        sigma_u = motion.covariance(delta_r) if delta_cov is None else delta_cov
+        d = self.dim
+        P = self._P
+        if d > POSE_DIM:
+            cross = A @ P[:POSE_DIM, POSE_DIM:d]
+            P[:POSE_DIM, POSE_DIM:d] = cross
+            P[POSE_DIM:d, :POSE_DIM] = cross.T
+        P_rr = A @ P[:POSE_DIM, :POSE_DIM] @ A.T + J_u @ sigma_u @ J_u.T
+        P[:POSE_DIM, :POSE_DIM] = 0.5 * (P_rr + P_rr.T)
+        self._x[:POSE_DIM] = motion.apply(pose, components)
+
+    # -- Passo 2: update ------------------------------------------------------------------------
+
+    def innovation(self, slot: int, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Innovation of one sighting of landmark ``slot`` and the sparse Jacobian.
+
+        Returns:
+            nu (2,) = z - h(X) (bearing wrapped), Hs (2, 5) = [H_r | H_l] (the tutorial's
+            a b c / d e f and -a -b / -d -e columns, from ``RangeBearing2D.predict``), and the
+            five state indices those columns belong to.
+        """
+        cols = landmark_columns(slot)
+        z_hat, H_r, H_l = self.model.predict(self._x[:POSE_DIM], self._x[cols])
+        Hs = np.concatenate([H_r, H_l], axis=-1)
+        idx = np.r_[0:POSE_DIM, cols.start : cols.stop]
+        return self.model.residual(z, z_hat), Hs, idx
+
+    def innovation_covariance(self, Hs: np.ndarray, idx: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """S = H P H^T + R from the five relevant rows and columns of P (tutorial "Passo 2")."""
+        return Hs @ self._P[np.ix_(idx, idx)] @ Hs.T + R
+
+    def update(self, slot: int, z: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Correct the state with one sighting of landmark ``slot`` (tutorial "Passo 2"), O(n^2).
+
+        K = P H^T S^-1, X' = X + K (z - h), and the Joseph form
+
+            P' = (I - K H) P (I - K H)^T + K R K^T
+               = P - K (P H^T)^T - (P H^T - K S) K^T,
+
+        the exact expansion for any gain K, using (I - K H) P H^T = P H^T - K (S - R). With the
+        optimal K the second term is zero up to rounding; keeping it is what makes the Joseph
+        form insensitive (to first order) to rounding errors in K. P H^T is gathered from the
+        five columns of the robot and the landmark; the correction is one (d x 4)(4 x d)
+        product. The caller symmetrises P (``symmetrise``) once per frame.
+
+        Args:
+            slot: landmark slot.
+            z: (2,) measured (range [m], bearing [rad]).
+            R: (2, 2) sighting noise covariance.
+
+        Returns:
+            (nu, S): the innovation (2,) and its covariance (2, 2) before the update.
+        """
+        nu, Hs, idx = self.innovation(slot, z)
+        d = self.dim
+        P = self._P[:d, :d]
+        PHt = P[:, idx] @ Hs.T  # (d, 2)
+        S = Hs @ PHt[idx] + R
+        K = PHt @ np.linalg.inv(S)
+        self._x[:d] += K @ nu
+        self._x[2] = wrap_angle(self._x[2])
+        U = np.concatenate([K, PHt - K @ S], axis=1)  # (d, 4)
+        V = np.concatenate([PHt, K], axis=1)  # (d, 4)
+        P -= U @ V.T
+        return nu, S
+
+    def symmetrise(self) -> None:
+        """P <- (P + P^T) / 2: removes the rounding asymmetry of the sequential updates."""
+        d = self.dim
+        P = self._P[:d, :d]
+        P += P.T.copy()
+        P *= 0.5
+
+    # -- Passo 3: augmentation ------------------------------------------------------------------
+
+    def augment(self, z: np.ndarray, R: np.ndarray) -> int:
+        """Add a landmark seen at z = (range, bearing) (tutorial "Passo 3"), O(n).
+
+        l = g(x_r, z) = (x_r + r cos(theta_r + b), y_r + r sin(theta_r + b)) with the tutorial's
+        J_xr = dg/dx_r and J_z = dg/dz (``RangeBearing2D.inverse``):
+
+            X' = [X; l],   P_ll = J_xr P_rr J_xr^T + J_z R J_z^T,   P_lx = J_xr P_rx.
+
+        Returns:
+            the new landmark's slot.
+        """
+        if self.n_landmarks == self.capacity:
+            self._grow(2 * self.capacity)
+        landmark, J_xr, J_z = self.model.inverse(self._x[:POSE_DIM], np.asarray(z, dtype=float))
+        d = self.dim
+        P = self._P
+        cross = J_xr @ P[:POSE_DIM, :d]  # (2, d) = P_lx
+        P[d : d + 2, :d] = cross
+        P[:d, d : d + 2] = cross.T
+        P_ll = J_xr @ P[:POSE_DIM, d : d + 2] + J_z @ R @ J_z.T  # J_xr P_rl = J_xr P_rr J_xr^T
+        P[d : d + 2, d : d + 2] = 0.5 * (P_ll + P_ll.T)
+        self._x[d : d + 2] = landmark
+        self.n_landmarks += 1
+        return self.n_landmarks - 1
+
+    def _grow(self, capacity: int) -> None:
+        d = self.dim
+        size = POSE_DIM + LANDMARK_DIM * capacity
+        x = np.zeros(size)
+        P = np.zeros((size, size))
+        x[:d] = self._x[:d]
+        P[:d, :d] = self._P[:d, :d]
+        self._x, self._P = x, P
+
+    # -- association support --------------------------------------------------------------------
+
+    def mahalanobis_all(
+        self, z: np.ndarray, R: np.ndarray, slots: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """nu^T S^-1 nu of one sighting against each landmark in ``slots``, vectorised, O(m).
+
+        S_i = H_r P_rr H_r^T + H_r P_ri H_l^T + H_l P_ir H_r^T + H_l P_ii H_l^T + R, the
+        tutorial's innovation covariance of the pairing (sighting, landmark i).
+
+        Returns:
+            (d2 (m,), nu (m, 2)).
+        """
+        slots = np.asarray(slots, dtype=int)
+        if slots.size == 0:
+            return np.zeros(0), np.zeros((0, 2))
+        lm = self._x[POSE_DIM + LANDMARK_DIM * slots[:, None] + np.arange(2)[None, :]]
+        z_hat, H_r, H_l = self.model.predict(self._x[:POSE_DIM], lm)
+        nu = self.model.residual(np.asarray(z, dtype=float)[None, :], z_hat)
+        P_rr = self._P[:POSE_DIM, :POSE_DIM]
+        cols = POSE_DIM + LANDMARK_DIM * slots[:, None] + np.arange(2)[None, :]  # (m, 2)
+        P_ri = np.moveaxis(self._P[:POSE_DIM][:, cols], 0, 1)  # (m, 3, 2)
+        P_ii = self.landmark_covariances(slots)
+        cross = H_r @ P_ri @ np.swapaxes(H_l, -1, -2)
+        S = (
+            H_r @ P_rr @ np.swapaxes(H_r, -1, -2)
+            + cross
+            + np.swapaxes(cross, -1, -2)
+            + H_l @ P_ii @ np.swapaxes(H_l, -1, -2)
+            + R
+        )
+        det = S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
+        a, b, c = S[:, 1, 1], -S[:, 0, 1], S[:, 0, 0]  # adjugate of the symmetric S
+        d2 = (a * nu[:, 0] ** 2 + 2 * b * nu[:, 0] * nu[:, 1] + c * nu[:, 1] ** 2) / det
+        return d2, nu

@@ -1,0 +1,189 @@
+"""EKF-SLAM as an Estimator: cross-check with batch graphslam, pose NEES over 30 seeds, unknown
+association, info counts and option validation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from ekfslam_scenario import (
+    NOISE,
+    SIGMA_BEARING_RAD,
+    SIGMA_RANGE_M,
+    make_scenario,
+    pose_error,
+)
+from scipy.stats import chi2
+
+from omnislam.core.modality import Modality
+from omnislam.core.types import Estimator, Introspectable
+from omnislam.ekfslam import EKFSLAM, EKFSLAMConfig, EKFSLAMInfo
+from omnislam.errors import ConfigError
+from omnislam.estimators import SequenceInfo, make_estimator
+
+NOISE_OPTIONS = {
+    "motion_noise.a_vv": str(NOISE.a_vv),
+    "motion_noise.a_vw": str(NOISE.a_vw),
+    "motion_noise.a_wv": str(NOISE.a_wv),
+    "motion_noise.a_ww": str(NOISE.a_ww),
+}
+#: a difference of two estimates of the same quantity is inside this chi-square quantile
+CROSS_CHECK_PROBABILITY = 0.999
+NEES_SEEDS = 30
+NEES_STEPS = 150
+
+
+def sequence_info(known: bool = True) -> SequenceInfo:
+    return SequenceInfo(
+        name="sim",
+        frames=0,
+        modalities=frozenset({Modality.RANGE_BEARING_2D}),
+        known_association=known,
+        sigma_range_m=SIGMA_RANGE_M,
+        sigma_bearing_rad=SIGMA_BEARING_RAD,
+    )
+
+
+def run(estimator, frames):
+    for frame in frames:
+        estimator.step(frame)
+    return estimator.estimate()
+
+
+def test_registry_builds_an_introspectable_estimator(rng):
+    ekf = make_estimator("ekfslam", sequence_info(), NOISE_OPTIONS, rng)
+    assert isinstance(ekf, EKFSLAM) and isinstance(ekf, Estimator)
+    assert isinstance(ekf, Introspectable)
+    scenario = make_scenario(seed=1, steps=60)
+    estimate = run(ekf, scenario.frames)
+    assert len(estimate.trajectory) == 60
+    assert estimate.pose_covariances.shape == (60, 3, 3)
+    assert estimate.landmark_covariances.shape == (len(estimate.landmark_ids), 3, 3)
+    info = ekf.info()
+    assert isinstance(info, EKFSLAMInfo)
+    sightings = sum(len(f.range_bearing) for f in scenario.frames)
+    assert info.sightings == sightings
+    assert info.created == info.landmarks == len(estimate.landmark_ids)
+    assert info.associated == sightings - info.created  # every later sighting updates
+    assert info.tentative == info.gated == 0
+
+
+def test_agrees_with_batch_graphslam_within_covariances(rng):
+    """Same data, known association: the EKF's final pose and map against the batch optimum
+    (graphslam-batch through the registry), each difference inside the EKF's covariance."""
+    pytest.importorskip("gtsam")
+    scenario = make_scenario(seed=3, steps=200)
+    ekf = run(make_estimator("ekfslam", sequence_info(), NOISE_OPTIONS, rng), scenario.frames)
+    graph = run(
+        make_estimator("graphslam-batch", sequence_info(), NOISE_OPTIONS, rng), scenario.frames
+    )
+    gate2 = chi2.ppf(CROSS_CHECK_PROBABILITY, 2)
+    gate3 = chi2.ppf(CROSS_CHECK_PROBABILITY, 3)
+    e = pose_error(ekf.trajectory.se2[-1], graph.trajectory.se2[-1])
+    assert e @ np.linalg.solve(ekf.pose_covariances[-1], e) <= gate3
+    order = np.argsort(graph.landmark_ids)
+    assert np.array_equal(np.sort(ekf.landmark_ids), graph.landmark_ids[order])
+    ekf_order = np.argsort(ekf.landmark_ids)
+    for i, j in zip(ekf_order, order, strict=True):
+        diff = ekf.landmarks_w[i, :2] - graph.landmarks_w[j, :2]
+        cov = ekf.landmark_covariances[i, :2, :2]
+        assert diff @ np.linalg.solve(cov, diff) <= gate2, f"landmark {ekf.landmark_ids[i]}"
+    # and both are close to the truth
+    assert np.max(np.abs(ekf.landmarks_w[ekf_order, :2] - scenario.landmarks_w)) < 0.3
+
+
+def test_pose_nees_inside_the_95_percent_band_early_in_the_run():
+    """Mean pose NEES over 30 seeds, steps 1..150 (frame 0 is exact): inside the two-sided 95%
+    chi-square band of 30 x 3 dof at >= 90% of the steps (5% fall outside by chance), and the
+    mean over the window inside it too. Measured: 2-D noise as in ``ekfslam_scenario``."""
+    nees = np.zeros((NEES_SEEDS, NEES_STEPS))
+    for seed in range(NEES_SEEDS):
+        scenario = make_scenario(seed=100 + seed, steps=NEES_STEPS + 1)
+        ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE))
+        for k, frame in enumerate(scenario.frames):
+            ekf.step(frame)
+            if k == 0:
+                continue
+            e = pose_error(ekf.state.pose, scenario.true_poses[k])
+            nees[seed, k - 1] = e @ np.linalg.solve(ekf.state.pose_cov, e)
+    mean = nees.mean(axis=0)
+    low, high = chi2.ppf([0.025, 0.975], 3 * NEES_SEEDS) / NEES_SEEDS
+    inside = (mean >= low) & (mean <= high)
+    assert inside.mean() >= 0.9, f"only {inside.mean():.0%} of steps inside [{low:.2f}, {high:.2f}]"
+    assert low <= mean.mean() <= high
+
+
+def test_unknown_association_recovers_the_map():
+    scenario = make_scenario(seed=5, steps=250, unknown_ids=True)
+    ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE))
+    estimate = run(ekf, scenario.frames)
+    truth = scenario.landmarks_w
+    assert len(estimate.landmark_ids) == len(truth)  # no duplicates, none missed
+    distances = np.linalg.norm(estimate.landmarks_w[:, None, :2] - truth[None], axis=-1)
+    assert np.all(distances.min(axis=0) < 0.3)  # every true landmark found
+    assert len(set(distances.argmin(axis=1).tolist())) == len(truth)  # one each
+    known = run(EKFSLAM(EKFSLAMConfig(motion_noise=NOISE)), make_scenario(5, 250).frames)
+
+    def ate(e):
+        return np.sqrt(
+            np.mean(np.sum((e.trajectory.se2[:, :2] - scenario.true_poses[:, :2]) ** 2, 1))
+        )
+
+    # nearly the path with ids (the first sightings of each landmark are not used)
+    assert ate(estimate) <= 1.5 * ate(known)
+    info = ekf.info()
+    assert info.created == len(truth)
+    assert info.tentative_created >= len(truth)
+    assert info.gated >= info.tentative_created
+
+
+def test_tentative_landmark_seen_once_is_dropped():
+    scenario = make_scenario(seed=2, steps=40, unknown_ids=True)
+    frames = list(scenario.frames)
+    first = frames[0].range_bearing
+    assert len(first)
+    ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE, min_sightings=3, tentative_window_frames=5))
+    # one spurious sighting far from every landmark, seen once
+    from omnislam.core.types import FrameInput, RangeBearing
+
+    spurious = RangeBearing(
+        np.r_[first.landmark_ids, -1],
+        np.r_[first.ranges_m, 5.5],
+        np.r_[first.bearings_rad, -2.5],
+        SIGMA_RANGE_M,
+        SIGMA_BEARING_RAD,
+    )
+    frames[0] = FrameInput(index=0, odometry=frames[0].odometry, range_bearing=spurious)
+    run(ekf, frames)
+    info = ekf.info()
+    spurious_w = 5.5 * np.array([np.cos(-2.5), np.sin(-2.5)])  # frame 0 is at the origin
+    landmarks = ekf.state.landmarks
+    assert np.linalg.norm(landmarks - spurious_w, axis=1).min() > 1.0  # never entered the state
+    distances = np.linalg.norm(landmarks[:, None] - scenario.landmarks_w[None], axis=-1)
+    assert np.all(distances.min(axis=1) < 0.3)  # every landmark in the state is a true one
+    assert info.tentative_dropped >= 1
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"no_such_option": "1"},
+        {"gate_probability": "1.5"},
+        {"gate_probability": "abc"},
+        {"min_sightings": "0"},
+        {"tentative_window_frames": "0"},
+        {"known_gate_probability": "0"},
+        {"motion_noise.a_vv": "-1"},
+        {"initial_pose_sigma": "1,2"},
+    ],
+)
+def test_bad_options_raise_config_error(rng, options):
+    with pytest.raises(ConfigError):
+        make_estimator("ekfslam", sequence_info(), options, rng)
+
+
+def test_other_modality_raises_config_error(rng):
+    from omnislam.ekfslam import make_estimator as factory
+
+    info = SequenceInfo(name="omni", frames=0, modality=Modality.BEARINGS_3D)
+    with pytest.raises(ConfigError):
+        factory(info, {}, rng)
