@@ -26,7 +26,7 @@ slot per sighting, used by the particles that created it and absent in the other
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -394,7 +394,8 @@ class FastSLAM:
             parts.append(self._associate_unknown(sightings, unknown, poses, pose_cov))
         if len(parts) == 1:
             return parts[0]
-        return _Pairs(*(np.concatenate(arrays) for arrays in zip(*parts, strict=True)))
+        names = [f.name for f in fields(_Pairs)]
+        return _Pairs(*(np.concatenate([getattr(part, name) for part in parts]) for name in names))
 
     def _associate_unknown(
         self,

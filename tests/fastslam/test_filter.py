@@ -20,7 +20,7 @@ from fastslam_tolerances import (
     STORE_ATOL,
 )
 
-from omnislam.core.types import Estimator, FrameInput, Odometry, RangeBearing
+from omnislam.core.types import UNKNOWN_ID, Estimator, FrameInput, Odometry, RangeBearing
 from omnislam.errors import ConfigError
 from omnislam.fastslam import (
     BearingUpdate,
@@ -156,6 +156,22 @@ def test_unknown_association(variant):
         assert len(estimate.landmark_ids) <= len(truth.landmarks_w) + 2
         assert np.unique(nearest).size >= len(truth.landmarks_w) - 1
     assert np.mean(ates) < ATE_FRACTION_OF_DEAD_RECKONING * np.mean(dead_reckoning)
+
+
+def test_a_frame_may_mix_known_and_unknown_ids():
+    """Known ids map to their slots, an unknown sighting gets a new landmark: both mapped."""
+    frame = FrameInput(
+        0,
+        Odometry(np.zeros(3), 0.0),
+        range_bearing=RangeBearing(
+            np.array([7, UNKNOWN_ID]), np.array([2.0, 3.0]), np.array([0.3, -0.5]), 0.1, 0.01
+        ),
+    )
+    for variant in Variant:
+        slam = FastSLAM(_config(variant, 5), np.random.default_rng(0))
+        slam.step(frame)
+        ids = slam.estimate().landmark_ids
+        assert len(ids) == 2 and 7 in ids
 
 
 def test_frames_without_sightings_only_predict():
