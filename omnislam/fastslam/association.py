@@ -9,38 +9,14 @@ resampling.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from omnislam.fastslam.landmark_ekf import (
-    MeasurementModel,
-    gaussian_log_likelihood,
-    inverse_and_logdet,
-    transpose,
-)
+from omnislam.core.batch_linalg import inverse_and_logdet, transpose
+from omnislam.core.gaussian import gaussian_log_likelihood
+from omnislam.core.measurement import MeasurementModel
 
 #: association result meaning "a new landmark"
 NEW_LANDMARK = -1
-
-
-def chi_square_gate(probability: float, dof: int) -> float:
-    """The validation gate of a k-dimensional innovation: y^T S^-1 y <= gate with probability
-    ``probability`` for a consistent filter (chi-square quantile; SLAM for Dummies' nu^T S^-1 nu
-    <= lambda, Bar-Shalom's validation region).
-
-    Args:
-        probability: in (0, 1]; 1.0 gives an infinite gate (nothing rejected).
-        dof: the innovation's dimension k.
-
-    Returns:
-        the gate on the squared Mahalanobis distance.
-    """
-    if probability >= 1.0:
-        return math.inf
-    from scipy.stats import chi2
-
-    return float(chi2.ppf(probability, dof))
 
 
 def maximum_likelihood_association(

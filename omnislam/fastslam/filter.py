@@ -30,6 +30,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from omnislam.core.gating import chi_square_gate, gate_truncated_log_likelihood
+from omnislam.core.kalman import ekf_update, initialize_from_inverse
 from omnislam.core.measurement import (
     BearingElevation3D,
     RangeAzimuthElevation3D,
@@ -39,11 +41,7 @@ from omnislam.core.measurement import (
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.types import Estimate, FrameInput
 from omnislam.errors import ConfigError, DataError
-from omnislam.fastslam.association import (
-    NEW_LANDMARK,
-    chi_square_gate,
-    maximum_likelihood_association,
-)
+from omnislam.fastslam.association import NEW_LANDMARK, maximum_likelihood_association
 from omnislam.fastslam.bearing_landmarks import (
     RAY_DIM,
     first_estimate,
@@ -63,16 +61,10 @@ from omnislam.fastslam.config import (
 )
 from omnislam.fastslam.dense_store import DenseLandmarkStore
 from omnislam.fastslam.existence import predicted_visible
-from omnislam.fastslam.landmark_ekf import ekf_update, initialize_from_inverse
 from omnislam.fastslam.landmark_store import LandmarkBlock, LandmarkStatus, LandmarkStore
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.particles import ParticleSet, PathHistory
-from omnislam.fastslam.proposal import (
-    joint_proposal,
-    motion_prediction,
-    refine_proposal,
-    sample_poses,
-)
+from omnislam.fastslam.proposal import joint_proposal, refine_proposal, sample_poses
 from omnislam.fastslam.resampling import (
     multinomial_resample,
     stratified_resample,
@@ -212,7 +204,7 @@ class FastSLAM:
             pairs = self._associate(sightings, poses, None)
             log_factors = np.zeros(len(particles))
         else:
-            mean, cov = motion_prediction(self._motion, previous, delta)
+            mean, cov = self._motion.predict(previous, None, delta)
             pairs = self._associate(sightings, mean, cov)
             poses, log_factors = self._sample_proposal(previous, delta, mean, cov, sightings, pairs)
         particles.poses = poses
@@ -750,8 +742,9 @@ class FastSLAM:
         kept = rows[accepted]
         block.mean[kept] = update.mean[accepted]
         block.cov[kept] = update.cov[accepted]
-        truncated = np.minimum(update.mahalanobis, gate)
-        log_likelihood[rows] = update.log_likelihood - 0.5 * (truncated - update.mahalanobis)
+        log_likelihood[rows] = gate_truncated_log_likelihood(
+            update.log_likelihood, update.mahalanobis, gate
+        )
         return accepted
 
     def _apply_existence_index(self, poses: np.ndarray, pairs: _Pairs) -> None:

@@ -20,13 +20,13 @@ from fastslam_tolerances import (
 )
 from scipy.stats import multivariate_normal
 
+from omnislam.core.gating import chi_square_gate
+from omnislam.core.gaussian import LOG_2PI
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
 from omnislam.fastslam import FastSLAM, FastSLAMConfig, Variant
-from omnislam.fastslam.association import chi_square_gate
 from omnislam.fastslam.config import ProposalUpdateMode
-from omnislam.fastslam.landmark_ekf import LOG_2PI
-from omnislam.fastslam.proposal import joint_proposal, motion_prediction, refine_proposal
+from omnislam.fastslam.proposal import joint_proposal, refine_proposal
 from omnislam.options import apply_options
 
 #: joint == sequential for one observation: same Gaussian update, different rounding
@@ -216,7 +216,7 @@ def test_motion_prediction_input(rng):
     """From the motion model's own prediction (the filter's inputs), as refine_proposal."""
     motion = OdometryMotionModel(MotionNoise())
     problem = _problem(rng, [2, 3, 1])
-    mu0, P = motion_prediction(motion, problem[0], np.array([0.5, 0.05, 0.2]))
+    mu0, P = motion.predict(problem[0], None, np.array([0.5, 0.05, 0.2]))
     problem = (mu0, P, *problem[2:])
     joint = joint_proposal(*problem)
     d_mean, d_cov, d_logpdf = _dense(*problem)
