@@ -15,6 +15,8 @@ Gaussian likelihood truncated at the gate.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from omnislam.core.gating import chi_square_gate, gate_truncated_log_likelihood
@@ -54,7 +56,7 @@ class BearingMapper:
     def __init__(self, config: FastSLAMConfig) -> None:
         self._config = config
         self._sensor_height_m = config.sensor_height_m
-        self._min_parallax_rad = config.min_parallax_rad
+        self._min_parallax_rad = math.radians(config.min_parallax_deg)
         self._range_az_el = RangeAzimuthElevation3D(config.sensor_height_m)
         self._bearing = BearingElevation3D(config.sensor_height_m)
         # validation gates of (azimuth, elevation) and (d, theta, phi) innovations

@@ -156,8 +156,8 @@ class FastSLAMConfig:
             two successive triangulations (new ray, then stored sighting), so without inflation
             its information is counted twice (``bearing_landmarks``). 1.0: the thesis as
             printed. Not applied with ``DIRECT`` updates, where every ray is used once.
-        min_parallax_rad: two rays closer than this are not triangulated; the first sighting is
-            kept until a ray with enough parallax arrives [rad].
+        min_parallax_deg: two rays closer than this are not triangulated; the first sighting is
+            kept until a ray with enough parallax arrives [deg] (as graphslam's option).
         new_landmark_log_likelihood: log p0, Montemerlo 2003 sec. 3.4.1 / Thrun et al. Table
             13.2: for sightings of unknown association, a particle creates a new landmark when no
             existing landmark explains the sighting with a log-likelihood above log p0, and its
@@ -199,7 +199,7 @@ class FastSLAMConfig:
     bearing_update: BearingUpdate = BearingUpdate.TRIANGULATED
     triangulation: TriangulationMethod = TriangulationMethod.MIDPOINT
     triangulated_ray_reuse: float = 2.0
-    min_parallax_rad: float = math.radians(3.0)
+    min_parallax_deg: float = 3.0
     new_landmark_log_likelihood: float = -6.0
     association_margin_m: float = 3.0
     bearing_gate_probability: float = 0.999
@@ -216,8 +216,8 @@ class FastSLAMConfig:
             raise ConfigError("n_particles must be >= 1")
         if not 0.0 <= self.resample_ess_fraction <= 1.0:
             raise ConfigError("resample_ess_fraction must be in [0, 1]")
-        if self.min_parallax_rad < 0 or self.association_margin_m < 0:
-            raise ConfigError("min_parallax_rad and association_margin_m must be non-negative")
+        if self.min_parallax_deg < 0 or self.association_margin_m < 0:
+            raise ConfigError("min_parallax_deg and association_margin_m must be non-negative")
         if self.triangulated_ray_reuse < 1.0:
             raise ConfigError("triangulated_ray_reuse must be >= 1")
         if not 0.0 < self.bearing_gate_probability <= 1.0:

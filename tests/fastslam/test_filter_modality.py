@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 
 import numpy as np
@@ -27,6 +28,7 @@ from omnislam.fastslam import (
     make_fastslam1,
     make_fastslam2,
 )
+from omnislam.options import apply_options
 
 CONFIG = FastSLAMConfig(
     variant=Variant.FASTSLAM2,
@@ -110,6 +112,15 @@ def test_the_removed_sensor_mode_option_points_to_modality():
     info = SequenceInfo(name="x", frames=1, modality=Modality.BEARINGS_3D)
     with pytest.raises(ConfigError, match=re.escape("modality=range-bearing-2d|bearings-3d")):
         make_fastslam1(info, {"sensor_mode": "bearings_3d"}, np.random.default_rng(0))
+
+
+def test_min_parallax_in_degrees_gives_the_former_radians_default_exactly():
+    """3 deg -> math.radians(3.0), the float the former ``min_parallax_rad`` default was."""
+    assert FastSLAMConfig().min_parallax_deg == 3.0
+    assert math.radians(FastSLAMConfig().min_parallax_deg) == 0.05235987755982989
+    assert apply_options(FastSLAMConfig(), {"min_parallax_deg": "6"}).min_parallax_deg == 6.0
+    with pytest.raises(ConfigError, match="min_parallax_deg"):
+        FastSLAMConfig(min_parallax_deg=-1.0)
 
 
 class _CountingMotion:
