@@ -1,8 +1,8 @@
 """FastSLAM 1.0 / 2.0 with the thesis's shared landmark tree (Guizilini 2008 sec. 4.4).
 
-``FastSLAM(config, rng, modality=..., motion=...)`` implements the ``Estimator`` protocol;
-``make_fastslam(config, modality, rng)`` builds its motion model from the configuration. Its
-name is ``config.variant.value`` ("fastslam1" or "fastslam2").
+``FastSLAM(config, rng, modality=..., motion=...)`` implements the ``Estimator`` and
+``Introspectable`` protocols; ``make_fastslam(config, modality, rng)`` builds its motion model
+from the configuration. Its name is ``config.variant.value`` ("fastslam1" or "fastslam2").
 """
 
 from omnislam.fastslam.config import (
@@ -19,7 +19,7 @@ from omnislam.fastslam.config import (
 )
 from omnislam.fastslam.dense_store import DenseLandmarkStore
 from omnislam.fastslam.factory import make_fastslam, make_fastslam1, make_fastslam2
-from omnislam.fastslam.filter import FastSLAM, make_store
+from omnislam.fastslam.filter import FastSLAM, FastSLAMInfo, make_store
 from omnislam.fastslam.landmark_store import LandmarkBlock, LandmarkStatus, LandmarkStore
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.mapper import MODALITIES
@@ -32,6 +32,7 @@ __all__ = [
     "ExistenceIndexConfig",
     "FastSLAM",
     "FastSLAMConfig",
+    "FastSLAMInfo",
     "LandmarkBlock",
     "LandmarkStatus",
     "LandmarkStore",

@@ -47,6 +47,11 @@ class BearingMapper:
     Args:
         config: the filter's settings (sensor height, bearing update, triangulation, parallax,
             gate, proposal restrictions).
+
+    Attributes:
+        sightings_gated: (particle, sighting) landmark updates rejected by the gate so far.
+        triangulation_fallbacks: triangulated updates replaced by the direct one (too little
+            parallax with the stored ray, or no valid intersection) so far.
     """
 
     modality = Modality.BEARINGS_3D
@@ -66,6 +71,8 @@ class BearingMapper:
         # the very pose being sampled
         self.proposal_model = self._bearing
         self.proposal_gate = self._bearing_gate
+        self.sightings_gated = 0
+        self.triangulation_fallbacks = 0
 
     def read(self, frame: FrameInput) -> Sightings | None:
         """``frame.bearings`` as z = (azimuth, elevation) with R = sigma^2 I.
@@ -147,6 +154,7 @@ class BearingMapper:
                     )
                     block.ray[rows[accepted]] = rays[rows[accepted]]
                 direct = ~ok
+                self.triangulation_fallbacks += int(np.count_nonzero(direct))
             rows = est[direct]
             if rows.size:
                 self._gated_update(
@@ -215,6 +223,7 @@ class BearingMapper:
         log_likelihood[rows] = gate_truncated_log_likelihood(
             update.log_likelihood, update.mahalanobis, gate
         )
+        self.sightings_gated += int(accepted.size - np.count_nonzero(accepted))
         return accepted
 
     def proposal_landmarks(

@@ -26,6 +26,8 @@ Landmarks are addressed by slots shared by all particles (``slot_registry.py``).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from omnislam.core.modality import Modality
@@ -33,6 +35,7 @@ from omnislam.core.motion import MotionModel
 from omnislam.core.types import Estimate, FrameInput
 from omnislam.errors import ConfigError
 from omnislam.fastslam.association import SightingAssociation
+from omnislam.fastslam.bearing_mapper import BearingMapper
 from omnislam.fastslam.config import (
     FastSLAMConfig,
     ResamplingScheme,
@@ -42,7 +45,7 @@ from omnislam.fastslam.config import (
 )
 from omnislam.fastslam.dense_store import DenseLandmarkStore
 from omnislam.fastslam.existence import ExistenceIndex
-from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkStore
+from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkStore
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.mapper import make_mapper
 from omnislam.fastslam.particles import ParticleSet, PathHistory
@@ -72,8 +75,51 @@ def make_store(
     return LandmarkTree(n_particles, dim, ray_dim, 4 * capacity, layout)
 
 
+@dataclass(frozen=True, slots=True)
+class FastSLAMInfo:
+    """What a FastSLAM estimator has done so far (``FastSLAM.info``; ``estimator_info.json``).
+
+    Attributes:
+        variant: FastSLAM 1.0 or 2.0.
+        modality: the observation stream it reads.
+        particles: number of particles P.
+        frames: frames consumed.
+        frames_with_sightings: frames that carried sightings of the modality (mapped and
+            weighed; the others only predicted).
+        resample_count: resamplings so far.
+        last_ess: effective sample size after the last update (thesis eq. 4.51).
+        landmark_slots: landmarks known to any particle (slots).
+        landmarks: landmarks estimated in the best particle's map (those ``estimate()``
+            reports).
+        rays_pending: landmarks of the best particle with a stored ray only, waiting for a ray
+            with enough parallax (3-D).
+        unknown_slots: slots created for sightings of unknown association.
+        sightings_gated: (particle, sighting) landmark updates rejected by the bearing gate
+            (3-D).
+        proposal_sightings_gated: (particle, sighting) pairs the bearing gate kept out of the
+            FastSLAM 2.0 proposal (3-D).
+        triangulation_fallbacks: triangulated updates of established landmarks replaced by
+            the direct bearing update for lack of parallax (3-D, ``BearingUpdate.TRIANGULATED``).
+    """
+
+    variant: Variant
+    modality: Modality
+    particles: int
+    frames: int
+    frames_with_sightings: int
+    resample_count: int
+    last_ess: float
+    landmark_slots: int
+    landmarks: int
+    rays_pending: int
+    unknown_slots: int
+    sightings_gated: int
+    proposal_sightings_gated: int
+    triangulation_fallbacks: int
+
+
 class FastSLAM:
-    """FastSLAM 1.0 / 2.0 estimator (``omnislam.core.types.Estimator``).
+    """FastSLAM 1.0 / 2.0 estimator (``omnislam.core.types.Estimator``, ``Introspectable``).
 
     Args:
         config: all settings; ``config.variant`` sets ``name`` ("fastslam1" / "fastslam2").
@@ -139,6 +185,9 @@ class FastSLAM:
         self.resample_count = 0
         #: effective sample size after the last update
         self.last_ess = float(p)
+        self._frames = 0
+        self._frames_with_sightings = 0
+        self._proposal_gated = 0
 
     # -- read-only views ----------------------------------------------------------------------
 
@@ -162,6 +211,7 @@ class FastSLAM:
     def step(self, frame: FrameInput) -> None:
         """Predict with the frame's odometry; if it carries sightings of the modality, map,
         weigh and resample when the effective sample size is low."""
+        self._frames += 1
         delta = frame.odometry.delta
         sightings = self._mapper.read(frame)
         particles = self._particles
@@ -169,6 +219,7 @@ class FastSLAM:
             particles.poses = self._motion.sample(particles.poses, delta, self._rng)
             self._history.record(frame.stamp_s, particles)
             return
+        self._frames_with_sightings += 1
         previous = particles.poses
         if self.config.variant is Variant.FASTSLAM1:
             poses = self._motion.sample(previous, delta, self._rng)
@@ -179,6 +230,7 @@ class FastSLAM:
             pairs = self._association.pairs(sightings, mean, cov, particles.weights)
             draw = self._proposal.sample(previous, delta, mean, cov, sightings, pairs, self._store)
             poses, log_factors = draw.poses, draw.log_factors
+            self._proposal_gated += draw.gated
         particles.poses = poses
         log_factors += self._update_landmarks(poses, sightings, pairs)
         if self._existence is not None:
@@ -216,6 +268,28 @@ class FastSLAM:
             landmarks_w=means,
             landmark_covariances=covs,
             pose_covariances=pose_covariances,
+        )
+
+    def info(self) -> FastSLAMInfo:
+        """Counts of what the filter did (``core.types.Introspectable``)."""
+        status = self._store.particle_map(self._particles.best()).status
+        mapper = self._mapper
+        bearing = mapper if isinstance(mapper, BearingMapper) else None
+        return FastSLAMInfo(
+            variant=self.config.variant,
+            modality=self.modality,
+            particles=len(self._particles),
+            frames=self._frames,
+            frames_with_sightings=self._frames_with_sightings,
+            resample_count=self.resample_count,
+            last_ess=self.last_ess,
+            landmark_slots=self._slots.n_slots,
+            landmarks=int(np.count_nonzero(status == ESTIMATED)),
+            rays_pending=int(np.count_nonzero(status == RAY)),
+            unknown_slots=self._slots.n_unknown,
+            sightings_gated=0 if bearing is None else bearing.sightings_gated,
+            proposal_sightings_gated=self._proposal_gated,
+            triangulation_fallbacks=0 if bearing is None else bearing.triangulation_fallbacks,
         )
 
     def add_known_landmarks(self, ids: np.ndarray) -> np.ndarray:

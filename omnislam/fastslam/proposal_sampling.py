@@ -34,10 +34,12 @@ class ProposalDraw:
         poses: (P, 3) sampled poses.
         log_factors: (P,) log importance factors (0 for particles sampled from the motion
             model).
+        gated: (particle, sighting) pairs the validation gate kept out of the proposal.
     """
 
     poses: np.ndarray
     log_factors: np.ndarray
+    gated: int
 
 
 class ProposalSampler:
@@ -87,6 +89,7 @@ class ProposalSampler:
         usable = (block.status == ESTIMATED) & ~pairs.new_unknown
         usable = self._mapper.proposal_landmarks(block, pairs, usable)
         refined = np.zeros(p, dtype=bool)
+        gated = 0
         if self._mode is ProposalUpdateMode.JOINT:
             # all of a particle's sightings in one update at the prediction (joint_proposal)
             rows = np.flatnonzero(usable)
@@ -104,6 +107,7 @@ class ProposalSampler:
             )
             mean, cov, log_factors = joint.mean, joint.cov, joint.log_likelihood
             refined[pairs.particle[rows]] = True
+            gated = int(joint.accepted.size - np.count_nonzero(joint.accepted))
         else:
             log_factors = np.zeros(p)
             mean = mean.copy()
@@ -126,9 +130,10 @@ class ProposalSampler:
                 cov[who] = update.cov
                 log_factors[who] += update.log_likelihood
                 refined[who] = True
+                gated += int(update.accepted.size - np.count_nonzero(update.accepted))
         poses = np.empty_like(previous)
         poses[refined] = sample_poses(mean[refined], cov[refined], self._rng)
         plain = ~refined
         if plain.any():
             poses[plain] = self._motion.sample(previous[plain], delta_r, self._rng)
-        return ProposalDraw(poses, log_factors)
+        return ProposalDraw(poses, log_factors, gated)

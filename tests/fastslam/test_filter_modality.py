@@ -70,8 +70,8 @@ def test_a_frame_without_its_modality_only_predicts():
     slam = make_fastslam(CONFIG, Modality.RANGE_BEARING_2D, np.random.default_rng(0))
     for frame in bearing_only:
         slam.step(frame)
-    assert len(slam.estimate().landmark_ids) == 0 and slam.store.n_landmarks == 0
-    assert len(slam.estimate().trajectory) == 5
+    assert slam.info().frames == 5 and slam.info().frames_with_sightings == 0
+    assert len(slam.estimate().landmark_ids) == 0
 
 
 def test_bearings_without_track_ids_are_refused():
