@@ -18,7 +18,7 @@ from omnislam.core.modality import Modality
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.types import Bearings, FrameInput
 from omnislam.errors import ConfigError, DataError
-from omnislam.estimators import SequenceInfo, make_estimator
+from omnislam.estimators import ESTIMATORS, SequenceInfo, make_estimator
 from omnislam.fastslam import (
     MODALITIES,
     FastSLAM,
@@ -96,6 +96,11 @@ def test_factories_take_the_registry_modality():
             assert slam.config.sensor_height_m == 0.5
     with pytest.raises(ConfigError, match="range-bearing-2d or bearings-3d"):
         make_fastslam1(SequenceInfo(name="x", frames=1), {}, rng)
+
+
+def test_the_registry_lists_what_fastslam_consumes():
+    for name in ("fastslam1", "fastslam2"):
+        assert ESTIMATORS[name].modalities == frozenset(MODALITIES)
 
 
 def test_the_shared_rule_and_override_pick_the_modality():
