@@ -5,7 +5,7 @@ thesis's triangulated landmark update (Guizilini 2008 eqs. 4.21, 4.25-4.37: a ne
 triangulated with the stored previous sighting and the point is used as a range-azimuth-elevation
 measurement) and with the direct 2-DOF azimuth/elevation EKF update (``BearingUpdate``), plus
 dead reckoning as the floor to beat. Each cell replays the same observation log
-(``omnislam run DATASET --log LOG --set sensor_mode=bearings_3d``) and is evaluated like
+(``omnislam run DATASET --log LOG --set modality=bearings-3d``) and is evaluated like
 ``omnislam evaluate RUN --rpe-segment 5 --landmark-gate 0.3``. With ``--mrclam`` the 2-D
 range-bearing reference (MR.CLAM dataset 6, robot 1) is run too.
 
@@ -63,7 +63,7 @@ def omni_cells(extra: dict[str, str]) -> list[Cell]:
     cells = [Cell("deadreckoning", "deadreckoning", {})]
     for estimator in ("fastslam1", "fastslam2"):
         for update in ("triangulated", "direct"):
-            options = {"sensor_mode": "bearings_3d", "bearing_update": update, **extra}
+            options = {"modality": "bearings-3d", "bearing_update": update, **extra}
             cells.append(Cell(f"{estimator} {update}", estimator, options))
     return cells
 

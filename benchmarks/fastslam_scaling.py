@@ -26,6 +26,7 @@ import tracemalloc
 import numpy as np
 
 from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.modality import Modality
 from omnislam.core.motion import MotionNoise
 from omnislam.core.se import se2_between, se2_compose
 from omnislam.core.types import FrameInput, Odometry, RangeBearing
@@ -34,11 +35,11 @@ from omnislam.fastslam import (
     FastSLAMConfig,
     LandmarkBlock,
     LandmarkStatus,
-    SensorMode,
+    ProposalUpdateMode,
     StoreKind,
     Variant,
+    make_fastslam,
 )
-from omnislam.fastslam.config import ProposalUpdateMode
 
 NOISE = MotionNoise(a_vv=0.05, a_vw=0.02, a_wv=0.01, a_ww=0.05)
 SIGMA_R, SIGMA_B = 0.05, 0.01
@@ -99,10 +100,11 @@ def per_particle_observation(quick: bool) -> list[str]:
     ]
     for n in (100, 1000):
         filters = [
-            FastSLAM(
+            make_fastslam(
                 FastSLAMConfig(
                     variant=variant, n_particles=n, motion_noise=NOISE, proposal_update=mode
                 ),
+                Modality.RANGE_BEARING_2D,
                 np.random.default_rng(1),
             )
             for variant, mode in kinds
@@ -133,10 +135,9 @@ def populated_filter(store: StoreKind, n_landmarks: int, n_particles: int):
         n_particles=n_particles,
         motion_noise=NOISE,
         store=store,
-        sensor_mode=SensorMode.RANGE_BEARING_2D,
         resample_ess_fraction=1.0,  # resample every step: the dense store's worst case
     )
-    slam = FastSLAM(config, np.random.default_rng(2))
+    slam = make_fastslam(config, Modality.RANGE_BEARING_2D, np.random.default_rng(2))
     slots = slam.add_known_landmarks(np.arange(n_landmarks))
     block = LandmarkBlock.empty(n_landmarks, 2, 0)
     side = int(np.ceil(np.sqrt(n_landmarks)))

@@ -30,8 +30,8 @@ DEMO_ESTIMATORS = ("deadreckoning", "graphslam", "graphslam-batch", "fastslam1",
 DEMO_OPTIONS: dict[str, dict[str, str]] = {
     "graphslam": {"mode": "omni"},
     "graphslam-batch": {"mode": "omni"},
-    "fastslam1": {"sensor_mode": "bearings_3d"},
-    "fastslam2": {"sensor_mode": "bearings_3d"},
+    "fastslam1": {"modality": "bearings-3d"},
+    "fastslam2": {"modality": "bearings-3d"},
 }
 
 

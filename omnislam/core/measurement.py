@@ -11,7 +11,8 @@ position in the world to a measurement in the robot frame, vectorised over leadi
 ``predict`` returns (z, H_pose, H_landmark), or (z, None, None) with ``jacobians=False`` (for
 callers that only need the predicted measurement); ``residual`` wraps the angular components;
 ``inverse`` gives the landmark from a pose and a measurement with its Jacobians (for landmark
-initialisation and EKF augmentation). The 3-D models take the sensor's height above the ground
+initialisation and EKF augmentation). ``MeasurementModel`` is the protocol the shared Gaussian
+algebra (``core.kalman``) takes. The 3-D models take the sensor's height above the ground
 plane (``sensor_height_m``): the omni camera's single viewpoint is not on the floor.
 
 Errata of the thesis (SEEDS.md): the printed Jacobian (4.32) mixes q = |delta|^2 and
@@ -22,12 +23,35 @@ The derivatives below are derived from (4.31) and checked against numerical ones
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
 from omnislam.core.se import wrap_angle, wrap_angle_inplace
 
 _EPS = 1e-12
+
+
+class MeasurementModel(Protocol):
+    """What the shared Gaussian algebra (``core.kalman``, FastSLAM's proposal and association,
+    EKF-SLAM, the UKF's residuals) needs from a measurement model: every model of this module,
+    or any other with the same shapes (a linear test model).
+
+    Attributes:
+        dim_z: the measurement's dimension k.
+    """
+
+    @property
+    def dim_z(self) -> int: ...
+
+    def predict(self, wTr: np.ndarray, landmarks_w: np.ndarray) -> tuple[np.ndarray, ...]:
+        """z [..., k], H_pose [..., k, 3] and H_landmark [..., k, d] of poses [..., 3] and
+        landmarks [..., d]."""
+        ...
+
+    def residual(self, z_measured: np.ndarray, z_predicted: np.ndarray) -> np.ndarray:
+        """z_measured - z_predicted [..., k], angular components wrapped."""
+        ...
 
 
 def _deltas(wTr: np.ndarray, landmarks_w: np.ndarray, height: float = 0.0) -> tuple:
@@ -92,7 +116,7 @@ class RangeBearing2D:
             return z, None, None
         # The Jacobians are filled entry by entry in entry-major memory (2, c, ...), each entry
         # one contiguous stretch, and returned as [..., 2, c] views of it: the values are the
-        # same, and ``omnislam.fastslam``'s entry-major algebra then gets them without a copy.
+        # same, and the entry-major algebra (``core.batch_linalg``) then gets them without a copy.
         H_l = np.empty((2, 2, *shape))
         np.divide(dx, r, out=H_l[0, 0, ...])
         np.divide(dy, r, out=H_l[0, 1, ...])

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -50,6 +51,22 @@ class MotionNoise:
     def __post_init__(self) -> None:
         if min(self.a_vv, self.a_vw, self.a_wv, self.a_ww) < 0 or min(self.min_sigma) < 0:
             raise ValueError("motion noise coefficients must be non-negative")
+
+
+class MotionModel(Protocol):
+    """What an estimator needs from a motion model: ``OdometryMotionModel``, or any model
+    with the same ``sample`` / ``predict`` interface."""
+
+    def sample(self, wTr: np.ndarray, delta_r: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """(P, 3) poses propagated by one odometry delta (3,) with independent noise."""
+        ...
+
+    def predict(
+        self, wTr: np.ndarray, P: np.ndarray | None, delta_r: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Linearised propagation of pose means [..., 3] and covariances [..., 3, 3] (None:
+        exactly known poses) by one odometry delta."""
+        ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -189,18 +206,27 @@ class OdometryMotionModel:
         return G, V
 
     def predict(
-        self, wTr: np.ndarray, P: np.ndarray, delta_r: np.ndarray
+        self, wTr: np.ndarray, P: np.ndarray | None, delta_r: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Linearised (EKF) propagation of a pose mean (3,) and covariance (3, 3) by one delta.
+        """Linearised (EKF) propagation of pose means and covariances by one odometry delta.
+
+        Args:
+            wTr: [..., 3] pose means [x, y, theta] in the world.
+            P: [..., 3, 3] their covariances, or None for exactly known poses (a particle's
+                sampled pose: the FastSLAM 2.0 proposal's prediction, thesis eq. 4.45).
+            delta_r: (3,) measured robot-frame delta.
 
         Returns:
-            (mean (3,), covariance (3, 3)) = (g(x, u), G P G^T + V M V^T) with
-            M = diag(sigma^2) from eq. 4.41.
+            (mean [..., 3], covariance [..., 3, 3]) = (g(x, u), G P G^T + V M V^T) with
+            M = diag(sigma^2) from eq. 4.41; V M V^T alone when P is None.
         """
         components = self.decompose(delta_r)
         G, V = self.apply_jacobians(wTr, components)
         M = np.diag(self.component_sigmas(components) ** 2)
-        return self.apply(wTr, components), G @ P @ G.T + V @ M @ V.T
+        noise = V @ M @ np.swapaxes(V, -1, -2)
+        if P is None:
+            return self.apply(wTr, components), noise
+        return self.apply(wTr, components), G @ P @ np.swapaxes(G, -1, -2) + noise
 
     def covariance(self, delta_r: np.ndarray) -> np.ndarray:
         """(3, 3) covariance of the robot-frame delta [dx, dy, dtheta] (linearised).

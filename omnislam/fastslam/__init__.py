@@ -1,7 +1,8 @@
 """FastSLAM 1.0 / 2.0 with the thesis's shared landmark tree (Guizilini 2008 sec. 4.4).
 
-``FastSLAM(config, rng, initial_pose)`` implements the ``Estimator`` protocol; its name is
-``config.variant.value`` ("fastslam1" or "fastslam2").
+``FastSLAM(config, rng, modality=..., motion=...)`` implements the ``Estimator`` and
+``Introspectable`` protocols; ``make_fastslam(config, modality, rng)`` builds its motion model
+from the configuration. Its name is ``config.variant.value`` ("fastslam1" or "fastslam2").
 """
 
 from omnislam.fastslam.config import (
@@ -9,37 +10,41 @@ from omnislam.fastslam.config import (
     BearingUpdate,
     ExistenceIndexConfig,
     FastSLAMConfig,
+    ProposalUpdateMode,
     ResamplingScheme,
-    SensorMode,
     StoreKind,
     TrajectoryMode,
     TriangulationMethod,
     Variant,
 )
 from omnislam.fastslam.dense_store import DenseLandmarkStore
-from omnislam.fastslam.factory import make_fastslam1, make_fastslam2
-from omnislam.fastslam.filter import FastSLAM, make_store
+from omnislam.fastslam.factory import make_fastslam, make_fastslam1, make_fastslam2
+from omnislam.fastslam.filter import FastSLAM, FastSLAMInfo, make_store
 from omnislam.fastslam.landmark_store import LandmarkBlock, LandmarkStatus, LandmarkStore
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
+from omnislam.fastslam.mapper import MODALITIES
 
 __all__ = [
+    "MODALITIES",
     "PRESETS",
     "BearingUpdate",
     "DenseLandmarkStore",
     "ExistenceIndexConfig",
     "FastSLAM",
     "FastSLAMConfig",
+    "FastSLAMInfo",
     "LandmarkBlock",
     "LandmarkStatus",
     "LandmarkStore",
     "LandmarkTree",
+    "ProposalUpdateMode",
     "ResamplingScheme",
-    "SensorMode",
     "StoreKind",
     "TrajectoryMode",
     "TreeLayout",
     "TriangulationMethod",
     "Variant",
+    "make_fastslam",
     "make_fastslam1",
     "make_fastslam2",
     "make_store",

@@ -1,46 +1,122 @@
-"""Per-particle maximum-likelihood data association with a new-landmark threshold.
+"""Sightings -> (particle, slot, sighting) pairs: known ids, and per-particle maximum likelihood.
 
-Montemerlo 2003 (FastSLAM with unknown data association) / Thrun et al. 2005 sec. 13.6: every
-particle independently picks, for each sighting, the landmark of its own map that explains it
-best; if even the best explains it with likelihood below p0, the particle creates a new
-landmark. Different particles may associate differently; wrong hypotheses die out in
-resampling.
+A sighting with a known landmark id addresses that landmark's slot in every particle. For a
+sighting of unknown association (Montemerlo 2003, FastSLAM with unknown data association; Thrun
+et al. 2005 sec. 13.6) every particle independently picks the landmark of its own map that
+explains it best; if even the best explains it with likelihood below p0, the particle creates a
+new landmark. Different particles may associate differently; wrong hypotheses die out in
+resampling. Unknown association is supported for range-bearing sightings (the bearing mapper
+refuses bearings without track ids).
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from omnislam.fastslam.landmark_ekf import (
-    MeasurementModel,
-    gaussian_log_likelihood,
-    inverse_and_logdet,
-    transpose,
-)
+from omnislam.core.batch_linalg import inverse_and_logdet, transpose
+from omnislam.core.gaussian import gaussian_log_likelihood
+from omnislam.core.measurement import MeasurementModel, RangeBearing2D
+from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkStore
+from omnislam.fastslam.sightings import Pairs, Sightings
+from omnislam.fastslam.slot_registry import SlotRegistry
 
 #: association result meaning "a new landmark"
 NEW_LANDMARK = -1
 
 
-def chi_square_gate(probability: float, dof: int) -> float:
-    """The validation gate of a k-dimensional innovation: y^T S^-1 y <= gate with probability
-    ``probability`` for a consistent filter (chi-square quantile; SLAM for Dummies' nu^T S^-1 nu
-    <= lambda, Bar-Shalom's validation region).
+class SightingAssociation:
+    """Turns one frame's sightings into the pairs every particle updates.
 
     Args:
-        probability: in (0, 1]; 1.0 gives an infinite gate (nothing rejected).
-        dof: the innovation's dimension k.
-
-    Returns:
-        the gate on the squared Mahalanobis distance.
+        registry: the filter's slots (known ids, new slots, the positions near the robot).
+        store: the landmark store (candidate landmarks of each particle's map).
+        margin_m: unknown sightings are compared with the landmarks whose last known position
+            lies within the largest sighting range plus this margin of the mean pose [m].
+        log_p0: log-likelihood threshold below which a particle creates a new landmark.
     """
-    if probability >= 1.0:
-        return math.inf
-    from scipy.stats import chi2
 
-    return float(chi2.ppf(probability, dof))
+    def __init__(
+        self, registry: SlotRegistry, store: LandmarkStore, margin_m: float, log_p0: float
+    ) -> None:
+        self._registry = registry
+        self._store = store
+        self._margin_m = margin_m
+        self._log_p0 = log_p0
+        self._model = RangeBearing2D()
+
+    def pairs(
+        self,
+        sightings: Sightings,
+        poses: np.ndarray,
+        pose_cov: np.ndarray | None,
+        weights: np.ndarray,
+    ) -> Pairs:
+        """(particle, slot, sighting) triples: known ids map to their slots in every particle;
+        unknown sightings are associated per particle by maximum likelihood.
+
+        Args:
+            sightings: the frame's sightings.
+            poses: (P, 3) sampled poses (FastSLAM 1.0) or the motion prediction's means (2.0).
+            pose_cov: (P, 3, 3) the prediction's covariances (2.0), or None.
+            weights: (P,) the particle weights (the mean pose of the coarse gate).
+        """
+        p = len(poses)
+        known = np.flatnonzero(sightings.ids >= 0)
+        unknown = np.flatnonzero(sightings.ids < 0)
+        parts: list[Pairs] = []
+        if known.size:
+            slots = self._registry.slots_for_ids(sightings.ids[known])
+            parts.append(
+                Pairs(
+                    np.repeat(np.arange(p), known.size),
+                    np.tile(slots, p),
+                    np.tile(known, p),
+                    np.zeros(p * known.size, dtype=bool),
+                )
+            )
+        if unknown.size:
+            parts.append(self._unknown(sightings, unknown, poses, pose_cov, weights))
+        return Pairs.concatenate(parts)
+
+    def _unknown(
+        self,
+        sightings: Sightings,
+        unknown: np.ndarray,
+        poses: np.ndarray,
+        pose_cov: np.ndarray | None,
+        weights: np.ndarray,
+    ) -> Pairs:
+        """Pairs of the unknown sightings: the ML landmark of each particle, or a new slot."""
+        p = len(poses)
+        center = np.average(poses[:, :2], axis=0, weights=weights)
+        radius = float(sightings.z[unknown, 0].max()) + self._margin_m
+        candidates = self._registry.near(center, radius)
+        c = candidates.size
+        block = self._store.gather(np.repeat(np.arange(p), c), np.tile(candidates, p))
+        choice, _ = maximum_likelihood_association(
+            poses,
+            pose_cov,
+            block.mean.reshape(p, c, 2),
+            block.cov.reshape(p, c, 2, 2),
+            (block.status == ESTIMATED).reshape(p, c),
+            sightings.z[unknown],
+            sightings.R[unknown],
+            self._model,
+            self._log_p0,
+        )
+        new = choice == NEW_LANDMARK  # (P, K_u)
+        wanted = np.flatnonzero(new.any(axis=0))
+        new_slots = np.full(unknown.size, -1, dtype=np.int64)
+        if wanted.size:
+            new_slots[wanted] = self._registry.add(None, wanted.size)
+        existing = candidates[np.maximum(choice, 0)] if c else np.zeros_like(choice)
+        slots = np.where(new, new_slots[None, :], existing)
+        return Pairs(
+            np.repeat(np.arange(p), unknown.size),
+            slots.ravel(),
+            np.tile(unknown, p),
+            new.ravel(),
+        )
 
 
 def maximum_likelihood_association(

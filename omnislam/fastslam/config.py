@@ -38,20 +38,6 @@ class StoreKind(Enum):
     DENSE = "dense"
 
 
-class SensorMode(Enum):
-    """Which observations drive the map.
-
-    AUTO: fixed at the first frame that carries observations (range-bearing -> 2-D,
-        bearings -> 3-D).
-    RANGE_BEARING_2D: 2-D point landmarks from ``FrameInput.range_bearing``.
-    BEARINGS_3D: 3-D point landmarks from the omni camera's ``FrameInput.bearings``.
-    """
-
-    AUTO = "auto"
-    RANGE_BEARING_2D = "range_bearing_2d"
-    BEARINGS_3D = "bearings_3d"
-
-
 class BearingUpdate(Enum):
     """How a 3-D landmark that already has an estimate is updated by a new bearing.
 
@@ -146,18 +132,22 @@ class ExistenceIndexConfig:
 
 @dataclass(frozen=True, slots=True)
 class FastSLAMConfig:
-    """Everything a FastSLAM estimator needs besides its random generator.
+    """The settings of a FastSLAM estimator.
+
+    What it observes (``core.modality.Modality``, resolved once by the shared rule) and its
+    motion model are given to ``FastSLAM`` at construction, not set here; the factories build
+    the motion model from ``motion_noise``.
 
     Attributes:
         variant: FastSLAM 1.0 or 2.0; also the estimator's ``name``.
         n_particles: number of particles P.
-        motion_noise: alpha coefficients of thesis eqs. 4.40-4.41.
+        motion_noise: alpha coefficients of thesis eqs. 4.40-4.41, from which the factories
+            (``make_fastslam``) build the ``OdometryMotionModel``.
         resample_ess_fraction: resample when ESS (thesis eq. 4.51) < fraction * P; 1.0 resamples
             every step with observations, 0.0 never.
         resampling: the resampling algorithm (low-variance systematic by default, Thrun et al.
             2005 Table 4.4).
         store: landmark storage (thesis tree by default).
-        sensor_mode: 2-D range-bearing or 3-D bearings, or chosen from the data.
         sensor_height_m: height of the omni camera's viewpoint above the ground plane (3-D) [m].
         bearing_update: update of established 3-D landmarks (thesis triangulation or direct).
         triangulation: first 3-D estimate from two rays.
@@ -166,8 +156,8 @@ class FastSLAMConfig:
             two successive triangulations (new ray, then stored sighting), so without inflation
             its information is counted twice (``bearing_landmarks``). 1.0: the thesis as
             printed. Not applied with ``DIRECT`` updates, where every ray is used once.
-        min_parallax_rad: two rays closer than this are not triangulated; the first sighting is
-            kept until a ray with enough parallax arrives [rad].
+        min_parallax_deg: two rays closer than this are not triangulated; the first sighting is
+            kept until a ray with enough parallax arrives [deg] (as graphslam's option).
         new_landmark_log_likelihood: log p0, Montemerlo 2003 sec. 3.4.1 / Thrun et al. Table
             13.2: for sightings of unknown association, a particle creates a new landmark when no
             existing landmark explains the sighting with a log-likelihood above log p0, and its
@@ -205,12 +195,11 @@ class FastSLAMConfig:
     resample_ess_fraction: float = 0.5
     resampling: ResamplingScheme = ResamplingScheme.SYSTEMATIC
     store: StoreKind = StoreKind.TREE
-    sensor_mode: SensorMode = SensorMode.AUTO
     sensor_height_m: float = 0.0
     bearing_update: BearingUpdate = BearingUpdate.TRIANGULATED
     triangulation: TriangulationMethod = TriangulationMethod.MIDPOINT
     triangulated_ray_reuse: float = 2.0
-    min_parallax_rad: float = math.radians(3.0)
+    min_parallax_deg: float = 3.0
     new_landmark_log_likelihood: float = -6.0
     association_margin_m: float = 3.0
     bearing_gate_probability: float = 0.999
@@ -227,8 +216,8 @@ class FastSLAMConfig:
             raise ConfigError("n_particles must be >= 1")
         if not 0.0 <= self.resample_ess_fraction <= 1.0:
             raise ConfigError("resample_ess_fraction must be in [0, 1]")
-        if self.min_parallax_rad < 0 or self.association_margin_m < 0:
-            raise ConfigError("min_parallax_rad and association_margin_m must be non-negative")
+        if self.min_parallax_deg < 0 or self.association_margin_m < 0:
+            raise ConfigError("min_parallax_deg and association_margin_m must be non-negative")
         if self.triangulated_ray_reuse < 1.0:
             raise ConfigError("triangulated_ray_reuse must be >= 1")
         if not 0.0 < self.bearing_gate_probability <= 1.0:
@@ -270,13 +259,9 @@ class FastSLAMConfig:
 
     @classmethod
     def omni(cls, sensor_height_m: float, variant: Variant = Variant.FASTSLAM2) -> FastSLAMConfig:
-        """Omni camera bearings (3-D landmarks) with the thesis's triangulated updates."""
-        return cls(
-            variant=variant,
-            n_particles=50,
-            sensor_mode=SensorMode.BEARINGS_3D,
-            sensor_height_m=sensor_height_m,
-        )
+        """Omni camera bearings (3-D landmarks, ``Modality.BEARINGS_3D``) with the thesis's
+        triangulated updates."""
+        return cls(variant=variant, n_particles=50, sensor_height_m=sensor_height_m)
 
 
 PRESETS: dict[str, FastSLAMConfig] = {

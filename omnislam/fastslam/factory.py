@@ -1,4 +1,4 @@
-"""Factories that ``omnislam.estimators`` calls for ``fastslam1`` and ``fastslam2``."""
+"""Factories: ``make_fastslam`` from a configuration, and the registry's ``fastslam1`` / ``2``."""
 
 from __future__ import annotations
 
@@ -6,16 +6,42 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from omnislam.core.modality import MODALITY_OPTION, Modality
+from omnislam.core.motion import OdometryMotionModel
 from omnislam.errors import ConfigError
 from omnislam.fastslam.config import PRESETS, FastSLAMConfig, Variant
 from omnislam.fastslam.filter import FastSLAM
 from omnislam.options import apply_options
+
+#: the option that chose 2-D or 3-D before the shared modality (``--set modality=NAME``)
+_REMOVED_OPTION = "sensor_mode"
+
+
+def make_fastslam(
+    config: FastSLAMConfig,
+    modality: Modality,
+    rng: np.random.Generator,
+    initial_pose: np.ndarray | None = None,
+) -> FastSLAM:
+    """A FastSLAM of ``config`` on ``modality``, its motion model built from
+    ``config.motion_noise`` (the thesis's odometry model, eqs. 4.38-4.44).
+
+    Raises:
+        ConfigError: a modality FastSLAM does not consume.
+    """
+    motion = OdometryMotionModel(config.motion_noise)
+    return FastSLAM(config, rng, modality=modality, motion=motion, initial_pose=initial_pose)
 
 
 def _make(
     variant: Variant, info: object, options: Mapping[str, str], rng: np.random.Generator
 ) -> FastSLAM:
     options = dict(options)
+    if _REMOVED_OPTION in options:
+        raise ConfigError(
+            f"option {_REMOVED_OPTION!r} was replaced by the shared "
+            f"{MODALITY_OPTION}=range-bearing-2d|bearings-3d"
+        )
     preset = options.pop("preset", variant.value)
     if preset not in PRESETS:
         raise ConfigError(f"unknown fastslam preset {preset!r}; known: {', '.join(PRESETS)}")
@@ -25,14 +51,17 @@ def _make(
     height = getattr(info, "sensor_height_m", None)
     if height is not None and "sensor_height_m" not in options:
         config = config.with_(sensor_height_m=float(height))
-    return FastSLAM(apply_options(config, options), rng)
+    modality = getattr(info, "modality", None)
+    return make_fastslam(apply_options(config, options), modality, rng)
 
 
 def make_fastslam1(info: object, options: Mapping[str, str], rng: np.random.Generator) -> FastSLAM:
-    """FastSLAM 1.0 from ``PRESETS["fastslam1"]`` (or ``preset=NAME``) with ``--set`` overrides."""
+    """FastSLAM 1.0 from ``PRESETS["fastslam1"]`` (or ``preset=NAME``) with ``--set`` overrides,
+    on the modality the registry resolved (``info.modality``)."""
     return _make(Variant.FASTSLAM1, info, options, rng)
 
 
 def make_fastslam2(info: object, options: Mapping[str, str], rng: np.random.Generator) -> FastSLAM:
-    """FastSLAM 2.0 from ``PRESETS["fastslam2"]`` (or ``preset=NAME``) with ``--set`` overrides."""
+    """FastSLAM 2.0 from ``PRESETS["fastslam2"]`` (or ``preset=NAME``) with ``--set`` overrides,
+    on the modality the registry resolved (``info.modality``)."""
     return _make(Variant.FASTSLAM2, info, options, rng)

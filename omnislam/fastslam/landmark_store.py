@@ -32,6 +32,10 @@ class LandmarkStatus(IntEnum):
     ESTIMATED = 2  #: has a mean and covariance (eq. 4.28)
 
 
+#: the statuses as the int8 values of ``LandmarkBlock.status``, to compare and assign
+ABSENT, RAY, ESTIMATED = (np.int8(status) for status in LandmarkStatus)
+
+
 @dataclass(slots=True)
 class LandmarkBlock:
     """Payload of N (particle, slot) pairs; the arrays are the caller's to modify.

@@ -13,7 +13,10 @@ P (singular when the robot turns on the spot):
     L     = H_x P H_x^T + Q,   K = P H_x^T L^-1,   mu = mu_prev + K y,   Sigma = P - K L K^T,
 
 with Sigma computed in Joseph form, (I - K H_x) P (I - K H_x)^T + K Q K^T, which stays positive
-semi-definite under rounding when hundreds of bearings refine one proposal (omni camera).
+semi-definite under rounding when hundreds of bearings refine one proposal (omni camera): the
+shared ``core.kalman.kalman_update`` with Q as the measurement noise. The motion prediction
+N(mu_prev, P) it starts from is the motion model's linearised prediction from the exactly known
+previous pose of each particle (``MotionModel.predict(wTr, None, delta)``, thesis 4.41, 4.44).
 
 The importance factor of an observation is the likelihood of z under the *predictive*
 distribution, N(z; h(mu_prev, mu_m), L) = N(z; z_hat, H_x P H_x^T + H_m Sigma_m H_m^T + R)
@@ -39,42 +42,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from omnislam.core.motion import OdometryMotionModel
-from omnislam.core.se import wrap_angle
-from omnislam.fastslam.landmark_ekf import (
-    LOG_2PI,
-    MeasurementModel,
+from omnislam.core.batch_linalg import (
     entry_major,
+    inverse_3x3_entry_major,
     inverse_entry_major,
     product,
     quadratic_form,
     stack_major,
     symmetrised,
-    transpose,
     transposed,
 )
+from omnislam.core.gaussian import LOG_2PI, log_likelihood_from_mahalanobis, sample_gaussian
+from omnislam.core.kalman import kalman_update
+from omnislam.core.measurement import MeasurementModel
+from omnislam.core.se import wrap_angle
 
 #: added to the proposal covariance's diagonal before the Cholesky factorisation
 _JITTER = 1e-12
-
-
-def motion_prediction(
-    motion: OdometryMotionModel, wTr: np.ndarray, delta_r: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Gaussian approximation of the motion model per particle (thesis 4.41, 4.44 linearised).
-
-    Args:
-        motion: the shared odometry motion model.
-        wTr: (P, 3) previous poses.
-        delta_r: (3,) measured odometry delta in the robot frame.
-
-    Returns:
-        mean (P, 3) = g(x, u) and covariance (P, 3, 3) = V M V^T.
-    """
-    components = motion.decompose(delta_r)
-    _, V = motion.apply_jacobians(wTr, components)
-    M = np.diag(motion.component_sigmas(components) ** 2)
-    return motion.apply(wTr, components), V @ M @ transpose(V)
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,32 +99,27 @@ def refine_proposal(
         landmark_mean: (N, d) the observed landmarks' means.
         landmark_cov: (N, d, d) their covariances.
         model: measurement model with pose and landmark Jacobians.
-        gate: validation gate on y^T L^-1 y (``association.chi_square_gate``); infinite: every
+        gate: validation gate on y^T L^-1 y (``core.gating.chi_square_gate``); infinite: every
             observation is used.
     """
     z_hat, H_x, H_m = model.predict(pose_mean, landmark_mean)
     y = entry_major(model.residual(z, z_hat)[..., None])
     H_x, H_m, P = entry_major(H_x), entry_major(H_m), entry_major(pose_cov)
     Q = product(product(H_m, entry_major(landmark_cov)), transposed(H_m)) + entry_major(R)
-    PHT = product(P, transposed(H_x))
-    L = product(H_x, PHT) + Q
-    L_inv, logdet = inverse_entry_major(L)
-    K = product(PHT, L_inv)
-    mean = pose_mean + stack_major(product(K, y))[..., 0]
+    # L = H_x P H_x^T + Q; Joseph form (I - K H_x) P (I - K H_x)^T + K Q K^T: equal to
+    # P - K L K^T for this K, but a sum of PSD terms, so the covariance stays PSD after
+    # hundreds of sequential observations
+    step = kalman_update(P, H_x, Q, y, joseph=True)
+    mean = pose_mean + stack_major(step.mean_step)[..., 0]
     mean[..., 2] = wrap_angle(mean[..., 2])
-    # Joseph form (I - K H_x) P (I - K H_x)^T + K Q K^T: equal to P - K L K^T for this K, but a
-    # sum of PSD terms, so the covariance stays PSD after hundreds of sequential observations
-    I_KH = np.eye(P.shape[0]).reshape(P.shape[0], P.shape[0], *([1] * (P.ndim - 2)))
-    I_KH = I_KH - product(K, H_x)
-    cov = product(product(I_KH, P), transposed(I_KH)) + product(product(K, Q), transposed(K))
-    cov = stack_major(symmetrised(cov))
-    mahalanobis = quadratic_form(y, L_inv)
+    cov = stack_major(step.cov)
+    mahalanobis, logdet = step.mahalanobis, step.logdet_S
     accepted = mahalanobis <= gate
     if not accepted.all():
         mean = np.where(accepted[:, None], mean, pose_mean)
         cov = np.where(accepted[:, None, None], cov, pose_cov)
         mahalanobis = np.minimum(mahalanobis, gate)
-    log_likelihood = -0.5 * (mahalanobis + logdet + y.shape[0] * LOG_2PI)
+    log_likelihood = log_likelihood_from_mahalanobis(mahalanobis, logdet, y.shape[0])
     return ProposalUpdate(mean, cov, log_likelihood, accepted)
 
 
@@ -161,21 +140,6 @@ class JointProposal:
     cov: np.ndarray
     log_likelihood: np.ndarray
     accepted: np.ndarray
-
-
-def _inverse_3x3(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse and determinant of an entry-major stack (3, 3, ...) of invertible matrices
-    (not necessarily symmetric), by cofactors: adj(M) / det(M)."""
-    (a, b, c), (d, e, f), (g, h, i) = M
-    adjugate = np.array(
-        [
-            [e * i - f * h, c * h - b * i, b * f - c * e],
-            [f * g - d * i, a * i - c * g, c * d - a * f],
-            [d * h - e * g, b * g - a * h, a * e - b * d],
-        ]
-    )
-    det = a * adjugate[0, 0] + b * adjugate[1, 0] + c * adjugate[2, 0]
-    return adjugate / det, det
 
 
 def joint_proposal(
@@ -226,7 +190,7 @@ def joint_proposal(
     -1/2 (gate + log det L_j + m log 2 pi).
 
     Vectorisation: every per-pair quantity is computed for all N pairs at once in the
-    entry-major layout (``landmark_ekf.entry_major``); the per-particle sums of A (9 entries),
+    entry-major layout (``core.batch_linalg.entry_major``); the per-particle sums of A (9 entries),
     b (3) and the scalar terms are one ``np.bincount`` over the pairs; the 3 x 3 algebra is then
     one closed-form pass over the particles.
 
@@ -270,7 +234,7 @@ def joint_proposal(
     b = sums[9:12].reshape(3, 1, n_particles)
     P = entry_major(pose_cov)
     I_PA = np.eye(3)[:, :, None] + product(P, A)
-    I_PA_inv, det_I_PA = _inverse_3x3(I_PA)
+    I_PA_inv, det_I_PA = inverse_3x3_entry_major(I_PA)
     Sigma = symmetrised(product(I_PA_inv, P))
     mean = pose_mean + stack_major(product(Sigma, b))[..., 0]
     mean[..., 2] = wrap_angle(mean[..., 2])
@@ -284,7 +248,6 @@ def sample_poses(mean: np.ndarray, cov: np.ndarray, rng: np.random.Generator) ->
     Args:
         mean: (N, 3); cov: (N, 3, 3) symmetric positive semi-definite.
     """
-    chol = np.linalg.cholesky(cov + _JITTER * np.eye(3))
-    poses = mean + np.einsum("...ij,...j->...i", chol, rng.standard_normal(mean.shape))
+    poses = sample_gaussian(mean, cov, rng, _JITTER)
     poses[..., 2] = wrap_angle(poses[..., 2])
     return poses

@@ -95,6 +95,34 @@ def test_predict_with_zero_noise_equals_composition():
     np.testing.assert_allclose(cov, 0.0, atol=1e-15)
 
 
+def test_predict_is_vectorised_over_poses(rng):
+    """Stacks of poses and covariances give the per-pose results; None is a known pose."""
+    poses = np.column_stack([rng.uniform(-3, 3, (6, 2)), rng.uniform(-np.pi, np.pi, 6)])
+    A = rng.normal(size=(6, 3, 3)) * 0.1
+    P = A @ np.swapaxes(A, 1, 2)
+    delta = np.array([0.4, 0.05, 0.2])
+    means, covs = MODEL.predict(poses, P, delta)
+    noise_means, noise = MODEL.predict(poses, None, delta)
+    for i in range(6):
+        mean, cov = MODEL.predict(poses[i], P[i], delta)
+        np.testing.assert_allclose(means[i], mean, rtol=1e-15)
+        np.testing.assert_allclose(covs[i], cov, rtol=1e-12)
+        _, noise_i = MODEL.predict(poses[i], np.zeros((3, 3)), delta)
+        np.testing.assert_allclose(noise[i], noise_i, rtol=1e-15)
+    np.testing.assert_array_equal(noise_means, means)
+
+
+def test_known_pose_prediction_moments_match_sampling(rng):
+    """The Gaussian the FastSLAM 2.0 proposal starts from agrees with the sampler's moments."""
+    motion = OdometryMotionModel(MotionNoise(a_vv=0.1, a_vw=0.05, a_wv=0.02, a_ww=0.1))
+    pose = np.array([[1.0, 2.0, 0.3]])
+    delta = np.array([0.4, 0.02, 0.1])
+    mean, cov = motion.predict(pose, None, delta)
+    samples = motion.sample(np.repeat(pose, 100_000, axis=0), delta, rng)
+    np.testing.assert_allclose(samples.mean(axis=0), mean[0], atol=2e-3)
+    np.testing.assert_allclose(np.cov(samples.T), cov[0], rtol=0.05, atol=1e-6)
+
+
 def test_negative_coefficients_rejected():
     with pytest.raises(ValueError):
         MotionNoise(a_vv=-0.1)

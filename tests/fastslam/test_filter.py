@@ -20,25 +20,31 @@ from fastslam_tolerances import (
     STORE_ATOL,
 )
 
-from omnislam.core.types import Estimator, FrameInput, Odometry, RangeBearing
+from omnislam.core.modality import Modality
+from omnislam.core.types import UNKNOWN_ID, Estimator, FrameInput, Odometry, RangeBearing
 from omnislam.errors import ConfigError
 from omnislam.fastslam import (
     BearingUpdate,
     ExistenceIndexConfig,
-    FastSLAM,
     FastSLAMConfig,
     LandmarkStatus,
-    SensorMode,
     StoreKind,
     TrajectoryMode,
     Variant,
+    make_fastslam,
 )
 
 SEEDS = range(8)
+RANGE_BEARING = Modality.RANGE_BEARING_2D
+BEARINGS = Modality.BEARINGS_3D
 
 
-def _run(scenario, config, seed):
-    slam = FastSLAM(config, np.random.default_rng(seed))
+def _slam(config, seed, modality=RANGE_BEARING):
+    return make_fastslam(config, modality, np.random.default_rng(seed))
+
+
+def _run(scenario, config, seed, modality=RANGE_BEARING):
+    slam = _slam(config, seed, modality)
     for frame in scenario.frames:
         slam.step(frame)
     return slam, slam.estimate()
@@ -61,14 +67,14 @@ def _config(variant, n, **changes):
 
 def test_is_an_estimator_named_after_its_variant():
     for variant in Variant:
-        slam = FastSLAM(FastSLAMConfig(variant=variant), np.random.default_rng(0))
+        slam = _slam(FastSLAMConfig(variant=variant), 0)
         assert isinstance(slam, Estimator)
         assert slam.name == variant.value
 
 
 def test_rejects_a_bad_initial_pose():
     with pytest.raises(ConfigError):
-        FastSLAM(FastSLAMConfig(), np.random.default_rng(0), initial_pose=np.zeros(2))
+        make_fastslam(FastSLAMConfig(), RANGE_BEARING, np.random.default_rng(0), np.zeros(2))
 
 
 @pytest.mark.parametrize("variant", list(Variant))
@@ -158,10 +164,26 @@ def test_unknown_association(variant):
     assert np.mean(ates) < ATE_FRACTION_OF_DEAD_RECKONING * np.mean(dead_reckoning)
 
 
+def test_a_frame_may_mix_known_and_unknown_ids():
+    """Known ids map to their slots, an unknown sighting gets a new landmark: both mapped."""
+    frame = FrameInput(
+        0,
+        Odometry(np.zeros(3), 0.0),
+        range_bearing=RangeBearing(
+            np.array([7, UNKNOWN_ID]), np.array([2.0, 3.0]), np.array([0.3, -0.5]), 0.1, 0.01
+        ),
+    )
+    for variant in Variant:
+        slam = _slam(_config(variant, 5), 0)
+        slam.step(frame)
+        ids = slam.estimate().landmark_ids
+        assert len(ids) == 2 and 7 in ids
+
+
 def test_frames_without_sightings_only_predict():
     """Asynchronous front end (thesis 4.5): weights and maps untouched, poses move."""
     scenario = make_scenario(0, steps=30)
-    slam = FastSLAM(_config(Variant.FASTSLAM1, 20), np.random.default_rng(0))
+    slam = _slam(_config(Variant.FASTSLAM1, 20), 0)
     for frame in scenario.frames[:20]:
         slam.step(frame)
     weights = slam.particles.log_weights.copy()
@@ -203,7 +225,7 @@ def test_existence_index_deletes_a_phantom_landmark():
     frames[0] = FrameInput(first.index, first.odometry, range_bearing=merged)
     existence = ExistenceIndexConfig(max_range_m=7.0)
     config = _config(Variant.FASTSLAM1, 10, existence=existence)
-    slam = FastSLAM(config, np.random.default_rng(0))
+    slam = _slam(config, 0)
     slam.step(frames[0])
     assert 999 in slam.estimate().landmark_ids
     for frame in frames[1:]:
@@ -226,9 +248,9 @@ def test_bearing_only_3d_mode(update):
     ates, dead_reckoning = [], []
     for seed in (1, 2, 3):
         scenario = make_bearing_scenario(seed)
-        slam = FastSLAM(config, np.random.default_rng(seed))
+        slam = _slam(config, seed, BEARINGS)
         slam.step(scenario.frames[0])
-        assert slam.mode is SensorMode.BEARINGS_3D
+        assert slam.modality is BEARINGS
         assert len(slam.estimate().landmark_ids) == 0  # rays only (thesis eq. 4.24)
         first = slam.store.particle_map(0)
         assert np.all(first.status[: len(scenario.frames[0].bearings)] == LandmarkStatus.RAY)
@@ -248,7 +270,7 @@ def _bearing_ates(config, outlier_fraction):
     ates, dead_reckoning = [], []
     for seed in (1, 2, 3):
         scenario = make_bearing_scenario(seed, outlier_fraction=outlier_fraction)
-        _, estimate = _run(scenario, config, seed)
+        _, estimate = _run(scenario, config, seed, BEARINGS)
         ates.append(_ate(estimate, scenario))
         dead_reckoning.append(
             ate_rmse(scenario.dead_reckoning[1:, :2], scenario.true_poses[1:, :2])
@@ -298,8 +320,6 @@ def test_resample_fraction_one_resamples_every_step_and_zero_never(n):
         range_bearing=RangeBearing(np.array([1]), np.array([2.0]), np.array([0.3]), 0.1, 0.01),
     )
     for fraction, expected in ((1.0, 1), (0.0, 0)):
-        slam = FastSLAM(
-            _config(Variant.FASTSLAM1, n, resample_ess_fraction=fraction), np.random.default_rng(0)
-        )
+        slam = _slam(_config(Variant.FASTSLAM1, n, resample_ess_fraction=fraction), 0)
         slam.step(first)
         assert slam.resample_count == expected

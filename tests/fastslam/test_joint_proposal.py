@@ -20,13 +20,13 @@ from fastslam_tolerances import (
 )
 from scipy.stats import multivariate_normal
 
+from omnislam.core.gating import chi_square_gate
+from omnislam.core.gaussian import LOG_2PI
 from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.modality import Modality
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
-from omnislam.fastslam import FastSLAM, FastSLAMConfig, Variant
-from omnislam.fastslam.association import chi_square_gate
-from omnislam.fastslam.config import ProposalUpdateMode
-from omnislam.fastslam.landmark_ekf import LOG_2PI
-from omnislam.fastslam.proposal import joint_proposal, motion_prediction, refine_proposal
+from omnislam.fastslam import FastSLAMConfig, ProposalUpdateMode, Variant, make_fastslam
+from omnislam.fastslam.proposal import joint_proposal, refine_proposal
 from omnislam.options import apply_options
 
 #: joint == sequential for one observation: same Gaussian update, different rounding
@@ -216,7 +216,7 @@ def test_motion_prediction_input(rng):
     """From the motion model's own prediction (the filter's inputs), as refine_proposal."""
     motion = OdometryMotionModel(MotionNoise())
     problem = _problem(rng, [2, 3, 1])
-    mu0, P = motion_prediction(motion, problem[0], np.array([0.5, 0.05, 0.2]))
+    mu0, P = motion.predict(problem[0], None, np.array([0.5, 0.05, 0.2]))
     problem = (mu0, P, *problem[2:])
     joint = joint_proposal(*problem)
     d_mean, d_cov, d_logpdf = _dense(*problem)
@@ -231,20 +231,20 @@ def test_option_parses_from_the_command_line():
     assert FastSLAMConfig().proposal_update is ProposalUpdateMode.SEQUENTIAL
 
 
-def _ate(config, scenario, seed):
-    slam = FastSLAM(config, np.random.default_rng(seed))
+def _ate(config, scenario, seed, modality):
+    slam = make_fastslam(config, modality, np.random.default_rng(seed))
     for frame in scenario.frames:
         slam.step(frame)
     positions = slam.estimate().trajectory.positions_w[:, :2]
     return ate_rmse(positions, scenario.true_poses[1:, :2])
 
 
-def _mean_ates(config, scenarios, seeds):
+def _mean_ates(config, scenarios, seeds, modality):
     """Mean ATE of SEQUENTIAL and JOINT over the scenarios, and dead reckoning's."""
     ates = {
         mode: np.mean(
             [
-                _ate(config.with_(proposal_update=mode), scenario, seed)
+                _ate(config.with_(proposal_update=mode), scenario, seed, modality)
                 for scenario, seed in zip(scenarios, seeds, strict=True)
             ]
         )
@@ -262,7 +262,10 @@ def test_filter_joint_close_to_sequential_on_the_loop():
     config = FastSLAMConfig(variant=Variant.FASTSLAM2, n_particles=10, motion_noise=SCENARIO_NOISE)
     seeds = range(3)
     sequential, joint, dead_reckoning = _mean_ates(
-        config, [make_scenario(seed) for seed in seeds], [seed + 100 for seed in seeds]
+        config,
+        [make_scenario(seed) for seed in seeds],
+        [seed + 100 for seed in seeds],
+        Modality.RANGE_BEARING_2D,
     )
     assert joint < ATE_FRACTION_OF_DEAD_RECKONING * dead_reckoning
     assert joint < 1.25 * sequential
@@ -279,6 +282,6 @@ def test_filter_joint_with_bearings_and_outliers():
     )
     seeds = (1, 2, 3)
     scenarios = [make_bearing_scenario(seed, outlier_fraction=OUTLIER_FRACTION) for seed in seeds]
-    sequential, joint, dead_reckoning = _mean_ates(config, scenarios, seeds)
+    sequential, joint, dead_reckoning = _mean_ates(config, scenarios, seeds, Modality.BEARINGS_3D)
     assert joint < ATE_FRACTION_OF_DEAD_RECKONING_3D * dead_reckoning
     assert joint < 1.25 * sequential

@@ -1,25 +1,13 @@
-"""The landmark EKF and the FastSLAM 2.0 proposal against their textbook forms."""
+"""The FastSLAM 2.0 proposal (sequential refinement) against its textbook forms."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
-import pytest
 
+from omnislam.core.gating import chi_square_gate
 from omnislam.core.measurement import BearingElevation3D, RangeBearing2D
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
-from omnislam.fastslam.association import chi_square_gate
-from omnislam.fastslam.landmark_ekf import (
-    ekf_update,
-    entry_major,
-    inverse_entry_major,
-    product,
-    quadratic_form,
-    stack_major,
-    symmetrised,
-)
-from omnislam.fastslam.proposal import motion_prediction, refine_proposal, sample_poses
+from omnislam.fastslam.proposal import refine_proposal, sample_poses
 
 
 def _case(rng, n=5):
@@ -32,29 +20,11 @@ def _case(rng, n=5):
     return poses, landmarks, cov, z, R
 
 
-def test_ekf_update_matches_information_form(rng):
-    """Sigma' = (Sigma^-1 + H^T R^-1 H)^-1, mu' = mu + Sigma' H^T R^-1 y (thesis 4.35-4.37)."""
-    poses, landmarks, cov, z, R = _case(rng)
-    model = RangeBearing2D()
-    update = ekf_update(poses, landmarks, cov, z, R, model)
-    z_hat, _, H = model.predict(poses, landmarks)
-    y = model.residual(z, z_hat)
-    for i in range(len(z)):
-        info = np.linalg.inv(cov[i]) + H[i].T @ np.linalg.inv(R[i]) @ H[i]
-        Sigma = np.linalg.inv(info)
-        np.testing.assert_allclose(update.cov[i], Sigma, rtol=1e-9, atol=1e-12)
-        mu = landmarks[i] + Sigma @ H[i].T @ np.linalg.inv(R[i]) @ y[i]
-        np.testing.assert_allclose(update.mean[i], mu, rtol=1e-9)
-        S = H[i] @ cov[i] @ H[i].T + R[i]
-        ll = -0.5 * (y[i] @ np.linalg.solve(S, y[i]) + np.log(np.linalg.det(2 * np.pi * S)))
-        np.testing.assert_allclose(update.log_likelihood[i], ll, rtol=1e-9)
-
-
 def test_proposal_matches_montemerlo_information_form(rng):
     """Sigma_x = [H_x^T Q^-1 H_x + P^-1]^-1, mu_x = Sigma_x H_x^T Q^-1 (z - z_hat) + x_hat."""
     poses, landmarks, cov, z, R = _case(rng)
     motion = OdometryMotionModel(MotionNoise())
-    x_hat, P = motion_prediction(motion, poses, np.array([0.5, 0.05, 0.2]))
+    x_hat, P = motion.predict(poses, None, np.array([0.5, 0.05, 0.2]))
     model = RangeBearing2D()
     update = refine_proposal(x_hat, P, z, R, landmarks, cov, model)
     z_hat, H_x, H_m = model.predict(x_hat, landmarks)
@@ -70,44 +40,12 @@ def test_proposal_matches_montemerlo_information_form(rng):
         np.testing.assert_allclose(update.log_likelihood[i], ll, rtol=1e-9)
 
 
-def test_motion_prediction_moments_match_sampling(rng):
-    """The Gaussian the 2.0 proposal starts from agrees with the 1.0 sampler's moments."""
-    motion = OdometryMotionModel(MotionNoise(a_vv=0.1, a_vw=0.05, a_wv=0.02, a_ww=0.1))
-    pose = np.array([[1.0, 2.0, 0.3]])
-    delta = np.array([0.4, 0.02, 0.1])
-    mean, cov = motion_prediction(motion, pose, delta)
-    samples = motion.sample(np.repeat(pose, 100_000, axis=0), delta, rng)
-    np.testing.assert_allclose(samples.mean(axis=0), mean[0], atol=2e-3)
-    np.testing.assert_allclose(np.cov(samples.T), cov[0], rtol=0.05, atol=1e-6)
-
-
 def test_sample_poses_has_the_requested_moments(rng):
     mean = np.array([1.0, -1.0, 0.5])
     cov = np.array([[0.04, 0.01, 0.0], [0.01, 0.09, 0.002], [0.0, 0.002, 0.01]])
     samples = sample_poses(np.tile(mean, (200_000, 1)), np.tile(cov, (200_000, 1, 1)), rng)
     np.testing.assert_allclose(samples.mean(axis=0), mean, atol=2e-3)
     np.testing.assert_allclose(np.cov(samples.T), cov, rtol=0.02, atol=2e-4)
-
-
-@pytest.mark.parametrize("k", [1, 2, 3])
-def test_entry_major_algebra_matches_matmul(rng, k):
-    """The entry-major products, inverse and quadratic form used by the EKF and the proposal
-    equal numpy's stacked matrix algebra."""
-    n = 7
-    A, B = rng.normal(size=(n, k, 3)), rng.normal(size=(n, 3, k))
-    C = rng.normal(size=(n, k, k))
-    S = C @ np.swapaxes(C, 1, 2) + np.eye(k)
-    y = rng.normal(size=(n, k))
-    product_em = stack_major(product(entry_major(A), entry_major(B)))
-    np.testing.assert_allclose(product_em, A @ B, rtol=1e-12)
-    np.testing.assert_allclose(
-        stack_major(symmetrised(entry_major(C))), 0.5 * (C + np.swapaxes(C, 1, 2)), rtol=1e-12
-    )
-    inverse, logdet = inverse_entry_major(entry_major(S))
-    np.testing.assert_allclose(stack_major(inverse), np.linalg.inv(S), rtol=1e-9)
-    np.testing.assert_allclose(logdet, np.linalg.slogdet(S)[1], rtol=1e-12)
-    quadratic = quadratic_form(entry_major(y[..., None]), entry_major(np.linalg.inv(S)))
-    np.testing.assert_allclose(quadratic, np.einsum("ni,nij,nj->n", y, np.linalg.inv(S), y))
 
 
 def test_proposal_covariance_stays_positive_definite_over_hundreds_of_bearings(rng):
@@ -134,18 +72,12 @@ def test_proposal_covariance_stays_positive_definite_over_hundreds_of_bearings(r
     sample_poses(mean, cov, rng)  # the Cholesky factorisation succeeds
 
 
-def test_chi_square_gate():
-    assert math.isclose(chi_square_gate(0.999, 2), -2.0 * math.log(0.001))
-    assert math.isclose(chi_square_gate(0.95, 3), 7.814727903251178)
-    assert chi_square_gate(1.0, 2) == math.inf
-
-
 def test_gated_proposal_ignores_an_outlier_and_truncates_its_likelihood(rng):
     """An innovation outside the gate leaves the proposal as it was; inside, the gate changes
     nothing. The outlier's factor is the Gaussian at the gate's Mahalanobis distance."""
     poses, landmarks, cov, _, R = _case(rng)
     motion = OdometryMotionModel(MotionNoise())
-    x_hat, P = motion_prediction(motion, poses, np.array([0.5, 0.05, 0.2]))
+    x_hat, P = motion.predict(poses, None, np.array([0.5, 0.05, 0.2]))
     model = RangeBearing2D()
     z, _, _ = model.predict(x_hat, landmarks)
     z += rng.normal(0.0, [0.1, 0.02], z.shape)  # a one-sigma sensor error

@@ -1,0 +1,258 @@
+"""3-D point landmarks from omni bearings (``Modality.BEARINGS_3D``), thesis sec. 4.4.1.
+
+The thesis's life cycle of a bearing-only landmark in one particle: the first sighting stores
+the ray (eq. 4.24); the first later sighting with enough parallax triangulates it (eq. 4.21 or
+least squares) with Sigma = R Q R^T (eqs. 4.26-4.27); later sightings update it by EKF
+(eqs. 4.29-4.37), either with the triangulated pseudo-measurement z = (d, theta, phi) (eq. 4.25,
+``BearingUpdate.TRIANGULATED``, falling back to the direct update where the parallax is too
+small) or directly with z = (azimuth, elevation) (``BearingUpdate.DIRECT``). The ray geometry is
+in ``bearing_landmarks``.
+
+A chi-square validation gate (``core.gating``) keeps bearings of feature tracks that jumped to
+another point out of the landmark EKFs and the FastSLAM 2.0 proposal; their weight factor is the
+Gaussian likelihood truncated at the gate.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from omnislam.core.gating import chi_square_gate, gate_truncated_log_likelihood
+from omnislam.core.kalman import ekf_update
+from omnislam.core.measurement import (
+    BearingElevation3D,
+    RangeAzimuthElevation3D,
+    azimuth_elevation_from_unit_vectors,
+)
+from omnislam.core.modality import Modality
+from omnislam.core.types import FrameInput
+from omnislam.errors import DataError
+from omnislam.fastslam.bearing_landmarks import (
+    RAY_DIM,
+    first_estimate,
+    triangulate,
+    triangulated_measurement,
+    world_rays,
+)
+from omnislam.fastslam.config import BearingUpdate, FastSLAMConfig
+from omnislam.fastslam.landmark_store import ABSENT, ESTIMATED, RAY, LandmarkBlock
+from omnislam.fastslam.sightings import Pairs, Sightings
+
+
+class BearingMapper:
+    """``LandmarkMapper`` of the omni camera's unit bearings with track ids.
+
+    Args:
+        config: the filter's settings (sensor height, bearing update, triangulation, parallax,
+            gate, proposal restrictions).
+
+    Attributes:
+        sightings_gated: (particle, sighting) landmark updates rejected by the gate so far.
+        triangulation_fallbacks: triangulated updates replaced by the direct one (too little
+            parallax with the stored ray, or no valid intersection) so far.
+    """
+
+    modality = Modality.BEARINGS_3D
+    landmark_dim = 3
+    ray_dim = RAY_DIM
+
+    def __init__(self, config: FastSLAMConfig) -> None:
+        self._config = config
+        self._sensor_height_m = config.sensor_height_m
+        self._min_parallax_rad = math.radians(config.min_parallax_deg)
+        self._range_az_el = RangeAzimuthElevation3D(config.sensor_height_m)
+        self._bearing = BearingElevation3D(config.sensor_height_m)
+        # validation gates of (azimuth, elevation) and (d, theta, phi) innovations
+        self._bearing_gate = chi_square_gate(config.bearing_gate_probability, 2)
+        self._triangulated_gate = chi_square_gate(config.bearing_gate_probability, 3)
+        # the proposal uses the direct model: the triangulated pseudo-measurement depends on
+        # the very pose being sampled
+        self.proposal_model = self._bearing
+        self.proposal_gate = self._bearing_gate
+        self.sightings_gated = 0
+        self.triangulation_fallbacks = 0
+
+    def read(self, frame: FrameInput) -> Sightings | None:
+        """``frame.bearings`` as z = (azimuth, elevation) with R = sigma^2 I.
+
+        Raises:
+            DataError: a bearing without track id (unknown association is supported for
+                range-bearing sightings only).
+        """
+        if not self.modality.count(frame):
+            return None
+        bearings = frame.bearings
+        assert bearings is not None
+        if np.any(bearings.landmark_ids < 0):
+            raise DataError(
+                f"frame {frame.index}: bearing sightings need track ids (unknown association "
+                "is supported for range-bearing sightings only)"
+            )
+        k = len(bearings)
+        R = np.zeros((k, 2, 2))
+        R[:, 0, 0] = R[:, 1, 1] = bearings.sigmas_rad**2
+        z = azimuth_elevation_from_unit_vectors(bearings.unit_vectors_r)
+        return Sightings(
+            np.asarray(bearings.landmark_ids),
+            z,
+            R,
+            np.asarray(bearings.unit_vectors_r),
+            np.asarray(bearings.sigmas_rad),
+        )
+
+    def update(
+        self, block: LandmarkBlock, wTr: np.ndarray, sightings: Sightings, obs: np.ndarray
+    ) -> np.ndarray:
+        """Store the ray, triangulate, then EKF-update (triangulated pseudo-measurement or
+        direct azimuth/elevation, ``BearingUpdate``), outliers gated out."""
+        assert sightings.unit_vectors_r is not None and sightings.sigmas_rad is not None
+        config = self._config
+        # each ray enters two triangulations only when later sightings are triangulated too
+        triangulated = config.bearing_update is BearingUpdate.TRIANGULATED
+        ray_reuse = config.triangulated_ray_reuse if triangulated else 1.0
+        log_likelihood = np.zeros(len(block))
+        rays = world_rays(wTr, sightings.unit_vectors_r[obs], self._sensor_height_m)
+        sigma = sightings.sigmas_rad[obs]
+        absent = np.flatnonzero(block.status == ABSENT)
+        ray_only = np.flatnonzero(block.status == RAY)
+        est = np.flatnonzero(block.status == ESTIMATED)
+
+        # first sighting: store the ray (eq. 4.24)
+        block.ray[absent] = rays[absent]
+        block.status[absent] = RAY
+        block.existence[absent] = 0
+
+        # first match: triangulate (eq. 4.21) and Sigma = R Q R^T (eqs. 4.26-4.27)
+        if ray_only.size:
+            ok, z3, Q = self._triangulated(block, ray_only, rays, wTr, sigma, ray_reuse)
+            rows = ray_only[ok]
+            if rows.size:
+                block.mean[rows], block.cov[rows] = first_estimate(
+                    self._range_az_el, wTr[rows], z3, Q
+                )
+                block.status[rows] = ESTIMATED
+                block.ray[rows] = rays[rows]  # eq. 4.28: keep the latest sighting
+
+        # later matches: EKF update (eqs. 4.29-4.37), outliers gated out
+        if est.size:
+            direct = np.ones(est.size, dtype=bool)
+            if triangulated:
+                ok, z3, Q = self._triangulated(block, est, rays, wTr, sigma, ray_reuse)
+                rows = est[ok]
+                if rows.size:
+                    accepted = self._gated_update(
+                        block,
+                        rows,
+                        wTr[rows],
+                        z3,
+                        Q,
+                        self._range_az_el,
+                        self._triangulated_gate,
+                        log_likelihood,
+                    )
+                    block.ray[rows[accepted]] = rays[rows[accepted]]
+                direct = ~ok
+                self.triangulation_fallbacks += int(np.count_nonzero(direct))
+            rows = est[direct]
+            if rows.size:
+                self._gated_update(
+                    block,
+                    rows,
+                    wTr[rows],
+                    sightings.z[obs[rows]],
+                    sightings.R[obs[rows]],
+                    self._bearing,
+                    self._bearing_gate,
+                    log_likelihood,
+                )
+        return log_likelihood
+
+    def _triangulated(
+        self,
+        block: LandmarkBlock,
+        rows: np.ndarray,
+        rays: np.ndarray,
+        wTr: np.ndarray,
+        sigma: np.ndarray,
+        ray_reuse: float,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Triangulate the stored ray of ``block[rows]`` with the new one (eq. 4.21) where the
+        parallax allows, as a (d, theta, phi) pseudo-measurement with noise Q (eqs. 4.25-4.27).
+
+        Returns:
+            ((len(rows),) True where it triangulated, z3 (K, 3), Q (K, 3, 3) of those K rows).
+        """
+        points, valid, parallax = triangulate(
+            self._config.triangulation, block.ray[rows], rays[rows]
+        )
+        ok = valid & (parallax >= self._min_parallax_rad)
+        kept = rows[ok]
+        if not kept.size:
+            return ok, np.zeros((0, 3)), np.zeros((0, 3, 3))
+        z3, Q = triangulated_measurement(
+            self._range_az_el, wTr[kept], points[ok], sigma[kept], parallax[ok], ray_reuse
+        )
+        return ok, z3, Q
+
+    def _gated_update(
+        self,
+        block: LandmarkBlock,
+        rows: np.ndarray,
+        wTr: np.ndarray,
+        z: np.ndarray,
+        R: np.ndarray,
+        model: RangeAzimuthElevation3D | BearingElevation3D,
+        gate: float,
+        log_likelihood: np.ndarray,
+    ) -> np.ndarray:
+        """EKF update (thesis eqs. 4.33-4.37) of ``block[rows]`` in place, skipping outliers.
+
+        An innovation outside the validation gate (y^T S^-1 y > gate) leaves the landmark as it
+        was; its likelihood, written to ``log_likelihood[rows]``, is truncated at the gate.
+
+        Returns:
+            (len(rows),) True where the update was applied.
+        """
+        update = ekf_update(wTr, block.mean[rows], block.cov[rows], z, R, model)
+        accepted = update.mahalanobis <= gate
+        kept = rows[accepted]
+        block.mean[kept] = update.mean[accepted]
+        block.cov[kept] = update.cov[accepted]
+        log_likelihood[rows] = gate_truncated_log_likelihood(
+            update.log_likelihood, update.mahalanobis, gate
+        )
+        self.sightings_gated += int(accepted.size - np.count_nonzero(accepted))
+        return accepted
+
+    def proposal_landmarks(
+        self, block: LandmarkBlock, pairs: Pairs, usable: np.ndarray
+    ) -> np.ndarray:
+        """Which usable pairs may refine the FastSLAM 2.0 proposal.
+
+        A landmark triangulated from two rays of little parallax is uncertain in depth and its
+        error is correlated with the poses that triangulated it; the proposal (which treats the
+        observations as independent given the map) then trusts it too much. Only landmarks
+        whose position std sqrt(tr Sigma) is at most ``proposal_max_landmark_std_m`` are used,
+        and of those at most ``proposal_max_sightings`` sightings, the best-converged (smallest
+        mean tr Sigma over the particles) first.
+
+        Returns:
+            (N,) bool over the pairs: ``usable`` and selected.
+        """
+        config = self._config
+        trace = np.trace(block.cov, axis1=-2, axis2=-1)
+        keep = trace <= config.proposal_max_landmark_std_m**2
+        cap = config.proposal_max_sightings
+        candidates = usable & keep
+        if cap > 0:
+            obs = pairs.obs[candidates]
+            if np.unique(obs).size > cap:
+                n_obs = int(pairs.obs.max()) + 1
+                total = np.bincount(obs, weights=trace[candidates], minlength=n_obs)
+                count = np.bincount(obs, minlength=n_obs)
+                score = np.where(count > 0, total / np.maximum(count, 1), np.inf)
+                best = np.argsort(score, kind="stable")[:cap]
+                keep &= np.isin(pairs.obs, best)
+        return usable & keep

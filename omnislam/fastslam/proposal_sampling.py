@@ -1,0 +1,139 @@
+"""FastSLAM 2.0's pose sampling: each particle's motion prediction refined by its sightings.
+
+Thesis eqs. 4.45-4.46 / Montemerlo 2003 sec. 3.3: every particle refines the Gaussian motion
+prediction N(mu0, P) of its pose by its sightings of established landmarks -- one after the other
+(``ProposalUpdateMode.SEQUENTIAL``, ``proposal.refine_proposal``) or all in one update linearised
+at the prediction (``JOINT``, ``proposal.joint_proposal``) -- and draws its new pose from the
+result. The product of the sightings' predictive likelihoods is the particle's importance factor
+(eq. 4.47 with the predictive covariance H_x P H_x^T + H_m Sigma H_m^T + R). A particle without
+such sightings samples from the motion model itself, as in FastSLAM 1.0 (eqs. 4.42-4.44).
+
+The mapper decides which sightings take part (``LandmarkMapper.proposal_landmarks``: in 3-D the
+converged landmarks, capped) and with which model and gate.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from omnislam.core.motion import MotionModel
+from omnislam.fastslam.config import ProposalUpdateMode
+from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkStore
+from omnislam.fastslam.mapper import LandmarkMapper
+from omnislam.fastslam.proposal import joint_proposal, refine_proposal, sample_poses
+from omnislam.fastslam.sightings import Pairs, Sightings
+
+
+@dataclass(frozen=True, slots=True)
+class ProposalDraw:
+    """The poses drawn from the proposal and their importance factors.
+
+    Attributes:
+        poses: (P, 3) sampled poses.
+        log_factors: (P,) log importance factors (0 for particles sampled from the motion
+            model).
+        gated: (particle, sighting) pairs the validation gate kept out of the proposal.
+    """
+
+    poses: np.ndarray
+    log_factors: np.ndarray
+    gated: int
+
+
+class ProposalSampler:
+    """Draws FastSLAM 2.0's poses.
+
+    Args:
+        mapper: the modality's mapper (proposal model, gate and landmark selection).
+        mode: sequential or joint refinement.
+        motion: the motion model (particles without usable sightings sample from it).
+        rng: the filter's random generator.
+    """
+
+    def __init__(
+        self,
+        mapper: LandmarkMapper,
+        mode: ProposalUpdateMode,
+        motion: MotionModel,
+        rng: np.random.Generator,
+    ) -> None:
+        self._mapper = mapper
+        self._mode = mode
+        self._motion = motion
+        self._rng = rng
+
+    def sample(
+        self,
+        previous: np.ndarray,
+        delta_r: np.ndarray,
+        mean: np.ndarray,
+        cov: np.ndarray,
+        sightings: Sightings,
+        pairs: Pairs,
+        store: LandmarkStore,
+    ) -> ProposalDraw:
+        """Refine each particle's prediction by its sightings and sample from the result.
+
+        Args:
+            previous: (P, 3) the particles' previous poses.
+            delta_r: (3,) the odometry delta.
+            mean, cov: (P, 3) and (P, 3, 3) the motion prediction from ``previous``.
+            sightings: the frame's sightings; pairs: what they address (``association``).
+            store: the landmark store (the addressed landmarks before this frame's update).
+        """
+        p = len(previous)
+        model, gate = self._mapper.proposal_model, self._mapper.proposal_gate
+        block = store.gather(pairs.particle, pairs.slot)
+        usable = (block.status == ESTIMATED) & ~pairs.new_unknown
+        usable = self._mapper.proposal_landmarks(block, pairs, usable)
+        refined = np.zeros(p, dtype=bool)
+        gated = 0
+        if self._mode is ProposalUpdateMode.JOINT:
+            # all of a particle's sightings in one update at the prediction (joint_proposal)
+            rows = np.flatnonzero(usable)
+            obs = pairs.obs[rows]
+            joint = joint_proposal(
+                mean,
+                cov,
+                pairs.particle[rows],
+                sightings.z[obs],
+                sightings.R[obs],
+                block.mean[rows],
+                block.cov[rows],
+                model,
+                gate,
+            )
+            mean, cov, log_factors = joint.mean, joint.cov, joint.log_likelihood
+            refined[pairs.particle[rows]] = True
+            gated = int(joint.accepted.size - np.count_nonzero(joint.accepted))
+        else:
+            log_factors = np.zeros(p)
+            mean = mean.copy()
+            cov = cov.copy()
+            for k in np.unique(pairs.obs[usable]):
+                rows = np.flatnonzero(usable & (pairs.obs == k))
+                who = pairs.particle[rows]  # one row per particle for a given sighting
+                n = rows.size
+                update = refine_proposal(
+                    mean[who],
+                    cov[who],
+                    np.broadcast_to(sightings.z[k], (n, sightings.z.shape[1])),
+                    np.broadcast_to(sightings.R[k], (n, *sightings.R.shape[1:])),
+                    block.mean[rows],
+                    block.cov[rows],
+                    model,
+                    gate,
+                )
+                mean[who] = update.mean
+                cov[who] = update.cov
+                log_factors[who] += update.log_likelihood
+                refined[who] = True
+                gated += int(update.accepted.size - np.count_nonzero(update.accepted))
+        poses = np.empty_like(previous)
+        poses[refined] = sample_poses(mean[refined], cov[refined], self._rng)
+        plain = ~refined
+        if plain.any():
+            poses[plain] = self._motion.sample(previous[plain], delta_r, self._rng)
+        return ProposalDraw(poses, log_factors, gated)
