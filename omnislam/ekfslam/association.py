@@ -20,6 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from omnislam.core.gaussian import mahalanobis_squared
+
 
 def nearest_gated(d2: np.ndarray, gate: float) -> int | None:
     """Index of the smallest squared Mahalanobis distance ``d2`` if it is inside ``gate``."""
@@ -56,7 +58,7 @@ class TentativeLandmarks:
             return None
         diff = np.asarray(self.points_w) - point_w  # (k, 2)
         S = np.asarray(self.covariances) + cov  # (k, 2, 2)
-        d2 = np.einsum("ki,kij,kj->k", diff, np.linalg.inv(S), diff)
+        d2 = mahalanobis_squared(diff, np.linalg.inv(S))
         if taken:
             d2[list(taken)] = np.inf
         return nearest_gated(d2, gate)

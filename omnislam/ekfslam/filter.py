@@ -18,12 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from omnislam.core.gating import chi_square_gate
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.types import UNKNOWN_ID, Estimate, FrameInput, RangeBearing, Trajectory
 from omnislam.ekfslam.association import TentativeLandmarks, nearest_gated
 from omnislam.ekfslam.config import EKFSLAMConfig
-from omnislam.ekfslam.gating import chi_square_gate
 from omnislam.ekfslam.state import SlamGaussian
 
 
