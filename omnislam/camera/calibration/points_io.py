@@ -38,12 +38,15 @@ CSV_COLUMNS = ("image", "u", "v", "x_m", "y_m")
 
 
 def read_points(
-    path: str | Path, board: Board | None = None, names: list[str] | None = None
+    path: str | Path,
+    board: Board | None = None,
+    names: list[str] | None = None,
+    check_square: bool = True,
 ) -> tuple[list[BoardView], list[Skipped]]:
     """Read a ``.mat`` or ``.csv`` points file (dispatch on the suffix)."""
     path = Path(path)
     if path.suffix.lower() == ".mat":
-        return read_points_mat(path, board, names)
+        return read_points_mat(path, board, names, check_square)
     if path.suffix.lower() == ".csv":
         return read_points_csv(path, board)
     raise DataError("points file must end in .mat or .csv", path)
@@ -55,7 +58,10 @@ def _scalar(value: object) -> float | None:
 
 
 def read_points_mat(
-    path: str | Path, board: Board | None = None, names: list[str] | None = None
+    path: str | Path,
+    board: Board | None = None,
+    names: list[str] | None = None,
+    check_square: bool = True,
 ) -> tuple[list[BoardView], list[Skipped]]:
     """Read the toolbox's ``gridInfo`` (see the module docstring).
 
@@ -64,6 +70,7 @@ def read_points_mat(
         board: the board the user states; each image whose corner count or square size
             disagrees with it is skipped. None: the file's geometry is used as it is.
         names: one name per image of the file (e.g. the image files); default ``image<k>``.
+        check_square: compare ``board.square_m`` with the file's square size too.
 
     Returns:
         ``(views, skipped)`` in the file's order.
@@ -116,7 +123,9 @@ def read_points_mat(
         n_sq_x, n_sq_y = per_image("n_sq_x", k), per_image("n_sq_y", k)
         square = per_image("dX", k)
         if board is not None:
-            problem = _board_disagreement(board, x.shape[1], n_sq_x, n_sq_y, square)
+            problem = _board_disagreement(
+                board, x.shape[1], n_sq_x, n_sq_y, square if check_square else None
+            )
             if problem:
                 skipped.append(Skipped(name, problem))
                 continue
