@@ -8,9 +8,11 @@ A camera file is the model's ``to_dict`` form, e.g.::
     ...
 
 A rig file holds the camera under ``camera:`` and the 4x4 ``rTc`` (camera frame in the robot
-frame) under ``rTc:``. Floats are written with ``repr`` precision, so a save/load round trip
-returns an equal object. Malformed files raise :class:`~omnislam.errors.DataError` naming the
-file and the problem.
+frame) under ``rTc:``. A camera file written by ``omnislam calibrate`` also holds how well it
+fits (``reprojection_rms_px``) and a ``calibration:`` mapping (images, standard deviations);
+``load_camera`` ignores these keys (:data:`METADATA_KEYS`). Floats are written with ``repr``
+precision, so a save/load round trip returns an equal object. Malformed files raise
+:class:`~omnislam.errors.DataError` naming the file and the problem.
 """
 
 from __future__ import annotations
@@ -23,7 +25,10 @@ from omnislam.camera.registry import CAMERA_MODELS, camera_from_dict
 from omnislam.camera.rig import CameraRig
 from omnislam.errors import DataError
 
-__all__ = ["CAMERA_MODELS", "load_camera", "load_rig", "save_camera", "save_rig"]
+__all__ = ["CAMERA_MODELS", "METADATA_KEYS", "load_camera", "load_rig", "save_camera", "save_rig"]
+
+#: keys of a camera file that describe its calibration rather than the model
+METADATA_KEYS = ("reprojection_rms_px", "calibration")
 
 
 def _read_yaml(path: Path) -> Any:
@@ -64,15 +69,28 @@ def load_camera(path: str | Path) -> CameraModel:
     """
     path = Path(path)
     data = _read_yaml(path)
+    if isinstance(data, dict):
+        data = {key: value for key, value in data.items() if key not in METADATA_KEYS}
     try:
         return camera_from_dict(data)
     except DataError as exc:
         raise DataError(str(exc), path) from exc
 
 
-def save_camera(camera: CameraModel, path: str | Path) -> None:
-    """Write ``camera`` as YAML (its ``to_dict`` form)."""
-    _write_yaml(camera.to_dict(), Path(path))
+def save_camera(
+    camera: CameraModel, path: str | Path, metadata: dict[str, Any] | None = None
+) -> None:
+    """Write ``camera`` as YAML (its ``to_dict`` form, then the ``metadata`` keys if any).
+
+    Raises:
+        DataError: a metadata key that is not one of :data:`METADATA_KEYS`.
+    """
+    data = camera.to_dict()
+    for key, value in (metadata or {}).items():
+        if key not in METADATA_KEYS:
+            raise DataError(f"unknown camera-file metadata key {key!r} (known: {METADATA_KEYS})")
+        data[key] = value
+    _write_yaml(data, Path(path))
 
 
 def load_rig(path: str | Path) -> CameraRig:

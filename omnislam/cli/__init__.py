@@ -22,6 +22,7 @@ COMMANDS: dict[str, str] = {
     "compare": "compare",
     "report": "report",
     "demo": "demo",
+    "calibrate": "calibrate",
 }
 
 
