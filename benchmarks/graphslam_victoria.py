@@ -26,6 +26,7 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
+from omnislam.core.modality import Modality
 from omnislam.datasets.gtsam_victoria import load_gtsam_victoria
 from omnislam.graphslam import GraphSLAM
 from omnislam.graphslam.batch import warm_started_lm
@@ -35,7 +36,7 @@ ODOMETRY_SIGMAS = (0.01, 0.002, 0.002)  # the file's ODOMETRY covariance diag(1e
 
 
 def run_omnislam(frames):
-    estimator = GraphSLAM(PRESETS["victoria-park-gtsam"])
+    estimator = GraphSLAM(Modality.RANGE_BEARING_2D, PRESETS["victoria-park-gtsam"])
     steps = np.empty(len(frames))
     for k, frame in enumerate(frames):
         t0 = time.perf_counter()

@@ -28,8 +28,8 @@ DEMO_ESTIMATORS = ("deadreckoning", "graphslam", "graphslam-batch", "fastslam1",
 #: options per estimator: the demo compares the back ends on the omni bearings of the front end
 #: (the synthetic world also carries pole sightings, which each back end would otherwise mix in)
 DEMO_OPTIONS: dict[str, dict[str, str]] = {
-    "graphslam": {"mode": "omni"},
-    "graphslam-batch": {"mode": "omni"},
+    "graphslam": {"modality": "bearings-3d"},
+    "graphslam-batch": {"modality": "bearings-3d"},
     "fastslam1": {"sensor_mode": "bearings_3d"},
     "fastslam2": {"sensor_mode": "bearings_3d"},
 }

@@ -118,6 +118,7 @@ def compute_lm_reference(sequence: Sequence) -> ReferenceSolution:
     Raises:
         DataError: a sighting without an id (the reference needs the known association).
     """
+    from omnislam.core.modality import Modality
     from omnislam.core.types import UNKNOWN_ID
     from omnislam.graphslam.batch import BatchGraphSLAM
     from omnislam.graphslam.config import PRESETS
@@ -129,7 +130,8 @@ def compute_lm_reference(sequence: Sequence) -> ReferenceSolution:
         raise DataError(f"{sequence.name}: the LM reference needs the sightings' landmark ids")
     # the file's own odometry covariances (on victoria_park.txt equal to the preset's sigmas)
     estimator = BatchGraphSLAM(
-        dataclasses.replace(PRESETS["victoria-park-gtsam"], odometry_sigmas=None)
+        Modality.RANGE_BEARING_2D,
+        dataclasses.replace(PRESETS["victoria-park-gtsam"], odometry_sigmas=None),
     )
     for frame in sequence.frame_inputs():
         estimator.step(frame)

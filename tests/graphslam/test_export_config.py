@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from graphslam_scenarios import MOTION_NOISE, SENSOR_HEIGHT_M, run, simulate_omni, simulate_planar
 
+from omnislam.core.modality import Modality
 from omnislam.errors import ConfigError
-from omnislam.graphslam import GraphSLAM, GraphSLAMConfig, Mode, RobustKernel
+from omnislam.graphslam import GraphSLAM, GraphSLAMConfig, RobustKernel
 from omnislam.graphslam.config import PRESETS
 from omnislam.graphslam.export import write_g2o
 
@@ -16,7 +17,11 @@ gtsam = pytest.importorskip("gtsam")
 
 def test_g2o_2d_round_trip(tmp_path, rng):
     scenario = simulate_planar(rng, n=40, laps=0.5)
-    estimator = GraphSLAM(GraphSLAMConfig(motion_noise=MOTION_NOISE), scenario.poses_true[0])
+    estimator = GraphSLAM(
+        Modality.RANGE_BEARING_2D,
+        GraphSLAMConfig(motion_noise=MOTION_NOISE),
+        scenario.poses_true[0],
+    )
     estimate = run(estimator, scenario.frames)
     report = write_g2o(estimator.factor_graph(), estimator.values(), tmp_path / "g.g2o")
     assert report.poses == 40 and report.odometry_edges == 39
@@ -40,6 +45,7 @@ def test_g2o_2d_round_trip(tmp_path, rng):
 def test_g2o_3d_writes_poses_and_points_and_counts_bearing_factors(tmp_path, rng):
     scenario = simulate_omni(rng, n=30, laps=0.5)
     estimator = GraphSLAM(
+        Modality.BEARINGS_3D,
         GraphSLAMConfig(motion_noise=MOTION_NOISE, sensor_height_m=SENSOR_HEIGHT_M),
         scenario.poses_true[0],
     )
@@ -61,7 +67,7 @@ def test_g2o_3d_writes_poses_and_points_and_counts_bearing_factors(tmp_path, rng
         {"prior_sigmas": (1.0, -1.0, 1.0)},
         {"association_gate_probability": 0.999, "new_landmark_probability": 0.99},
         {"robust_threshold": -1.0},
-        {"mode": "omni"},
+        {"robust_kernel": "cauchy"},
     ],
 )
 def test_config_rejects_bad_values(overrides):
@@ -73,4 +79,4 @@ def test_presets_and_kernel_thresholds():
     assert GraphSLAMConfig().kernel_threshold == 0.0
     assert GraphSLAMConfig(robust_kernel=RobustKernel.HUBER).kernel_threshold == 1.345
     assert PRESETS["robust"].robust_kernel is RobustKernel.CAUCHY
-    assert PRESETS["victoria-park-gtsam"].mode is Mode.RANGE_BEARING_2D
+    assert PRESETS["victoria-park-gtsam"].odometry_sigmas == (0.01, 0.002, 0.002)
