@@ -19,8 +19,9 @@ by the association get ids from ``range_bearing.CREATED_ID_BASE`` upwards.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -33,6 +34,7 @@ from omnislam.graphslam import factors as fx
 from omnislam.graphslam.bearings_3d import Bearings3DGraph
 from omnislam.graphslam.builder import GraphBuilder
 from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.export import G2O_ATTACHMENT, format_g2o
 from omnislam.graphslam.poses import PlanarPoses, PoseChain, ViewpointPoses
 from omnislam.graphslam.range_bearing import CREATED_ID_BASE, RangeBearingGraph
 from omnislam.graphslam.session import ISAM2Session
@@ -116,7 +118,8 @@ class GraphSLAM:
         config: settings (``GraphSLAMConfig``); None uses the defaults.
         initial_pose: (3,) pose [x, y, theta] of the first frame in the world [m, m, rad].
 
-    Conforms to ``omnislam.core.types.Estimator`` and ``Introspectable`` (``info``).
+    Conforms to ``omnislam.core.types.Estimator``, ``Introspectable`` (``info``) and
+    ``Exporting`` (``attachments``: the factor graph as ``graph.g2o``).
 
     Raises:
         ConfigError: ``modality`` is not a ``Modality``.
@@ -230,6 +233,18 @@ class GraphSLAM:
     def newest_pose(self) -> np.ndarray:
         """(3,) newest pose estimate [x, y, theta] of the robot frame (read every step)."""
         return self._poses.newest_w.copy()
+
+    def attachments(self) -> Mapping[str, bytes]:
+        """``{"graph.g2o": ...}``: the factor graph at ``values()`` in g2o text (``export.py``)."""
+        return {G2O_ATTACHMENT: format_g2o(self.factor_graph(), self.values()).text.encode()}
+
+    def export_g2o(self, path: str | Path) -> None:
+        """Write ``attachments()``'s g2o file to ``path``.
+
+        Temporary: ``compare.execute`` still looks for this method (its ``GraphExporter``);
+        it goes once the harness reads ``attachments()`` (``core.types.Exporting``).
+        """
+        Path(path).write_bytes(self.attachments()[G2O_ATTACHMENT])
 
     # ------------------------------------------------------------------ estimate
 

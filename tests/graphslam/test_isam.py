@@ -20,7 +20,7 @@ from graphslam_scenarios import (
 )
 
 from omnislam.core.modality import Modality
-from omnislam.core.types import Estimator, FrameInput, Introspectable, Odometry
+from omnislam.core.types import Estimator, Exporting, FrameInput, Introspectable, Odometry
 from omnislam.errors import ConfigError, EstimationError
 from omnislam.graphslam import (
     BatchGraphSLAM,
@@ -48,7 +48,7 @@ def test_both_estimators_conform_to_the_protocols(modality):
     for cls, name in ((GraphSLAM, "graphslam"), (BatchGraphSLAM, "graphslam-batch")):
         estimator = cls(modality)
         assert isinstance(estimator, Estimator) and estimator.name == name
-        assert isinstance(estimator, Introspectable)
+        assert isinstance(estimator, Introspectable) and isinstance(estimator, Exporting)
         assert estimator.modality is modality and estimator.info().modality is modality
         assert len(estimator.estimate().trajectory) == 0  # valid before the first frame
 
