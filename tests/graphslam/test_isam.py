@@ -20,7 +20,8 @@ from graphslam_scenarios import (
 )
 
 from omnislam.core.modality import Modality
-from omnislam.core.types import Estimator, Exporting, FrameInput, Introspectable, Odometry
+from omnislam.core.se import se2_integrate
+from omnislam.core.types import Estimator, Exporting, FrameInput, Introspectable
 from omnislam.errors import ConfigError, EstimationError
 from omnislam.graphslam import (
     BatchGraphSLAM,
@@ -162,20 +163,18 @@ def test_only_the_modality_s_stream_is_read_and_the_others_are_counted(planar):
     assert gtsam.BearingFactor2D not in types and gtsam.BearingRangeFactor2D in types
 
 
-def test_frames_before_the_first_sighting_are_odometry_only(planar):
-    empty = [
-        FrameInput(0, Odometry(np.zeros(3), -2.0)),
-        FrameInput(1, Odometry(np.array([0.1, 0.0, 0.0]), -1.0)),
-    ]
-    estimator = GraphSLAM(RB, _config())
-    for frame in empty:
-        estimator.step(frame)
-    estimate = estimator.estimate()  # the iSAM2 estimate of the odometry chain
-    np.testing.assert_allclose(estimate.trajectory.se2, [[0, 0, 0], [0.1, 0, 0]], atol=1e-9)
-    estimator.step(planar.frames[1])
-    estimate = estimator.estimate()
-    assert len(estimate.trajectory) == 3 and estimator.info().landmarks > 0
-    np.testing.assert_allclose(estimate.trajectory.stamps_s, [-2.0, -1.0, 1.0])
+def test_frames_before_the_first_sighting_are_dead_reckoning(planar):
+    """The graph starts at frame 0: until a sighting arrives it is the odometry chain alone."""
+    blind = [FrameInput(f.index, f.odometry) for f in planar.frames[:20]]
+    estimator = GraphSLAM(RB, _config(), planar.poses_true[0])
+    estimate = run(estimator, blind)
+    deltas = np.array([f.odometry.delta for f in blind])
+    np.testing.assert_allclose(
+        estimate.trajectory.se2, se2_integrate(deltas, planar.poses_true[0]), atol=1e-9
+    )
+    assert estimator.info().factors == 20 and estimator.info().landmarks == 0
+    estimator.step(planar.frames[20])
+    assert len(estimator.estimate().trajectory) == 21 and estimator.info().landmarks > 0
 
 
 def test_wrong_associations_robust_kernel_keeps_ate_near_clean():
