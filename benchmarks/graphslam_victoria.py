@@ -4,13 +4,14 @@ Both sides get the same data, parsed once before any timing by the omnislam load
 (``omnislam.datasets.gtsam_victoria``), and do the same work per frame: one Pose2 with an
 odometry between-factor (the file's sigmas 0.01 m, 0.002 m, 0.002 rad), one
 ``BearingRangeFactor2D`` per sighting (a landmark enters with its first sighting), one
-``ISAM2.update`` (relinearizeSkip=1, threshold 0.1), and a read of the newest pose only. Runs
+``ISAM2.update`` (relinearizeSkip=1, threshold 0.1), and a read of the newest pose only. The
+bare loop is ``compare.reference.isam2_pass`` -- the warm start of the victoria-park-gtsam
+reference -- with the file's sigmas as one shared model, as omnislam's preset has them. Runs
 alternate (omnislam, bare, omnislam, ...) so that drift of the machine hits both alike.
 
 Goals (issue #6): omnislam's total time <= 1.25x the bare loop's; omnislam's final estimate
 within 2 cm RMS of Levenberg-Marquardt warm-started from it (``graphslam.batch.warm_started_lm``,
-what ``BatchGraphSLAM`` does in ``estimate()`` and the reference victoria-park-gtsam runs are
-scored against).
+what ``BatchGraphSLAM`` does in ``estimate()``).
 
     .venv/bin/python benchmarks/graphslam_victoria.py [--repeats 3] [--frames N]
 """
@@ -24,8 +25,9 @@ import time
 
 import gtsam
 import numpy as np
-from gtsam.symbol_shorthand import L, X
 
+from omnislam.compare.reference import graph_frames, isam2_pass
+from omnislam.core.modality import Modality
 from omnislam.datasets.gtsam_victoria import load_gtsam_victoria
 from omnislam.graphslam import GraphSLAM
 from omnislam.graphslam.batch import warm_started_lm
@@ -35,79 +37,13 @@ ODOMETRY_SIGMAS = (0.01, 0.002, 0.002)  # the file's ODOMETRY covariance diag(1e
 
 
 def run_omnislam(frames):
-    estimator = GraphSLAM(PRESETS["victoria-park-gtsam"])
+    estimator = GraphSLAM(Modality.RANGE_BEARING_2D, PRESETS["victoria-park-gtsam"])
     steps = np.empty(len(frames))
     for k, frame in enumerate(frames):
         t0 = time.perf_counter()
         estimator.step(frame)
         steps[k] = time.perf_counter() - t0
     return estimator, steps
-
-
-def bare_inputs(frames):
-    """Plain arrays per frame for the bare loop (built before timing, like the FrameInputs)."""
-    out = []
-    for f in frames:
-        rb = f.range_bearing
-        if rb is None:
-            out.append((f.odometry.delta, ()))
-        else:
-            out.append(
-                (
-                    f.odometry.delta,
-                    list(
-                        zip(
-                            rb.landmark_ids.tolist(),
-                            rb.ranges_m.tolist(),
-                            rb.bearings_rad.tolist(),
-                            rb.sigma_range_m.tolist(),
-                            rb.sigma_bearing_rad.tolist(),
-                            strict=True,
-                        )
-                    ),
-                )
-            )
-    return out
-
-
-def run_bare(inputs):
-    """The reference: the same updates written directly against GTSAM's Python API."""
-    params = gtsam.ISAM2Params()
-    params.setRelinearizeThreshold(0.1)
-    params.relinearizeSkip = 1
-    isam = gtsam.ISAM2(params)
-    odometry_noise = gtsam.noiseModel.Diagonal.Sigmas(np.array(ODOMETRY_SIGMAS))
-    prior_noise = gtsam.noiseModel.Diagonal.Sigmas(np.array([1e-3, 1e-3, 1e-3]))
-    noises = {}
-    seen = set()
-    latest = gtsam.Pose2()
-    steps = np.empty(len(inputs))
-    for k, (delta, sightings) in enumerate(inputs):
-        t0 = time.perf_counter()
-        graph = gtsam.NonlinearFactorGraph()
-        values = gtsam.Values()
-        if k == 0:
-            guess = gtsam.Pose2()
-            graph.add(gtsam.PriorFactorPose2(X(0), guess, prior_noise))
-        else:
-            odometry = gtsam.Pose2(delta[0], delta[1], delta[2])
-            guess = latest.compose(odometry)
-            graph.add(gtsam.BetweenFactorPose2(X(k - 1), X(k), odometry, odometry_noise))
-        values.insert(X(k), guess)
-        for lid, r, b, s_r, s_b in sightings:
-            if lid not in seen:
-                seen.add(lid)
-                values.insert(
-                    L(lid), guess.transformFrom(gtsam.Point2(r * np.cos(b), r * np.sin(b)))
-                )
-            noise = noises.get((s_b, s_r))
-            if noise is None:
-                noise = noises[(s_b, s_r)] = gtsam.noiseModel.Diagonal.Sigmas(np.array([s_b, s_r]))
-            graph.add(gtsam.BearingRangeFactor2D(X(k), L(lid), gtsam.Rot2(b), r, noise))
-        isam.update(graph, values)
-        latest = isam.calculateEstimatePose2(X(k))
-        steps[k] = time.perf_counter() - t0
-    return isam, steps
 
 
 def rms(a, b):
@@ -122,8 +58,8 @@ def main(argv=None):
 
     sequence = load_gtsam_victoria()
     frames = list(sequence.frame_inputs())[: args.frames]
-    inputs = bare_inputs(frames)
-    sightings = sum(len(s) for _, s in inputs)
+    inputs = graph_frames(frames)
+    sightings = sum(len(f.sightings) for f in inputs)
     print(
         f"victoria_park.txt: {len(frames)} frames, {sightings} sightings "
         f"(loader {sequence.info['sigma_range_m']} m / {sequence.info['sigma_bearing_rad']} rad)"
@@ -136,9 +72,10 @@ def main(argv=None):
         estimator, steps = run_omnislam(frames)
         totals["omnislam"].append(steps.sum())
         medians["omnislam"].append(np.median(steps))
-        isam, steps = run_bare(inputs)
-        totals["bare"].append(steps.sum())
-        medians["bare"].append(np.median(steps))
+        bare = isam2_pass(inputs, odometry_sigmas=ODOMETRY_SIGMAS)
+        isam = bare.isam
+        totals["bare"].append(bare.step_s.sum())
+        medians["bare"].append(np.median(bare.step_s))
     for name in totals:
         print(
             f"{name:9s} total s: {' '.join(f'{t:.2f}' for t in totals[name])}  "
@@ -159,8 +96,7 @@ def main(argv=None):
         f"{rms(estimate.trajectory.se2[:, :2], bare_poses[:, :2]):.2e} m"
     )
 
-    # the warm-started LM optimum (BatchGraphSLAM.estimate(), the victoria-park-gtsam reference
-    # of omnislam.compare.reference), on the graph already built above
+    # the warm-started LM optimum of BatchGraphSLAM.estimate(), on the graph already built above
     t0 = time.perf_counter()
     result = warm_started_lm(estimator)
     t_lm = time.perf_counter() - t0

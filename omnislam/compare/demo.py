@@ -4,8 +4,8 @@
    work folder, unless it is already there;
 2. run the shared front end once (SIFT on the omni images, groups, verified matching, tracks)
    and cache its ObservationLog;
-3. replay that log to every available estimator (dead reckoning, iSAM2, batch LM, FastSLAM 1.0
-   and 2.0) through the grid runner, with the ground truth of the renderer;
+3. replay that log to every available estimator (dead reckoning, iSAM2, batch LM, FastSLAM 1.0,
+   2.0 and EKF-SLAM) through the grid runner, with the ground truth of the renderer;
 4. write the comparison report (``index.html`` with embedded figures, ``report.md``).
 
 Every step reuses what an earlier run left in the work folder when its inputs are unchanged.
@@ -24,15 +24,16 @@ from omnislam.compare.report import ReportOptions, ReportSummary, write_report
 from omnislam.compare.runner import CellOutcome, GridResult, local_executor_factory, run_grid
 
 #: the estimators the demo compares, in report order (unavailable ones are skipped)
-DEMO_ESTIMATORS = ("deadreckoning", "graphslam", "graphslam-batch", "fastslam1", "fastslam2")
-#: options per estimator: the demo compares the back ends on the omni bearings of the front end
-#: (the synthetic world also carries pole sightings, which each back end would otherwise mix in)
-DEMO_OPTIONS: dict[str, dict[str, str]] = {
-    "graphslam": {"mode": "omni"},
-    "graphslam-batch": {"mode": "omni"},
-    "fastslam1": {"modality": "bearings-3d"},
-    "fastslam2": {"modality": "bearings-3d"},
-}
+#: (each consumes the stream the one modality rule picks: the omni bearings of the front end for
+#: the graphs and FastSLAM, the pole sightings for EKF-SLAM, which takes range-bearing only)
+DEMO_ESTIMATORS = (
+    "deadreckoning",
+    "graphslam",
+    "graphslam-batch",
+    "fastslam1",
+    "fastslam2",
+    "ekfslam",
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,7 +82,7 @@ def demo_grid(dataset: Path, estimators: list[str], seed: int) -> Grid:
         "name": "omnislam demo (synthetic omni world)",
         "datasets": [{"dataset": str(dataset.resolve()), "label": "demo"}],
         "estimators": [
-            {"estimator": name, "options": DEMO_OPTIONS.get(name, {})} for name in estimators
+            {"estimator": name, "options": {}} for name in estimators
         ],
         "seeds": [seed],
         "evaluation": {"rpe_segment_m": 1.0, "landmark_gate_m": 0.3},

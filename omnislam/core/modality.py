@@ -17,7 +17,7 @@ from __future__ import annotations
 import enum
 from collections.abc import Iterable
 
-from omnislam.core.types import FrameInput
+from omnislam.core.types import Bearings, FrameInput, RangeBearing, VerticalLines
 from omnislam.errors import ConfigError
 
 #: the ``--set`` key that overrides the resolved modality
@@ -44,9 +44,13 @@ class Modality(enum.Enum):
         """Human-readable name for messages."""
         return _LABELS[self]
 
+    def stream(self, frame: FrameInput) -> Bearings | RangeBearing | VerticalLines | None:
+        """This stream's record of ``frame`` (None when the frame has none)."""
+        return getattr(frame, _FIELDS[self])
+
     def count(self, frame: FrameInput) -> int:
         """Number of sightings of this stream in ``frame`` (0 when absent)."""
-        stream = getattr(frame, _FIELDS[self])
+        stream = self.stream(frame)
         return 0 if stream is None else len(stream)
 
     @classmethod

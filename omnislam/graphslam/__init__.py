@@ -1,6 +1,9 @@
 """GTSAM back end: iSAM2 (``graphslam``) and batch Levenberg-Marquardt (``graphslam-batch``).
 
-Modules: ``config`` (modes, kernels, settings), ``factors`` (noise models and factors),
+Modules: ``config`` (kernels, factorisation, settings), ``factors`` (noise models and factors),
+``session`` (the iSAM2 session: update with the QR fallback, reads), ``poses`` (the pose
+chain: Pose2 robot poses or Pose3 omni viewpoints), one graph builder per modality
+(``bearings_3d``, ``range_bearing``, ``vertical_lines``; shared parts in ``builder``),
 ``landmark_init`` (delayed insertion of bearing-only tracks), ``association`` (unlabelled
 range-bearing sightings), ``tentative`` (landmarks the association holds back until
 re-observed), ``isam`` (the incremental estimator), ``batch`` (LM), ``export`` (g2o).
@@ -13,14 +16,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from omnislam.graphslam.config import Factorization, GraphSLAMConfig, Mode, RobustKernel
+from omnislam.graphslam.config import Factorization, GraphSLAMConfig, RobustKernel
 
 __all__ = [
     "BatchGraphSLAM",
     "Factorization",
     "GraphSLAM",
     "GraphSLAMConfig",
-    "Mode",
     "RobustKernel",
 ]
 

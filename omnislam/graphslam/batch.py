@@ -14,6 +14,7 @@ from typing import Any
 
 from omnislam._optional import require
 from omnislam.core.types import Estimate
+from omnislam.errors import EstimationError
 from omnislam.graphslam.isam import GraphSLAM
 
 gtsam = require("gtsam")
@@ -91,8 +92,13 @@ class BatchGraphSLAM(GraphSLAM):
         self._batch_frames = -1
 
     def optimize(self) -> BatchResult:
-        """Run (or reuse) LM on every factor so far, from the current iSAM2 estimate."""
-        self._require_started()
+        """Run (or reuse) LM on every factor so far, from the current iSAM2 estimate.
+
+        Raises:
+            EstimationError: no frame yet.
+        """
+        if self._frames == 0:
+            raise EstimationError("the graph is empty: no frame yet")
         if self._batch is None or self._batch_frames != self._frames:
             self._batch = warm_started_lm(
                 self, self.config.batch_max_iterations, self.config.batch_relative_error_tol
@@ -106,7 +112,7 @@ class BatchGraphSLAM(GraphSLAM):
 
     def estimate(self) -> Estimate:
         """The LM optimum; covariances (if configured) from ``gtsam.Marginals`` there."""
-        if self._isam is None:
+        if self._frames == 0:
             return super().estimate()
         result = self.optimize()
         covariance = None

@@ -1,8 +1,10 @@
-"""Configuration of the GTSAM back end: modes, robust kernels, and one frozen config record.
+"""Configuration of the GTSAM back end: robust kernels, factorisation, one frozen config record.
 
 Every default is documented next to its field, with the reason it has that value. The measured
 facts behind the iSAM2 and insertion defaults are in DESIGN.md ("Facts measured on this machine
-kind").
+kind"). Which observation stream the graph is built from is not configured here: it is the
+``core.modality.Modality`` the registry resolves once and hands to ``GraphSLAM`` (``--set
+modality=NAME`` overrides the shared rule).
 """
 
 from __future__ import annotations
@@ -12,25 +14,6 @@ from dataclasses import dataclass, field
 
 from omnislam.core.motion import MotionNoise
 from omnislam.errors import ConfigError
-
-
-class Mode(enum.Enum):
-    """Which variables and factors the graph is built from.
-
-    * ``OMNI``: Pose3 variables (the sensor viewpoint), ``BearingFactor3D`` per omni bearing,
-      a per-pose prior holding z, roll and pitch; landmarks Point3 (delayed insertion).
-    * ``RANGE_BEARING_2D``: Pose2 + ``BearingRangeFactor2D`` (MR.CLAM, Victoria Park, laser
-      landmarks); landmarks Point2 initialised from their first sighting.
-    * ``BEARING_2D``: Pose2 + ``BearingFactor2D`` (vertical lines); landmarks Point2 (delayed
-      insertion).
-    * ``AUTO``: chosen from the first frame that carries sightings (bearings -> OMNI,
-      range_bearing -> RANGE_BEARING_2D, vertical_lines -> BEARING_2D).
-    """
-
-    AUTO = "auto"
-    OMNI = "omni"
-    RANGE_BEARING_2D = "range-bearing-2d"
-    BEARING_2D = "bearing-2d"
 
 
 class RobustKernel(enum.Enum):
@@ -74,7 +57,6 @@ class GraphSLAMConfig:
     """Settings of ``GraphSLAM`` / ``BatchGraphSLAM``.
 
     Attributes:
-        mode: factor family, see ``Mode`` (default AUTO: decided by the first sightings).
         motion_noise: alpha coefficients of the odometry model (thesis eq. 4.41); the 3x3
             covariance of each odometry delta is ``OdometryMotionModel.covariance``.
         odometry_sigmas: fixed (sx [m], sy [m], stheta [rad]) of every odometry factor instead
@@ -95,9 +77,9 @@ class GraphSLAMConfig:
         prior_sigmas: (sx [m], sy [m], stheta [rad]) of the prior anchoring the first pose at
             ``initial_pose`` (default 1 mm / 1 mrad: the first pose defines the world frame).
         sensor_height_m: height of the omni camera's single viewpoint above the robot frame
-            origin [m] (OMNI mode). Bearings are measured from there.
+            origin [m] (omni bearings). Bearings are measured from there.
         planar_sigma_m: std of z in the per-pose prior and of the vertical component of each
-            odometry factor [m] (OMNI mode; default 1 mm: the robot drives on a plane).
+            odometry factor [m] (omni bearings; default 1 mm: the robot drives on a plane).
         planar_sigma_rad: std of roll and pitch in the same factors [rad] (default 1 mrad).
         relinearize_threshold: iSAM2 relinearisation threshold on the tangent-space delta
             (default 0.1; stable on all seeds, DESIGN.md).
@@ -156,7 +138,6 @@ class GraphSLAMConfig:
             (default False: marginals cost far more than the estimate).
     """
 
-    mode: Mode = Mode.AUTO
     motion_noise: MotionNoise = field(default_factory=MotionNoise)
     odometry_sigmas: tuple[float, float, float] | None = None
     odometry_min_sigma_m: float = 1e-3
@@ -186,8 +167,6 @@ class GraphSLAMConfig:
     compute_covariances: bool = False
 
     def __post_init__(self) -> None:
-        if not isinstance(self.mode, Mode):
-            raise ConfigError(f"mode must be a Mode, got {self.mode!r}")
         if not isinstance(self.robust_kernel, RobustKernel):
             raise ConfigError(f"robust_kernel must be a RobustKernel, got {self.robust_kernel!r}")
         positive = {
@@ -248,7 +227,5 @@ class GraphSLAMConfig:
 PRESETS: dict[str, GraphSLAMConfig] = {
     "default": GraphSLAMConfig(),
     "robust": GraphSLAMConfig(robust_kernel=RobustKernel.CAUCHY, min_consistent_sightings=2),
-    "victoria-park-gtsam": GraphSLAMConfig(
-        mode=Mode.RANGE_BEARING_2D, odometry_sigmas=(0.01, 0.002, 0.002)
-    ),
+    "victoria-park-gtsam": GraphSLAMConfig(odometry_sigmas=(0.01, 0.002, 0.002)),
 }

@@ -6,6 +6,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from omnislam.core.modality import Modality
+from omnislam.core.motion import OdometryMotionModel
 from omnislam.errors import ConfigError
 from omnislam.graphslam.config import PRESETS, GraphSLAMConfig
 from omnislam.options import apply_options
@@ -23,12 +25,21 @@ def _config(info: object, options: Mapping[str, str]) -> GraphSLAMConfig:
     return apply_options(config, options)
 
 
+def _modality(info: object) -> Modality:
+    """The stream the registry resolved (``SequenceInfo.modality``)."""
+    modality = getattr(info, "modality", None)
+    if not isinstance(modality, Modality):
+        raise ConfigError(f"graphslam needs the resolved modality of the run, got {modality!r}")
+    return modality
+
+
 def make_estimator(info: object, options: Mapping[str, str], rng: np.random.Generator) -> object:
-    """iSAM2 from ``PRESETS[preset]`` (default ``default``) with ``--set`` overrides."""
+    """iSAM2 on ``info.modality``, ``PRESETS[preset]`` (default ``default``) with ``--set``."""
     from omnislam.graphslam.isam import GraphSLAM
 
     del rng  # deterministic
-    return GraphSLAM(_config(info, options))
+    config = _config(info, options)
+    return GraphSLAM(_modality(info), config, motion=OdometryMotionModel(config.motion_noise))
 
 
 def make_batch_estimator(
@@ -38,4 +49,5 @@ def make_batch_estimator(
     from omnislam.graphslam.batch import BatchGraphSLAM
 
     del rng
-    return BatchGraphSLAM(_config(info, options))
+    config = _config(info, options)
+    return BatchGraphSLAM(_modality(info), config, motion=OdometryMotionModel(config.motion_noise))

@@ -17,7 +17,7 @@ def test_graphslam_counts_are_written_next_to_the_estimate(shared_data, tmp_path
     record = execute_run(RunSpec("mrclam6-r1", "graphslam", seed=0))
     write_run_dir(tmp_path / "run", record)
     info = json.loads((tmp_path / "run" / ESTIMATOR_INFO).read_text())
-    assert info["mode"] == "range-bearing-2d"
+    assert info["modality"] == "range-bearing-2d"
     assert info["frames"] == record.config.frames
     assert info["landmarks"] == len(record.estimate.landmark_ids) == 15
     assert info["factorization_fallbacks"] == 0

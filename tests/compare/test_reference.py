@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +12,7 @@ import pytest
 gtsam = pytest.importorskip("gtsam")
 
 from omnislam.compare import reference as ref  # noqa: E402
+from omnislam.compare.cache import CACHE_ENV  # noqa: E402
 from omnislam.compare.execute import RunSpec, execute_run  # noqa: E402
 from omnislam.compare.rundir import evaluate_run  # noqa: E402
 from omnislam.datasets.gtsam_victoria import find_gtsam_file  # noqa: E402
@@ -25,12 +28,17 @@ PREFIX_LINES = 1500
 #: the reference vs an independent batch LM on the same prefix: positions [m], headings [rad]
 OPTIMUM_TOL_M = 1e-3
 OPTIMUM_TOL_RAD = 1e-4
+#: the reference's bare iSAM2 pass vs omnislam's iSAM2 on the same prefix: positions [m] (the
+#: two build the same updates; they differ in rounding, which can change relinearisation)
+WARM_START_TOL_M = 1e-3
+#: the recipe of the reference computed with omnislam's own GraphSLAM (before it was GTSAM's)
+RECIPE_V1 = "lm-optimum v1: iSAM2 preset victoria-park-gtsam, file covariances; LM 100 its, 1e-10"
 
 
 @pytest.fixture
 def prefix(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """A truncated copy of victoria_park.txt; the reference cache goes to tmp_path."""
-    monkeypatch.setenv(ref.CACHE_ENV, str(tmp_path / "cache"))
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
     lines = GTSAM_FILE.read_text().splitlines(keepends=True)[:PREFIX_LINES]
     path = tmp_path / "victoria_prefix.txt"
     path.write_text("".join(lines))
@@ -58,6 +66,59 @@ def test_reference_on_a_prefix_equals_an_independent_batch_lm(prefix):
     assert np.abs(heading).max() < OPTIMUM_TOL_RAD
     np.testing.assert_allclose(solution.landmarks_w, landmarks, atol=OPTIMUM_TOL_M)
     assert solution.final_error <= solution.initial_error
+
+
+def test_reference_needs_none_of_the_estimators(prefix, monkeypatch):
+    """The reference is GTSAM's, not one of the contestants: no omnislam.graphslam import."""
+    for name in [m for m in sys.modules if m.startswith("omnislam.graphslam")]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "omnislam.graphslam", None)  # any import of it fails
+    solution = ref.lm_reference(prefix)
+    assert solution.poses_w.shape == (929, 3) and len(solution.landmark_ids) == 52
+
+
+def test_the_warm_start_is_the_updates_graphslam_makes(prefix):
+    """Cross-check: the bare gtsam.ISAM2 pass vs omnislam's iSAM2 on the same frames."""
+    from omnislam.core.modality import Modality
+    from omnislam.datasets.gtsam_victoria import load_gtsam_victoria
+    from omnislam.graphslam import GraphSLAM
+    from omnislam.graphslam.config import PRESETS
+
+    sequence = load_gtsam_victoria(prefix)
+    frames = list(sequence.frame_inputs())
+    bare = ref.isam2_pass(ref.graph_frames(frames))
+    assert bare.step_s.shape == (len(frames),) and np.all(bare.step_s > 0)
+    estimator = GraphSLAM(Modality.RANGE_BEARING_2D, PRESETS["victoria-park-gtsam"])
+    for frame in frames:
+        estimator.step(frame)
+    ours = estimator.estimate().trajectory.se2
+    theirs = gtsam.utilities.extractPose2(bare.isam.calculateEstimate())
+    np.testing.assert_allclose(ours[:, :2], theirs[:, :2], atol=WARM_START_TOL_M)
+
+
+def test_the_bare_pass_needs_stated_odometry_covariances():
+    frames = [ref.GraphFrame(np.zeros(3), None, ()), ref.GraphFrame(np.ones(3), None, ())]
+    with pytest.raises(ref.DataError, match="covariance"):
+        ref.isam2_pass(frames)
+    assert len(ref.isam2_pass(frames, odometry_sigmas=(0.1, 0.1, 0.1)).step_s) == 2
+
+
+def test_a_reference_cached_by_an_older_recipe_is_not_reused(prefix):
+    digest = hashlib.sha256(RECIPE_V1.encode())
+    digest.update(prefix.read_bytes())
+    stale = ref.ReferenceSolution(
+        stamps_s=np.zeros(1),
+        poses_w=np.zeros((1, 3)),
+        landmark_ids=np.zeros(1, dtype=np.int64),
+        landmarks_w=np.zeros((1, 2)),
+        iterations=0,
+        initial_error=0.0,
+        final_error=0.0,
+    )
+    ref._store(ref.cache_dir() / f"lm-optimum-{digest.hexdigest()}.npz", stale)
+    solution = ref.lm_reference(prefix)
+    assert solution.poses_w.shape == (929, 3)  # computed, not the v1 entry
+    assert (ref.cache_dir() / f"lm-optimum-{ref.cache_key(prefix)}.npz").is_file()
 
 
 def test_reference_is_cached_by_the_file_hash(prefix, monkeypatch):

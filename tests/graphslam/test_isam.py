@@ -1,4 +1,4 @@
-"""The incremental estimator: iSAM2 against batch LM, marginals, omni mode, robustness."""
+"""The incremental estimator: iSAM2 against batch LM, marginals, the modalities, robustness."""
 
 from __future__ import annotations
 
@@ -19,14 +19,15 @@ from graphslam_scenarios import (
     simulate_stopping,
 )
 
-from omnislam.core.types import Estimator, FrameInput, Odometry
+from omnislam.core.modality import Modality
+from omnislam.core.se import se2_integrate
+from omnislam.core.types import Estimator, Exporting, FrameInput, Introspectable
 from omnislam.errors import ConfigError, EstimationError
 from omnislam.graphslam import (
     BatchGraphSLAM,
     Factorization,
     GraphSLAM,
     GraphSLAMConfig,
-    Mode,
     RobustKernel,
 )
 from omnislam.graphslam import factors as fx
@@ -36,21 +37,33 @@ gtsam = pytest.importorskip("gtsam")
 #: a converged graph estimate beats integrated odometry by at least this factor
 SLAM_VS_DEAD_RECKONING = 0.25
 
+RB, OMNI, LINES = Modality.RANGE_BEARING_2D, Modality.BEARINGS_3D, Modality.VERTICAL_LINES
+
 
 def _config(**overrides) -> GraphSLAMConfig:
     return GraphSLAMConfig(motion_noise=MOTION_NOISE, **overrides)
 
 
-def test_both_estimators_conform_to_the_protocol():
-    assert isinstance(GraphSLAM(), Estimator) and GraphSLAM.name == "graphslam"
-    assert isinstance(BatchGraphSLAM(), Estimator) and BatchGraphSLAM.name == "graphslam-batch"
+@pytest.mark.parametrize("modality", list(Modality))
+def test_both_estimators_conform_to_the_protocols(modality):
+    for cls, name in ((GraphSLAM, "graphslam"), (BatchGraphSLAM, "graphslam-batch")):
+        estimator = cls(modality)
+        assert isinstance(estimator, Estimator) and estimator.name == name
+        assert isinstance(estimator, Introspectable) and isinstance(estimator, Exporting)
+        assert estimator.modality is modality and estimator.info().modality is modality
+        assert len(estimator.estimate().trajectory) == 0  # valid before the first frame
+
+
+def test_the_modality_is_required():
+    with pytest.raises(ConfigError, match="modality"):
+        GraphSLAM(GraphSLAMConfig())
 
 
 @pytest.mark.parametrize("threshold, tol_m", [(0.1, ISAM_VS_BATCH_TOL_M), (1e-3, 1e-3)])
 def test_isam2_equals_batch_lm_on_the_same_graph(planar, threshold, tol_m):
     cfg = _config(relinearize_threshold=threshold)
-    incremental = run(GraphSLAM(cfg, planar.poses_true[0]), planar.frames)
-    batch_estimator = BatchGraphSLAM(cfg, planar.poses_true[0])
+    incremental = run(GraphSLAM(RB, cfg, planar.poses_true[0]), planar.frames)
+    batch_estimator = BatchGraphSLAM(RB, cfg, planar.poses_true[0])
     batch = run(batch_estimator, planar.frames)
     np.testing.assert_array_equal(incremental.landmark_ids, batch.landmark_ids)
     np.testing.assert_allclose(incremental.trajectory.se2, batch.trajectory.se2, atol=tol_m)
@@ -63,21 +76,21 @@ def test_isam2_equals_batch_lm_on_the_same_graph(planar, threshold, tol_m):
 
 def test_isam2_marginals_match_gtsam_marginals(planar):
     cfg = _config(compute_covariances=True)
-    estimator = GraphSLAM(cfg, planar.poses_true[0])
+    estimator = GraphSLAM(RB, cfg, planar.poses_true[0])
     incremental = run(estimator, planar.frames)
     # exactly equal at iSAM2's own linearisation point ...
     at_linearization = gtsam.Marginals(
-        estimator.factor_graph(), estimator._isam.getLinearizationPoint()
+        estimator.factor_graph(), estimator.session.linearization_point()
     )
     for key in (fx.pose_key(0), fx.pose_key(75), fx.pose_key(149), fx.landmark_key(3)):
         np.testing.assert_allclose(
-            estimator._isam.marginalCovariance(key),
+            estimator.session.marginal_covariance(key),
             at_linearization.marginalCovariance(key),
             rtol=1e-8,
             atol=1e-14,
         )
     # ... and close to batch Marginals at the LM optimum
-    batch = run(BatchGraphSLAM(cfg, planar.poses_true[0]), planar.frames)
+    batch = run(BatchGraphSLAM(RB, cfg, planar.poses_true[0]), planar.frames)
     scale_p = np.abs(batch.pose_covariances).max()
     scale_l = np.abs(batch.landmark_covariances).max()
     assert np.abs(incremental.pose_covariances - batch.pose_covariances).max() < (
@@ -92,12 +105,12 @@ def test_isam2_marginals_match_gtsam_marginals(planar):
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
-def test_omni_mode_never_indeterminate_and_beats_dead_reckoning(seed):
+def test_omni_bearings_never_indeterminate_and_beat_dead_reckoning(seed):
     scenario = simulate_omni(np.random.default_rng(seed))
-    estimator = GraphSLAM(_config(sensor_height_m=SENSOR_HEIGHT_M), scenario.poses_true[0])
+    estimator = GraphSLAM(OMNI, _config(sensor_height_m=SENSOR_HEIGHT_M), scenario.poses_true[0])
     estimate = run(estimator, scenario.frames)  # EstimationError would fail the test
     info = estimator.info()
-    assert info.mode is Mode.OMNI and info.frames == len(scenario.frames)
+    assert info.modality is OMNI and info.frames == len(scenario.frames)
     assert info.tracks_inserted == info.landmarks == len(estimate.landmark_ids) > 40
     ate = scenario.ate(estimate.trajectory.se2)
     assert ate < SLAM_VS_DEAD_RECKONING * scenario.ate(scenario.dead_reckoning)
@@ -114,7 +127,9 @@ def test_omni_tracks_that_never_qualify_are_counted():
     rng = np.random.default_rng(5)
     scenario = simulate_omni(rng, n=40, laps=0.1)
     estimator = GraphSLAM(
-        _config(sensor_height_m=SENSOR_HEIGHT_M, min_parallax_deg=30.0), scenario.poses_true[0]
+        OMNI,
+        _config(sensor_height_m=SENSOR_HEIGHT_M, min_parallax_deg=30.0),
+        scenario.poses_true[0],
     )
     run(estimator, scenario.frames)
     info = estimator.info()
@@ -124,8 +139,8 @@ def test_omni_tracks_that_never_qualify_are_counted():
     assert info.sightings_pending >= estimator.config.min_sightings * info.tracks_pending
 
 
-def test_bearing_2d_mode_maps_vertical_lines(planar):
-    estimator = GraphSLAM(_config(mode=Mode.BEARING_2D), planar.poses_true[0])
+def test_vertical_lines_are_mapped_as_2d_bearings(planar):
+    estimator = GraphSLAM(LINES, _config(), planar.poses_true[0])
     estimate = run(estimator, planar.frames)
     assert estimator.info().tracks_inserted == len(estimate.landmark_ids) == 30
     assert planar.ate(estimate.trajectory.se2) < SLAM_VS_DEAD_RECKONING * planar.ate(
@@ -134,21 +149,32 @@ def test_bearing_2d_mode_maps_vertical_lines(planar):
     assert np.all(estimate.landmarks_w[:, 2] == 0)
 
 
-def test_auto_mode_buffers_frames_until_the_first_sightings(planar):
-    empty = [
-        FrameInput(0, Odometry(np.zeros(3), -2.0)),
-        FrameInput(1, Odometry(np.array([0.1, 0.0, 0.0]), -1.0)),
-    ]
-    estimator = GraphSLAM(_config())
-    for frame in empty:
-        estimator.step(frame)
-    assert estimator.mode is Mode.AUTO
-    assert len(estimator.estimate().trajectory) == 2  # dead reckoning until then
-    estimator.step(planar.frames[1])
-    assert estimator.mode is Mode.RANGE_BEARING_2D
-    estimate = estimator.estimate()
-    assert len(estimate.trajectory) == 3
-    np.testing.assert_allclose(estimate.trajectory.stamps_s, [-2.0, -1.0, 1.0])
+def test_only_the_modality_s_stream_is_read_and_the_others_are_counted(planar):
+    """The planar scenario carries range-bearing sightings and vertical lines in every frame."""
+    lines = sum(len(f.vertical_lines) for f in planar.frames)
+    ranged = sum(len(f.range_bearing) for f in planar.frames)
+    by_range = GraphSLAM(RB, _config(), planar.poses_true[0])
+    by_lines = GraphSLAM(LINES, _config(), planar.poses_true[0])
+    run(by_range, planar.frames), run(by_lines, planar.frames)
+    assert by_range.info().sightings_ignored == lines
+    assert by_lines.info().sightings_ignored == ranged
+    factors = by_range.factor_graph()
+    types = {type(factors.at(i)) for i in range(factors.size())}
+    assert gtsam.BearingFactor2D not in types and gtsam.BearingRangeFactor2D in types
+
+
+def test_frames_before_the_first_sighting_are_dead_reckoning(planar):
+    """The graph starts at frame 0: until a sighting arrives it is the odometry chain alone."""
+    blind = [FrameInput(f.index, f.odometry) for f in planar.frames[:20]]
+    estimator = GraphSLAM(RB, _config(), planar.poses_true[0])
+    estimate = run(estimator, blind)
+    deltas = np.array([f.odometry.delta for f in blind])
+    np.testing.assert_allclose(
+        estimate.trajectory.se2, se2_integrate(deltas, planar.poses_true[0]), atol=1e-9
+    )
+    assert estimator.info().factors == 20 and estimator.info().landmarks == 0
+    estimator.step(planar.frames[20])
+    assert len(estimator.estimate().trajectory) == 21 and estimator.info().landmarks > 0
 
 
 def test_wrong_associations_robust_kernel_keeps_ate_near_clean():
@@ -160,13 +186,13 @@ def test_wrong_associations_robust_kernel_keeps_ate_near_clean():
         wrong, count = corrupt_ids(scenario.frames, 0.2, 30, np.random.default_rng(100 + seed))
         assert count > 150
         clean = scenario.ate(
-            run(GraphSLAM(_config(), scenario.poses_true[0]), scenario.frames).trajectory.se2
+            run(GraphSLAM(RB, _config(), scenario.poses_true[0]), scenario.frames).trajectory.se2
         )
         corrupted = scenario.ate(
-            run(GraphSLAM(robust, scenario.poses_true[0]), wrong).trajectory.se2
+            run(GraphSLAM(RB, robust, scenario.poses_true[0]), wrong).trajectory.se2
         )
         plain = scenario.ate(
-            run(GraphSLAM(_config(), scenario.poses_true[0]), wrong).trajectory.se2
+            run(GraphSLAM(RB, _config(), scenario.poses_true[0]), wrong).trajectory.se2
         )
         ratios_robust.append(corrupted / clean)
         ratios_plain.append(plain / clean)
@@ -177,7 +203,7 @@ def test_wrong_associations_robust_kernel_keeps_ate_near_clean():
 
 def test_unknown_association_recovers_the_map():
     scenario = simulate_planar(np.random.default_rng(2))
-    estimator = GraphSLAM(_config(), scenario.poses_true[0])
+    estimator = GraphSLAM(RB, _config(), scenario.poses_true[0])
     estimate = run(estimator, hide_ids(scenario.frames))
     info = estimator.info()
     seen = len({int(i) for f in scenario.frames for i in f.range_bearing.landmark_ids})
@@ -200,12 +226,12 @@ def test_a_creeping_robot_does_not_make_isam2_indeterminate():
     # the old behaviour: only the motion model's own floor, Cholesky without the QR fallback
     old = GraphSLAMConfig(odometry_min_sigma_m=1e-4, factorization=Factorization.CHOLESKY)
     with pytest.raises(EstimationError, match="Indeterminate"):
-        run(GraphSLAM(old), scenario.frames)
+        run(GraphSLAM(RB, old), scenario.frames)
     # the AUTO factorisation recovers by rebuilding with QR, and gives the same estimate
-    rescued = GraphSLAM(replace(old, factorization=Factorization.AUTO))
+    rescued = GraphSLAM(RB, replace(old, factorization=Factorization.AUTO))
     rescued_estimate = run(rescued, scenario.frames)
     assert rescued.info().factorization_fallbacks == 1
-    estimator = GraphSLAM(GraphSLAMConfig())
+    estimator = GraphSLAM(RB, GraphSLAMConfig())
     estimate = run(estimator, scenario.frames)
     assert estimator.info().factorization_fallbacks == 0
     assert len(estimate.trajectory) == len(scenario.frames)
@@ -216,8 +242,9 @@ def test_a_creeping_robot_does_not_make_isam2_indeterminate():
 def test_adaptive_reorder_bounds_fill_in_and_keeps_the_estimate():
     """GTSAM's adaptive batch re-ordering: fewer non-zeros, the same solution."""
     scenario = simulate_omni(np.random.default_rng(1))
-    plain = GraphSLAM(_config(sensor_height_m=SENSOR_HEIGHT_M), scenario.poses_true[0])
+    plain = GraphSLAM(OMNI, _config(sensor_height_m=SENSOR_HEIGHT_M), scenario.poses_true[0])
     reordering = GraphSLAM(
+        OMNI,
         _config(sensor_height_m=SENSOR_HEIGHT_M, adaptive_reorder_threshold=1.2),
         scenario.poses_true[0],
     )
@@ -240,8 +267,9 @@ def test_adaptive_reorder_threshold_must_be_a_ratio_above_one():
 
 def test_weak_landmark_prior_is_one_factor_per_landmark_and_barely_moves_the_estimate():
     scenario = simulate_omni(np.random.default_rng(0))
-    with_prior = GraphSLAM(_config(sensor_height_m=SENSOR_HEIGHT_M), scenario.poses_true[0])
+    with_prior = GraphSLAM(OMNI, _config(sensor_height_m=SENSOR_HEIGHT_M), scenario.poses_true[0])
     without = GraphSLAM(
+        OMNI,
         _config(sensor_height_m=SENSOR_HEIGHT_M, landmark_prior_sigma_m=None),
         scenario.poses_true[0],
     )

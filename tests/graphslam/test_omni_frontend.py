@@ -22,20 +22,21 @@ LANDMARK_RMSE_M = 0.15
 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_no_indeterminate_system_on_demo_seeds(tmp_path, seed):
+    from omnislam.core.modality import Modality
     from omnislam.datasets.synthetic.loader import load_synthetic
     from omnislam.datasets.synthetic.presets import PRESETS
     from omnislam.datasets.synthetic.simulate import simulate
     from omnislam.datasets.synthetic.writer import write_synthetic
     from omnislam.frontend.evaluation import track_truth, true_sightings
     from omnislam.frontend.pipeline import run_frontend
-    from omnislam.graphslam import GraphSLAM, GraphSLAMConfig, Mode
+    from omnislam.graphslam import GraphSLAM, GraphSLAMConfig
 
     folder = tmp_path / f"demo{seed}"
     write_synthetic(folder, simulate(PRESETS["demo"], seed=seed, max_images=IMAGES))
     sequence = load_synthetic(folder)
     log = run_frontend(sequence, rng=np.random.default_rng(seed))
     height = float(sequence.calibration.viewpoint_r[2])
-    slam = GraphSLAM(GraphSLAMConfig(mode=Mode.OMNI, sensor_height_m=height))
+    slam = GraphSLAM(Modality.BEARINGS_3D, GraphSLAMConfig(sensor_height_m=height))
     for frame in log.frames:
         slam.step(frame)
     estimate = slam.estimate()

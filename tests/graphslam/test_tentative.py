@@ -6,10 +6,13 @@ import numpy as np
 import pytest
 from graphslam_scenarios import MOTION_NOISE, add_clutter, hide_ids, run, simulate_planar
 
+from omnislam.core.modality import Modality
 from omnislam.errors import ConfigError
 from omnislam.graphslam import GraphSLAM, GraphSLAMConfig
 from omnislam.graphslam.association import Gates, associate
 from omnislam.graphslam.tentative import TentativeLandmarks
+
+RB = Modality.RANGE_BEARING_2D
 
 pytest.importorskip("gtsam")
 
@@ -69,14 +72,14 @@ def test_clutter_is_dropped_and_the_trajectory_matches_known_association():
     for seed in range(3):
         scenario = simulate_planar(np.random.default_rng(seed))
         seen = len({int(i) for f in scenario.frames for i in f.range_bearing.landmark_ids})
-        known = GraphSLAM(GraphSLAMConfig(motion_noise=MOTION_NOISE), scenario.poses_true[0])
+        known = GraphSLAM(RB, GraphSLAMConfig(motion_noise=MOTION_NOISE), scenario.poses_true[0])
         known_ate = scenario.ate(run(known, scenario.frames).trajectory.se2)
         cluttered, added = add_clutter(
             hide_ids(scenario.frames), CLUTTER_RATE, 7.0, np.random.default_rng(100 + seed)
         )
         assert added > 50
         config = GraphSLAMConfig(motion_noise=MOTION_NOISE, association_min_sightings=2)
-        estimator = GraphSLAM(config, scenario.poses_true[0])
+        estimator = GraphSLAM(RB, config, scenario.poses_true[0])
         estimate = run(estimator, cluttered)
         info = estimator.info()
         assert abs(len(estimate.landmark_ids) - seen) <= LANDMARK_COUNT_TOL
@@ -84,6 +87,6 @@ def test_clutter_is_dropped_and_the_trajectory_matches_known_association():
         assert info.tentative_dropped >= 0.5 * added
         ratios.append(scenario.ate(estimate.trajectory.se2) / (known_ate + ATE_ALLOWANCE_M))
         # without the tentative stage every false detection becomes a landmark
-        plain = GraphSLAM(GraphSLAMConfig(motion_noise=MOTION_NOISE), scenario.poses_true[0])
+        plain = GraphSLAM(RB, GraphSLAMConfig(motion_noise=MOTION_NOISE), scenario.poses_true[0])
         assert len(run(plain, cluttered).landmark_ids) > seen + 0.5 * added
     assert np.median(ratios) < ATE_RATIO, ratios

@@ -1,0 +1,109 @@
+"""Graph builder of the omni front end's bearings (``Modality.BEARINGS_3D``).
+
+Each bearing of a track becomes a ``BearingFactor3D(viewpoint, point, Unit3)`` (``factors.py``;
+the Pose3 variables are the sensor viewpoints, ``poses.ViewpointPoses``). A track that is not
+in the graph yet is held back until it can be triangulated (``builder.DelayedLandmarks``:
+>= ``min_sightings`` sightings spanning >= ``min_parallax_deg``; DESIGN.md "Landmark
+insertion") and enters as a ``Point3`` with its held-back factors and the weak prior. Bearings
+without a track id are ignored (counted).
+
+Outlier gate: a bearing of a mapped landmark that points away from it -- the angle between the
+measured ray and the direction from the guessed viewpoint to the landmark's insertion point
+beyond max(5 sigma, 20 deg) -- is not added (counted as gated). A wrong front-end association
+can point anywhere, and a Unit3 bearing error near 180 deg has a degenerate Jacobian that makes
+iSAM2 throw "Indeterminate linear system".
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from omnislam._optional import require
+from omnislam.core.modality import Modality
+from omnislam.core.se import se2_rotate_vectors
+from omnislam.core.types import UNKNOWN_ID, Bearings
+from omnislam.graphslam import factors as fx
+from omnislam.graphslam.builder import DelayedLandmarks, SightingCounts
+from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.poses import ViewpointPoses
+
+gtsam = require("gtsam")
+
+#: smallest angle between a measured bearing and its mapped landmark that counts as an outlier
+BEARING_GATE_RAD = np.radians(20.0)
+#: ... or this many of the bearing's angular sigmas, when larger
+BEARING_GATE_SIGMAS = 5.0
+
+
+class Bearings3DGraph:
+    """Omni bearings -> ``BearingFactor3D`` and delayed ``Point3`` landmarks.
+
+    Args:
+        config: settings (insertion, weak prior, robust kernel, ``sensor_height_m``).
+        poses: the viewpoint chain of the graph.
+    """
+
+    modality = Modality.BEARINGS_3D
+
+    def __init__(self, config: GraphSLAMConfig, poses: ViewpointPoses) -> None:
+        self._config = config
+        self._noise = fx.NoiseModels(config.robust_kernel, config.kernel_threshold)
+        self._landmarks = DelayedLandmarks(config, poses, dim=3)
+        self._ignored = 0
+        self._gated = 0
+
+    def add(
+        self, k: int, sightings: Bearings, guess_w: np.ndarray, graph: Any, values: Any
+    ) -> None:
+        """Add frame k's bearings (see the module docstring)."""
+        touched: list[int] = []
+        for lid, ray, sigma in zip(
+            sightings.landmark_ids.tolist(),
+            sightings.unit_vectors_r,
+            sightings.sigmas_rad.tolist(),
+            strict=True,
+        ):
+            if lid == UNKNOWN_ID:
+                self._ignored += 1
+                continue
+            factor = fx.bearing_3d(k, lid, ray, self._noise.isotropic(2, sigma))
+            if lid in self._landmarks:
+                if self._is_outlier(lid, ray, sigma, guess_w):
+                    self._gated += 1
+                    continue
+                graph.add(factor)
+            else:
+                self._landmarks.hold(lid, k, ray, factor, sigma)
+                touched.append(lid)
+        self._landmarks.insert_ready(k, touched, graph, values)
+
+    def _is_outlier(
+        self, lid: int, ray_r: np.ndarray, sigma_rad: float, guess_w: np.ndarray
+    ) -> bool:
+        """True when a bearing of a mapped landmark points away from it (the outlier gate)."""
+        point = self._landmarks.points_w.get(lid)
+        if point is None:
+            return False
+        ray_w = se2_rotate_vectors(guess_w, ray_r)
+        to_point = point - np.array([guess_w[0], guess_w[1], self._config.sensor_height_m])
+        cosine = ray_w @ to_point / max(np.linalg.norm(to_point), 1e-12)
+        return bool(cosine < np.cos(max(BEARING_GATE_SIGMAS * sigma_rad, BEARING_GATE_RAD)))
+
+    def landmark_ids(self) -> np.ndarray:
+        """(M,) ids of the landmarks in the graph, ascending."""
+        return self._landmarks.registry.sorted_ids()
+
+    def landmarks(self, values: Any) -> np.ndarray:
+        """(M, 3) the ``Point3`` landmarks of ``values`` [m]."""
+        return gtsam.utilities.extractPoint3(values).reshape(-1, 3)
+
+    def counts(self) -> SightingCounts:
+        """Counts so far."""
+        return SightingCounts(
+            landmarks=len(self._landmarks.registry),
+            insertion=self._landmarks.stats(),
+            sightings_ignored=self._ignored,
+            sightings_gated=self._gated,
+        )

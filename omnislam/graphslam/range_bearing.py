@@ -1,0 +1,243 @@
+"""Graph builder of 2-D range-bearing sightings (``Modality.RANGE_BEARING_2D``).
+
+Each sighting becomes a ``BearingRangeFactor2D(pose, point)`` on the ``Pose2`` chain
+(MR.CLAM barcodes, Victoria Park trees, synthetic poles, laser landmarks). A range-bearing
+sighting fixes a planar landmark on its own, so:
+
+* **given ids**: a new landmark enters on its first sighting at ``inverse(guess, z)``
+  (``RangeBearing2D.inverse``), or, with ``min_consistent_sightings`` > 1, once that many of
+  its sightings agree (``landmark_init.ConsistentInsertion``, against wrong ids);
+* **unknown ids** (``UNKNOWN_ID``): the sightings are associated first (``association.py``:
+  nearest neighbour in a Mahalanobis gate including the newest pose's marginal). A sighting
+  that matches takes the landmark's id; one beyond the new-landmark gate starts a landmark with
+  an id from ``CREATED_ID_BASE`` upwards (never colliding with given ids) -- at once, or as a
+  tentative landmark until re-observed (``tentative.py``, ``association_min_sightings`` > 1);
+  one between the gates is dropped as ambiguous.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from omnislam._optional import require
+from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.modality import Modality
+from omnislam.core.types import UNKNOWN_ID, RangeBearing
+from omnislam.graphslam import factors as fx
+from omnislam.graphslam.association import (
+    AMBIGUOUS,
+    NEW_LANDMARK,
+    Gates,
+    associate,
+    mahalanobis2,
+    sighting_points,
+)
+from omnislam.graphslam.builder import LandmarkRegistry, SightingCounts
+from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.landmark_init import ConsistentInsertion
+from omnislam.graphslam.poses import PlanarPoses
+from omnislam.graphslam.session import ISAM2Session
+from omnislam.graphslam.tentative import TentativeLandmarks, TentativeStats
+
+gtsam = require("gtsam")
+
+#: first id given to a landmark created by the association of unlabelled sightings
+CREATED_ID_BASE = 1_000_000_000
+
+_RANGE_BEARING = RangeBearing2D()
+
+
+class RangeBearingGraph:
+    """Range-bearing sightings -> ``BearingRangeFactor2D`` and ``Point2`` landmarks.
+
+    Args:
+        config: settings (consistent insertion, association gates and covariances, tentative
+            stage, robust kernel).
+        poses: the planar pose chain of the graph (the newest pose for the association).
+        session: the iSAM2 session (marginals and landmark estimates for the association).
+    """
+
+    modality = Modality.RANGE_BEARING_2D
+
+    def __init__(self, config: GraphSLAMConfig, poses: PlanarPoses, session: ISAM2Session) -> None:
+        self._config = config
+        self._poses = poses
+        self._session = session
+        self._noise = fx.NoiseModels(config.robust_kernel, config.kernel_threshold)
+        self._gates = Gates.from_probabilities(
+            config.association_gate_probability, config.new_landmark_probability
+        )
+        self._consistent = ConsistentInsertion(config.min_consistent_sightings, self._gates.match)
+        self._tentative = (
+            TentativeLandmarks(config.association_min_sightings, config.association_window_frames)
+            if config.association_min_sightings > 1
+            else None
+        )
+        self._registry = LandmarkRegistry()
+        self._next_created_id = CREATED_ID_BASE
+        self._created = self._associated = self._ambiguous = 0
+
+    def add(
+        self, k: int, sightings: RangeBearing, guess_w: np.ndarray, graph: Any, values: Any
+    ) -> None:
+        """Add frame k's sightings (see the module docstring)."""
+        ids = sightings.landmark_ids.copy()
+        unknown = ids == UNKNOWN_ID
+        created: set[int] = set()
+        points_w = covariances_w = np.zeros((0, 2))
+        if unknown.any():
+            ids[unknown], points_w, covariances_w = self._associate(
+                k, np.flatnonzero(unknown), sightings, guess_w
+            )
+            created = set(ids[unknown].tolist())
+        unknown_row = np.cumsum(unknown) - 1  # row of each unlabelled sighting in points_w
+        delay = self._config.min_consistent_sightings > 1
+        for i, (lid, r, b, s_r, s_b) in enumerate(
+            zip(
+                ids.tolist(),
+                sightings.ranges_m.tolist(),
+                sightings.bearings_rad.tolist(),
+                sightings.sigma_range_m.tolist(),
+                sightings.sigma_bearing_rad.tolist(),
+                strict=True,
+            )
+        ):
+            if lid == UNKNOWN_ID:  # ambiguous
+                continue
+            factor = fx.bearing_range_2d(k, lid, b, r, self._noise.diagonal(s_b, s_r))
+            if lid in self._registry:
+                graph.add(factor)
+                continue
+            if lid in created and self._tentative is not None:  # unlabelled: wait for more
+                row = unknown_row[i]
+                commitment = self._tentative.add(lid, k, points_w[row], covariances_w[row], factor)
+                if commitment is not None:
+                    self._insert(lid, commitment.point_w, commitment.factors, graph, values)
+                continue
+            if not delay or lid in created:
+                xy = _RANGE_BEARING.inverse(guess_w, np.array([r, b]))[0]
+                self._insert(lid, xy, (factor,), graph, values)
+                continue
+            points, covs = sighting_points(guess_w, *map(np.atleast_1d, (r, b, s_r, s_b)))
+            self._consistent.hold(lid, points[0], covs[0], factor)
+            insertion = self._consistent.try_insert(lid)
+            if insertion is not None:
+                self._insert(lid, insertion.point_w, insertion.factors, graph, values)
+
+    def _insert(self, lid: int, point_w: np.ndarray, factors: Any, graph: Any, values: Any) -> None:
+        """A landmark enters the graph at ``point_w`` (2,) with its factors."""
+        values.insert(fx.landmark_key(lid), gtsam.Point2(point_w))
+        self._registry.add(lid, point_w)
+        for factor in factors:
+            graph.add(factor)
+
+    def _associate(
+        self, k: int, rows: np.ndarray, sightings: RangeBearing, guess_w: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Ids for the unlabelled sightings ``rows``: matched, new or UNKNOWN_ID (ambiguous).
+
+        Candidates are the mapped landmarks near the robot and, with the tentative stage, the
+        tentative landmarks. A new id is registered in the graph by the caller (at once, or
+        through the tentative stage).
+
+        Returns:
+            (ids (K,), the sightings' world points (K, 2) and covariances (K, 2, 2)).
+        """
+        config = self._config
+        pose_cov = None
+        if config.association_pose_covariance and k > 0:
+            # the newest estimated pose (frame k-1) is in the root clique: a cheap marginal
+            previous = self._session.marginal_covariance(fx.pose_key(k - 1))
+            pose_cov = self._poses.world_covariance(previous, self._poses.newest_w[2])
+        points, covs = sighting_points(
+            guess_w,
+            sightings.ranges_m[rows],
+            sightings.bearings_rad[rows],
+            sightings.sigma_range_m[rows],
+            sightings.sigma_bearing_rad[rows],
+            pose_cov,
+        )
+        cached = self._registry.xy
+        # candidates: landmarks that could fall inside the outer gate (conservative radius)
+        spread = config.association_landmark_sigma_m + np.sqrt(
+            np.linalg.eigvalsh(covs)[:, -1].max()
+        )
+        radius = sightings.ranges_m[rows].max() + 3.0 * np.sqrt(self._gates.new_landmark) * spread
+        near = np.flatnonzero(np.hypot(*(cached - guess_w[:2]).T) <= radius)
+        for row in near.tolist():  # refresh only these positions from iSAM2
+            key = fx.landmark_key(self._registry.id_at(row))
+            if self._session.exists(key):
+                cached[row] = self._session.point2(key)
+        candidate_ids = [self._registry.id_at(row) for row in near.tolist()]
+        candidates_xy = cached[near]
+        candidate_covs = self._landmark_covariances(near, points, covs)
+        if self._tentative is not None:
+            self._tentative.expire(k)
+            if len(self._tentative):
+                tentative_ids, tentative_xy, tentative_covs = self._tentative.candidates()
+                candidate_ids += tentative_ids.tolist()
+                candidates_xy = np.concatenate([candidates_xy, tentative_xy])
+                candidate_covs = np.concatenate([candidate_covs, tentative_covs])
+        indices, _ = associate(
+            points,
+            covs,
+            candidates_xy,
+            config.association_landmark_sigma_m,
+            self._gates,
+            candidate_covs,
+        )
+        out = np.full(len(rows), UNKNOWN_ID, dtype=np.int64)
+        for i, index in enumerate(indices.tolist()):
+            if index >= 0:
+                out[i] = candidate_ids[index]
+                self._associated += 1
+            elif index == NEW_LANDMARK:
+                out[i] = self._next_created_id
+                self._next_created_id += 1
+                self._created += 1
+            elif index == AMBIGUOUS:
+                self._ambiguous += 1
+        return out, points, covs
+
+    def _landmark_covariances(
+        self, rows: np.ndarray, points_w: np.ndarray, point_covariances: np.ndarray
+    ) -> np.ndarray:
+        """Position covariances (M, 2, 2) of the mapped landmarks ``rows`` for the gate.
+
+        ``sigma_l^2 I`` (``association_landmark_sigma_m``), or with
+        ``association_landmark_marginals`` the iSAM2 marginal of each landmark whose distance
+        with ``sigma_l`` is within 4x the new-landmark gate of some sighting (a marginal costs a
+        back-substitution; the far ones could not match anyway unless their marginal were huge).
+        """
+        sigma2 = self._config.association_landmark_sigma_m**2
+        covariances = np.tile(sigma2 * np.eye(2), (len(rows), 1, 1))
+        if not self._config.association_landmark_marginals or not len(rows):
+            return covariances
+        d2 = mahalanobis2(points_w, point_covariances, self._registry.xy[rows], covariances)
+        for j in np.flatnonzero(d2.min(axis=0) <= 4.0 * self._gates.new_landmark).tolist():
+            key = fx.landmark_key(self._registry.id_at(int(rows[j])))
+            if self._session.exists(key):
+                covariances[j] = self._session.marginal_covariance(key)
+        return covariances
+
+    def landmark_ids(self) -> np.ndarray:
+        """(M,) ids of the landmarks in the graph, ascending."""
+        return self._registry.sorted_ids()
+
+    def landmarks(self, values: Any) -> np.ndarray:
+        """(M, 3) the ``Point2`` landmarks of ``values`` with z = 0 [m]."""
+        points = gtsam.utilities.extractPoint2(values).reshape(-1, 2)
+        return np.column_stack([points, np.zeros(len(points))])
+
+    def counts(self) -> SightingCounts:
+        """Counts so far."""
+        return SightingCounts(
+            landmarks=len(self._registry),
+            insertion=self._consistent.stats(),
+            landmarks_created=self._created,
+            sightings_associated=self._associated,
+            sightings_ambiguous=self._ambiguous,
+            tentative=self._tentative.stats() if self._tentative is not None else TentativeStats(),
+        )

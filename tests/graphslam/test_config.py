@@ -1,0 +1,32 @@
+"""Configuration validation and presets of the GTSAM back end."""
+
+from __future__ import annotations
+
+import pytest
+
+from omnislam.errors import ConfigError
+from omnislam.graphslam import GraphSLAMConfig, RobustKernel
+from omnislam.graphslam.config import PRESETS
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        {"relinearize_threshold": 0.0},
+        {"min_sightings": 1},
+        {"prior_sigmas": (1.0, -1.0, 1.0)},
+        {"association_gate_probability": 0.999, "new_landmark_probability": 0.99},
+        {"robust_threshold": -1.0},
+        {"robust_kernel": "cauchy"},
+    ],
+)
+def test_config_rejects_bad_values(overrides):
+    with pytest.raises(ConfigError):
+        GraphSLAMConfig(**overrides)
+
+
+def test_presets_and_kernel_thresholds():
+    assert GraphSLAMConfig().kernel_threshold == 0.0
+    assert GraphSLAMConfig(robust_kernel=RobustKernel.HUBER).kernel_threshold == 1.345
+    assert PRESETS["robust"].robust_kernel is RobustKernel.CAUCHY
+    assert PRESETS["victoria-park-gtsam"].odometry_sigmas == (0.01, 0.002, 0.002)
