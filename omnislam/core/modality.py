@@ -7,9 +7,10 @@ lazily from the first frame, and none reads another stream.
 
 The rule: an explicit override (``--set modality=NAME``) wins if the data carry that stream and
 the estimator consumes it; otherwise the first modality of ``PRIORITY`` that the data carry and
-the estimator consumes. ``PRIORITY`` puts the omni front end's bearings first (the experiment an
-image dataset is recorded for), then direct range-bearing sightings (MR.CLAM, Victoria Park,
-synthetic poles, laser landmarks), then vertical-line bearings.
+the estimator consumes. ``PRIORITY`` puts the streams the shared front end extracts from images
+first (the experiment an image dataset is recorded for): omni bearings, then vertical-line
+bearings; then direct range-bearing sightings (MR.CLAM, Victoria Park, synthetic poles, laser
+landmarks).
 """
 
 from __future__ import annotations
@@ -82,8 +83,8 @@ _LABELS = {
 #: the shared preference order of ``resolve_modality``
 PRIORITY: tuple[Modality, ...] = (
     Modality.BEARINGS_3D,
-    Modality.RANGE_BEARING_2D,
     Modality.VERTICAL_LINES,
+    Modality.RANGE_BEARING_2D,
 )
 
 

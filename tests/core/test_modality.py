@@ -37,6 +37,9 @@ def test_priority_picks_the_first_shared_stream():
     assert resolve_modality(available, ALL) is Modality.BEARINGS_3D
     assert resolve_modality(available, {Modality.RANGE_BEARING_2D}) is Modality.RANGE_BEARING_2D
     assert PRIORITY[0] is Modality.BEARINGS_3D and set(PRIORITY) == ALL
+    # the image streams of the front end come before direct range-bearing sightings
+    lines_and_poles = {Modality.RANGE_BEARING_2D, Modality.VERTICAL_LINES}
+    assert resolve_modality(lines_and_poles, ALL) is Modality.VERTICAL_LINES
 
 
 def test_override_wins_when_usable():
