@@ -78,7 +78,6 @@ def test_compare_on_a_local_dask_cluster(tmp_path, capsys):
             "datasets: [data/room.log]\nestimators: [kalman]\n",
             ["grid.yaml", "unknown estimator 'kalman'"],
         ),
-        ("datasets: [data/room.log]\nestimators: [ukf]\n", ["grid.yaml", "not available yet"]),
         (
             "datasets: [data/nowhere.log]\nestimators: [deadreckoning]\n",
             ["grid.yaml", "nowhere.log"],
@@ -88,15 +87,6 @@ def test_compare_on_a_local_dask_cluster(tmp_path, capsys):
     ],
 )
 def test_compare_bad_grid_exits_2_and_writes_nothing(tmp_path, capsys, text, needles):
-    from omnislam.errors import ConfigError
-    from omnislam.estimators import estimator_factory
-
-    if "ukf" in text:
-        try:
-            estimator_factory("ukf")
-            pytest.skip("the ukf back end has landed")
-        except ConfigError:
-            pass
     grid = grid_file(tmp_path, text)
     out = tmp_path / "results"
     assert main(["compare", str(grid), "--out", str(out)]) == 2
