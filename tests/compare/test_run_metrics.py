@@ -8,9 +8,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from room_log import write_room_log
 
+from omnislam.cli import main
+from omnislam.compare.evaluation import evaluate_run
+from omnislam.compare.grid import load_grid
 from omnislam.compare.metrics import Alignment, LandmarkAssociation
 from omnislam.compare.run_metrics import (
+    CSV_FIELDS,
     MEASURED_KEYS,
     METRIC_FIELDS,
     SCHEMA_KEY,
@@ -27,7 +32,8 @@ from omnislam.compare.run_metrics import (
     read_run_metrics,
     write_run_metrics,
 )
-from omnislam.compare.rundir import METRICS
+from omnislam.compare.rundir import METRICS, read_run_dir, write_run_dir
+from omnislam.compare.runner import CELLS, CSV_LABELS, RESULTS_CSV, SerialExecutor, run_grid
 from omnislam.datasets.sequence import GroundTruthKind
 from omnislam.errors import DataError
 
@@ -46,6 +52,12 @@ DESIGN_CONTRACT_KEYS = (
     "total_s",
     "peak_rss_mb",
     "alignment",
+)
+#: the header of results.csv before RunMetrics (a regression guard: the file must not change)
+RESULTS_CSV_HEADER = (
+    "cell,dataset,estimator,override,seed,status,ate_rmse_m,ate_max_m,ate_origin_rmse_m,"
+    "rpe_trans_rmse_m,rpe_rot_rmse_deg,landmark_rmse_m,landmarks_estimated,landmarks_matched,"
+    "nees_mean,frames,step_ms_median,step_ms_p95,total_s,peak_rss_mb,alignment,ground_truth"
 )
 
 
@@ -181,6 +193,15 @@ def test_write_then_read_gives_the_same_record(tmp_path, make):
     assert (tmp_path / "again.json").read_text() == (tmp_path / METRICS).read_text()
 
 
+def test_an_evaluated_run_round_trips(tmp_path, record_with_a_map):
+    write_run_dir(tmp_path / "run", record_with_a_map)
+    metrics = evaluate_run(read_run_dir(tmp_path / "run"))
+    assert metrics.nees.pose_mean is not None and metrics.nees.landmark_mean is not None
+    assert metrics.rpe.by_distance and metrics.landmarks.matched == 12
+    write_run_metrics(tmp_path / "run" / METRICS, metrics)
+    assert read_run_metrics(tmp_path / "run" / METRICS) == metrics
+
+
 def test_the_file_is_flat_json_with_the_schema_version_first_and_nulls(tmp_path):
     write_run_metrics(tmp_path / METRICS, no_truth_metrics())
     raw = json.loads((tmp_path / METRICS).read_text())
@@ -234,6 +255,24 @@ def test_the_design_contract_keys_are_in_metrics_json():
 def test_measured_keys_are_the_timing_part_but_frames():
     timing = {spec.key for spec in METRIC_FIELDS if spec.part == "timing"}
     assert MEASURED_KEYS == timing - {"frames"}
+
+
+def test_results_csv_columns_come_from_the_record_fields(tmp_path):
+    keys = [spec.key for spec in METRIC_FIELDS]
+    assert all(spec.key in keys for spec in CSV_FIELDS)
+    assert ",".join([*CSV_LABELS, *(spec.key for spec in CSV_FIELDS)]) == RESULTS_CSV_HEADER
+    write_room_log(tmp_path / "data" / "room.log", frames=30)
+    grid = tmp_path / "grid.yaml"
+    grid.write_text("datasets: [data/room.log]\nestimators: [deadreckoning]\nseeds: [0]\n")
+    run_grid(load_grid(grid), tmp_path / "out", SerialExecutor)
+    header, row = (tmp_path / "out" / RESULTS_CSV).read_text().splitlines()
+    assert header == RESULTS_CSV_HEADER
+    cell = tmp_path / "out" / CELLS / row.split(",")[0]
+    metrics = read_run_metrics(cell / METRICS)
+    values = dict(zip(header.split(","), row.split(","), strict=True))
+    for spec in CSV_FIELDS:
+        value = spec.json_value(metrics)
+        assert values[spec.key] == ("" if value is None else str(value))
 
 
 # --------------------------------------------------------------------------------------------
@@ -352,3 +391,47 @@ def test_not_an_object_and_a_missing_file(tmp_path):
     with pytest.raises(DataError, match="cannot read the file") as info:
         read_run_metrics(tmp_path / "nowhere" / METRICS)
     assert "nowhere" in str(info.value)
+
+
+# --------------------------------------------------------------------------------------------
+# readers of metrics.json
+# --------------------------------------------------------------------------------------------
+
+
+def test_report_on_a_malformed_metrics_json_exits_2_naming_file_and_key(tmp_path, capsys):
+    log = write_room_log(tmp_path / "data" / "room.log", frames=20)
+    run = tmp_path / "run"
+    assert main(["run", str(log), "--estimator", "deadreckoning", "--out", str(run)]) == 0
+    assert main(["evaluate", str(run)]) == 0
+    raw = json.loads((run / METRICS).read_text())
+    raw["landmarks_estimated"] = "none"
+    (run / METRICS).write_text(json.dumps(raw))
+    capsys.readouterr()
+    assert main(["report", str(run), "--out", str(tmp_path / "report")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert str(run / METRICS) in err and "'landmarks_estimated'" in err
+    assert not (tmp_path / "report").exists()
+
+
+def test_evaluate_json_prints_the_file(tmp_path, capsys):
+    log = write_room_log(tmp_path / "data" / "room.log", frames=20)
+    run = tmp_path / "run"
+    assert main(["run", str(log), "--estimator", "deadreckoning", "--out", str(run)]) == 0
+    capsys.readouterr()
+    assert main(["evaluate", str(run), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out) == json.loads((run / METRICS).read_text())
+    assert read_run_metrics(run / METRICS).run.estimator == "deadreckoning"
+
+
+def test_the_runner_evaluates_again_a_cell_whose_metrics_json_it_cannot_read(tmp_path):
+    write_room_log(tmp_path / "data" / "room.log", frames=30)
+    grid = tmp_path / "grid.yaml"
+    grid.write_text("datasets: [data/room.log]\nestimators: [deadreckoning]\nseeds: [0]\n")
+    first = run_grid(load_grid(grid), tmp_path / "out", SerialExecutor)
+    (cell,) = (tmp_path / "out" / CELLS).iterdir()
+    (cell / METRICS).write_text('{"ate_rmse_m": ')  # e.g. cut short by a full disk
+    again = run_grid(load_grid(grid), tmp_path / "out", SerialExecutor)
+    assert again.outcomes[0].status.value == "reused"
+    assert again.outcomes[0].metrics == first.outcomes[0].metrics
+    assert read_run_metrics(cell / METRICS) == first.outcomes[0].metrics
