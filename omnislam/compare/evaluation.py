@@ -77,7 +77,7 @@ class EvaluationOptions:
     Attributes:
         rpe_segment_m: segment length of ``RpeMetrics.trans_rmse_m`` [m].
         landmark_gate_m: association gate for maps without true ids [m].
-        curve_lengths: number of segment lengths in ``rpe_by_distance``.
+        curve_lengths: number of segment lengths in ``RpeMetrics.by_distance``.
     """
 
     rpe_segment_m: float = DEFAULT_RPE_SEGMENT_M
