@@ -21,9 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from omnislam.compare.evaluation import EvaluationOptions
+from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
 from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.rundir import evaluate_run
 from omnislam.datasets.registry import load_dataset, resolve
 
 CONFIGS = (
@@ -71,12 +70,13 @@ def main() -> None:
             record = execute_run(spec)
             seconds = time.perf_counter() - start
             metrics = evaluate_run(record, EvaluationOptions(landmark_gate_m=2.0))
-            estimated = int(metrics["landmarks_estimated"] or 0)
-            rows.append((name, particles, metrics["ate_rmse_m"], estimated / sighted, seconds))
+            landmarks = metrics.landmarks
+            estimated = landmarks.estimated
+            rows.append((name, particles, metrics.ate.rmse_m, estimated / sighted, seconds))
             print(
-                f"{name:10s} {particles:9d} {seed:4d} {metrics['ate_rmse_m']:8.3f} "
+                f"{name:10s} {particles:9d} {seed:4d} {metrics.ate.rmse_m:8.3f} "
                 f"{estimated:>7d}/{sighted:<3d} {estimated / sighted:11.2f} "
-                f"{metrics['landmark_duplicates']:4d} {metrics['landmark_spurious']:4d} "
+                f"{landmarks.duplicates:4d} {landmarks.spurious:4d} "
                 f"{seconds:8.1f}",
                 flush=True,
             )

@@ -26,9 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from omnislam.compare.evaluation import EvaluationOptions
+from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
 from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.rundir import evaluate_run
 
 DEFAULT_DATASET = "runs/lab40"
 DEFAULT_LOG = "runs/lab40-results/logs/benchmarks-grids-..-..-runs-lab40.npz"
@@ -79,15 +78,15 @@ def run_cell(cell: Cell, dataset: str, log: str | None, seed: int) -> Row:
     """Run and evaluate one cell."""
     record = execute_run(RunSpec(dataset, cell.estimator, seed, cell.options, log))
     metrics = evaluate_run(record, EVALUATION)
-    estimated = metrics["landmarks_estimated"]
-    true = metrics["landmarks_truth"]
+    landmarks = metrics.landmarks
+    estimated, true = landmarks.estimated, landmarks.truth
     per_true = estimated / true if estimated and true else None
     return Row(
         cell,
         seed,
-        float(metrics["ate_rmse_m"]),
-        metrics["landmark_rmse_m"],
-        metrics["landmark_median_m"],
+        float(metrics.ate.rmse_m),
+        landmarks.rmse_m,
+        landmarks.median_m,
         per_true,
         float(record.config.total_s),
     )

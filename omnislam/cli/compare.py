@@ -100,9 +100,8 @@ def run(args: argparse.Namespace) -> int:
     failed = [o for o in result.outcomes if o.status is CellStatus.FAILED]
     width = max(len(o.cell.cell_id) for o in result.outcomes)
     for outcome in result.outcomes:
-        metrics = outcome.metrics or {}
-        ate = metrics.get("ate_rmse_m")
-        text = f"ATE {ate:.4g} m" if isinstance(ate, float) else "ATE -"
+        ate = outcome.metrics.ate.rmse_m if outcome.metrics is not None else None
+        text = f"ATE {ate:.4g} m" if ate is not None else "ATE -"
         print(f"{outcome.cell.cell_id.ljust(width)}  {outcome.status.value:8s}  {text}")
     print(
         f"omnislam compare: {len(result.outcomes)} cells ({computed} computed, {reused} reused, "

@@ -40,8 +40,9 @@ def run(args: argparse.Namespace) -> int:
         )
     print(f"{'estimator':16s} {'ATE RMSE [m]':>12s} {'landmark RMSE [m]':>18s} {'status':>9s}")
     for outcome in result.results.outcomes:
-        metrics = outcome.metrics or {}
-        ate, lm = (_number(metrics.get(k)) for k in ("ate_rmse_m", "landmark_rmse_m"))
+        metrics = outcome.metrics
+        ate = _number(metrics.ate.rmse_m if metrics is not None else None)
+        lm = _number(metrics.landmarks.rmse_m if metrics is not None else None)
         print(f"{outcome.cell.spec.estimator:16s} {ate:>12s} {lm:>18s} {outcome.status.value:>9s}")
         if outcome.error:
             print(f"  {outcome.error}", file=sys.stderr)
@@ -54,5 +55,5 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _number(value: object) -> str:
-    return f"{value:.4f}" if isinstance(value, float) else "-"
+def _number(value: float | None) -> str:
+    return f"{value:.4f}" if value is not None else "-"

@@ -1,7 +1,7 @@
 """``omnislam evaluate RUN_DIR [--json]``: metrics against the run's ground truth.
 
-Writes ``RUN_DIR/metrics.json`` (keys of DESIGN.md; null for what is not computed or has no
-ground truth) and prints a table, or the JSON with ``--json``.
+Writes ``RUN_DIR/metrics.json`` (``compare.run_metrics``; null for what is not computed or has
+no ground truth) and prints a table, or the JSON with ``--json``.
 """
 
 from __future__ import annotations
@@ -38,8 +38,9 @@ def run(args: argparse.Namespace) -> int:
     import json
     from pathlib import Path
 
-    from omnislam.compare.evaluation import EvaluationOptions
-    from omnislam.compare.rundir import evaluate_run, read_run_dir, write_metrics
+    from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
+    from omnislam.compare.run_metrics import write_run_metrics
+    from omnislam.compare.rundir import METRICS, read_run_dir
     from omnislam.errors import DataError
 
     defaults = EvaluationOptions()
@@ -54,49 +55,49 @@ def run(args: argparse.Namespace) -> int:
         raise DataError("no such RUN_DIR", path)
     record = read_run_dir(path)
     metrics = evaluate_run(record, options)
-    write_metrics(path, metrics)
+    write_run_metrics(path / METRICS, metrics)
     if args.json:
-        print(json.dumps(metrics, indent=2))
+        print(json.dumps(metrics.to_json(), indent=2))
         return 0
     config = record.config
     print(f"{config.estimator} on {config.dataset} ({config.frames} frames)")
-    if metrics["ate_rmse_m"] is None:
+    if metrics.ate.rmse_m is None:
         print(
             f"no ground truth ({record.ground_truth.kind.value}): "
             f"{record.ground_truth.note or 'nothing to compare against'}"
         )
     else:
         print(f"ground truth: {record.ground_truth.kind.value}: {record.ground_truth.note}")
+    ate, rpe, landmarks, timing = metrics.ate, metrics.rpe, metrics.landmarks, metrics.timing
     rows = [
-        ("ATE RMSE, SE(2) aligned [m]", metrics["ate_rmse_m"]),
-        ("ATE max, SE(2) aligned [m]", metrics["ate_max_m"]),
-        ("ATE RMSE, origin aligned [m]", metrics["ate_origin_rmse_m"]),
-        ("ATE max, origin aligned [m]", metrics["ate_origin_max_m"]),
+        ("ATE RMSE, SE(2) aligned [m]", ate.rmse_m),
+        ("ATE max, SE(2) aligned [m]", ate.max_m),
+        ("ATE RMSE, origin aligned [m]", ate.origin_rmse_m),
+        ("ATE max, origin aligned [m]", ate.origin_max_m),
         (
             "poses compared / coverage",
             None
-            if metrics["ate_matched"] is None
-            else f"{metrics['ate_matched']} / {metrics['ate_coverage']:.1%}",
+            if ate.matched is None or ate.coverage is None
+            else f"{ate.matched} / {ate.coverage:.1%}",
         ),
-        (f"RPE {options.rpe_segment_m:g} m trans RMSE [m]", metrics["rpe_trans_rmse_m"]),
-        (f"RPE {options.rpe_segment_m:g} m rot RMSE [deg]", metrics["rpe_rot_rmse_deg"]),
-        ("landmark RMSE [m]", metrics["landmark_rmse_m"]),
+        (f"RPE {options.rpe_segment_m:g} m trans RMSE [m]", rpe.trans_rmse_m),
+        (f"RPE {options.rpe_segment_m:g} m rot RMSE [deg]", rpe.rot_rmse_deg),
+        ("landmark RMSE [m]", landmarks.rmse_m),
         (
             "landmarks estimated / matched / true",
-            f"{metrics['landmarks_estimated']} / {_fmt(metrics['landmarks_matched'])} / "
-            f"{_fmt(metrics['landmarks_truth'])}",
+            f"{landmarks.estimated} / {_fmt(landmarks.matched)} / {_fmt(landmarks.truth)}",
         ),
-        ("pose NEES mean (dof 3 when consistent)", metrics["nees_mean"]),
-        ("landmark NEES mean", metrics["landmark_nees_mean"]),
+        ("pose NEES mean (dof 3 when consistent)", metrics.nees.pose_mean),
+        ("landmark NEES mean", metrics.nees.landmark_mean),
         (
             "step median / p95 [ms]",
-            f"{_fmt(metrics['step_ms_median'])} / {_fmt(metrics['step_ms_p95'])}",
+            f"{_fmt(timing.step_median_ms)} / {_fmt(timing.step_p95_ms)}",
         ),
-        ("total [s]", metrics["total_s"]),
-        ("peak RSS [MB]", metrics["peak_rss_mb"]),
+        ("total [s]", timing.total_s),
+        ("peak RSS [MB]", timing.peak_rss_mb),
     ]
     width = max(len(name) for name, _ in rows)
     for name, value in rows:
         print(f"  {name.ljust(width)}  {_fmt(value)}")
-    print(f"-> {path / 'metrics.json'}")
+    print(f"-> {path / METRICS}")
     return 0

@@ -24,22 +24,21 @@ import math
 import os
 import shutil
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from omnislam.compare.evaluation import GROUND_TRUTH_LABELS, EvaluationOptions
+from omnislam.compare.evaluation import GROUND_TRUTH_LABELS, evaluate_run
 from omnislam.compare.metrics import Alignment, ate
+from omnislam.compare.run_metrics import RunMetrics, read_run_metrics
 from omnislam.compare.rundir import (
     CONFIG,
     GRAPH_G2O,
     METRICS,
     RunRecord,
-    evaluate_run,
     make_shareable,
-    read_metrics,
     read_run_dir,
 )
 from omnislam.datasets.registry import DatasetFormat
@@ -66,7 +65,7 @@ class ReportCell:
         seed: the run's seed.
         status: ``computed`` / ``reused`` / ``failed`` (runner) or ``run`` (a plain RUN_DIR).
         error: why it failed.
-        metrics: its metrics.json.
+        metrics: its metrics (None when failed).
         run_dir: where the RUN_DIR is (None when failed).
     """
 
@@ -77,7 +76,7 @@ class ReportCell:
     seed: int | None
     status: str
     error: str | None = None
-    metrics: Mapping[str, object] | None = None
+    metrics: RunMetrics | None = None
     run_dir: Path | None = None
 
     @property
@@ -122,9 +121,9 @@ class ReportSummary:
 def _cell_from_run_dir(path: Path, status: str = "run") -> ReportCell:
     record = read_run_dir(path)
     if (path / METRICS).is_file():
-        metrics = read_metrics(path)
+        metrics = read_run_metrics(path / METRICS)
     else:  # not evaluated yet: evaluate in memory (the user's folder is left untouched)
-        metrics = evaluate_run(record, EvaluationOptions())
+        metrics = evaluate_run(record)
     config = record.config
     options = dict(config.estimator_options)
     column = config.estimator + (
@@ -172,7 +171,7 @@ def collect_cells(results_dir: str | Path) -> tuple[str, list[ReportCell]]:
             try:
                 run_dir = root / CELLS / row["cell"]
                 ok = row["status"] != "failed" and (run_dir / CONFIG).is_file()
-                metrics = read_metrics(run_dir) if ok else None
+                metrics = read_run_metrics(run_dir / METRICS) if ok else None
                 cells.append(
                     ReportCell(
                         cell_id=row["cell"],
@@ -206,13 +205,14 @@ def collect_cells(results_dir: str | Path) -> tuple[str, list[ReportCell]]:
 # --------------------------------------------------------------------------------------------
 
 
-def _values(cells: Sequence[ReportCell], key: str) -> list[float]:
-    out = []
-    for c in cells:
-        value = (c.metrics or {}).get(key)
-        if isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value):
-            out.append(float(value))
-    return out
+#: one number of a run's metrics (None when it has none)
+Metric = Callable[[RunMetrics], float | int | None]
+
+
+def _values(cells: Sequence[ReportCell], metric: Metric) -> list[float]:
+    """``metric`` of every cell that has metrics and a value for it."""
+    values = (metric(c.metrics) for c in cells if c.metrics is not None)
+    return [float(v) for v in values if v is not None]
 
 
 def _fmt(values: Sequence[float], digits: int = 3) -> str:
@@ -235,28 +235,30 @@ def _columns(cells: Sequence[ReportCell]) -> list[str]:
 def _gt_label(cells: Sequence[ReportCell]) -> str:
     for c in cells:
         if c.metrics is not None:
-            kind = str(c.metrics.get("ground_truth") or "none")
-            try:
-                return GROUND_TRUTH_LABELS[GroundTruthKind(kind)]
-            except ValueError:
-                return kind
+            return GROUND_TRUTH_LABELS[c.metrics.ground_truth.kind]
     return "unknown ground truth"
 
 
-DETAIL_COLUMNS = (
-    ("ATE RMSE [m]", "ate_rmse_m"),
+def _ate_rmse(m: RunMetrics) -> float | None:
+    return m.ate.rmse_m
+
+
+#: the columns of a dataset's table: header and the metric it averages over seeds (None: the
+#: ratio to dead reckoning, matched / estimated landmarks and the number of runs)
+DETAIL_COLUMNS: tuple[tuple[str, Metric | None], ...] = (
+    ("ATE RMSE [m]", _ate_rmse),
     ("ATE / dead reckoning", None),
-    ("ATE max [m]", "ate_max_m"),
-    ("drift: ATE origin-aligned RMSE [m]", "ate_origin_rmse_m"),
-    ("RPE trans RMSE [m]", "rpe_trans_rmse_m"),
-    ("RPE rot RMSE [deg]", "rpe_rot_rmse_deg"),
-    ("landmark RMSE [m]", "landmark_rmse_m"),
+    ("ATE max [m]", lambda m: m.ate.max_m),
+    ("drift: ATE origin-aligned RMSE [m]", lambda m: m.ate.origin_rmse_m),
+    ("RPE trans RMSE [m]", lambda m: m.rpe.trans_rmse_m),
+    ("RPE rot RMSE [deg]", lambda m: m.rpe.rot_rmse_deg),
+    ("landmark RMSE [m]", lambda m: m.landmarks.rmse_m),
     ("landmarks matched / estimated", None),
-    ("pose NEES (dof 3)", "nees_mean"),
-    ("step median [ms]", "step_ms_median"),
-    ("step p95 [ms]", "step_ms_p95"),
-    ("total [s]", "total_s"),
-    ("peak RSS [MB]", "peak_rss_mb"),
+    ("pose NEES (dof 3)", lambda m: m.nees.pose_mean),
+    ("step median [ms]", lambda m: m.timing.step_median_ms),
+    ("step p95 [ms]", lambda m: m.timing.step_p95_ms),
+    ("total [s]", lambda m: m.timing.total_s),
+    ("peak RSS [MB]", lambda m: m.timing.peak_rss_mb),
     ("runs", None),
 )
 
@@ -264,24 +266,24 @@ DETAIL_COLUMNS = (
 def _detail_rows(cells: Sequence[ReportCell]) -> tuple[list[str], list[list[str]]]:
     header = ["estimator", *(name for name, _ in DETAIL_COLUMNS)]
     by_column = {col: [c for c in cells if c.column == col] for col in _columns(cells)}
-    baseline = _values([c for c in cells if c.column == BASELINE and c.ok], "ate_rmse_m")
+    baseline = _values([c for c in cells if c.column == BASELINE and c.ok], _ate_rmse)
     rows = []
     for column, group in by_column.items():
         ok = [c for c in group if c.ok]
         row = [column]
-        for name, key in DETAIL_COLUMNS:
-            if key is not None:
-                row.append(_fmt(_values(ok, key)))
+        for name, metric in DETAIL_COLUMNS:
+            if metric is not None:
+                row.append(_fmt(_values(ok, metric)))
             elif name.startswith("ATE /"):
-                ate_values = _values(ok, "ate_rmse_m")
+                ate_values = _values(ok, _ate_rmse)
                 row.append(
                     f"{np.mean(ate_values) / np.mean(baseline):.2f}x"
                     if ate_values and baseline
                     else "–"
                 )
             elif name.startswith("landmarks"):
-                matched = _values(ok, "landmarks_matched")
-                estimated = _values(ok, "landmarks_estimated")
+                matched = _values(ok, lambda m: m.landmarks.matched)
+                estimated = _values(ok, lambda m: m.landmarks.estimated)
                 row.append(f"{_fmt(matched)} / {_fmt(estimated)}" if any(estimated) else "–")
             else:
                 failed = len(group) - len(ok)
@@ -392,12 +394,12 @@ def _dataset_figures(
         )
     translation, rotation = [], []
     for cell, _ in runs:
-        curve = (cell.metrics or {}).get("rpe_by_distance") or []
+        curve = (cell.metrics.rpe.by_distance if cell.metrics is not None else None) or ()
         if curve:
-            lengths = np.array([p["length_m"] for p in curve], dtype=float)
-            trans = np.array([p["trans_rmse_m"] for p in curve], dtype=float)
+            lengths = np.array([p.length_m for p in curve], dtype=float)
+            trans = np.array([p.trans_rmse_m for p in curve], dtype=float)
             translation.append(plots.Series(cell.column, np.column_stack([lengths, trans])))
-            rot = [p.get("rot_rmse_deg") for p in curve]
+            rot = [p.rot_rmse_deg for p in curve]
             if all(r is not None for r in rot):
                 rotation.append(
                     plots.Series(cell.column, np.column_stack([lengths, np.array(rot, float)]))
@@ -641,13 +643,11 @@ def _write_into(
         for column in columns:
             ok = [c for c in group if c.column == column and c.ok]
             failed = [c for c in group if c.column == column and not c.ok]
-            row.append(_fmt(_values(ok, "ate_rmse_m")) + (" (failed)" if failed and not ok else ""))
+            row.append(_fmt(_values(ok, _ate_rmse)) + (" (failed)" if failed and not ok else ""))
         headline.append(row)
     table(["dataset", "ground truth", *columns], headline)
-    segment = next(
-        (c.metrics.get("rpe_segment_m") for c in cells if c.ok and c.metrics.get("rpe_segment_m")),
-        None,
-    )
+    segments = [c.metrics.rpe.segment_m for c in cells if c.ok and c.metrics is not None]
+    segment = next((length for length in segments if length), None)
     heading("Estimators")
     ran = {c.estimator for c in cells}
     table(
@@ -663,7 +663,9 @@ def _write_into(
         group = [c for c in cells if c.dataset == dataset]
         gt_label = _gt_label(group)
         heading(f"{dataset} — {gt_label}")
-        note = next((str(c.metrics.get("ground_truth_note")) for c in group if c.ok), "")
+        note = next(
+            (c.metrics.ground_truth.note for c in group if c.ok and c.metrics is not None), ""
+        )
         if note:
             para(f"Ground truth: {note}")
         header, rows = _detail_rows(group)

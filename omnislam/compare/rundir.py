@@ -14,7 +14,7 @@ Files (DESIGN.md, command-line contract):
 * attachments an estimator exports (e.g. ``graph.g2o``), stored verbatim, and
   ``estimator_info.json``: the counts an estimator's ``info()`` reports at the end of the run
   (graphslam: landmarks inserted and pending, sightings gated, factorisation fallbacks, ...).
-* ``metrics.json``: written by ``omnislam evaluate``.
+* ``metrics.json``: written by ``omnislam evaluate`` (``compare.run_metrics``).
 
 A RUN_DIR is written atomically: everything goes into a hidden temporary folder next to it,
 which is renamed into place only when complete; a failure leaves no partial RUN_DIR.
@@ -22,7 +22,6 @@ which is renamed into place only when complete; a failure leaves no partial RUN_
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import shutil
@@ -373,84 +372,3 @@ def read_run_dir(path: Path) -> RunRecord:
             note=config.ground_truth_note,
         ),
     )
-
-
-def write_metrics(path: Path, metrics: Mapping[str, object]) -> None:
-    """Write ``RUN_DIR/metrics.json`` atomically (NaN and inf become null)."""
-
-    def clean(value: object) -> object:
-        if isinstance(value, float) and not math.isfinite(value):
-            return None
-        if isinstance(value, np.generic):
-            return clean(value.item())
-        if isinstance(value, Mapping):
-            return {str(k): clean(v) for k, v in value.items()}
-        if isinstance(value, list | tuple):
-            return [clean(v) for v in value]
-        return value
-
-    file = Path(path) / METRICS
-    fd, tmp = tempfile.mkstemp(prefix=f".{METRICS}.", suffix=".tmp", dir=Path(path))
-    try:
-        with os.fdopen(fd, "w") as handle:
-            json.dump(clean(dict(metrics)), handle, indent=2)
-            handle.write("\n")
-        os.replace(tmp, file)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def read_metrics(path: Path) -> dict[str, object]:
-    """Read ``RUN_DIR/metrics.json``."""
-    file = Path(path) / METRICS
-    try:
-        return json.loads(file.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise DataError(f"cannot read metrics ({exc})", file) from exc
-
-
-#: keys of metrics.json that DESIGN.md requires (null when not computed)
-REQUIRED_METRICS = (
-    "ate_rmse_m",
-    "ate_max_m",
-    "rpe_trans_rmse_m",
-    "landmark_rmse_m",
-    "landmarks_estimated",
-    "landmarks_matched",
-    "nees_mean",
-    "frames",
-    "step_ms_median",
-    "step_ms_p95",
-    "total_s",
-    "peak_rss_mb",
-    "alignment",
-)
-
-
-#: keys of metrics.json that measure time or memory: they differ between two runs of the same
-#: cell; every other key is a deterministic function of the data, the estimator and the seed
-TIMING_KEYS = (
-    "step_ms_median",
-    "step_ms_p95",
-    "step_ms_mean",
-    "step_ms_max",
-    "total_s",
-    "peak_rss_mb",
-)
-
-
-def evaluate_run(record: RunRecord, options: object | None = None) -> dict[str, object]:
-    """The metrics of a run against the ground truth stored with it.
-
-    See ``omnislam.compare.evaluation.evaluate_record`` (``options`` is an
-    ``EvaluationOptions``; defaults when None).
-
-    Returns:
-        A JSON-ready mapping with at least REQUIRED_METRICS.
-    """
-    from omnislam.compare.evaluation import EvaluationOptions, evaluate_record
-
-    if options is None:
-        options = EvaluationOptions()
-    return evaluate_record(record, options)  # type: ignore[arg-type]

@@ -19,7 +19,7 @@ whose worker died (process killed, pool broken, Dask ``KilledWorker``) is resubm
 an omnislam error (bad option, diverged estimator) is deterministic and is not retried.
 
 Numbers do not depend on the executor: the same cell gives the same metrics.json everywhere
-except the TIMING_KEYS of ``rundir`` (wall time and memory).
+except the MEASURED_KEYS of ``compare.run_metrics`` (wall time and memory).
 """
 
 from __future__ import annotations
@@ -31,29 +31,32 @@ import io
 import json
 import os
 import shutil
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from omnislam._files import atomic_write_text
-from omnislam.compare.evaluation import EvaluationOptions
+from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
 from omnislam.compare.execute import execute_run
 from omnislam.compare.grid import Cell, Grid, column_label, safe_name
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction
+from omnislam.compare.run_metrics import (
+    CSV_FIELDS,
+    RunMetrics,
+    read_run_metrics,
+    write_run_metrics,
+)
 from omnislam.compare.rundir import (
     CONFIG,
     METRICS,
     RunRecord,
-    evaluate_run,
-    read_metrics,
     read_run_config,
     read_run_dir,
-    write_metrics,
     write_run_dir,
 )
-from omnislam.errors import ConfigError, OmnislamError
+from omnislam.errors import ConfigError, DataError, OmnislamError
 
 GRID_COPY = "grid.yaml"
 CELLS = "cells"
@@ -63,25 +66,8 @@ RESULTS_CSV = "results.csv"
 #: a cell whose worker was lost is submitted at most this many times in all
 DEFAULT_MAX_ATTEMPTS = 3
 
-#: columns of results.csv (after the labels)
-CSV_METRICS = (
-    "ate_rmse_m",
-    "ate_max_m",
-    "ate_origin_rmse_m",
-    "rpe_trans_rmse_m",
-    "rpe_rot_rmse_deg",
-    "landmark_rmse_m",
-    "landmarks_estimated",
-    "landmarks_matched",
-    "nees_mean",
-    "frames",
-    "step_ms_median",
-    "step_ms_p95",
-    "total_s",
-    "peak_rss_mb",
-    "alignment",
-    "ground_truth",
-)
+#: columns of results.csv before the metrics (``CSV_FIELDS`` of ``compare.run_metrics``)
+CSV_LABELS = ("cell", "dataset", "estimator", "override", "seed", "status")
 
 
 class CellStatus(enum.Enum):
@@ -99,14 +85,14 @@ class CellOutcome:
     Attributes:
         cell: the cell.
         status: computed now, reused from an earlier invocation, or failed.
-        metrics: its metrics.json (None when failed).
+        metrics: its metrics (None when failed).
         error: one line saying why it failed (None otherwise).
         attempts: submissions this invocation (0 when reused).
     """
 
     cell: Cell
     status: CellStatus
-    metrics: Mapping[str, object] | None = None
+    metrics: RunMetrics | None = None
     error: str | None = None
     attempts: int = 0
 
@@ -203,9 +189,8 @@ def _matches(cell_dir: Path, cell: Cell) -> bool:
     )
 
 
-def _evaluation_matches(metrics: Mapping[str, object], options: EvaluationOptions) -> bool:
-    segment = metrics.get("rpe_segment_m")
-    gate = metrics.get("landmark_gate_m")
+def _evaluation_matches(metrics: RunMetrics, options: EvaluationOptions) -> bool:
+    segment, gate = metrics.rpe.segment_m, metrics.landmarks.gate_m
     return (segment is None or segment == options.rpe_segment_m) and (
         gate is None or gate == options.landmark_gate_m
     )
@@ -213,7 +198,7 @@ def _evaluation_matches(metrics: Mapping[str, object], options: EvaluationOption
 
 def store_cell(
     cells_dir: Path, cell: Cell, record: RunRecord, options: EvaluationOptions
-) -> dict[str, object]:
+) -> RunMetrics:
     """Write one cell atomically: RUN_DIR + metrics.json under a hidden name, then rename.
 
     The metrics are computed from the files as written (``read_run_dir``), exactly as
@@ -225,7 +210,7 @@ def store_cell(
     try:
         write_run_dir(staging, record)
         metrics = evaluate_run(read_run_dir(staging), options)
-        write_metrics(staging, metrics)
+        write_run_metrics(staging / METRICS, metrics)
         if final.exists():
             trash = cells_dir / f".{cell.cell_id}.old-{os.getpid()}"
             os.replace(final, trash)
@@ -250,7 +235,7 @@ def _row(outcome: CellOutcome) -> dict[str, object]:
         "seed": cell.spec.seed,
         "status": outcome.status.value,
         "error": outcome.error,
-        "metrics": dict(outcome.metrics) if outcome.metrics is not None else None,
+        "metrics": outcome.metrics.to_json() if outcome.metrics is not None else None,
     }
 
 
@@ -261,13 +246,11 @@ def write_summary(result: GridResult) -> None:
     atomic_write_text(result.out_dir / RESULTS_JSON, json.dumps(summary, indent=2) + "\n")
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["cell", "dataset", "estimator", "override", "seed", "status", *CSV_METRICS])
-    for row in rows:
-        metrics = row["metrics"] or {}
-        writer.writerow(
-            [row[k] for k in ("cell", "dataset", "estimator", "override", "seed", "status")]
-            + ["" if metrics.get(k) is None else metrics.get(k) for k in CSV_METRICS]
-        )
+    writer.writerow([*CSV_LABELS, *(spec.key for spec in CSV_FIELDS)])
+    for outcome, row in zip(result.outcomes, rows, strict=True):
+        metrics = outcome.metrics
+        values = [None if metrics is None else spec.json_value(metrics) for spec in CSV_FIELDS]
+        writer.writerow([row[k] for k in CSV_LABELS] + ["" if v is None else v for v in values])
     atomic_write_text(result.out_dir / RESULTS_CSV, buffer.getvalue())
 
 
@@ -357,10 +340,13 @@ def run_grid(
     for cell in grid.cells:
         cell_dir = cells_dir / cell.cell_id
         if _matches(cell_dir, cell):
-            metrics = read_metrics(cell_dir)
-            if not _evaluation_matches(metrics, grid.evaluation):
+            try:
+                metrics: RunMetrics | None = read_run_metrics(cell_dir / METRICS)
+            except DataError:  # unreadable or of another layout: evaluate the run again
+                metrics = None
+            if metrics is None or not _evaluation_matches(metrics, grid.evaluation):
                 metrics = evaluate_run(read_run_dir(cell_dir), grid.evaluation)
-                write_metrics(cell_dir, metrics)
+                write_run_metrics(cell_dir / METRICS, metrics)
             outcomes[cell.cell_id] = CellOutcome(cell, CellStatus.REUSED, metrics)
             if on_outcome is not None:
                 on_outcome(outcomes[cell.cell_id])

@@ -13,8 +13,9 @@ gtsam = pytest.importorskip("gtsam")
 
 from omnislam.compare import reference as ref  # noqa: E402
 from omnislam.compare.cache import CACHE_ENV  # noqa: E402
+from omnislam.compare.evaluation import evaluate_run  # noqa: E402
 from omnislam.compare.execute import RunSpec, execute_run  # noqa: E402
-from omnislam.compare.rundir import evaluate_run  # noqa: E402
+from omnislam.compare.metrics import LandmarkAssociation  # noqa: E402
 from omnislam.datasets.gtsam_victoria import find_gtsam_file  # noqa: E402
 from omnislam.datasets.sequence import GroundTruthKind  # noqa: E402
 
@@ -149,12 +150,12 @@ def test_runs_on_a_gtsam_graph_are_scored_against_the_lm_optimum(prefix, associa
     )
     assert record.ground_truth.kind is GroundTruthKind.REFERENCE
     metrics = evaluate_run(record)
-    assert metrics["reference"] == ref.REFERENCE_LM_OPTIMUM
-    assert metrics["ground_truth"] == "reference"
-    assert metrics["ate_rmse_m"] is not None
-    assert metrics["landmark_rmse_m"] is not None
-    assert metrics["landmarks_truth"] == 52
+    assert metrics.ground_truth.reference == ref.REFERENCE_LM_OPTIMUM
+    assert metrics.ground_truth.kind is GroundTruthKind.REFERENCE
+    assert metrics.ate.rmse_m is not None
+    assert metrics.landmarks.rmse_m is not None
+    assert metrics.landmarks.truth == 52
     if association == "known":  # iSAM2 itself: within the benchmark's 2 cm of the optimum
-        assert metrics["ate_rmse_m"] < 0.02
-        assert metrics["landmark_association"] == "id"
-        assert metrics["landmarks_matched"] == 52
+        assert metrics.ate.rmse_m < 0.02
+        assert metrics.landmarks.association is LandmarkAssociation.BY_ID
+        assert metrics.landmarks.matched == 52

@@ -11,15 +11,14 @@ import numpy as np
 import pytest
 from room_log import ROOM_X, ROOM_Y, write_room_log
 
-from omnislam.compare.evaluation import EvaluationOptions, evaluate_record
+from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
 from omnislam.compare.grid import parse_grid
+from omnislam.compare.metrics import LandmarkAssociation
 from omnislam.compare.occupancy import occupancy_grid
 from omnislam.compare.report import ReportOptions, write_report
-from omnislam.compare.rundir import RunConfig, RunRecord, read_run_dir, write_run_dir
+from omnislam.compare.rundir import read_run_dir, write_run_dir
 from omnislam.compare.runner import SerialExecutor, run_grid
-from omnislam.core.types import Estimate, Trajectory
 from omnislam.datasets.registry import load_dataset
-from omnislam.datasets.sequence import GroundTruth, GroundTruthKind
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -106,56 +105,18 @@ def test_occupancy_grid_of_the_room_sees_walls_and_free_space(room_log):
     assert at(ROOM_X + 1.0, 4.0, 0.3) == pytest.approx(0.5)  # behind the wall: unknown
 
 
-def _record_with_a_map(tmp_path, rng) -> RunRecord:
-    n, m = 50, 12
-    stamps = np.arange(n, dtype=float)
-    truth = np.column_stack([np.linspace(0, 10, n), np.sin(np.linspace(0, 3, n)), np.zeros(n)])
-    pose_cov = np.tile(np.diag([0.04, 0.04, 0.01]), (n, 1, 1))
-    est = truth + rng.normal(0, [0.2, 0.2, 0.1], (n, 3))
-    est[0] = truth[0]  # estimators anchor the first pose (NEES uses that anchoring)
-    pose_cov[0] = 0.0  # ... with no uncertainty: skipped by NEES
-    lm_truth = np.column_stack([rng.uniform(0, 10, (m, 2)), np.zeros(m)])
-    lm_cov = np.tile(np.diag([0.09, 0.04, 0.0]), (m, 1, 1))
-    lm_cov[:, 2, 2] = 1.0
-    lm_est = lm_truth + np.column_stack([rng.normal(0, [0.3, 0.2], (m, 2)), np.zeros(m)])
-    config = RunConfig(
-        dataset="fake",
-        dataset_path=str(tmp_path),
-        estimator="ekfslam",
-        omnislam_version="test",
-        frames=n,
-        total_s=0.1,
-        peak_rss_mb=10.0,
-        ground_truth_kind=GroundTruthKind.EXACT.value,
-        landmark_ids_from_truth=True,
-    )
-    return RunRecord(
-        config,
-        Estimate(
-            Trajectory.from_se2(stamps, est),
-            np.arange(m),
-            lm_est,
-            landmark_covariances=lm_cov,
-            pose_covariances=pose_cov,
-        ),
-        np.full(n, 1e-3),
-        GroundTruth(
-            GroundTruthKind.EXACT, Trajectory.from_se2(stamps, truth), np.arange(m), lm_truth
-        ),
-    )
-
-
-def test_covariances_round_trip_and_give_nees_and_ellipses(tmp_path, rng):
-    record = _record_with_a_map(tmp_path, rng)
+def test_covariances_round_trip_and_give_nees_and_ellipses(tmp_path, record_with_a_map):
+    record = record_with_a_map
     write_run_dir(tmp_path / "run", record)
     back = read_run_dir(tmp_path / "run")
     assert np.array_equal(back.estimate.pose_covariances, record.estimate.pose_covariances)
     assert np.array_equal(back.estimate.landmark_covariances, record.estimate.landmark_covariances)
-    metrics = evaluate_record(back, EvaluationOptions())
-    assert metrics["landmark_association"] == "id" and metrics["landmarks_matched"] == 12
-    assert metrics["nees_dof"] == 3 and metrics["nees_count"] == 49
-    assert 1.5 < metrics["nees_mean"] < 4.5  # consistent by construction: about 3
-    assert metrics["landmark_nees_dof"] == 2 and 0.5 < metrics["landmark_nees_mean"] < 5.0
+    metrics = evaluate_run(back, EvaluationOptions())
+    landmarks, nees = metrics.landmarks, metrics.nees
+    assert landmarks.association is LandmarkAssociation.BY_ID and landmarks.matched == 12
+    assert nees.pose_dof == 3 and nees.pose_count == 49
+    assert 1.5 < nees.pose_mean < 4.5  # consistent by construction: about 3
+    assert nees.landmark_dof == 2 and 0.5 < nees.landmark_mean < 5.0
     summary = write_report(tmp_path / "run", tmp_path / "report", ReportOptions(exports=True))
     assert "fake-landmarks.png" in summary.figures
     assert_png_readable((tmp_path / "report" / "fake-landmarks.png").read_bytes())

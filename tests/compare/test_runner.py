@@ -15,7 +15,8 @@ import pytest
 from room_log import write_room_log
 
 from omnislam.compare.grid import load_grid
-from omnislam.compare.rundir import METRICS, TIMING_KEYS
+from omnislam.compare.run_metrics import MEASURED_KEYS, read_run_metrics
+from omnislam.compare.rundir import METRICS
 from omnislam.compare.runner import CELLS, CellStatus, SerialExecutor, run_grid
 
 GRID = """
@@ -36,11 +37,11 @@ def make_grid(tmp_path: Path, frames: int = 60, segment: float = 2.0) -> Path:
 
 
 def numbers(results: Path) -> dict[str, dict[str, object]]:
-    """Every cell's metrics without the timing keys, and its trajectory file."""
+    """Every cell's metrics without the measured ones (time, memory), and its trajectory file."""
     out = {}
     for cell in sorted((results / CELLS).iterdir()):
-        metrics = json.loads((cell / METRICS).read_text())
-        out[cell.name] = {k: v for k, v in metrics.items() if k not in TIMING_KEYS}
+        metrics = read_run_metrics(cell / METRICS).to_json()
+        out[cell.name] = {k: v for k, v in metrics.items() if k not in MEASURED_KEYS}
         out[cell.name]["trajectory"] = (cell / "trajectory.tum").read_text()
     return out
 
@@ -78,10 +79,10 @@ def test_a_cell_equals_omnislam_run_and_evaluate(tmp_path):
     )
     assert main(["evaluate", str(run), "--json", "--rpe-segment", "2"]) == 0
     cell = tmp_path / "out" / CELLS / "room_a__deadreckoning__s0"
-    ours = json.loads((cell / METRICS).read_text())
-    theirs = json.loads((run / METRICS).read_text())
-    assert {k: v for k, v in ours.items() if k not in TIMING_KEYS} == {
-        k: v for k, v in theirs.items() if k not in TIMING_KEYS
+    ours = read_run_metrics(cell / METRICS).to_json()
+    theirs = read_run_metrics(run / METRICS).to_json()
+    assert {k: v for k, v in ours.items() if k not in MEASURED_KEYS} == {
+        k: v for k, v in theirs.items() if k not in MEASURED_KEYS
     }
 
 
