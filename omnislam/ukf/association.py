@@ -14,7 +14,10 @@ maxima, the one of largest total C'_ij). Each set k is scored (eq. 1 and the fol
     F_shift_k = sqrt(n_k) / (Var(u_shift_k) + |mean(u_shift_k)| d_max / 7)
     Sc_k      = mean(C'_ij over k) + 100 F_shift_k
 
-with d_max the largest spacing between the set's projections (max u - min u). The set of
+with d_max the largest spacing between the set's projections, read as the largest gap between
+neighbouring projections ("o espacamento maximo entre as projecoes"): the reading under which a
+denser set of the same shift scores better (with max u - min u instead, a two-pair subset of a
+correct five-pair set with a 2 px common shift beats it; see the tests). The set of
 largest Sc_k is the answer; sets of fewer than ``min_set_pairs`` (2) pairs compete only when no
 window gives that many (ours: as printed, eq. 1 makes a one-pair set, Var = d_max = 0,
 infinitely good). Two more details the paper leaves open, ours: the mean enters by its
@@ -84,7 +87,7 @@ def set_score(
     """(Sc_k, F_shift_k) of one set (eq. 1 and the Sc_k equation of sec. 3.2)."""
     n = u_shift_px.size
     variance = float(np.var(u_shift_px))
-    d_max = float(u_lines_px.max() - u_lines_px.min())
+    d_max = float(np.diff(np.sort(u_lines_px)).max()) if n > 1 else 0.0
     denominator = variance + abs(float(u_shift_px.mean())) * d_max / config.spread_divisor
     f_shift = math.sqrt(n) / max(denominator, config.variance_floor_px2)
     return float(scores.mean()) + config.shift_weight * f_shift, f_shift

@@ -108,8 +108,10 @@ class UKFConfig:
         alpha, beta, kappa: the scaled sigma points (van der Merwe 2004; filterpy's
             MerweScaledSigmaPoints).
         innovation_gate: chi-square probability above which a validated bearing is dropped
-            before the update (ours; None: the paper's validation alone). On corridor21 one
-            wrong validated pair at a corridor's end moved the pose by 1 m without it.
+            before the update (ours; None, the default: the paper's validation alone). On
+            corridor21 one wrong validated pair at a corridor's end moved the pose by 1 m
+            without it (use 0.999 there); on MR.CLAM, whose odometry is worse than the motion
+            model says (NEES ~ 100), it rejected 90 of 124 correct sightings.
         photometric: PhotometricMode.
         association, colour: see their classes.
     """
@@ -125,7 +127,7 @@ class UKFConfig:
     alpha: float = 0.5
     beta: float = 2.0
     kappa: float = 0.0
-    innovation_gate: float | None = 0.999
+    innovation_gate: float | None = None
     photometric: PhotometricMode = PhotometricMode.AUTO
     association: AssociationConfig = field(default_factory=AssociationConfig)
     colour: PhotometricConfig = field(default_factory=PhotometricConfig)
