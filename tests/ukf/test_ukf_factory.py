@@ -21,7 +21,9 @@ RB = frozenset({Modality.RANGE_BEARING_2D})
 
 
 def info(**changes) -> SequenceInfo:
-    return SequenceInfo(**{"name": "seq", "frames": 3, "modalities": RB, "prior_map": MAP} | changes)
+    return SequenceInfo(
+        **{"name": "seq", "frames": 3, "modalities": RB, "prior_map": MAP} | changes
+    )
 
 
 def test_registered_ukf_builds_from_the_prior_map(rng):
