@@ -16,6 +16,7 @@ EXTRAS: dict[str, str] = {
     "dask": "distributed",
     "distributed": "distributed",
     "matplotlib": "plots",
+    "filterpy": "ukf",
 }
 
 

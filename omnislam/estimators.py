@@ -37,6 +37,8 @@ class SequenceInfo:
             (from the calibration rig), when the sequence has a camera.
         prior_map: the map known before the run (``Sequence.prior_map``, or the landmarks of
             an earlier RUN_DIR), for localisers; None when there is none.
+        calibration: the sequence's camera rig (``omnislam.camera.CameraRig``) when it has
+            images, for estimators that express pixel thresholds as angles (the UKF); else None.
         facts: the sequence's ``info`` mapping (free-form, for logging).
     """
 
@@ -49,6 +51,7 @@ class SequenceInfo:
     sigma_bearing_rad: float | None = None
     sensor_height_m: float | None = None
     prior_map: PriorMap | None = None
+    calibration: object | None = None
     facts: Mapping[str, str] = field(default_factory=dict)
 
 
@@ -80,6 +83,10 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
     "graphslam-batch": EstimatorEntry("omnislam.graphslam:make_batch_estimator", _GRAPH),
     "fastslam1": EstimatorEntry("omnislam.fastslam:make_fastslam1", _SLAM_2D_3D),
     "fastslam2": EstimatorEntry("omnislam.fastslam:make_fastslam2", _SLAM_2D_3D),
+    "ukf": EstimatorEntry(
+        "omnislam.ukf:make_estimator",
+        frozenset({Modality.VERTICAL_LINES, Modality.RANGE_BEARING_2D}),
+    ),
     "ekfslam": EstimatorEntry(
         "omnislam.ekfslam:make_estimator", frozenset({Modality.RANGE_BEARING_2D})
     ),

@@ -165,6 +165,7 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
         sigma_bearing_rad=float(sightings[0].sigma_bearing_rad[0]) if sightings else None,
         sensor_height_m=_sensor_height_m(sequence.calibration),
         prior_map=sequence.prior_map,
+        calibration=sequence.calibration,
         facts=sequence.info,
     )
     modality = resolve_estimator_modality(spec.estimator, info, estimator_options)

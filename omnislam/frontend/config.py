@@ -234,7 +234,8 @@ class VerticalEdgeConfig:
     """Vertical-line extraction (Barra & Costa sec. 2).
 
     Attributes:
-        enabled: extract vertical lines on processed images.
+        enabled: extract vertical lines on processed images (on by default: the UKF consumes
+            them; 23 ms per corridor21 image against SIFT's 112 ms, on a loaded 2-core machine).
         azimuth_bins: angular resolution of the omni radial-edge histogram (bins over 360 deg).
         min_gradient: minimum gradient magnitude of an edge pixel (0-255 grey levels per px).
         max_direction_error_rad: an edge pixel's gradient must be within this of tangential
@@ -245,7 +246,7 @@ class VerticalEdgeConfig:
         sigma_bearing_rad: bearing std reported with each line [rad].
     """
 
-    enabled: bool = False
+    enabled: bool = True
     azimuth_bins: int = 720
     min_gradient: float = 20.0
     max_direction_error_rad: float = 0.3

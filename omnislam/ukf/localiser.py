@@ -1,0 +1,320 @@
+"""The vertical-line UKF localiser of Barra & Costa: the five steps of sec. 3 around the UKF.
+
+Per frame: predict with the odometry (sec. 4). Once the robot has travelled d_it since the last
+processed frame (sec. 5: 37.5 cm) and the frame carries sightings, process it:
+
+1.-2. the front end's vertical lines and their PMCs (``frontend.vertical_edges``), or the
+      bearings of a range-bearing sensor (ranges unused);
+3.    match them to the previous processed frame's (``tracking.track_lines``) with the
+      displacement the filter estimates between the two frames;
+4.    candidates from the predicted pose (``candidates``), photometric gate and C'_ij
+      (``photometric``), u_shift windows and Sc_k (``association.associate_landmarks``);
+5.    validation (``association.validate``); the validated bearings update the UKF.
+
+With ``association.use_ids`` the sightings' own landmark ids are the association (steps 3-5
+skipped); otherwise ids are never read.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from omnislam.core.modality import Modality
+from omnislam.core.motion import OdometryMotionModel
+from omnislam.core.se import se2_between
+from omnislam.core.types import UNKNOWN_ID, Estimate, FrameInput, PriorMap, Trajectory
+from omnislam.errors import ConfigError
+from omnislam.ukf.association import associate_landmarks, validate
+from omnislam.ukf.candidates import select_candidates
+from omnislam.ukf.config import PhotometricMode, UKFConfig
+from omnislam.ukf.filter import PoseUKF
+from omnislam.ukf.image_line import ImageLine
+from omnislam.ukf.photometric import colour_differences, mc_from_pmc, photometric_scores
+from omnislam.ukf.tracking import track_lines
+
+#: chi-square quantiles of one degree of freedom, for the optional innovation gate
+_CHI2_1 = {0.9: 2.706, 0.95: 3.841, 0.99: 6.635, 0.995: 7.879, 0.999: 10.828}
+
+
+@dataclass(frozen=True, slots=True)
+class Sightings:
+    """What one frame saw, in the localiser's terms.
+
+    Attributes:
+        bearings_rad: (K,) robot-frame bearings.
+        sigmas_rad: (K,) their stds.
+        profiles: (K, 3, W) PMCs, or None (no images).
+        landmark_ids: (K,) ids as given (UNKNOWN_ID where unknown).
+    """
+
+    bearings_rad: np.ndarray
+    sigmas_rad: np.ndarray
+    profiles: np.ndarray | None
+    landmark_ids: np.ndarray
+
+
+@dataclass(frozen=True, slots=True)
+class FrameAssociation:
+    """What the localiser did with one processed frame (for benchmarks and tests).
+
+    Attributes:
+        index: frame index.
+        bearings_rad: (K,) the sightings' bearings.
+        candidates: landmark ids expected in view.
+        pairs: (n, 2) step 4's [projection, landmark id].
+        used: (m, 2) the validated pairs that updated the filter.
+    """
+
+    index: int
+    bearings_rad: np.ndarray
+    candidates: np.ndarray
+    pairs: np.ndarray
+    used: np.ndarray
+
+
+@dataclass(frozen=True, slots=True)
+class UKFInfo:
+    """Counts written to ``estimator_info.json``."""
+
+    modality: str
+    photometric_gate: bool
+    use_ids: bool
+    frames: int
+    frames_processed: int
+    frames_updated: int
+    sightings_processed: int
+    candidates_total: int
+    pairs_step4: int
+    pairs_validated: int
+    pairs_gated_out: int
+    sets_scored: int
+
+
+class VerticalLineUKF:
+    """Localisation against a known map of vertical lines (or point landmarks seen by bearing).
+
+    Args:
+        prior_map: the map (points, walls, optional MC descriptors, the first frame's pose).
+        config: UKFConfig.
+        modality: VERTICAL_LINES or RANGE_BEARING_2D (bearings only).
+        image_line: the 1-D image (``image_line.image_line_from_rig`` or ``AngularLine``).
+
+    Raises:
+        ConfigError: a map without an initial pose or without landmarks; photometric gate ON
+            with a map without MC descriptors.
+    """
+
+    name = "ukf"
+
+    def __init__(
+        self,
+        prior_map: PriorMap,
+        config: UKFConfig,
+        modality: Modality,
+        image_line: ImageLine,
+    ) -> None:
+        if modality not in (Modality.VERTICAL_LINES, Modality.RANGE_BEARING_2D):
+            raise ConfigError(f"ukf consumes vertical lines or range-bearing, not {modality.value}")
+        if prior_map.initial_pose_w is None:
+            raise ConfigError(
+                f"ukf: the prior map ({prior_map.source}) has no initial pose; "
+                "use a map whose first pose is known (--set prior_map=RUN_DIR)"
+            )
+        lines = prior_map.vertical_line
+        use = lines if lines.any() else np.ones(len(prior_map), dtype=bool)
+        if not use.any():
+            raise ConfigError(f"ukf: the prior map ({prior_map.source}) holds no landmark")
+        self.config = config
+        self.modality = modality
+        self.image_line = image_line
+        self._ids = prior_map.landmark_ids[use]
+        self._points = np.ascontiguousarray(prior_map.points_w[use, :2])
+        self._walls = prior_map.walls_w
+        self._row_of = {int(i): k for k, i in enumerate(self._ids)}
+        has_mc = prior_map.means_left is not None
+        if config.photometric is PhotometricMode.ON and not has_mc:
+            raise ConfigError(
+                f"ukf: photometric=on needs MC descriptors (means_left/means_right) in the prior "
+                f"map, and {prior_map.source} has none; set photometric=off or auto"
+            )
+        self._photometric = (
+            config.photometric is not PhotometricMode.OFF
+            and has_mc
+            and (modality is Modality.VERTICAL_LINES)
+        )
+        if self._photometric:
+            self._mc_left = np.asarray(prior_map.means_left)[use]
+            self._mc_right = np.asarray(prior_map.means_right)[use]
+        self.motion = OdometryMotionModel(config.motion_noise)
+        P0 = np.diag([config.initial_sigma_xy_m**2] * 2 + [config.initial_sigma_theta_rad**2])
+        self._ukf = PoseUKF(
+            prior_map.initial_pose_w, P0, self.motion, config.alpha, config.beta, config.kappa
+        )
+        self._tolerance_rad = config.association.track_tolerance_px / image_line.px_per_rad
+        self._gate = None
+        if config.innovation_gate is not None:
+            self._gate = _CHI2_1.get(round(config.innovation_gate, 3))
+            if self._gate is None:
+                raise ConfigError(f"innovation_gate: one of {', '.join(map(str, _CHI2_1))}")
+        self._stamps: list[float] = []
+        self._poses: list[np.ndarray] = []
+        self._covs: list[np.ndarray] = []
+        self._travel_m = math.inf  # the first frame with sightings is processed
+        self._prev: tuple[Sightings, dict[int, int], np.ndarray] | None = None
+        self.associations: list[FrameAssociation] = []
+        self._counts = dict.fromkeys(
+            (
+                "frames_processed",
+                "frames_updated",
+                "sightings_processed",
+                "candidates_total",
+                "pairs_step4",
+                "pairs_validated",
+                "pairs_gated_out",
+                "sets_scored",
+            ),
+            0,
+        )
+
+    # --- the Estimator protocol -----------------------------------------------------------
+    def step(self, frame: FrameInput) -> None:
+        """Predict with the frame's odometry; process its sightings every d_it of travel."""
+        if self._stamps:
+            delta = frame.odometry.delta
+            self._ukf.predict(delta, frame.odometry.covariance)
+            self._travel_m += math.hypot(delta[0], delta[1])
+        sightings = self._sightings(frame)
+        due = self._travel_m >= (1.0 - self.config.d_it_tolerance) * self.config.d_it_m
+        if sightings is not None and len(sightings.bearings_rad) and due:
+            self._process(frame.index, sightings)
+            self._travel_m = 0.0
+        self._stamps.append(frame.stamp_s)
+        self._poses.append(self._ukf.x)
+        self._covs.append(self._ukf.P)
+
+    def estimate(self) -> Estimate:
+        """One pose per frame with its covariance; the map's landmarks (not estimated)."""
+        poses = np.array(self._poses).reshape(-1, 3)
+        points = np.column_stack([self._points, np.zeros(len(self._ids))])
+        return Estimate(
+            trajectory=Trajectory.from_se2(np.array(self._stamps), poses),
+            landmark_ids=self._ids,
+            landmarks_w=points,
+            pose_covariances=np.array(self._covs).reshape(-1, 3, 3),
+        )
+
+    def info(self) -> UKFInfo:
+        """Counts of the association and the updates so far."""
+        return UKFInfo(
+            modality=self.modality.value,
+            photometric_gate=self._photometric,
+            use_ids=self.config.association.use_ids,
+            frames=len(self._stamps),
+            **self._counts,
+        )
+
+    # --- the five steps -------------------------------------------------------------------
+    def _sightings(self, frame: FrameInput) -> Sightings | None:
+        sigma = self.config.sigma_bearing_rad
+        if self.modality is Modality.VERTICAL_LINES:
+            v = frame.vertical_lines
+            if v is None:
+                return None
+            profiles = v.profiles if v.profiles.shape[2] >= 3 else None
+            sig = v.sigma_bearing_rad if sigma is None else np.full(len(v), sigma)
+            return Sightings(v.bearings_rad, sig, profiles, v.landmark_ids)
+        rb = frame.range_bearing
+        if rb is None:
+            return None
+        sig = rb.sigma_bearing_rad if sigma is None else np.full(len(rb), sigma)
+        return Sightings(rb.bearings_rad, sig, None, rb.landmark_ids)
+
+    def _process(self, index: int, seen: Sightings) -> None:
+        counts = self._counts
+        counts["frames_processed"] += 1
+        counts["sightings_processed"] += len(seen.bearings_rad)
+        wTr = self._ukf.x
+        cfg = self.config.association
+        if cfg.use_ids:
+            rows = np.array([self._row_of.get(int(i), -1) for i in seen.landmark_ids])
+            lines = np.flatnonzero((seen.landmark_ids != UNKNOWN_ID) & (rows >= 0))
+            used = {int(i): int(self._ids[rows[i]]) for i in lines}
+            pairs, candidate_ids = used, np.array(sorted(set(used.values())), dtype=np.int64)
+        else:
+            # step 4: candidates, photometric gate, u_shift windows, Sc_k
+            cands = select_candidates(
+                wTr,
+                self._points,
+                self._walls,
+                self.image_line,
+                cfg.max_range_m,
+                cfg.wall_margin_m,
+            )
+            counts["candidates_total"] += len(cands)
+            candidate_ids = self._ids[cands.index]
+            u_lines = self.image_line.u_px(seen.bearings_rad)
+            if self._photometric and seen.profiles is not None:
+                left, right = mc_from_pmc(seen.profiles)
+                band, mean = colour_differences(
+                    left, right, self._mc_left[cands.index], self._mc_right[cands.index]
+                )
+                scores = photometric_scores(band, mean, self.config.colour)
+            else:
+                scores = np.zeros((len(seen.bearings_rad), len(cands)))
+            best = associate_landmarks(u_lines, cands.u_px, scores, cfg)
+            counts["sets_scored"] += best.sets
+            pairs = {
+                int(i): int(candidate_ids[c])
+                for i, c in zip(best.lines.tolist(), best.candidates.tolist(), strict=True)
+            }
+            # step 3 and step 5: the same landmark on the same physical line, twice
+            if not cfg.validate:
+                used = pairs
+            elif self._prev is None:
+                used = {}
+            else:
+                prev_seen, prev_pairs, prev_pose = self._prev
+                tracked = track_lines(
+                    prev_seen.bearings_rad,
+                    seen.bearings_rad,
+                    se2_between(prev_pose, wTr),
+                    self._tolerance_rad,
+                    cfg,
+                    self.config.colour,
+                    prev_seen.profiles,
+                    seen.profiles,
+                )
+                used = validate(pairs, tracked, prev_pairs)
+        counts["pairs_step4"] += len(pairs)
+        lines_used = np.array(sorted(used), dtype=np.int64)
+        landmarks = np.array([self._points[self._row_of[used[i]]] for i in lines_used.tolist()])
+        bearings = seen.bearings_rad[lines_used]
+        sigmas = seen.sigmas_rad[lines_used]
+        if self._gate is not None and lines_used.size:
+            keep = self._ukf.innovations(bearings, landmarks, sigmas) <= self._gate
+            counts["pairs_gated_out"] += int((~keep).sum())
+            lines_used, landmarks = lines_used[keep], landmarks[keep]
+            bearings, sigmas = bearings[keep], sigmas[keep]
+        if lines_used.size:
+            self._ukf.update(bearings, landmarks.reshape(-1, 2), sigmas)
+            counts["frames_updated"] += 1
+            counts["pairs_validated"] += int(lines_used.size)
+        self._prev = (seen, pairs, self._ukf.x)
+        self.associations.append(
+            FrameAssociation(
+                index=index,
+                bearings_rad=seen.bearings_rad,
+                candidates=np.asarray(candidate_ids, dtype=np.int64),
+                pairs=_pair_array(pairs),
+                used=_pair_array({i: used[i] for i in lines_used.tolist()}),
+            )
+        )
+
+
+def _pair_array(pairs: dict[int, int]) -> np.ndarray:
+    if not pairs:
+        return np.zeros((0, 2), dtype=np.int64)
+    return np.array(sorted(pairs.items()), dtype=np.int64)

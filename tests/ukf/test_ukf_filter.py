@@ -1,0 +1,148 @@
+"""The pose UKF: dead reckoning without vision, an EKF on a nearly linear problem, NEES."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from tolerances import UKF_DR_FRACTION_OF_SIGMA, UKF_EKF_COV_RTOL, UKF_EKF_MEAN_ATOL
+
+from omnislam.core.measurement import Bearing2D
+from omnislam.core.modality import Modality
+from omnislam.core.motion import MotionNoise, OdometryMotionModel
+from omnislam.core.se import se2_integrate, wrap_angle
+from omnislam.core.types import FrameInput, Odometry, PriorMap, RangeBearing
+from omnislam.ukf import AssociationConfig, UKFConfig, VerticalLineUKF
+from omnislam.ukf.filter import PoseUKF, bearing_mean, pose_mean
+from omnislam.ukf.image_line import AngularLine
+
+LANDMARKS_W = np.array([[5.0, 5.0], [-5.0, 5.0], [5.0, -5.0], [-5.0, -5.0], [0.0, 8.0]])
+MAP = PriorMap(
+    source="test",
+    landmark_ids=np.arange(len(LANDMARKS_W)),
+    points_w=np.column_stack([LANDMARKS_W, np.zeros(len(LANDMARKS_W))]),
+    initial_pose_w=np.zeros(3),
+)
+#: independent simulated runs whose final-pose NEES is averaged (chi-square with 3 x runs dof)
+NEES_RUNS = 30
+
+
+def circle_deltas(n: int) -> np.ndarray:
+    return np.tile([0.1, 0.0, 0.05], (n, 1))
+
+
+def frames(deltas: np.ndarray, sightings=None) -> list[FrameInput]:
+    out = []
+    for k, d in enumerate(deltas):
+        rb = None if sightings is None else sightings[k]
+        out.append(FrameInput(k, Odometry(d if k else np.zeros(3), float(k)), range_bearing=rb))
+    return out
+
+
+def localiser(**changes) -> VerticalLineUKF:
+    config = UKFConfig(d_it_m=0.0, innovation_gate=None).with_(**changes)
+    return VerticalLineUKF(MAP, config, Modality.RANGE_BEARING_2D, AngularLine(400.0))
+
+
+def test_circular_means_average_across_the_wrap():
+    w = np.array([0.25, 0.25, 0.5])
+    poses = np.array([[0, 0, math.pi - 0.1], [0, 0, -math.pi + 0.1], [0, 0, math.pi]])
+    assert abs(wrap_angle(pose_mean(poses, w)[2] - math.pi)) < 1e-12
+    assert abs(wrap_angle(bearing_mean(poses[:, 2:], w)[0] - math.pi)) < 1e-12
+
+
+def test_without_vision_the_ukf_follows_dead_reckoning():
+    deltas = circle_deltas(200)
+    ukf = localiser()
+    for frame in frames(deltas):
+        ukf.step(frame)
+    estimate = ukf.estimate()
+    dr = se2_integrate(deltas)
+    gap = np.linalg.norm(estimate.trajectory.se2[:, :2] - dr[:, :2], axis=1)
+    sigma = np.sqrt(np.trace(estimate.pose_covariances[:, :2, :2], axis1=1, axis2=2))
+    assert np.all(gap <= UKF_DR_FRACTION_OF_SIGMA * sigma + 1e-9)
+    assert np.allclose(wrap_angle(estimate.trajectory.se2[:, 2] - dr[:, 2]), 0.0, atol=1e-9)
+    assert ukf.info().frames_updated == 0
+
+
+def ekf_step(motion, x, P, delta, z, landmarks, sigma):
+    x, P = motion.predict(x, P, delta)
+    zh, H, _ = Bearing2D().predict(x, landmarks)
+    H = H[:, 0, :]
+    S = H @ P @ H.T + sigma**2 * np.eye(len(z))
+    K = P @ H.T @ np.linalg.inv(S)
+    x = x + K @ wrap_angle(z - zh[:, 0])
+    return x, (np.eye(3) - K @ H) @ P
+
+
+def test_ukf_agrees_with_an_ekf_from_core_jacobians_when_nearly_linear(rng):
+    # far landmarks, small uncertainty: the models are linear over the sigma-point spread
+    motion = OdometryMotionModel(MotionNoise(1e-3, 1e-4, 1e-4, 1e-3, (1e-5, 1e-5, 1e-5)))
+    far = 1000.0 * np.array([[1.0, 0.2], [0.1, 1.0], [-1.0, 0.3]])
+    P0 = np.diag([1e-4, 1e-4, 1e-6])
+    ukf = PoseUKF(np.zeros(3), P0, motion)
+    x, P = np.zeros(3), P0.copy()
+    for _ in range(20):
+        delta = np.array([0.2, 0.0, 0.01])
+        z = wrap_angle(
+            Bearing2D().predict(x, far, jacobians=False)[0][:, 0] + rng.normal(0, 1e-3, 3)
+        )
+        x, P = ekf_step(motion, x, P, delta, z, far, 1e-3)
+        ukf.predict(delta)
+        ukf.update(z, far, np.full(3, 1e-3))
+        assert np.allclose(ukf.x, x, atol=UKF_EKF_MEAN_ATOL)
+        assert np.allclose(ukf.P, P, rtol=UKF_EKF_COV_RTOL, atol=1e-12)
+
+
+def simulate(rng, n=150, sigma=0.01):
+    """A circle among landmarks: odometry from the motion model, bearings with ids."""
+    motion = OdometryMotionModel(MotionNoise())
+    true_deltas = circle_deltas(n)
+    true = se2_integrate(true_deltas)
+    measured = np.array(
+        [np.zeros(3)]
+        + [
+            # odometry = the truth with the model's noise, so that the filter's Q is right
+            motion.recompose(
+                2 * motion.decompose(d) - motion.decompose(motion.sample_delta(d, rng))
+            )
+            for d in true_deltas[1:]
+        ]
+    )
+    sightings = []
+    for k in range(n):
+        z = Bearing2D().predict(true[k], LANDMARKS_W, jacobians=False)[0][:, 0]
+        z = wrap_angle(z + rng.normal(0, sigma, z.shape))
+        sightings.append(RangeBearing(MAP.landmark_ids, 1.0, z, 1.0, sigma))
+    return measured, sightings, true
+
+
+def test_pose_nees_of_a_simulated_run_is_in_the_95_percent_band(rng):
+    from scipy.stats import chi2
+
+    nees = []
+    for _ in range(NEES_RUNS):
+        deltas, sightings, true = simulate(rng)
+        ukf = localiser(**{"association": AssociationConfig(use_ids=True)})
+        for frame in frames(deltas, sightings):
+            ukf.step(frame)
+        est = ukf.estimate()
+        e = est.trajectory.se2[-1] - true[-1]
+        e[2] = wrap_angle(e[2])
+        nees.append(float(e @ np.linalg.solve(est.pose_covariances[-1], e)))
+    dof = 3 * NEES_RUNS
+    low, high = chi2.ppf([0.025, 0.975], dof) / NEES_RUNS
+    assert low <= np.mean(nees) <= high, (np.mean(nees), low, high)
+
+
+@pytest.mark.parametrize("d_it", [0.0, 0.35])
+def test_frames_are_processed_every_d_it_of_travel(rng, d_it):
+    _, sightings, _ = simulate(rng, n=40)
+    deltas = circle_deltas(40)  # exact 0.1 m steps
+    ukf = localiser(d_it_m=d_it, association=AssociationConfig(use_ids=True))
+    for frame in frames(deltas, sightings):
+        ukf.step(frame)
+    processed = [a.index for a in ukf.associations]
+    # 0.1 m per frame: every frame, or every 4th (0.4 m >= 0.9 * 0.35 m; 0.3 m is not)
+    assert processed == (list(range(40)) if d_it == 0 else list(range(0, 40, 4)))
