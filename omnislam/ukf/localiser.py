@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from omnislam.core.gating import chi_square_gate
 from omnislam.core.modality import Modality
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.se import se2_between
@@ -34,9 +35,6 @@ from omnislam.ukf.filter import PoseUKF
 from omnislam.ukf.image_line import ImageLine
 from omnislam.ukf.photometric import colour_differences, mc_from_pmc, photometric_scores
 from omnislam.ukf.tracking import track_lines
-
-#: chi-square quantiles of one degree of freedom, for the optional innovation gate
-_CHI2_1 = {0.9: 2.706, 0.95: 3.841, 0.99: 6.635, 0.995: 7.879, 0.999: 10.828}
 
 
 @dataclass(frozen=True, slots=True)
@@ -154,11 +152,11 @@ class VerticalLineUKF:
             prior_map.initial_pose_w, P0, self.motion, config.alpha, config.beta, config.kappa
         )
         self._tolerance_rad = config.association.track_tolerance_px / image_line.px_per_rad
-        self._gate = None
-        if config.innovation_gate is not None:
-            self._gate = _CHI2_1.get(round(config.innovation_gate, 3))
-            if self._gate is None:
-                raise ConfigError(f"innovation_gate: one of {', '.join(map(str, _CHI2_1))}")
+        self._gate = (
+            None
+            if config.innovation_gate is None
+            else chi_square_gate(config.innovation_gate, 1)  # one bearing: 1 degree of freedom
+        )
         self._stamps: list[float] = []
         self._poses: list[np.ndarray] = []
         self._covs: list[np.ndarray] = []
