@@ -5,7 +5,8 @@
 2. run the shared front end once (SIFT on the omni images, groups, verified matching, tracks)
    and cache its ObservationLog;
 3. replay that log to every available estimator (dead reckoning, iSAM2, batch LM, FastSLAM 1.0,
-   2.0 and EKF-SLAM) through the grid runner, with the ground truth of the renderer;
+   2.0, EKF-SLAM and the vertical-line UKF) through the grid runner, with the ground truth of
+   the renderer;
 4. write the comparison report (``index.html`` with embedded figures, ``report.md``).
 
 Every step reuses what an earlier run left in the work folder when its inputs are unchanged.
@@ -25,7 +26,8 @@ from omnislam.compare.runner import CellOutcome, GridResult, local_executor_fact
 
 #: the estimators the demo compares, in report order (unavailable ones are skipped)
 #: (each consumes the stream the one modality rule picks: the omni bearings of the front end for
-#: the graphs and FastSLAM, the pole sightings for EKF-SLAM, which takes range-bearing only)
+#: the graphs and FastSLAM, the pole sightings for EKF-SLAM, which takes range-bearing only, the
+#: vertical lines for the UKF, which localises in the world's 2-D map)
 DEMO_ESTIMATORS = (
     "deadreckoning",
     "graphslam",
@@ -33,6 +35,7 @@ DEMO_ESTIMATORS = (
     "fastslam1",
     "fastslam2",
     "ekfslam",
+    "ukf",
 )
 
 
