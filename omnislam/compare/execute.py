@@ -37,7 +37,7 @@ from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction, reassign_i
 from omnislam.compare.prior import PRIOR_MAP_OPTION, prior_map_from_run_dir
 from omnislam.compare.reference import reference_for
 from omnislam.compare.rundir import ATTACHMENTS, ESTIMATOR_INFO, RunConfig, RunRecord
-from omnislam.core.modality import modalities_of
+from omnislam.core.modality import Modality, modalities_of
 from omnislam.core.types import UNKNOWN_ID, Exporting, Introspectable
 from omnislam.datasets.sequence import GroundTruth
 from omnislam.errors import ConfigError, DataError
@@ -140,13 +140,12 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
         log = None if computed is None else str(computed)
     if reference or log is not None:  # computing them (when not cached) is not the run's memory
         reset_peak_rss()
+    replay = None
     if log is None:
         frames = list(sequence.frame_inputs())
-        track_truth = False
     else:
         replay = _load_log(sequence, log)
         frames = list(sequence.frame_inputs(replay.frames))
-        ground_truth, track_truth = _with_track_truth(sequence, replay, Path(log))
     reassigned = 0
     if wrong_fraction > 0:
         # its own stream, so the estimator draws the same numbers with and without it
@@ -154,7 +153,10 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
         perturbed, reassigned = reassign_ids(iter(frames), wrong_fraction, perturb_rng)
         frames = list(perturbed)
 
-    sightings = [rb for rb in sequence.range_bearing or () if rb is not None and len(rb)]
+    # the range-bearing sightings as fed (a front-end log adds its laser landmarks, which have
+    # no ids, to the loader's)
+    sightings = [f.range_bearing for f in frames if f.range_bearing is not None]
+    sightings = [rb for rb in sightings if len(rb)]
     known = bool(sightings) and all(np.all(rb.landmark_ids != UNKNOWN_ID) for rb in sightings)
     info = SequenceInfo(
         name=sequence.name,
@@ -169,6 +171,10 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
         facts=sequence.info,
     )
     modality = resolve_estimator_modality(spec.estimator, info, estimator_options)
+    track_truth = False
+    if replay is not None and modality is Modality.BEARINGS_3D:
+        # the landmarks are the front end's tracks: score them against the tracks' true points
+        ground_truth, track_truth = _with_track_truth(sequence, replay, Path(log))
     rng = np.random.default_rng(spec.seed)
     estimator = make_estimator(spec.estimator, info, estimator_options, rng)
 
@@ -198,7 +204,7 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
         seed=spec.seed,
         dataset_options=dataset_options,
         estimator_options=estimator_options,
-        landmark_ids_from_truth=(known and log is None) or track_truth,
+        landmark_ids_from_truth=(known and modality is Modality.RANGE_BEARING_2D) or track_truth,
         frontend_log=None if log is None else str(log),
         frontend_config_hash=None if log is None else _log_config_hash(log),
         wrong_id_fraction=wrong_fraction,
