@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import csv
 import enum
-import hashlib
 import io
 import json
 import os
@@ -38,9 +37,10 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from omnislam._files import atomic_write_text
+from omnislam.compare.cache import LOGS
 from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
-from omnislam.compare.execute import execute_run
-from omnislam.compare.grid import Cell, Grid, column_label, safe_name
+from omnislam.compare.execute import execute_run, frontend_log_for
+from omnislam.compare.grid import Cell, Grid, column_label
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction
 from omnislam.compare.run_metrics import (
     CSV_FIELDS,
@@ -60,7 +60,6 @@ from omnislam.errors import ConfigError, DataError, OmnislamError
 
 GRID_COPY = "grid.yaml"
 CELLS = "cells"
-LOGS = "logs"
 RESULTS_JSON = "results.json"
 RESULTS_CSV = "results.csv"
 #: a cell whose worker was lost is submitted at most this many times in all
@@ -254,22 +253,16 @@ def write_summary(result: GridResult) -> None:
     atomic_write_text(result.out_dir / RESULTS_CSV, buffer.getvalue())
 
 
-def _log_name(dataset: str) -> str:
-    """File name of a dataset's front-end log: its last path component plus a short hash of the
-    full argument (two folders of the same name never share a log)."""
-    digest = hashlib.sha1(dataset.encode()).hexdigest()[:10]
-    return f"{safe_name(Path(dataset).name)}-{digest}.npz"
-
-
 def prepare_frontend_logs(grid: Grid, out_dir: Path) -> Grid:
     """Run the shared front end once per dataset with images; every cell replays its log.
 
     For each dataset of the grid whose sequence has images (synthetic omni runs, image folders)
-    and whose cells name no log of their own, ``frontend.pipeline.cached_frontend`` writes (or
-    reuses, when dataset and configuration are unchanged) ``out_dir/logs/<dataset>.npz`` in this
+    and whose cells name no log of their own, ``execute.frontend_log_for`` writes (or reuses,
+    when dataset and configuration are unchanged) ``out_dir/logs/<dataset>.npz`` in this
     process, and every cell of that dataset gets it as ``RunSpec.log``: all estimators replay
-    the same observations, so a comparison measures estimators, not front ends. Datasets
-    without images keep their own sightings.
+    the same observations, so a comparison measures estimators, not front ends (``omnislam
+    run`` without ``--log`` replays the same log from the cache). Datasets without images keep
+    their own sightings.
 
     Returns:
         The grid with the log paths filled in.
@@ -281,16 +274,8 @@ def prepare_frontend_logs(grid: Grid, out_dir: Path) -> Grid:
         dataset = cell.spec.dataset
         if cell.spec.log is not None or dataset in logs:
             continue
-        sequence = load_dataset(dataset)
-        if sequence.image_loader is None or not len(sequence.image_frames):
-            logs[dataset] = None
-            continue
-        from omnislam.frontend.pipeline import cached_frontend
-
-        path = out_dir / LOGS / _log_name(dataset)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        cached_frontend(sequence, path, progress=True)
-        logs[dataset] = str(path)
+        path = frontend_log_for(load_dataset(dataset), dataset, out_dir / LOGS, progress=True)
+        logs[dataset] = None if path is None else str(path)
     cells = tuple(
         cell
         if cell.spec.log is not None or logs.get(cell.spec.dataset) is None
