@@ -119,7 +119,12 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
     """
     import omnislam
     from omnislam.datasets.registry import load_dataset, resolve
-    from omnislam.estimators import SequenceInfo, make_estimator, resolve_estimator_modality
+    from omnislam.estimators import (
+        ESTIMATORS,
+        SequenceInfo,
+        make_estimator,
+        resolve_estimator_modality,
+    )
 
     reset_peak_rss()
     check_estimator(spec.estimator)
@@ -135,7 +140,7 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
         sequence = replace(sequence, prior_map=prior_map_from_run_dir(prior_run))
     ground_truth, reference = reference_for(resolved.format, resolved.path, sequence)
     log = spec.log
-    if log is None:
+    if log is None and ESTIMATORS[spec.estimator].modalities:  # dead reckoning sees nothing
         computed = frontend_log_for(sequence, spec.dataset, cache_dir() / LOGS, progress)
         log = None if computed is None else str(computed)
     if reference or log is not None:  # computing them (when not cached) is not the run's memory
@@ -225,25 +230,28 @@ def log_file_name(dataset: str) -> str:
 def frontend_log_for(
     sequence: Any, dataset: str, folder: Path, progress: bool = False
 ) -> Path | None:
-    """The shared front end's log of a dataset with images, computed once and cached.
+    """The shared front end's log of a dataset with images or laser scans, computed once.
 
     ``frontend.pipeline.cached_frontend`` writes (or reuses, when the dataset and the front
-    end's configuration are unchanged) ``folder/<log_file_name(dataset)>``. The grid runner
-    calls it once per dataset so that every cell replays the same observations; ``omnislam
-    run`` without ``--log`` calls it too, so a run and a grid cell measure the same experiment.
+    end's configuration are unchanged) ``folder/<log_file_name(dataset)>``: bearings and
+    vertical lines from the images, landmarks from the laser scans (merged with the loader's own
+    range-bearing sightings). The grid runner calls it once per dataset so that every cell
+    replays the same observations; ``omnislam run`` without ``--log`` calls it too, so a run and
+    a grid cell measure the same experiment.
 
     Returns:
-        The log's path, or None for a dataset without images (its own sightings are used).
+        The log's path, or None for a dataset with neither (its own sightings are used).
     """
-    if sequence.image_loader is None or not len(sequence.image_frames):
+    images = sequence.image_loader is not None and len(sequence.image_frames) > 0
+    if not images and sequence.laser is None:
         return None
     from omnislam.frontend.pipeline import cached_frontend
 
     path = folder / log_file_name(dataset)
     if progress:
+        what = f"{len(sequence.image_frames)} images" if images else "laser scans"
         print(
-            f"omnislam: shared front end on {dataset} ({len(sequence.image_frames)} images; "
-            f"cached in {path})",
+            f"omnislam: shared front end on {dataset} ({what}; cached in {path})",
             file=sys.stderr,
             flush=True,
         )

@@ -254,15 +254,16 @@ def write_summary(result: GridResult) -> None:
 
 
 def prepare_frontend_logs(grid: Grid, out_dir: Path) -> Grid:
-    """Run the shared front end once per dataset with images; every cell replays its log.
+    """Run the shared front end once per dataset with images or laser scans; every cell
+    replays its log.
 
     For each dataset of the grid whose sequence has images (synthetic omni runs, image folders)
-    and whose cells name no log of their own, ``execute.frontend_log_for`` writes (or reuses,
-    when dataset and configuration are unchanged) ``out_dir/logs/<dataset>.npz`` in this
-    process, and every cell of that dataset gets it as ``RunSpec.log``: all estimators replay
-    the same observations, so a comparison measures estimators, not front ends (``omnislam
-    run`` without ``--log`` replays the same log from the cache). Datasets without images keep
-    their own sightings.
+    or laser scans (CARMEN) and whose cells name no log of their own,
+    ``execute.frontend_log_for`` writes (or reuses, when dataset and configuration are
+    unchanged) ``out_dir/logs/<dataset>.npz`` in this process, and every cell of that dataset
+    gets it as ``RunSpec.log``: all estimators replay the same observations, so a comparison
+    measures estimators, not front ends (``omnislam run`` without ``--log`` replays the same log
+    from the cache). Other datasets keep their own sightings.
 
     Returns:
         The grid with the log paths filled in.
