@@ -9,14 +9,16 @@ with ids ignored (geometric step 4 + two-frame validation); dead reckoning for r
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
+from omnislam.compare.run_metrics import RunMetrics, read_run_metrics
+from omnislam.compare.rundir import METRICS
 
-def run(dataset: str, estimator: str, sets: list[str], out: Path) -> dict:
+
+def run(dataset: str, estimator: str, sets: list[str], out: Path) -> RunMetrics:
     args = [
         sys.executable,
         "-m",
@@ -31,13 +33,10 @@ def run(dataset: str, estimator: str, sets: list[str], out: Path) -> dict:
     for kv in sets:
         args += ["--set", kv]
     subprocess.run(args, check=True, capture_output=True)
-    text = subprocess.run(
-        [sys.executable, "-m", "omnislam", "evaluate", str(out), "--json"],
-        check=True,
-        capture_output=True,
-        text=True,
-    ).stdout
-    return json.loads(text)
+    subprocess.run(
+        [sys.executable, "-m", "omnislam", "evaluate", str(out)], check=True, capture_output=True
+    )
+    return read_run_metrics(out / METRICS)
 
 
 def main() -> None:
@@ -56,7 +55,7 @@ def main() -> None:
             for label, (estimator, sets) in modes.items():
                 extra = sets + (args.set if estimator == "ukf" else [])
                 m = run(f"mrclam6-r{robot}", estimator, extra, Path(tmp) / f"{robot}-{label}")
-                cells.append(f"{m['ate_median_m']:.3f} / {m['ate_rmse_m']:.3f}")
+                cells.append(f"{m.ate.median_m:.3f} / {m.ate.rmse_m:.3f}")
             print(f"| r{robot} | " + " | ".join(cells) + " |", flush=True)
 
 

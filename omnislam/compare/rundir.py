@@ -47,7 +47,7 @@ GROUND_TRUTH_LANDMARKS = "ground_truth_landmarks.csv"
 METRICS = "metrics.json"
 POSE_COVARIANCES = "pose_covariances.csv"
 LANDMARK_COVARIANCES = "landmark_covariances.csv"
-#: attachment an estimator with a factor graph may export (see compare.execute.GraphExporter)
+#: attachment an estimator with a factor graph exports (core.types.Exporting: graphslam)
 GRAPH_G2O = "graph.g2o"
 ESTIMATOR_INFO = "estimator_info.json"
 #: file names an attachment may take (kept small so a RUN_DIR stays a known set of files)
