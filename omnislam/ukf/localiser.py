@@ -194,13 +194,11 @@ class VerticalLineUKF:
         self._covs.append(self._ukf.P)
 
     def estimate(self) -> Estimate:
-        """One pose per frame with its covariance; the map's landmarks (not estimated)."""
+        """One pose per frame with its covariance, and no landmarks: a localiser estimates none
+        (the prior map it used is the input, not a result to score)."""
         poses = np.array(self._poses).reshape(-1, 3)
-        points = np.column_stack([self._points, np.zeros(len(self._ids))])
         return Estimate(
             trajectory=Trajectory.from_se2(np.array(self._stamps), poses),
-            landmark_ids=self._ids,
-            landmarks_w=points,
             pose_covariances=np.array(self._covs).reshape(-1, 3, 3),
         )
 
