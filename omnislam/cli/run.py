@@ -16,7 +16,11 @@ import argparse
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run one estimator on one dataset")
     p.add_argument("dataset", metavar="DATASET", help="registered name or a file/folder")
-    p.add_argument("--estimator", required=True, help="estimator name (e.g. deadreckoning)")
+    p.add_argument(
+        "--estimator",
+        required=True,
+        help="deadreckoning, graphslam, graphslam-batch, fastslam1, fastslam2, ekfslam or ukf",
+    )
     p.add_argument("--out", required=True, metavar="RUN_DIR", help="output folder")
     p.add_argument("--seed", type=int, default=None, help="random seed")
     p.add_argument(
@@ -32,8 +36,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--log",
         default=None,
         metavar="LOG",
-        help="front-end ObservationLog to replay (default for a dataset with images: the "
-        "shared front end's log, computed once and cached)",
+        help="front-end ObservationLog to replay (default for a dataset with images or laser "
+        "scans: the shared front end's log, computed once and cached)",
     )
     p.set_defaults(handler=run)
 
