@@ -187,3 +187,24 @@ def test_other_modality_raises_config_error(rng):
     info = SequenceInfo(name="omni", frames=0, modality=Modality.BEARINGS_3D)
     with pytest.raises(ConfigError):
         factory(info, {}, rng)
+
+
+def test_fastslam2_with_many_particles_agrees_with_ekfslam_on_a_small_map():
+    """Two approximations of the same posterior (known association, the true noise models):
+    FastSLAM 2.0's particle mean with many particles and EKF-SLAM's mean differ by no more
+    than the EKF's covariance allows, for the final pose and every landmark."""
+    scenario = make_scenario(seed=4, steps=120)
+    rng = np.random.default_rng(11)
+    ekf = run(make_estimator("ekfslam", sequence_info(), NOISE_OPTIONS, rng), scenario.frames)
+    options = {**NOISE_OPTIONS, "n_particles": "300", "trajectory": "weighted_mean"}
+    fast = run(make_estimator("fastslam2", sequence_info(), options, rng), scenario.frames)
+    gate2 = chi2.ppf(CROSS_CHECK_PROBABILITY, 2)
+    gate3 = chi2.ppf(CROSS_CHECK_PROBABILITY, 3)
+    e = pose_error(fast.trajectory.se2[-1], ekf.trajectory.se2[-1])
+    assert e @ np.linalg.solve(ekf.pose_covariances[-1], e) <= gate3
+    ekf_row = {int(i): k for k, i in enumerate(ekf.landmark_ids)}
+    assert set(fast.landmark_ids.tolist()) == set(ekf_row)
+    for k, lid in enumerate(fast.landmark_ids.tolist()):
+        diff = fast.landmarks_w[k, :2] - ekf.landmarks_w[ekf_row[lid], :2]
+        cov = ekf.landmark_covariances[ekf_row[lid], :2, :2]
+        assert diff @ np.linalg.solve(cov, diff) <= gate2, f"landmark {lid}"
