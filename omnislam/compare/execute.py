@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from omnislam._files import safe_name
+from omnislam._files import NPZ_ERRORS, safe_name
 from omnislam.compare.cache import LOGS, cache_dir
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction, reassign_ids
 from omnislam.compare.prior import PRIOR_MAP_OPTION, prior_map_from_run_dir
@@ -308,7 +308,7 @@ def _with_track_truth(sequence: Any, replay: Any, log: Path) -> tuple[GroundTrut
         with np.load(cache, allow_pickle=False) as data:
             if str(data["key"]) == key:
                 ids, points = data["ids"], data["points_w"]
-    except (OSError, KeyError, ValueError):
+    except NPZ_ERRORS:  # no cache entry, or a truncated one: recompute
         pass
     if ids is None:
         from omnislam.frontend.evaluation import track_truth, true_sightings
