@@ -32,7 +32,7 @@ from pathlib import Path
 
 import yaml
 
-from omnislam._files import safe_name
+from omnislam._files import safe_name, yaml_error_line
 from omnislam.compare.evaluation import EvaluationOptions
 from omnislam.compare.execute import RunSpec, check_estimator, check_spec
 from omnislam.errors import ConfigError, OmnislamError
@@ -156,10 +156,7 @@ def parse_grid(text: str, path: Path) -> Grid:
     try:
         raw = yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        first = str(exc).splitlines()
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}: " if mark is not None else ""
-        raise ConfigError(f"{path}: {where}not valid YAML ({first[0] if first else exc})") from None
+        raise ConfigError(f"{path}: {yaml_error_line(exc)}") from None
     if not isinstance(raw, Mapping):
         raise ConfigError(f"{path}: expected a mapping with 'datasets' and 'estimators'")
     unknown = set(raw) - _TOP_KEYS

@@ -132,6 +132,8 @@ def read_table(
         numbers.append(number)
         rows.append(fields)
     if len(rows) < min_rows:
+        if not rows:
+            raise DataError("no data rows (the file is empty or holds only comments)", path)
         raise DataError(f"expected at least {min_rows} data rows, found {len(rows)}", path)
     try:
         values = np.array(rows, dtype=float).reshape(len(rows), width)
