@@ -47,6 +47,11 @@ def make_estimator(
 ) -> DeadReckoning:
     """Factory for ``omnislam.estimators``; dead reckoning takes no options and no randomness."""
     del info, rng
+    check_options(options)
+    return DeadReckoning()
+
+
+def check_options(options: Mapping[str, str]) -> None:
+    """Validate ``--set`` options without building anything (dead reckoning takes none)."""
     if options:
         raise ConfigError(f"deadreckoning takes no options, got: {', '.join(sorted(options))}")
-    return DeadReckoning()

@@ -67,10 +67,14 @@ class EstimatorEntry:
         target: ``"module:factory"``, imported only when the estimator is used.
         modalities: the observation streams it consumes; empty for estimators that use no
             sightings at all (dead reckoning).
+        check: ``"module:function"`` validating the estimator's ``--set`` options without
+            building it (``function(options)`` raises ConfigError); a grid checks every cell's
+            options with it before any work starts.
     """
 
     target: str
     modalities: frozenset[Modality]
+    check: str = ""
 
 
 _SLAM_2D_3D = frozenset({Modality.RANGE_BEARING_2D, Modality.BEARINGS_3D})
@@ -78,17 +82,38 @@ _GRAPH = frozenset(Modality)
 
 #: estimator name -> where its factory lives and what it consumes
 ESTIMATORS: dict[str, EstimatorEntry] = {
-    "deadreckoning": EstimatorEntry("omnislam.deadreckoning:make_estimator", frozenset()),
-    "graphslam": EstimatorEntry("omnislam.graphslam:make_estimator", _GRAPH),
-    "graphslam-batch": EstimatorEntry("omnislam.graphslam:make_batch_estimator", _GRAPH),
-    "fastslam1": EstimatorEntry("omnislam.fastslam:make_fastslam1", _SLAM_2D_3D),
-    "fastslam2": EstimatorEntry("omnislam.fastslam:make_fastslam2", _SLAM_2D_3D),
+    "deadreckoning": EstimatorEntry(
+        "omnislam.deadreckoning:make_estimator",
+        frozenset(),
+        "omnislam.deadreckoning:check_options",
+    ),
+    "graphslam": EstimatorEntry(
+        "omnislam.graphslam:make_estimator", _GRAPH, "omnislam.graphslam.factory:check_options"
+    ),
+    "graphslam-batch": EstimatorEntry(
+        "omnislam.graphslam:make_batch_estimator",
+        _GRAPH,
+        "omnislam.graphslam.factory:check_options",
+    ),
+    "fastslam1": EstimatorEntry(
+        "omnislam.fastslam:make_fastslam1",
+        _SLAM_2D_3D,
+        "omnislam.fastslam.factory:check_fastslam1_options",
+    ),
+    "fastslam2": EstimatorEntry(
+        "omnislam.fastslam:make_fastslam2",
+        _SLAM_2D_3D,
+        "omnislam.fastslam.factory:check_fastslam2_options",
+    ),
     "ukf": EstimatorEntry(
         "omnislam.ukf:make_estimator",
         frozenset({Modality.VERTICAL_LINES, Modality.RANGE_BEARING_2D}),
+        "omnislam.ukf.factory:check_options",
     ),
     "ekfslam": EstimatorEntry(
-        "omnislam.ekfslam:make_estimator", frozenset({Modality.RANGE_BEARING_2D})
+        "omnislam.ekfslam:make_estimator",
+        frozenset({Modality.RANGE_BEARING_2D}),
+        "omnislam.ekfslam.factory:check_options",
     ),
 }
 
@@ -108,6 +133,30 @@ def estimator_factory(name: str) -> EstimatorFactory:
     if factory is None:
         raise ConfigError(f"estimator {name!r} is not available yet ({target})")
     return factory
+
+
+def check_estimator_options(name: str, options: Mapping[str, str]) -> None:
+    """Validate the ``--set`` options meant for estimator ``name`` without building it.
+
+    The modality option is checked by name; the rest against the estimator's configuration
+    dataclass (``omnislam.options.apply_options``), so a grid fails on a bad value before any
+    cell runs rather than when that cell's turn comes.
+
+    Raises:
+        ConfigError: unknown estimator, option or value.
+    """
+    estimator_factory(name)
+    text = options.get(MODALITY_OPTION)
+    if text is not None:
+        if not ESTIMATORS[name].modalities:
+            raise ConfigError(f"{name} uses no sightings; {MODALITY_OPTION} does not apply")
+        Modality.parse(text)
+    check = ESTIMATORS[name].check
+    if check:
+        module_name, attribute = check.split(":")
+        getattr(importlib.import_module(module_name), attribute)(
+            {k: v for k, v in options.items() if k != MODALITY_OPTION}
+        )
 
 
 def resolve_estimator_modality(

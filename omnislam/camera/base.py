@@ -284,6 +284,21 @@ def check_image_size(width: int, height: int, name: str) -> None:
             raise DataError(f"{name}.{label} must be a positive integer, got {value!r}")
 
 
+def check_principal_point(u: float, v: float, width: int, height: int, name: str) -> None:
+    """Raise DataError unless the principal point ``(u, v)`` [px] lies inside the image.
+
+    Pixel-centre convention (see the module docstring): inside means ``-0.5 <= u < width - 0.5``
+    and the same for ``v``. A centre outside the image is a calibration for another image size
+    (or a swapped row/column), and every ray would miss the mirror.
+    """
+    if not (np.isfinite(u) and np.isfinite(v)):
+        raise DataError(f"{name}: principal point ({u!r}, {v!r}) is not finite")
+    if not (-0.5 <= u < width - 0.5 and -0.5 <= v < height - 0.5):
+        raise DataError(
+            f"{name}: principal point (u={u!r}, v={v!r}) px is outside the {width}x{height} image"
+        )
+
+
 def check_positive(value: float, label: str) -> None:
     """Raise DataError unless ``value`` is a finite positive number."""
     if not np.isfinite(value) or value <= 0:

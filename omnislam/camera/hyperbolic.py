@@ -53,6 +53,7 @@ from omnislam.camera.base import (
     as_points,
     check_image_size,
     check_positive,
+    check_principal_point,
     in_ring,
 )
 from omnislam.errors import DataError
@@ -103,6 +104,9 @@ class HyperbolicCamera(CameraModel):
 
     def __post_init__(self) -> None:
         check_image_size(self.width, self.height, "HyperbolicCamera")
+        check_principal_point(
+            float(self.cu), float(self.cv), self.width, self.height, "HyperbolicCamera"
+        )
         for label in ("a_m", "b_m", "focal_length_m", "pixel_size_m", "rim_radius_m"):
             check_positive(getattr(self, label), f"HyperbolicCamera.{label}")
         e_m = self.e_m

@@ -20,6 +20,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from omnislam._files import yaml_error_line
 from omnislam.camera.base import CameraModel
 from omnislam.camera.registry import CAMERA_MODELS, camera_from_dict
 from omnislam.camera.rig import CameraRig
@@ -42,7 +43,7 @@ def _read_yaml(path: Path) -> Any:
     try:
         return yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        raise DataError(f"not valid YAML: {exc}", path) from exc
+        raise DataError(yaml_error_line(exc), path) from None
 
 
 def _write_yaml(data: dict[str, Any], path: Path) -> None:

@@ -38,6 +38,7 @@ from omnislam.camera.base import (
     as_pixels,
     as_points,
     check_image_size,
+    check_principal_point,
     in_ring,
 )
 from omnislam.errors import DataError
@@ -97,6 +98,13 @@ class OCamCalibCamera(CameraModel):
 
     def __post_init__(self) -> None:
         check_image_size(self.width, self.height, "OCamCalibCamera")
+        check_principal_point(
+            float(self.center_col),
+            float(self.center_row),
+            self.width,
+            self.height,
+            "OCamCalibCamera",
+        )
         pol = tuple(float(x) for x in self.pol)
         invpol = tuple(float(x) for x in self.invpol)
         object.__setattr__(self, "pol", pol)

@@ -13,7 +13,14 @@ from typing import ClassVar
 
 import numpy as np
 
-from omnislam.camera.base import CameraModel, as_pixels, as_points, check_image_size, check_positive
+from omnislam.camera.base import (
+    CameraModel,
+    as_pixels,
+    as_points,
+    check_image_size,
+    check_positive,
+    check_principal_point,
+)
 from omnislam.camera.distortion import RadialTangential
 
 
@@ -49,6 +56,9 @@ class PinholeCamera(CameraModel):
 
     def __post_init__(self) -> None:
         check_image_size(self.width, self.height, "PinholeCamera")
+        check_principal_point(
+            float(self.cu), float(self.cv), self.width, self.height, "PinholeCamera"
+        )
         check_positive(self.fx, "PinholeCamera.fx")
         check_positive(self.fy, "PinholeCamera.fy")
 

@@ -30,6 +30,7 @@ from omnislam.camera.base import (
     as_points,
     check_image_size,
     check_positive,
+    check_principal_point,
     in_ring,
 )
 from omnislam.camera.distortion import RadialTangential
@@ -75,6 +76,9 @@ class UnifiedCamera(CameraModel):
 
     def __post_init__(self) -> None:
         check_image_size(self.width, self.height, "UnifiedCamera")
+        check_principal_point(
+            float(self.cu), float(self.cv), self.width, self.height, "UnifiedCamera"
+        )
         check_positive(self.gamma1, "UnifiedCamera.gamma1")
         check_positive(self.gamma2, "UnifiedCamera.gamma2")
         if not np.isfinite(self.xi) or self.xi < 0.0:

@@ -29,10 +29,10 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     import numpy as np
-    import yaml
 
+    from omnislam._files import check_output_location, read_yaml
     from omnislam.datasets.registry import load_dataset
-    from omnislam.errors import ConfigError, DataError
+    from omnislam.errors import ConfigError
     from omnislam.frontend.config import frontend_config_from_dict
     from omnislam.frontend.observation_log import (
         StaleLogError,
@@ -44,17 +44,17 @@ def run(args: argparse.Namespace) -> int:
 
     overrides = None
     if args.config:
-        try:
-            overrides = yaml.safe_load(Path(args.config).read_text())
-        except (OSError, yaml.YAMLError) as exc:
-            raise DataError(f"cannot read configuration: {exc}", args.config) from exc
+        overrides = read_yaml(args.config)
         if overrides is not None and not isinstance(overrides, dict):
             raise ConfigError(f"{args.config}: the configuration must be a mapping")
     config = frontend_config_from_dict(overrides)
     if args.frames is not None and args.frames < 1:
         raise ConfigError("--frames must be >= 1")
-    sequence = load_dataset(args.dataset)
     out = Path(args.out)
+    if out.is_dir():
+        raise ConfigError(f"{out}: is a folder; --out is the log file to write")
+    check_output_location(out, "observation log")
+    sequence = load_dataset(args.dataset)
     key_hash = log_key(config, args.frames)
     if out.exists() and not args.force:
         try:

@@ -69,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from omnislam._files import check_output_location
     from omnislam.compare.execute import RunSpec, check_estimator, execute_run
     from omnislam.compare.rundir import CONFIG, write_run_dir
     from omnislam.errors import ConfigError
@@ -77,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not (out / CONFIG).exists())):
         raise ConfigError(f"{out}: exists and is not a RUN_DIR; refusing to overwrite it")
+    check_output_location(out, "RUN_DIR")  # before the work, not after it
 
     spec = RunSpec(
         dataset=args.dataset,

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from omnislam._files import safe_name
+from omnislam._files import NPZ_ERRORS, safe_name
 from omnislam.compare.cache import LOGS, cache_dir
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction, reassign_ids
 from omnislam.compare.prior import PRIOR_MAP_OPTION, prior_map_from_run_dir
@@ -99,6 +99,39 @@ def check_estimator(name: str) -> None:
     from omnislam.estimators import estimator_factory
 
     estimator_factory(name)
+
+
+def check_spec(spec: RunSpec) -> None:
+    """Validate a run without doing it: estimator, dataset, every option (loader, harness and
+    estimator, the latter against its configuration dataclass), nothing loaded or computed.
+
+    A grid calls it for every cell before any work starts, so a bad value fails the grid up
+    front instead of when its cell's turn comes (after the front end, with a results folder).
+
+    Raises:
+        ConfigError: unknown estimator or option, a value that does not parse, a prior map
+            that is not a RUN_DIR.
+        DataError: a dataset that cannot be resolved.
+    """
+    from omnislam.compare.rundir import CONFIG
+    from omnislam.datasets.registry import parse_options, resolve
+    from omnislam.estimators import check_estimator_options
+
+    check_estimator(spec.estimator)
+    resolved = resolve(spec.dataset)
+    loader_keys = resolved.option_names()
+    options = dict(spec.options)
+    parse_fraction(options.pop(WRONG_ID_OPTION, "0"))
+    prior_run = options.pop(PRIOR_MAP_OPTION, None)
+    if prior_run is not None and not (Path(prior_run) / CONFIG).is_file():
+        raise ConfigError(f"{PRIOR_MAP_OPTION}={prior_run}: not a RUN_DIR folder")
+    parse_options(
+        resolved.format,
+        {**resolved.options, **{k: v for k, v in options.items() if k in loader_keys}},
+    )
+    check_estimator_options(
+        spec.estimator, {k: v for k, v in options.items() if k not in loader_keys}
+    )
 
 
 def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
@@ -308,7 +341,7 @@ def _with_track_truth(sequence: Any, replay: Any, log: Path) -> tuple[GroundTrut
         with np.load(cache, allow_pickle=False) as data:
             if str(data["key"]) == key:
                 ids, points = data["ids"], data["points_w"]
-    except (OSError, KeyError, ValueError):
+    except NPZ_ERRORS:  # no cache entry, or a truncated one: recompute
         pass
     if ids is None:
         from omnislam.frontend.evaluation import track_truth, true_sightings

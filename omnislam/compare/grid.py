@@ -18,8 +18,10 @@ A grid file::
 Every (dataset, estimator, seed, override) is a Cell with a deterministic id
 (``DATASET__ESTIMATOR__sSEED[__OVERRIDE]``); an estimator no override applies to runs once with
 its own options. ``load_grid`` validates everything up front -- YAML syntax, keys, estimator
-names and availability, dataset presence -- and raises ConfigError naming the file and the
-problem, so a bad grid writes nothing.
+names and availability, dataset presence, and every cell's options (loader, harness and
+estimator, the latter against the estimator's configuration dataclass without building it:
+``compare.execute.check_spec``) -- and raises ConfigError naming the file and the problem, so a
+bad grid writes nothing.
 """
 
 from __future__ import annotations
@@ -30,9 +32,9 @@ from pathlib import Path
 
 import yaml
 
-from omnislam._files import safe_name
+from omnislam._files import safe_name, yaml_error_line
 from omnislam.compare.evaluation import EvaluationOptions
-from omnislam.compare.execute import RunSpec, check_estimator
+from omnislam.compare.execute import RunSpec, check_estimator, check_spec
 from omnislam.errors import ConfigError, OmnislamError
 
 _TOP_KEYS = {"name", "datasets", "estimators", "seeds", "overrides", "evaluation"}
@@ -154,10 +156,7 @@ def parse_grid(text: str, path: Path) -> Grid:
     try:
         raw = yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        first = str(exc).splitlines()
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}: " if mark is not None else ""
-        raise ConfigError(f"{path}: {where}not valid YAML ({first[0] if first else exc})") from None
+        raise ConfigError(f"{path}: {yaml_error_line(exc)}") from None
     if not isinstance(raw, Mapping):
         raise ConfigError(f"{path}: expected a mapping with 'datasets' and 'estimators'")
     unknown = set(raw) - _TOP_KEYS
@@ -238,6 +237,16 @@ def parse_grid(text: str, path: Path) -> Grid:
     duplicates = sorted({i for i in ids if ids.count(i) > 1})
     if duplicates:
         raise ConfigError(f"{path}: cells with the same id {duplicates} (give them labels)")
+    checked: set[tuple[str, str, tuple[tuple[str, str], ...]]] = set()
+    for cell in cells:  # every cell's options, before any work starts
+        key = (cell.spec.dataset, cell.spec.estimator, tuple(sorted(cell.spec.options.items())))
+        if key in checked:
+            continue
+        checked.add(key)
+        try:
+            check_spec(cell.spec)
+        except OmnislamError as exc:
+            raise ConfigError(f"{path}: cell {cell.cell_id}: {exc}") from None
     return Grid(str(raw.get("name") or path.stem), path, tuple(cells), evaluation, text)
 
 

@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from omnislam._files import NPZ_ERRORS
 from omnislam.compare.cache import cache_dir
 from omnislam.core.types import UNKNOWN_ID, FrameInput, Trajectory
 from omnislam.datasets.registry import DatasetFormat
@@ -316,7 +317,7 @@ def lm_reference(path: Path, cache: Path | None = None) -> ReferenceSolution:
                 initial_error=float(data["initial_error"]),
                 final_error=float(data["final_error"]),
             )
-    except (OSError, KeyError, ValueError):
+    except NPZ_ERRORS:  # no cache entry, or a truncated one: recompute
         pass
     solution = compute_lm_reference(load_gtsam_victoria(path))
     _store(entry, solution)

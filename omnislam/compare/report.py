@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from omnislam._files import check_output_location, output_error
 from omnislam.compare.evaluation import GROUND_TRUTH_LABELS, evaluate_run
 from omnislam.compare.metrics import Alignment, ate
 from omnislam.compare.run_metrics import RunMetrics, read_run_metrics
@@ -551,6 +552,7 @@ def check_report_dir(out_dir: Path) -> None:
         not out_dir.is_dir() or (any(out_dir.iterdir()) and not (out_dir / REPORT_MD).is_file())
     ):
         raise ConfigError(f"{out_dir}: exists and is not a report folder; refusing to overwrite it")
+    check_output_location(out_dir, "report")
 
 
 def _estimator_availability() -> list[tuple[str, str]]:
@@ -581,8 +583,13 @@ def write_report(
     check_report_dir(out_dir)
     title, cells = collect_cells(results_dir)
     title = options.title or title
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", suffix=".tmp", dir=out_dir.parent))
+    try:
+        out_dir.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(
+            tempfile.mkdtemp(prefix=f".{out_dir.name}.", suffix=".tmp", dir=out_dir.parent)
+        )
+    except OSError as exc:
+        raise output_error(exc, out_dir, "report") from None
     try:
         make_shareable(staging)
         notes: list[str] = []
@@ -594,6 +601,9 @@ def write_report(
             shutil.rmtree(trash, ignore_errors=True)
         else:
             os.replace(staging, out_dir)
+    except OSError as exc:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise output_error(exc, out_dir, "report") from None
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise

@@ -22,6 +22,7 @@ which is renamed into place only when complete; a failure leaves no partial RUN_
 
 from __future__ import annotations
 
+import glob
 import math
 import os
 import shutil
@@ -33,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from omnislam._files import check_output_location, output_error, read_yaml
 from omnislam.core.types import Estimate
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind
 from omnislam.datasets.trajectory_io import read_tum, write_tum
@@ -244,8 +246,15 @@ def write_run_dir(path: Path, record: RunRecord) -> None:
         not path.is_dir() or (any(path.iterdir()) and not (path / CONFIG).exists())
     ):
         raise ConfigError(f"{path}: exists and is not a RUN_DIR; refusing to overwrite it")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+    check_output_location(path, "RUN_DIR")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        remove_stale_temporaries(path)
+        staging = Path(
+            tempfile.mkdtemp(prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent)
+        )
+    except OSError as exc:
+        raise output_error(exc, path, "RUN_DIR") from None
     try:
         make_shareable(staging)
         write_tum(staging / TRAJECTORY, record.estimate.trajectory)
@@ -294,9 +303,51 @@ def write_run_dir(path: Path, record: RunRecord) -> None:
             shutil.rmtree(trash, ignore_errors=True)
         else:
             os.replace(staging, path)
+    except OSError as exc:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise output_error(exc, path, "RUN_DIR") from None
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # alive, someone else's
+        return True
+    return True
+
+
+def remove_stale_temporaries(path: Path) -> list[Path]:
+    """Remove what a killed ``write_run_dir`` of ``path`` left next to it.
+
+    The staging folder (``.NAME.PID.*.tmp``) and the replaced RUN_DIR (``.NAME.old-PID``) carry
+    the writer's process id; those of a process that no longer runs are removed (a SIGKILL
+    skips every ``finally``). Those of a live process are left alone.
+
+    Returns:
+        The paths removed.
+    """
+    path = Path(path)
+    removed = []
+    prefix = f".{path.name}."
+    for candidate in path.parent.glob(f"{glob.escape(prefix)}*"):
+        rest = candidate.name[len(prefix) :]
+        if rest.startswith("old-"):
+            pid_text = rest[4:]
+        elif rest.endswith(".tmp"):
+            pid_text = rest.split(".", 1)[0]
+        else:
+            continue
+        if not pid_text.isdigit() or _pid_alive(int(pid_text)):
+            continue
+        shutil.rmtree(candidate, ignore_errors=True)
+        removed.append(candidate)
+    return removed
+
 
 
 def read_run_config(path: Path) -> RunConfig:
@@ -308,16 +359,16 @@ def read_run_config(path: Path) -> RunConfig:
     file = Path(path) / CONFIG
     if not file.is_file():
         raise DataError(f"not a RUN_DIR (no {CONFIG})", Path(path))
-    try:
-        raw = yaml.safe_load(file.read_text())
-    except yaml.YAMLError as exc:
-        raise DataError(f"not valid YAML ({exc})", file) from exc
+    raw = read_yaml(file)
     if not isinstance(raw, dict):
         raise DataError("expected a mapping", file)
     try:
-        return RunConfig(**raw)
+        config = RunConfig(**raw)
     except TypeError as exc:
         raise DataError(f"unexpected contents ({exc})", file) from exc
+    if isinstance(config.frames, bool) or not isinstance(config.frames, int) or config.frames < 1:
+        raise DataError(f"frames must be a positive integer, got {config.frames!r}", file)
+    return config
 
 
 def read_run_dir(path: Path) -> RunRecord:
@@ -329,9 +380,27 @@ def read_run_dir(path: Path) -> RunRecord:
     path = Path(path)
     config = read_run_config(path)
     trajectory = read_tum(path / TRAJECTORY)
+    if len(trajectory) != config.frames:
+        raise DataError(
+            f"{len(trajectory)} poses but {CONFIG} says the run had {config.frames} frames "
+            "(one pose per frame): the file is truncated or from another run",
+            path / TRAJECTORY,
+        )
     ids, points = read_landmarks_csv(path / LANDMARKS)
     step_s = _read_timing(path / TIMING)
-    kind = GroundTruthKind(config.ground_truth_kind)
+    if len(step_s) != config.frames:
+        raise DataError(
+            f"{len(step_s)} rows but {CONFIG} says the run had {config.frames} frames",
+            path / TIMING,
+        )
+    try:
+        kind = GroundTruthKind(config.ground_truth_kind)
+    except ValueError:
+        raise DataError(
+            f"ground_truth_kind {config.ground_truth_kind!r} is not one of "
+            f"{', '.join(k.value for k in GroundTruthKind)}",
+            path / CONFIG,
+        ) from None
     gt_trajectory = read_tum(path / GROUND_TRUTH) if (path / GROUND_TRUTH).is_file() else None
     if (path / GROUND_TRUTH_LANDMARKS).is_file():
         gt_ids, gt_points = read_landmarks_csv(path / GROUND_TRUTH_LANDMARKS)

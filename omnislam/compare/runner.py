@@ -36,7 +36,7 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from omnislam._files import atomic_write_text
+from omnislam._files import atomic_write_text, check_output_location, output_error
 from omnislam.compare.cache import LOGS
 from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
 from omnislam.compare.execute import execute_run, frontend_log_for
@@ -147,6 +147,7 @@ def check_results_dir(out_dir: Path) -> None:
     """
     out_dir = Path(out_dir)
     if not out_dir.exists():
+        check_output_location(out_dir / CELLS, "results folder")
         return
     if not out_dir.is_dir():
         raise ConfigError(f"{out_dir}: exists and is not a folder")
@@ -155,6 +156,7 @@ def check_results_dir(out_dir: Path) -> None:
             f"{out_dir}: exists, is not empty and is not a results folder (no {GRID_COPY}); "
             "refusing to write into it"
         )
+    check_output_location(out_dir / CELLS, "results folder")
 
 
 def _matches(cell_dir: Path, cell: Cell) -> bool:
@@ -315,10 +317,13 @@ def run_grid(
     if executor_factory is None:
         executor_factory = local_executor_factory(os.cpu_count() or 1)
     cells_dir = out_dir / CELLS
-    cells_dir.mkdir(parents=True, exist_ok=True)
-    for stale in cells_dir.glob(".*"):  # staging folders of an interrupted invocation
-        shutil.rmtree(stale, ignore_errors=True)
-    atomic_write_text(out_dir / GRID_COPY, grid.text)
+    try:
+        cells_dir.mkdir(parents=True, exist_ok=True)
+        for stale in cells_dir.glob(".*"):  # staging folders of an interrupted invocation
+            shutil.rmtree(stale, ignore_errors=True)
+        atomic_write_text(out_dir / GRID_COPY, grid.text)
+    except OSError as exc:
+        raise output_error(exc, out_dir, "results folder") from None
     grid = prepare_frontend_logs(grid, out_dir)
 
     outcomes: dict[str, CellOutcome] = {}

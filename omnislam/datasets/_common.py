@@ -69,6 +69,8 @@ def group_sightings(
     if association is Association.UNKNOWN:
         landmark_ids = np.full_like(landmark_ids, UNKNOWN_ID)
     out: list[RangeBearing | None] = [None] * len(frame_stamps_s)
+    if len(stamps_s) == 0:
+        return tuple(out)
     order = np.argsort(frame_of, kind="stable")
     frames, starts = np.unique(frame_of[order], return_index=True)
     ends = np.append(starts[1:], len(order))

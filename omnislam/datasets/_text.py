@@ -132,6 +132,8 @@ def read_table(
         numbers.append(number)
         rows.append(fields)
     if len(rows) < min_rows:
+        if not rows:
+            raise DataError("no data rows (the file is empty or holds only comments)", path)
         raise DataError(f"expected at least {min_rows} data rows, found {len(rows)}", path)
     try:
         values = np.array(rows, dtype=float).reshape(len(rows), width)
@@ -167,4 +169,55 @@ def check_stamps(
             f"{float(stamps_s[k - 1])!r} on line {int(line_numbers[k - 1])} "
             f"(times must be {order.value})",
             path,
+        )
+
+
+def check_range(
+    table: Table, column: int, name: str, low: float, high: float, *, inclusive: bool = True
+) -> None:
+    """Raise DataError at the first row whose ``column`` is outside ``[low, high]``.
+
+    A physical-range check at the loader (speeds, angles, ranges): a finite but absurd value
+    (odometry at 1e308 m/s) is reported with its file and line instead of overflowing later.
+
+    Args:
+        table: the rows read by ``read_table``.
+        column: column index.
+        name: the column's name with unit (for the message).
+        low, high: the plausible range.
+        inclusive: False makes the bounds themselves implausible (a steering angle of pi/2).
+    """
+    values = table.values[:, column]
+    bad = (values < low) | (values > high) if inclusive else (values <= low) | (values >= high)
+    if np.any(bad):
+        row = int(np.argmax(bad))
+        brackets = "[]" if inclusive else "()"
+        raise DataError(
+            f"{table.where(row)}: {name} {float(values[row])!r} is outside the plausible range "
+            f"{brackets[0]}{low:g}, {high:g}{brackets[1]}",
+            table.path,
+        )
+
+
+def check_stream_end(
+    odometry: Table, last_needed_s: float, needed_by: Path, tolerance_s: float
+) -> None:
+    """Raise DataError when the odometry stream stops before the data that needs it.
+
+    A file cut short (at a line break, so every remaining line parses) would otherwise be
+    extrapolated in a straight line to the end of the run.
+
+    Args:
+        odometry: the odometry table, time in column 0.
+        last_needed_s: the last time another stream (sightings) needs a pose at [s].
+        needed_by: that stream's file (named in the message).
+        tolerance_s: how much earlier the odometry may end [s].
+    """
+    end_s = float(odometry.values[-1, 0])
+    if last_needed_s > end_s + tolerance_s:
+        raise DataError(
+            f"stops at time {end_s!r} ({odometry.where(len(odometry) - 1)}), "
+            f"{last_needed_s - end_s:.3f} s before the last record of {Path(needed_by).name} "
+            f"({last_needed_s!r}): the file is truncated",
+            odometry.path,
         )

@@ -39,7 +39,7 @@ from omnislam.datasets._common import (
     interpolate_se2,
     odometry_from_poses,
 )
-from omnislam.datasets._text import StampOrder, read_table
+from omnislam.datasets._text import StampOrder, Table, check_range, check_stream_end, read_table
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, Sequence
 from omnislam.errors import ConfigError, DataError
 
@@ -63,6 +63,16 @@ VICON_MAX_GAP_S = 0.5
 #: bias of about +4 cm (Leung et al. 2011; median residual here +0.04 m) is left in the data.
 SIGMA_RANGE_M = 0.15
 SIGMA_BEARING_RAD = 0.02
+
+#: plausible commanded speeds of an iRobot Create (it tops out at 0.5 m/s; dataset 6 commands
+#: at most 0.6 m/s and 0.6 rad/s): anything outside is a corrupt file, not a fast robot
+MAX_SPEED_M_S = 5.0
+MAX_TURN_RATE_RAD_S = 10.0
+#: plausible sighting range [m] (the room is 15 m x 8 m)
+MAX_RANGE_M = 100.0
+
+#: the odometry may end this much before the last sighting [s] (dataset 6: it ends after it)
+ODOMETRY_END_TOLERANCE_S = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,16 +125,33 @@ def read_robot_groundtruth(path: Path) -> Trajectory:
     return Trajectory.from_se2(table.values[:, 0], table.values[:, 1:4])
 
 
+def read_robot_odometry_table(path: Path) -> Table:
+    """``RobotN_Odometry.dat`` -> its rows [time s, v m/s, omega rad/s], speeds checked.
+
+    Raises:
+        DataError: malformed file or a speed outside the plausible range (naming the line).
+    """
+    table = read_table(path, ("time[s]", "v[m/s]", "omega[rad/s]"))
+    check_range(table, 1, "v[m/s]", -MAX_SPEED_M_S, MAX_SPEED_M_S)
+    check_range(table, 2, "omega[rad/s]", -MAX_TURN_RATE_RAD_S, MAX_TURN_RATE_RAD_S)
+    return table
+
+
 def read_robot_odometry(path: Path) -> np.ndarray:
     """``RobotN_Odometry.dat`` -> (K, 3) [time s, v m/s, omega rad/s] (commanded velocities)."""
-    table = read_table(path, ("time[s]", "v[m/s]", "omega[rad/s]"))
-    return np.array(table.values)
+    return np.array(read_robot_odometry_table(path).values)
 
 
 def read_robot_measurements(path: Path, barcodes: dict[int, int]) -> Sightings:
-    """``RobotN_Measurement.dat`` -> landmark sightings with barcodes mapped to subjects."""
+    """``RobotN_Measurement.dat`` -> landmark sightings with barcodes mapped to subjects.
+
+    Raises:
+        DataError: malformed file, no sightings at all (empty or header only), a negative or
+            implausible range (naming the line).
+    """
     columns = ("time[s]", "barcode", "range[m]", "bearing[rad]")
-    table = read_table(path, columns, min_rows=0)
+    table = read_table(path, columns, min_rows=1)
+    check_range(table, 2, "range[m]", -np.inf, MAX_RANGE_M)
     values = table.values
     codes = values[:, 1].astype(np.int64)
     subjects = np.array([barcodes.get(int(c), -1) for c in codes], dtype=np.int64)
@@ -191,8 +218,16 @@ def load_mrclam(
         raise ConfigError(f"{folder}: no files for robot={robot} (found: {', '.join(robots)})")
     barcodes = read_barcodes(folder / "Barcodes.dat")
     landmark_ids, landmarks_xy = read_landmark_groundtruth(folder / "Landmark_Groundtruth.dat")
-    odometry = read_robot_odometry(files["Odometry"])
+    odometry_table = read_robot_odometry_table(files["Odometry"])
+    odometry = np.array(odometry_table.values)
     sightings = read_robot_measurements(files["Measurement"], barcodes)
+    if len(sightings.stamps_s):
+        check_stream_end(
+            odometry_table,
+            float(sightings.stamps_s[-1]),
+            files["Measurement"],
+            ODOMETRY_END_TOLERANCE_S,
+        )
     vicon_path = folder / f"Robot{robot}_Groundtruth.dat"
     vicon = read_robot_groundtruth(vicon_path) if vicon_path.is_file() else None
 

@@ -158,9 +158,14 @@ class Sequence:
         if n > 1 and np.any(np.diff(stamps) <= 0):
             raise DataError(f"{self.name}: frame stamps must be strictly increasing")
         object.__setattr__(self, "stamps_s", stamps)
-        object.__setattr__(
-            self, "odometry_r", _frozen(self.odometry_r, float, (n, 3), f"{self.name}: odometry_r")
-        )
+        odometry = _frozen(self.odometry_r, float, (n, 3), f"{self.name}: odometry_r")
+        if not np.all(np.isfinite(odometry)):
+            k = int(np.argmax(~np.all(np.isfinite(odometry), axis=1)))
+            raise DataError(
+                f"{self.name}: the odometry of frame {k} (t = {float(stamps[k])!r} s) is not "
+                "finite (implausible speeds in the data?)"
+            )
+        object.__setattr__(self, "odometry_r", odometry)
         if self.odometry_true_r is not None:
             object.__setattr__(
                 self,

@@ -33,7 +33,7 @@ import numpy as np
 from omnislam.core.ackermann import AckermannGeometry, integrate_ackermann
 from omnislam.core.types import UNKNOWN_ID, Trajectory
 from omnislam.datasets._common import group_sightings, interpolate_se2, odometry_from_poses
-from omnislam.datasets._text import StampOrder, read_table
+from omnislam.datasets._text import StampOrder, Table, check_range, check_stream_end, read_table
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, Sequence
 from omnislam.errors import DataError
 
@@ -51,15 +51,35 @@ GPS_MAX_GAP_S = 0.5
 SIGMA_RANGE_M = 0.5
 SIGMA_BEARING_RAD = 0.05
 
+#: plausible encoder speed [m/s] (the run tops out near 7 m/s) and steering angle (the
+#: Ackermann model is singular at +-pi/2) [rad]
+MAX_SPEED_M_S = 50.0
+MAX_STEERING_RAD = np.pi / 2
+#: plausible laser range [m] (the SICK laser reads at most ~80 m)
+MAX_RANGE_M = 200.0
+#: ``inputs.dat`` may end this much before the last tree detection [s] (it ends after it)
+INPUTS_END_TOLERANCE_S = 0.5
+
 GPS_NOTE = (
     "GPS positions (partial: compared only where GPS exists; no heading, yaw is a placeholder)"
 )
 
 
+def read_inputs_table(path: Path) -> Table:
+    """``inputs.dat`` -> its rows [time s, encoder speed m/s, steering rad], values checked.
+
+    Raises:
+        DataError: malformed file, or a speed or steering angle outside the plausible range.
+    """
+    table = read_table(path, ("time[s]", "speed[m/s]", "steering[rad]"))
+    check_range(table, 1, "speed[m/s]", -MAX_SPEED_M_S, MAX_SPEED_M_S)
+    check_range(table, 2, "steering[rad]", -MAX_STEERING_RAD, MAX_STEERING_RAD, inclusive=False)
+    return table
+
+
 def read_inputs(path: Path) -> np.ndarray:
     """``inputs.dat`` -> (K, 3) [time s, encoder speed m/s, steering rad] (40 Hz)."""
-    table = read_table(path, ("time[s]", "speed[m/s]", "steering[rad]"))
-    return np.array(table.values)
+    return np.array(read_inputs_table(path).values)
 
 
 def read_measurements(path: Path) -> np.ndarray:
@@ -72,6 +92,7 @@ def read_measurements(path: Path) -> np.ndarray:
     if np.any(table.values[:, 1] < 0):
         row = int(np.argmax(table.values[:, 1] < 0))
         raise DataError(f"{table.where(row)}: negative range", path)
+    check_range(table, 1, "range[m]", 0.0, MAX_RANGE_M)
     return np.array(table.values)
 
 
@@ -113,8 +134,15 @@ def load_victoria_park(
     """
     folder = Path(folder)
     geometry = geometry or AckermannGeometry()
-    inputs = read_inputs(folder / "inputs.dat")
+    inputs_table = read_inputs_table(folder / "inputs.dat")
+    inputs = np.array(inputs_table.values)
     detections = read_measurements(folder / "measurements.dat")
+    check_stream_end(
+        inputs_table,
+        float(detections[-1, 0]),
+        folder / "measurements.dat",
+        INPUTS_END_TOLERANCE_S,
+    )
     frame_stamps = np.unique(detections[:, 0])
     wTl = integrate_ackermann(inputs[:, 0], inputs[:, 1], inputs[:, 2], frame_stamps, geometry)
     range_bearing = group_sightings(

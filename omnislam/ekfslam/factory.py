@@ -26,3 +26,8 @@ def make_estimator(info: object, options: Mapping[str, str], rng: np.random.Gene
     if modality is not None and modality is not Modality.RANGE_BEARING_2D:
         raise ConfigError(f"ekfslam consumes range_bearing_2d sightings, not {modality.value}")
     return EKFSLAM(apply_options(EKFSLAMConfig(), options))
+
+
+def check_options(options: Mapping[str, str]) -> None:
+    """Validate ``--set`` options against ``EKFSLAMConfig`` without building the filter."""
+    apply_options(EKFSLAMConfig(), options)

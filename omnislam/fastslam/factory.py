@@ -33,9 +33,8 @@ def make_fastslam(
     return FastSLAM(config, rng, modality=modality, motion=motion, initial_pose=initial_pose)
 
 
-def _make(
-    variant: Variant, info: object, options: Mapping[str, str], rng: np.random.Generator
-) -> FastSLAM:
+def _config(variant: Variant, info: object, options: Mapping[str, str]) -> FastSLAMConfig:
+    """The configuration of ``variant``: its preset (or ``preset=NAME``) with ``--set``."""
     options = dict(options)
     if _REMOVED_OPTION in options:
         raise ConfigError(
@@ -51,8 +50,24 @@ def _make(
     height = getattr(info, "sensor_height_m", None)
     if height is not None and "sensor_height_m" not in options:
         config = config.with_(sensor_height_m=float(height))
+    return apply_options(config, options)
+
+
+def _make(
+    variant: Variant, info: object, options: Mapping[str, str], rng: np.random.Generator
+) -> FastSLAM:
     modality = getattr(info, "modality", None)
-    return make_fastslam(apply_options(config, options), modality, rng)
+    return make_fastslam(_config(variant, info, options), modality, rng)
+
+
+def check_fastslam1_options(options: Mapping[str, str]) -> None:
+    """Validate ``fastslam1``'s ``--set`` options without building the filter."""
+    _config(Variant.FASTSLAM1, None, options)
+
+
+def check_fastslam2_options(options: Mapping[str, str]) -> None:
+    """Validate ``fastslam2``'s ``--set`` options without building the filter."""
+    _config(Variant.FASTSLAM2, None, options)
 
 
 def make_fastslam1(info: object, options: Mapping[str, str], rng: np.random.Generator) -> FastSLAM:

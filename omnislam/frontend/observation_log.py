@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from omnislam._files import NPZ_ERRORS, npz_reason, output_error
 from omnislam.core.types import Bearings, FrameInput, Odometry, RangeBearing, VerticalLines
 from omnislam.errors import DataError
 
@@ -157,12 +158,18 @@ def save_observation_log(log: ObservationLog, path: str | Path) -> None:
         "stats": dict(log.stats),
     }
     arrays["meta"] = np.array(json.dumps(meta, sort_keys=True))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(suffix=".npz", dir=path.parent)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(suffix=".npz", dir=path.parent)
+    except OSError as exc:
+        raise output_error(exc, path, "observation log") from None
     try:
         with os.fdopen(fd, "wb") as handle:
             np.savez_compressed(handle, **arrays)
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise output_error(exc, path, "observation log") from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -182,8 +189,8 @@ def _read_meta(path: Path, data: Any | None = None) -> dict[str, Any]:
         else:
             text = str(data["meta"])
         meta = json.loads(text)
-    except (OSError, KeyError, ValueError, EOFError) as exc:
-        raise DataError(f"not an observation log: {exc}", path) from exc
+    except NPZ_ERRORS as exc:
+        raise DataError(f"not an observation log ({npz_reason(exc)})", path) from None
     if not isinstance(meta, dict) or meta.get("format") != LOG_FORMAT:
         raise DataError("not an observation log", path)
     if meta.get("version") != LOG_FORMAT_VERSION:
@@ -210,8 +217,10 @@ def load_observation_log(
     path = Path(path)
     try:
         npz = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, EOFError) as exc:
-        raise DataError(f"cannot read observation log: {exc}", path) from exc
+    except FileNotFoundError:
+        raise DataError("observation log not found", path) from None
+    except NPZ_ERRORS as exc:
+        raise DataError(f"cannot read observation log ({npz_reason(exc)})", path) from None
     with npz as data:
         meta = _read_meta(path, data)
         if dataset_id is not None and meta["dataset_id"] != dataset_id:
@@ -225,8 +234,8 @@ def load_observation_log(
         try:
             arrays = {key: data[key] for key in data.files if key != "meta"}
             frames, pixels = _frames_from_arrays(arrays)
-        except (KeyError, ValueError, IndexError) as exc:
-            raise DataError(f"malformed observation log: {exc}", path) from exc
+        except (*NPZ_ERRORS, IndexError) as exc:
+            raise DataError(f"malformed observation log ({npz_reason(exc)})", path) from None
     return ObservationLog(
         dataset_id=meta["dataset_id"],
         config_hash=meta["config_hash"],

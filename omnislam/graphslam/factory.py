@@ -25,6 +25,11 @@ def _config(info: object, options: Mapping[str, str]) -> GraphSLAMConfig:
     return apply_options(config, options)
 
 
+def check_options(options: Mapping[str, str]) -> None:
+    """Validate ``--set`` options (preset and every field) without building the graph."""
+    _config(None, options)
+
+
 def _modality(info: object) -> Modality:
     """The stream the registry resolved (``SequenceInfo.modality``)."""
     modality = getattr(info, "modality", None)

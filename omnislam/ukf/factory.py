@@ -47,3 +47,8 @@ def make_estimator(
     if config.sigma_bearing_rad is None and sigma is not None and sigma <= 0:
         raise ConfigError(f"ukf: {name} states a non-positive bearing sigma")
     return VerticalLineUKF(prior_map, config, modality, image_line)
+
+
+def check_options(options: Mapping[str, str]) -> None:
+    """Validate ``--set`` options against ``UKFConfig`` without building the filter."""
+    apply_options(UKFConfig(), options)

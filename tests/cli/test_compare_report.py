@@ -111,11 +111,22 @@ def test_compare_reports_failed_cells_with_exit_1(tmp_path, capsys):
     grid = grid_file(
         tmp_path,
         "datasets: [data/room.log]\n"
-        "estimators:\n  - {estimator: deadreckoning, options: {speed: 2}}\n",
+        "estimators: [deadreckoning, ukf]\n",  # ukf finds no map: known only at run time
     )
     assert main(["compare", str(grid), "--out", str(tmp_path / "r"), "--workers", "0"]) == 1
     err = capsys.readouterr().err
-    assert "cell room__deadreckoning__s0 failed" in err and "takes no options" in err
+    assert "cell room__ukf__s0 failed" in err and "room__deadreckoning__s0" not in err
+
+
+def test_compare_refuses_a_bad_option_before_any_cell_runs(tmp_path, capsys):
+    grid = grid_file(
+        tmp_path,
+        "datasets: [data/room.log]\n"
+        "estimators:\n  - {estimator: deadreckoning, options: {speed: 2}}\n",
+    )
+    assert main(["compare", str(grid), "--out", str(tmp_path / "r"), "--workers", "0"]) == 2
+    one_line_error(capsys, "room__deadreckoning__s0", "takes no options")
+    assert not (tmp_path / "r").exists()
 
 
 def test_report_bad_input_exits_2_and_writes_nothing(tmp_path, capsys):

@@ -18,6 +18,7 @@ from omnislam.compare.grid import load_grid
 from omnislam.compare.run_metrics import MEASURED_KEYS, read_run_metrics
 from omnislam.compare.rundir import METRICS
 from omnislam.compare.runner import CELLS, CellStatus, SerialExecutor, run_grid
+from omnislam.errors import ConfigError
 
 GRID = """
 name: rooms
@@ -159,16 +160,24 @@ def test_lost_workers_are_retried_a_bounded_number_of_times(tmp_path):
     assert list((tmp_path / "out2" / CELLS).iterdir()) == []
 
 
-def test_a_cell_with_a_bad_option_fails_alone_and_is_not_retried(tmp_path):
+def test_a_bad_option_fails_the_whole_grid_before_any_cell_runs(tmp_path):
     path = make_grid(tmp_path)
     path.write_text(path.read_text() + "overrides: [{}, {particles: 5}]\n")
+    with pytest.raises(ConfigError, match=r"room_a__deadreckoning__s0__particles=5.*particles"):
+        load_grid(path)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_cell_that_fails_at_run_time_fails_alone_and_is_not_retried(tmp_path):
+    path = make_grid(tmp_path)
+    path.write_text(path.read_text().replace("[deadreckoning]", "[deadreckoning, ukf]"))
     counting = CountingExecutor()
     result = run_grid(load_grid(path), tmp_path / "out", lambda: counting)
     assert result.count(CellStatus.COMPUTED) == 4 and result.count(CellStatus.FAILED) == 4
     assert counting.submitted == 8
     failed = [o for o in result.outcomes if o.status is CellStatus.FAILED]
-    assert all("takes no options" in o.error for o in failed)
-    assert failed[0].cell.cell_id == "room_a__deadreckoning__s0__particles=5"
+    assert all("ukf" in o.error for o in failed)  # no map or no usable stream: found at run time
+    assert failed[0].cell.cell_id == "room_a__ukf__s0"
 
 
 def test_local_process_pool_survives_a_killed_worker(tmp_path):

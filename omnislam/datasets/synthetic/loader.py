@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from omnislam._files import NPZ_ERRORS, npz_reason
 from omnislam.core.se import se2_from_se3
 from omnislam.core.types import UNKNOWN_ID, PriorMap, RangeBearing
 from omnislam.datasets._common import Association
@@ -100,8 +101,8 @@ class SyntheticFolder:
         try:
             with np.load(path, allow_pickle=False) as data:
                 return np.asarray(data["surface_id"], dtype=np.int32)
-        except (OSError, KeyError, ValueError) as exc:
-            raise DataError(f"cannot read ground-truth map: {exc}", path) from exc
+        except NPZ_ERRORS as exc:
+            raise DataError(f"cannot read ground-truth map ({npz_reason(exc)})", path) from None
 
     def ground_truth_maps(self, index: int) -> GroundTruthMaps:
         """World points and surface ids of frame ``index`` (see ``writer`` for how)."""
@@ -159,6 +160,14 @@ class SyntheticFolder:
         bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
         if bgr is None:
             raise DataError("cannot read image", path)
+        if self.rig is not None:
+            camera = self.rig.camera
+            if bgr.shape[:2] != (camera.height, camera.width):
+                raise DataError(
+                    f"image is {bgr.shape[1]}x{bgr.shape[0]} px, the calibration "
+                    f"({self.path / 'calibration.yaml'}) is for {camera.width}x{camera.height}",
+                    path,
+                )
         return np.ascontiguousarray(bgr[..., ::-1])
 
 
@@ -198,8 +207,8 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
     try:
         with np.load(laser_path, allow_pickle=False) as data:
             laser = LaserScans(data["angles_rad"], data["ranges_m"], float(data["max_range_m"]))
-    except (OSError, KeyError, ValueError) as exc:
-        raise DataError(f"cannot read laser scans: {exc}", laser_path) from exc
+    except NPZ_ERRORS as exc:
+        raise DataError(f"cannot read laser scans ({npz_reason(exc)})", laser_path) from None
     landmarks = _read_csv(root / "landmarks.csv", 4)
     images = sorted(int(p.stem) for p in (root / "images").glob("*.png")) if (
         root / "images").is_dir() else []
@@ -217,6 +226,8 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
         walls_w=walls.reshape(-1, 2, 2),
         initial_pose_w=se2_from_se3(gt_traj.poses_w[0]),
     )
+    if images and folder.rig is not None:
+        _check_image_size(folder, images)
     return Sequence(
         name=root.name,
         source=f"synthetic preset {meta['preset']} (seed {meta['seed']}): {meta['source']}",
@@ -246,3 +257,10 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
             "backend": str(meta.get("backend")),
         },
     )
+
+
+def _check_image_size(folder: SyntheticFolder, images: list[int]) -> None:
+    """The first and last images against the calibration's size, at load time (not after a
+    front-end pass that would find no tracks); ``SyntheticFolder.image`` checks every one."""
+    for index in sorted({images[0], images[-1]}):
+        folder.image(index)

@@ -51,6 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
+from omnislam._files import check_output_location, output_error
 from omnislam.core.types import Trajectory
 from omnislam.datasets.synthetic.raycast import Backend
 from omnislam.datasets.synthetic.render import Renderer
@@ -94,6 +95,7 @@ def prepare_output(out: Path, overwrite: bool) -> None:
             raise DataError("exists and is not a folder", out)
         if any(out.iterdir()) and not overwrite:
             raise DataError("folder exists and is not empty (pass overwrite to replace it)", out)
+    check_output_location(out, "synthetic folder")
 
 
 def write_synthetic(
@@ -124,11 +126,15 @@ def write_synthetic(
     out = Path(out)
     prepare_output(out, overwrite)
     backend = Backend.default() if backend is None else Backend(backend)
-    out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
-    if tmp.exists():
-        shutil.rmtree(tmp)
-    tmp.mkdir()
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        _remove_stale_partials(out)
+        if tmp.exists():
+            shutil.rmtree(tmp)
+        tmp.mkdir()
+    except OSError as exc:
+        raise output_error(exc, out, "synthetic folder") from None
     try:
         n = sim.stamps_s.shape[0]
         meta = {
@@ -190,10 +196,27 @@ def write_synthetic(
             out.rename(trash)
             shutil.rmtree(trash)
         tmp.rename(out)
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise output_error(exc, out, "synthetic folder") from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return out
+
+
+def _remove_stale_partials(out: Path) -> None:
+    """Remove ``.NAME.partial-PID`` folders of writers that no longer run (killed)."""
+    for candidate in out.parent.glob(f".{out.name}.partial-*"):
+        pid = candidate.name.rsplit("-", 1)[-1]
+        if not pid.isdigit() or int(pid) == os.getpid():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            shutil.rmtree(candidate, ignore_errors=True)
+        except PermissionError:
+            pass
 
 
 def _cv2() -> object:

@@ -1,0 +1,875 @@
+"""Malformed input, command by command and loader by loader: the README's promise.
+
+Every case builds its input in ``tmp_path`` (nothing committed), runs the console script
+in-process and demands: exit code 2, exactly one line on stderr that names the file or the key,
+no traceback, and no file or folder left behind that was not there before.
+"""
+
+from __future__ import annotations
+
+import gzip
+import shutil
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from omnislam.cli import main
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "compare"))
+from room_log import write_room_log
+
+# ---- generated fixtures ------------------------------------------------------------------------
+
+
+def odometry_text(seconds: float = 10.0, v: float = 0.1, omega: float = 0.05) -> str:
+    stamps = np.arange(0.0, seconds + 1e-9, 0.1)
+    return "# time v omega\n" + "".join(f"{t:.3f} {v} {omega}\n" for t in stamps)
+
+
+def measurement_text(seconds: float = 9.0) -> str:
+    stamps = np.arange(1.0, seconds + 1e-9, 0.5)
+    return "# time barcode range bearing\n" + "".join(f"{t:.3f} 63 1.5 0.2\n" for t in stamps)
+
+
+def groundtruth_text(seconds: float = 10.0) -> str:
+    stamps = np.arange(0.0, seconds + 1e-9, 0.1)
+    return "# time x y theta\n" + "".join(f"{t:.3f} {0.1 * t:.4f} 0.0 0.0\n" for t in stamps)
+
+
+def mrclam(tmp: Path, **files: str) -> Path:
+    """A tiny MR.CLAM folder (robot 1, one landmark); ``files`` replace single files."""
+    folder = tmp / "MRCLAM_Tiny"
+    folder.mkdir()
+    contents = {
+        "Barcodes.dat": "# subject barcode\n1 5\n6 63\n",
+        "Landmark_Groundtruth.dat": "# subject x y sx sy\n6 2.0 0.5 0.001 0.001\n",
+        "Robot1_Odometry.dat": odometry_text(),
+        "Robot1_Measurement.dat": measurement_text(),
+        "Robot1_Groundtruth.dat": groundtruth_text(),
+    }
+    for name, text in {**contents, **files}.items():
+        (folder / name).write_text(text)
+    return folder
+
+
+def victoria(tmp: Path, **files: str) -> Path:
+    folder = tmp / "park"
+    folder.mkdir(parents=True)
+    stamps = np.arange(0.0, 10.0 + 1e-9, 0.025)
+    contents = {
+        "inputs.dat": "".join(f"{t:.3f} 2.0 0.01\n" for t in stamps),
+        "measurements.dat": "".join(f"{t:.3f} 8.0 1.2 0.3\n" for t in np.arange(0.5, 9.6, 0.5)),
+        "gps.dat": "".join(f"{t:.3f} {2 * t:.3f} 0.0\n" for t in np.arange(0.0, 10.01, 0.2)),
+    }
+    for name, text in {**contents, **files}.items():
+        (folder / name).write_text(text)
+    return folder
+
+
+def run_args(dataset: Path | str, tmp: Path, estimator: str = "deadreckoning", *extra: str):
+    return ["run", str(dataset), "--estimator", estimator, "--out", str(tmp / "R"), *extra]
+
+
+def cut(text: str, fraction: float) -> str:
+    """The first ``fraction`` of the lines (a file cut at a line break)."""
+    lines = text.splitlines(keepends=True)
+    return "".join(lines[: int(len(lines) * fraction)])
+
+
+def replace_line(text: str, index: int, line: str) -> str:
+    lines = text.splitlines(keepends=True)
+    lines[index] = line + "\n"
+    return "".join(lines)
+
+
+ODO = "ODOMETRY 0 1 1 0 0 0.0001 0 0 4e-06 0 4e-06\n"
+
+
+def flaser(stamp: float, beams: int = 4) -> str:
+    ranges = " ".join(["1.0"] * beams)
+    return f"FLASER {beams} {ranges} 0 0 0 0 0 0 {stamp} host {stamp}\n"
+
+
+class Fixtures:
+    """What several cases share, made once per module (a valid RUN_DIR, a synthetic folder)."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = root
+        self._run_dir: Path | None = None
+        self._synthetic: Path | None = None
+
+    def run_dir(self, tmp: Path) -> Path:
+        if self._run_dir is None:
+            log = write_room_log(self.root / "data" / "room.log", frames=20)
+            self._run_dir = self.root / "valid-run"
+            argv = ["run", str(log), "--estimator", "deadreckoning", "--out", str(self._run_dir)]
+            assert main(argv) == 0
+        copy = tmp / "RUN"
+        shutil.copytree(self._run_dir, copy)
+        return copy
+
+    def synthetic(self, tmp: Path) -> Path:
+        if self._synthetic is None:
+            pytest.importorskip("cv2")
+            from omnislam.datasets.synthetic.presets import PRESETS
+            from omnislam.datasets.synthetic.simulate import simulate
+            from omnislam.datasets.synthetic.writer import write_synthetic
+
+            self._synthetic = self.root / "synthetic"
+            write_synthetic(self._synthetic, simulate(PRESETS["demo"], 0, max_images=1))
+        copy = tmp / "synth"
+        shutil.copytree(self._synthetic, copy)
+        return copy
+
+
+def truncate(path: Path, keep: float = 0.5) -> None:
+    data = path.read_bytes()
+    path.write_bytes(data[: int(len(data) * keep)])
+
+
+def edit_yaml(path: Path, old: str, new: str) -> None:
+    text = path.read_text()
+    assert old in text, (path, old)
+    path.write_text(text.replace(old, new, 1))
+
+
+def small_png(path: Path, width: int = 32, height: int = 24) -> None:
+    import cv2
+
+    cv2.imwrite(str(path), np.zeros((height, width, 3), np.uint8))
+
+
+def grid(tmp: Path, body: str, name: str = "grid.yaml") -> Path:
+    write_room_log(tmp / "data" / "room.log", frames=20)
+    path = tmp / name
+    path.write_text(body)
+    return path
+
+
+GRID_OK = "datasets: [data/room.log]\nestimators: [deadreckoning]\n"
+
+# ---- the cases: id -> builder(tmp, fixtures) -> (argv, what the line must name) --------------
+
+Case = Callable[[Path, Fixtures], tuple[list[str], str]]
+CASES: dict[str, Case] = {}
+
+
+def case(name: str) -> Callable[[Case], Case]:
+    def register(fn: Case) -> Case:
+        assert name not in CASES
+        CASES[name] = fn
+        return fn
+
+    return register
+
+
+def _mrclam_case(name: str, file: str, text: Callable[[], str], needle: str | None = None):
+    @case(f"mrclam-{name}")
+    def build(tmp: Path, _fx: Fixtures) -> tuple[list[str], str]:
+        folder = mrclam(tmp, **{file: text()})
+        return run_args(folder, tmp), needle or file
+
+    return build
+
+
+MEAS, ODOM, GT = "Robot1_Measurement.dat", "Robot1_Odometry.dat", "Robot1_Groundtruth.dat"
+_mrclam_case("measurement-empty", MEAS, lambda: "")
+_mrclam_case("measurement-header-only", MEAS, lambda: "# time barcode range bearing\n")
+_mrclam_case(
+    "measurement-negative-range", MEAS, lambda: replace_line(measurement_text(), 3, "2.0 63 -1 0")
+)
+_mrclam_case(
+    "measurement-absurd-range", MEAS, lambda: replace_line(measurement_text(), 3, "2.0 63 1e9 0")
+)
+_mrclam_case(
+    "measurement-not-a-number", MEAS, lambda: replace_line(measurement_text(), 3, "2.0 63 x 0")
+)
+_mrclam_case("measurement-cut-mid-line", MEAS, lambda: measurement_text() + "9.5 63")
+_mrclam_case("measurement-time-backwards", MEAS, lambda: measurement_text() + "0.5 63 1 0\n")
+_mrclam_case("measurement-nan", MEAS, lambda: replace_line(measurement_text(), 3, "2.0 63 nan 0"))
+_mrclam_case("odometry-cut-at-line-break", ODOM, lambda: cut(odometry_text(), 0.5), "stops at time")
+_mrclam_case(
+    "odometry-speed-1e308", ODOM, lambda: replace_line(odometry_text(), 20, "1.950 1e308 0")
+)
+_mrclam_case(
+    "odometry-turn-1e308", ODOM, lambda: replace_line(odometry_text(), 20, "1.950 0 1e308")
+)
+_mrclam_case("odometry-speed-inf", ODOM, lambda: replace_line(odometry_text(), 20, "1.950 inf 0"))
+_mrclam_case("odometry-speed-nan", ODOM, lambda: replace_line(odometry_text(), 20, "1.950 nan 0"))
+_mrclam_case("odometry-speed-100", ODOM, lambda: replace_line(odometry_text(), 20, "1.950 100 0"))
+_mrclam_case(
+    "odometry-not-a-number", ODOM, lambda: replace_line(odometry_text(), 20, "1.950 fast 0")
+)
+_mrclam_case("odometry-cut-mid-line", ODOM, lambda: odometry_text() + "10.1 0.1")
+_mrclam_case(
+    "odometry-time-backwards", ODOM, lambda: replace_line(odometry_text(), 20, "0.5 0.1 0")
+)
+_mrclam_case("odometry-empty", ODOM, lambda: "")
+_mrclam_case("odometry-binary", ODOM, lambda: "\x00\x01\x02garbage\n")
+_mrclam_case("barcodes-duplicate", "Barcodes.dat", lambda: "1 5\n6 63\n7 63\n")
+_mrclam_case("barcodes-empty", "Barcodes.dat", lambda: "")
+_mrclam_case("landmarks-columns", "Landmark_Groundtruth.dat", lambda: "6 2.0 0.5\n")
+_mrclam_case("groundtruth-repeated-time", GT, lambda: groundtruth_text() + "10.000 1 0 0\n")
+_mrclam_case(
+    "groundtruth-not-a-number", GT, lambda: replace_line(groundtruth_text(), 5, "0.4 x 0 0")
+)
+
+
+@case("mrclam-missing-landmarks-file")
+def _(tmp, fx):
+    folder = mrclam(tmp)
+    (folder / "Landmark_Groundtruth.dat").unlink()
+    return run_args(folder, tmp), "Landmark_Groundtruth.dat"
+
+
+@case("mrclam-unknown-robot")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "robot=4"), "robot=4"
+
+
+@case("mrclam-robot-not-a-number")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "robot=one"), "robot"
+
+
+@case("mrclam-unknown-association")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "graphslam", "--set", "association=maybe"), "association"
+
+
+def _park_case(name: str, file: str, text: Callable[[str], str], needle: str | None = None):
+    @case(f"victoria-{name}")
+    def build(tmp: Path, _fx: Fixtures) -> tuple[list[str], str]:
+        base = victoria(tmp / "base")
+        folder = victoria(tmp, **{file: text((base / file).read_text())})
+        shutil.rmtree(tmp / "base")
+        return run_args(folder, tmp), needle or file
+
+    return build
+
+
+_park_case("inputs-cut-at-line-break", "inputs.dat", lambda t: cut(t, 0.5), "stops at time")
+_park_case("inputs-speed-1e308", "inputs.dat", lambda t: replace_line(t, 9, "0.225 1e308 0"))
+_park_case("inputs-steering-2-rad", "inputs.dat", lambda t: replace_line(t, 9, "0.225 2 2.0"))
+_park_case("inputs-not-a-number", "inputs.dat", lambda t: replace_line(t, 9, "0.225 x 0"))
+_park_case("inputs-cut-mid-line", "inputs.dat", lambda t: t + "10.025 2.0")
+_park_case("inputs-time-backwards", "inputs.dat", lambda t: replace_line(t, 9, "0.1 2 0"))
+_park_case(
+    "measurements-negative-range",
+    "measurements.dat",
+    lambda t: replace_line(t, 2, "1.5 -8 1.2 0.3"),
+)
+_park_case(
+    "measurements-absurd-range", "measurements.dat", lambda t: replace_line(t, 2, "1.5 1e7 1.2 0.3")
+)
+_park_case("measurements-empty", "measurements.dat", lambda t: "")
+_park_case("measurements-columns", "measurements.dat", lambda t: replace_line(t, 2, "1.5 8 1.2"))
+_park_case("gps-repeated-time", "gps.dat", lambda t: t + "10.000 20 0\n")
+_park_case("gps-not-a-number", "gps.dat", lambda t: replace_line(t, 3, "0.6 y 0"))
+
+
+def _gtsam_case(name: str, text: str, needle: str = "graph.txt"):
+    @case(f"gtsam-{name}")
+    def build(tmp: Path, _fx: Fixtures) -> tuple[list[str], str]:
+        path = tmp / "graph.txt"
+        path.write_text(text)
+        return run_args(path, tmp), needle
+
+    return build
+
+
+_gtsam_case("fields", ODO + "ODOMETRY 1 2 1 0 0 0.0001 0 0 4e-06\n")
+_gtsam_case("not-a-number", ODO + "LANDMARK 1 9 1 one 0.4 0 0.4\n")
+_gtsam_case("unknown-record", ODO + "VERTEX2 1 0 0 0\n")
+_gtsam_case("broken-chain", ODO + "ODOMETRY 5 6 1 0 0 0.0001 0 0 4e-06 0 4e-06\n")
+_gtsam_case("unknown-pose", ODO + "LANDMARK 7 9 1 1 0.4 0 0.4\n")
+_gtsam_case("covariance", "ODOMETRY 0 1 1 0 0 -1 0 0 4e-06 0 4e-06\n")
+
+
+def _carmen_case(name: str, text: str, needle: str = "bad.log"):
+    @case(f"carmen-{name}")
+    def build(tmp: Path, _fx: Fixtures) -> tuple[list[str], str]:
+        path = tmp / "bad.log"
+        path.write_text(text)
+        return run_args(path, tmp), needle
+
+    return build
+
+
+_carmen_case("flaser-cut", flaser(1.0)[:30] + "\n")
+_carmen_case("range-not-a-number", flaser(1.0).replace("1.0 1.0 1.0 1.0", "1.0 x 1.0 1.0"))
+_carmen_case("odom-short", "ODOM 0 0\n")
+_carmen_case("time-backwards", flaser(10.0) + flaser(1.0))
+_carmen_case("no-scans", "PARAM x 1\n")
+
+
+@case("carmen-truncated-gzip")
+def _(tmp, fx):
+    path = tmp / "cut.log.gz"
+    with gzip.open(path, "wt") as stream:
+        stream.write(flaser(1.0) * 200)
+    truncate(path, 0.9)
+    return run_args(path, tmp), "cut.log.gz"
+
+
+@case("dataset-missing")
+def _(tmp, fx):
+    return run_args(tmp / "nowhere", tmp), "nowhere"
+
+
+@case("dataset-unrecognised-folder")
+def _(tmp, fx):
+    (tmp / "stuff").mkdir()
+    (tmp / "stuff" / "notes.txt").write_text("hello\n")
+    return run_args(tmp / "stuff", tmp), "stuff"
+
+
+# -- synthetic folders and camera files
+
+
+@case("synthetic-image-wrong-size")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    small_png(folder / "images" / "000000.png")
+    return run_args(folder, tmp), "000000.png"
+
+
+@case("synthetic-principal-point-outside")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    path = folder / "calibration.yaml"
+    text = path.read_text()
+    lines = [
+        "  cu: 5000.0" if line.strip().startswith("cu:") else line for line in text.splitlines()
+    ]
+    path.write_text("\n".join(lines) + "\n")
+    return run_args(folder, tmp), "calibration.yaml"
+
+
+@case("camera-yaml-syntax")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    (folder / "calibration.yaml").write_text("camera: {model: hyperbolic\nrTc: [[1, 0]\n")
+    return run_args(folder, tmp), "calibration.yaml"
+
+
+@case("camera-unknown-model")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    edit_yaml(folder / "calibration.yaml", "model: hyperbolic", "model: fisheye9000")
+    return run_args(folder, tmp), "calibration.yaml"
+
+
+@case("camera-negative-width")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    path = folder / "calibration.yaml"
+    lines = [
+        "  width: -640" if line.strip().startswith("width:") else line
+        for line in path.read_text().splitlines()
+    ]
+    path.write_text("\n".join(lines) + "\n")
+    return run_args(folder, tmp), "calibration.yaml"
+
+
+@case("camera-rig-not-a-mapping")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    (folder / "calibration.yaml").write_text("- 1\n- 2\n")
+    return run_args(folder, tmp), "calibration.yaml"
+
+
+@case("synthetic-laser-npz-truncated")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    truncate(folder / "laser.npz")
+    return run_args(folder, tmp), "laser.npz"
+
+
+@case("synthetic-groundtruth-cut-mid-line")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    path = folder / "groundtruth.tum"
+    path.write_text(path.read_text().rstrip("\n")[:-8] + "\n")
+    return run_args(folder, tmp), "groundtruth.tum"
+
+
+@case("synthetic-odometry-not-a-number")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    path = folder / "odometry.csv"
+    lines = path.read_text().splitlines()
+    lines[1] = ",".join(["x"] * 7)
+    path.write_text("\n".join(lines) + "\n")
+    return run_args(folder, tmp), "odometry.csv"
+
+
+@case("synthetic-world-not-json")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    (folder / "world.json").write_text("{not json")
+    return run_args(folder, tmp), "world.json"
+
+
+# -- observation logs
+
+
+@case("log-truncated-npz")
+def _(tmp, fx):
+    log = tmp / "obs.npz"
+    np.savez_compressed(log, meta=np.array("{}"), index=np.arange(1000))
+    truncate(log)
+    return run_args(mrclam(tmp), tmp, "graphslam", "--log", str(log)), "obs.npz"
+
+
+@case("log-not-an-npz")
+def _(tmp, fx):
+    log = tmp / "obs.npz"
+    log.write_text("this is text\n")
+    return run_args(mrclam(tmp), tmp, "graphslam", "--log", str(log)), "obs.npz"
+
+
+@case("log-missing")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "graphslam", "--log", str(tmp / "none.npz")), "none.npz"
+
+
+@case("log-not-a-log")
+def _(tmp, fx):
+    log = tmp / "obs.npz"
+    np.savez_compressed(log, x=np.arange(3))
+    return run_args(mrclam(tmp), tmp, "graphslam", "--log", str(log)), "obs.npz"
+
+
+# -- run: options and output locations
+
+
+@case("run-unknown-estimator")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "kalmanator"), "kalmanator"
+
+
+@case("run-set-without-equals")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "graphslam", "--set", "oops"), "oops"
+
+
+@case("run-set-twice")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "graphslam", "--set", "a=1", "--set", "a=2"), "a"
+
+
+@case("run-unknown-estimator-option")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "graphslam", "--set", "bogus_knob=1"), "bogus_knob"
+
+
+@case("run-option-wrong-type")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "fastslam1", "--set", "n_particles=many"), "n_particles"
+
+
+@case("run-deadreckoning-takes-no-options")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "speed=2"), "speed"
+
+
+@case("run-wrong-id-fraction")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "graphslam", "--set", "wrong_id_fraction=2"), (
+        "wrong_id_fraction"
+    )
+
+
+@case("run-unknown-modality")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "graphslam", "--set", "modality=telepathy"), "telepathy"
+
+
+@case("run-prior-map-not-a-run-dir")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "ukf", "--set", f"prior_map={tmp / 'nope'}"), "prior_map"
+
+
+@case("run-out-parent-is-a-file")
+def _(tmp, fx):
+    folder = mrclam(tmp)
+    (tmp / "afile").write_text("x")
+    argv = ["run", str(folder), "--estimator", "deadreckoning", "--out", str(tmp / "afile" / "R")]
+    return argv, "afile"
+
+
+@case("run-out-is-a-file")
+def _(tmp, fx):
+    folder = mrclam(tmp)
+    (tmp / "afile").write_text("x")
+    argv = ["run", str(folder), "--estimator", "deadreckoning", "--out", str(tmp / "afile")]
+    return argv, "afile"
+
+
+@case("run-out-not-a-run-dir")
+def _(tmp, fx):
+    folder = mrclam(tmp)
+    (tmp / "R").mkdir()
+    (tmp / "R" / "thesis.tex").write_text("x")
+    return run_args(folder, tmp), "R"
+
+
+# -- RUN_DIRs: evaluate and report
+
+
+def _run_dir_case(
+    name: str, change: Callable[[Path], None], needle: str, command: str = "evaluate"
+):
+    @case(f"{command}-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        run = fx.run_dir(tmp)
+        change(run)
+        if command == "evaluate":
+            return ["evaluate", str(run)], needle
+        return ["report", str(run), "--out", str(tmp / "report"), "--no-exports"], needle
+
+    return build
+
+
+def _keep_lines(path: Path, count: int) -> None:
+    lines = path.read_text().splitlines(keepends=True)
+    path.write_text("".join(lines[:count]))
+
+
+def _set_config(key: str, value: str) -> Callable[[Path], None]:
+    def change(run: Path) -> None:
+        path = run / "config.yaml"
+        lines = [
+            f"{key}: {value}" if line.startswith(f"{key}:") else line
+            for line in path.read_text().splitlines()
+        ]
+        path.write_text("\n".join(lines) + "\n")
+
+    return change
+
+
+_run_dir_case(
+    "trajectory-fewer-poses", lambda r: _keep_lines(r / "trajectory.tum", 7), "trajectory.tum"
+)
+_run_dir_case(
+    "trajectory-cut-mid-line", lambda r: truncate(r / "trajectory.tum", 0.5), "trajectory.tum"
+)
+_run_dir_case("trajectory-missing", lambda r: (r / "trajectory.tum").unlink(), "trajectory.tum")
+_run_dir_case(
+    "trajectory-not-a-number",
+    lambda r: (r / "trajectory.tum").write_text("0 x 0 0 0 0 0 1\n"),
+    "trajectory.tum",
+)
+_run_dir_case("timing-fewer-rows", lambda r: _keep_lines(r / "timing.csv", 5), "timing.csv")
+_run_dir_case("timing-bad-header", lambda r: (r / "timing.csv").write_text("a,b\n"), "timing.csv")
+_run_dir_case(
+    "landmarks-bad-header", lambda r: (r / "landmarks.csv").write_text("x,y\n"), "landmarks.csv"
+)
+_run_dir_case(
+    "config-yaml-syntax",
+    lambda r: (r / "config.yaml").write_text("dataset: [oops\n"),
+    "config.yaml",
+)
+_run_dir_case(
+    "config-not-a-mapping", lambda r: (r / "config.yaml").write_text("- 1\n"), "config.yaml"
+)
+_run_dir_case("config-missing", lambda r: (r / "config.yaml").unlink(), "config.yaml")
+_run_dir_case(
+    "config-unknown-key",
+    lambda r: (r / "config.yaml").write_text((r / "config.yaml").read_text() + "colour: red\n"),
+    "config.yaml",
+)
+_run_dir_case("config-frames-negative", _set_config("frames", "-3"), "config.yaml")
+_run_dir_case("config-frames-more-than-poses", _set_config("frames", "999"), "trajectory.tum")
+_run_dir_case(
+    "config-ground-truth-kind", _set_config("ground_truth_kind", "psychic"), "config.yaml"
+)
+_run_dir_case(
+    "ground-truth-not-a-number",
+    lambda r: (r / "ground_truth.tum").write_text("0 x 0 0 0 0 0 1\n"),
+    "ground_truth.tum",
+)
+_run_dir_case(
+    "trajectory-fewer-poses",
+    lambda r: _keep_lines(r / "trajectory.tum", 7),
+    "trajectory.tum",
+    "report",
+)
+_run_dir_case(
+    "config-yaml-syntax",
+    lambda r: (r / "config.yaml").write_text("dataset: [oops\n"),
+    "config.yaml",
+    "report",
+)
+_run_dir_case(
+    "trajectory-missing", lambda r: (r / "trajectory.tum").unlink(), "trajectory.tum", "report"
+)
+
+
+@case("evaluate-no-such-run-dir")
+def _(tmp, fx):
+    return ["evaluate", str(tmp / "nothing")], "nothing"
+
+
+@case("evaluate-negative-rpe-segment")
+def _(tmp, fx):
+    return ["evaluate", str(fx.run_dir(tmp)), "--rpe-segment", "-1"], "rpe_segment"
+
+
+@case("report-missing-results")
+def _(tmp, fx):
+    return ["report", str(tmp / "missing"), "--out", str(tmp / "report")], "missing"
+
+
+@case("report-out-parent-is-a-file")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    (tmp / "afile").write_text("x")
+    return ["report", str(run), "--out", str(tmp / "afile" / "report")], "afile"
+
+
+@case("report-out-not-a-report")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    (tmp / "precious").mkdir()
+    (tmp / "precious" / "notes.txt").write_text("x")
+    return ["report", str(run), "--out", str(tmp / "precious")], "precious"
+
+
+@case("report-resolution-zero")
+def _(tmp, fx):
+    return ["report", str(fx.run_dir(tmp)), "--out", str(tmp / "r"), "--resolution", "0"], (
+        "--resolution"
+    )
+
+
+# -- grids and compare
+
+
+def _grid_case(name: str, body: str, needle: str):
+    @case(f"compare-{name}")
+    def build(tmp: Path, _fx: Fixtures) -> tuple[list[str], str]:
+        path = grid(tmp, body)
+        return ["compare", str(path), "--out", str(tmp / "results"), "--workers", "0"], needle
+
+    return build
+
+
+_grid_case("yaml-syntax", "datasets: [data/room.log\nestimators: [deadreckoning]\n", "grid.yaml")
+_grid_case("unknown-key", GRID_OK + "colour: red\n", "colour")
+_grid_case("no-estimators", "datasets: [data/room.log]\n", "estimators")
+_grid_case(
+    "unknown-estimator", "datasets: [data/room.log]\nestimators: [kalmanator]\n", "kalmanator"
+)
+_grid_case(
+    "dataset-missing", "datasets: [data/nowhere.log]\nestimators: [deadreckoning]\n", "nowhere.log"
+)
+_grid_case("seeds-not-integers", GRID_OK + "seeds: [a, b]\n", "seeds")
+_grid_case("seeds-duplicate", GRID_OK + "seeds: [1, 1]\n", "seeds")
+_grid_case(
+    "estimator-option-wrong-type",
+    "datasets: [data/room.log]\n"
+    "estimators:\n  - {estimator: fastslam1, options: {n_particles: many}}\n",
+    "n_particles",
+)
+_grid_case(
+    "estimator-option-unknown",
+    "datasets: [data/room.log]\n"
+    "estimators:\n  - {estimator: graphslam, options: {bogus_knob: 1}}\n",
+    "bogus_knob",
+)
+_grid_case(
+    "override-invalid-value",
+    "datasets: [data/room.log]\nestimators: [ekfslam]\noverrides: [{gate_probability: soon}]\n",
+    "gate_probability",
+)
+_grid_case(
+    "override-bad-modality",
+    GRID_OK.replace("deadreckoning", "graphslam") + "overrides: [{modality: telepathy}]\n",
+    "telepathy",
+)
+_grid_case(
+    "wrong-id-fraction",
+    GRID_OK.replace("deadreckoning", "graphslam") + "overrides: [{wrong_id_fraction: 5}]\n",
+    "wrong_id_fraction",
+)
+_grid_case("evaluation-unknown-key", GRID_OK + "evaluation: {colour: red}\n", "evaluation")
+_grid_case(
+    "option-not-a-scalar",
+    "datasets: [data/room.log]\nestimators:\n  - {estimator: graphslam, options: {preset: [a]}}\n",
+    "preset",
+)
+
+
+@case("compare-grid-missing")
+def _(tmp, fx):
+    return ["compare", str(tmp / "none.yaml"), "--out", str(tmp / "results")], "none.yaml"
+
+
+@case("compare-out-parent-is-a-file")
+def _(tmp, fx):
+    path = grid(tmp, GRID_OK)
+    (tmp / "afile").write_text("x")
+    return ["compare", str(path), "--out", str(tmp / "afile" / "results")], "afile"
+
+
+@case("compare-out-not-a-results-folder")
+def _(tmp, fx):
+    path = grid(tmp, GRID_OK)
+    (tmp / "precious").mkdir()
+    (tmp / "precious" / "notes.txt").write_text("x")
+    return ["compare", str(path), "--out", str(tmp / "precious")], "precious"
+
+
+@case("compare-negative-workers")
+def _(tmp, fx):
+    path = grid(tmp, GRID_OK)
+    return ["compare", str(path), "--out", str(tmp / "r"), "--workers", "-1"], "--workers"
+
+
+# -- frontend
+
+
+@case("frontend-config-yaml-syntax")
+def _(tmp, fx):
+    (tmp / "fe.yaml").write_text("sift: {n_features: 5\n")
+    return [
+        "frontend",
+        str(tmp / "ds"),
+        "--out",
+        str(tmp / "log.npz"),
+        "--config",
+        str(tmp / "fe.yaml"),
+    ], "fe.yaml"
+
+
+@case("frontend-config-not-a-mapping")
+def _(tmp, fx):
+    (tmp / "fe.yaml").write_text("- 1\n")
+    return [
+        "frontend",
+        str(tmp / "ds"),
+        "--out",
+        str(tmp / "log.npz"),
+        "--config",
+        str(tmp / "fe.yaml"),
+    ], "fe.yaml"
+
+
+@case("frontend-config-missing")
+def _(tmp, fx):
+    return [
+        "frontend",
+        str(tmp / "ds"),
+        "--out",
+        str(tmp / "log.npz"),
+        "--config",
+        str(tmp / "fe.yaml"),
+    ], "fe.yaml"
+
+
+@case("frontend-config-unknown-key")
+def _(tmp, fx):
+    (tmp / "fe.yaml").write_text("colour: red\n")
+    return [
+        "frontend",
+        str(tmp / "ds"),
+        "--out",
+        str(tmp / "log.npz"),
+        "--config",
+        str(tmp / "fe.yaml"),
+    ], "colour"
+
+
+@case("frontend-frames-zero")
+def _(tmp, fx):
+    return [
+        "frontend",
+        str(mrclam(tmp)),
+        "--out",
+        str(tmp / "log.npz"),
+        "--frames",
+        "0",
+    ], "--frames"
+
+
+@case("frontend-out-parent-is-a-file")
+def _(tmp, fx):
+    (tmp / "afile").write_text("x")
+    return ["frontend", str(mrclam(tmp)), "--out", str(tmp / "afile" / "log.npz")], "afile"
+
+
+@case("frontend-out-is-a-folder")
+def _(tmp, fx):
+    (tmp / "logs").mkdir()
+    return ["frontend", str(mrclam(tmp)), "--out", str(tmp / "logs")], "logs"
+
+
+@case("frontend-dataset-missing")
+def _(tmp, fx):
+    return ["frontend", str(tmp / "nowhere"), "--out", str(tmp / "log.npz")], "nowhere"
+
+
+# -- dataset synth
+
+
+@case("synth-out-parent-is-a-file")
+def _(tmp, fx):
+    (tmp / "afile").write_text("x")
+    return [
+        "dataset",
+        "synth",
+        "demo",
+        "--out",
+        str(tmp / "afile" / "demo"),
+        "--frames",
+        "1",
+    ], "afile"
+
+
+@case("synth-unknown-preset")
+def _(tmp, fx):
+    return ["dataset", "synth", "atlantis", "--out", str(tmp / "x")], "atlantis"
+
+
+@case("synth-out-not-empty")
+def _(tmp, fx):
+    (tmp / "demo").mkdir()
+    (tmp / "demo" / "keep.txt").write_text("x")
+    return ["dataset", "synth", "demo", "--out", str(tmp / "demo"), "--frames", "1"], "demo"
+
+
+# ---- the test --------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def fixtures(tmp_path_factory: pytest.TempPathFactory) -> Fixtures:
+    return Fixtures(tmp_path_factory.mktemp("bad-input-fixtures"))
+
+
+def tree(root: Path) -> set[Path]:
+    return {p.relative_to(root) for p in root.rglob("*")}
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(name, tmp_path, fixtures, capsys):
+    argv, needle = CASES[name](tmp_path, fixtures)
+    capsys.readouterr()
+    before = tree(tmp_path)
+    code = main(argv)
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert code == 2, err
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"omnislam {argv[0]}: error: "), err
+    assert needle in lines[0], err
+    assert "Traceback" not in err and "WARNING" not in err
+    assert tree(tmp_path) == before, sorted(map(str, tree(tmp_path) - before))
+
+
+def test_the_suite_covers_at_least_80_cases():
+    assert len(CASES) >= 80
