@@ -30,6 +30,8 @@ import io
 import json
 import os
 import shutil
+import signal
+import sys
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -109,6 +111,10 @@ class GridResult:
         return sum(o.status is status for o in self.outcomes)
 
 
+#: ``prctl`` option: the signal a process receives when its parent dies (linux/prctl.h)
+_PR_SET_PDEATHSIG = 1
+
+
 class SerialExecutor(Executor):
     """An Executor that runs each call at ``submit`` in this process (debugging, tests)."""
 
@@ -121,8 +127,29 @@ class SerialExecutor(Executor):
         return future
 
 
+def die_with_parent(parent_pid: int) -> None:
+    """Worker initializer: end this worker when the process that started it dies.
+
+    On Linux the kernel sends SIGKILL to the worker when its parent dies
+    (``prctl(PR_SET_PDEATHSIG)``), so a ``compare`` killed with SIGKILL leaves no worker
+    computing cells for nobody; a parent that died before the call is caught by the pid check.
+    Elsewhere the pool's own pipes end idle workers.
+    """
+    if sys.platform.startswith("linux"):
+        import ctypes
+        import ctypes.util
+
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+
 def local_executor_factory(workers: int) -> Callable[[], Executor]:
-    """Factory of the default executor: a process pool of ``workers`` ('spawn'), serial if 0."""
+    """Factory of the default executor: a process pool of ``workers`` ('spawn'), serial if 0.
+
+    The pool's workers die with the process that runs the grid (``die_with_parent``).
+    """
     if workers < 0:
         raise ConfigError(f"--workers must be >= 0, got {workers}")
 
@@ -133,7 +160,10 @@ def local_executor_factory(workers: int) -> Callable[[], Executor]:
         from concurrent.futures import ProcessPoolExecutor
 
         return ProcessPoolExecutor(
-            max_workers=workers, mp_context=multiprocessing.get_context("spawn")
+            max_workers=workers,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=die_with_parent,
+            initargs=(os.getpid(),),
         )
 
     return make
