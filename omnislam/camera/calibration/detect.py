@@ -7,7 +7,10 @@ refined to sub-pixel on the **original** image with ``cornerSubPix`` in a
 ``(2 w + 1)``-pixel window: ``w = 4`` is the default window of the MATLAB toolboxes
 (``wintx = winty = 4``), and on the VMR samples it reproduces the toolbox's points within
 0.001 px (median). A board imaged by a catadioptric camera is curved, but over one 9 x 9
-window a corner is still the saddle point that ``cornerSubPix`` models.
+window a corner is still the saddle point that ``cornerSubPix`` models: on the package's
+rendered boards (:mod:`~omnislam.camera.calibration.render`, 4 x 4 supersampling) the refined
+corners lie 0.06 px RMS from the exact projection (0.05 px with 8 x 8, 0.10 px with 2 x 2,
+where the box filter's aliasing, not the window, dominates).
 
 OpenCV pixels have ``(0, 0)`` at the centre of the top-left pixel, as this package.
 """
