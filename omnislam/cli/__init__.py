@@ -18,6 +18,7 @@ import logging
 import sys
 import traceback
 from collections.abc import Sequence
+from typing import NoReturn
 
 #: command name -> module of this package that implements it
 COMMANDS: dict[str, str] = {
@@ -32,8 +33,16 @@ COMMANDS: dict[str, str] = {
 }
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line on stderr (exit 2), like every other
+    bad input; the usage itself stays in ``--help``. Sub-command parsers inherit the class."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _OneLineParser(
         prog="omnislam",
         description="Compare SLAM back ends on one shared omnidirectional front end.",
     )
