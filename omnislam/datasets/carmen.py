@@ -27,6 +27,15 @@ What the files actually contain (checked on intel and aces) and how it is conver
   at four keyframes (file lines 5647, 10805, 11190, 12936): a stamp that does not increase is
   moved to ``STAMP_REPAIR_S`` after its predecessor and counted in ``info["stamps_repaired"]``;
   a step back larger than ``MAX_CLOCK_STEP_BACK_S`` is an error.
+* Some logs print stamps with too few digits (``%g``: 6 significant digits, so many scans share
+  one stamp). When more than ``LOW_RESOLUTION_FRACTION`` of the scans repeat their
+  predecessor's stamp the stamps are low-resolution, not out of order: one warning, and the
+  scans that share a stamp are spread evenly, in record order, up to the next distinct stamp
+  (the last ones at the mean scan period of the rest, or ``NOMINAL_SCAN_PERIOD_S`` when every
+  scan shares one stamp), counted in ``info["stamps_spread"]``.
+* FLASER beams cover -90..90 deg: ``n`` beams are 180/n deg apart from -90 deg for even ``n``
+  (the classic 180 beams, 1 deg apart) and 180/(n - 1) deg for odd ``n`` (181 or 361 beams end
+  at +90 deg).
 """
 
 from __future__ import annotations
@@ -58,8 +67,39 @@ PSEUDO_NOTE = (
 MAX_CLOCK_STEP_BACK_S = 5.0
 #: a repaired stamp is put this far after its predecessor [s]
 STAMP_REPAIR_S = 1e-3
-#: FLASER beams start at -90 deg and are 1 deg apart (CARMEN front laser, 180 beams)
+#: FLASER beams start at -90 deg (CARMEN front laser)
 FLASER_FIRST_BEAM_RAD = -np.pi / 2.0
+#: more than this fraction of scans repeating the previous stamp marks a low-resolution log
+LOW_RESOLUTION_FRACTION = 0.1
+#: scan period assumed when a low-resolution log gives no time span at all [s]
+NOMINAL_SCAN_PERIOD_S = 0.2
+
+
+def flaser_angles_rad(beams: int) -> np.ndarray:
+    """Beam angles of a FLASER scan of ``beams`` beams over -90..90 deg (module docstring)."""
+    spacing_deg = 180.0 / (beams - 1) if beams % 2 and beams > 1 else 180.0 / beams
+    return FLASER_FIRST_BEAM_RAD + np.deg2rad(np.arange(beams) * spacing_deg)
+
+
+def spread_low_resolution_stamps(stamps_s: np.ndarray) -> tuple[np.ndarray, int]:
+    """Spread the scans that share a printed stamp evenly up to the next distinct stamp.
+
+    Returns:
+        (stamps (N,), number of scans moved). Groups are runs of equal stamps in file order;
+        a clock step back between groups is left for ``repair_stamps`` to judge.
+    """
+    stamps = np.asarray(stamps_s, dtype=float)
+    n = len(stamps)
+    starts = np.flatnonzero(np.r_[True, np.diff(stamps) != 0])
+    ends = np.r_[starts[1:], n]
+    last = starts[-1]
+    span = stamps[last] - stamps[0]
+    period = span / last if last > 0 and span > 0 else NOMINAL_SCAN_PERIOD_S
+    out = stamps.copy()
+    for a, b in zip(starts.tolist(), ends.tolist(), strict=True):
+        t1 = stamps[b] if b < n else stamps[a] + (b - a) * period
+        out[a:b] = stamps[a] + (t1 - stamps[a]) * np.arange(b - a) / (b - a)
+    return out, int(n - len(starts))
 
 
 @dataclass(frozen=True, slots=True)
@@ -213,7 +253,18 @@ def load_carmen(path: Path, *, name: str | None = None) -> Sequence:
     """
     path = Path(path)
     record = read_carmen_log(path)
-    stamps, repaired = repair_stamps(record.stamps_s, record.lines, path)
+    stamps, spread = record.stamps_s, 0
+    repeats = int(np.sum(np.diff(stamps) == 0))
+    if repeats > LOW_RESOLUTION_FRACTION * len(stamps):
+        stamps, spread = spread_low_resolution_stamps(stamps)
+        log.warning(
+            "%s: %d of %d scans share their stamp with the previous one (stamps printed with "
+            "too few digits); their times are spread evenly between distinct stamps",
+            path,
+            repeats,
+            len(stamps),
+        )
+    stamps, repaired = repair_stamps(stamps, record.lines, path)
     if repaired:
         log.warning("%s: %d keyframe stamps out of order were moved forward", path, repaired)
     odometry = np.zeros((len(stamps), 3))
@@ -221,7 +272,7 @@ def load_carmen(path: Path, *, name: str | None = None) -> Sequence:
         odometry[1:] = se2_between(record.odom_after_scan[:-1], record.odom_at_scan[1:])
     beams = record.scan_ranges_m.shape[1]
     laser = LaserScans(
-        angles_rad=FLASER_FIRST_BEAM_RAD + np.deg2rad(np.arange(beams) * 180.0 / beams),
+        angles_rad=flaser_angles_rad(beams),
         ranges_m=record.scan_ranges_m,
         max_range_m=float(np.max(record.scan_ranges_m)),
     )
@@ -244,6 +295,7 @@ def load_carmen(path: Path, *, name: str | None = None) -> Sequence:
         if record.corrected
         else "FLASER odom fields",
         "stamps_repaired": str(repaired),
+        "stamps_spread": str(spread),
     }
     return Sequence(
         name=name or stem,

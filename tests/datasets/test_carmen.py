@@ -116,3 +116,45 @@ def test_truncated_gzip_is_a_data_error(tmp_path):
     path.write_bytes(path.read_bytes()[:-20])
     with pytest.raises(DataError, match="cannot read"):
         load_carmen(path)
+
+
+def test_low_resolution_stamps_are_spread_between_distinct_stamps(tmp_path, caplog):
+    """Stamps printed with 6 significant digits: 12 scans over two printed values. They keep
+    their order, become strictly increasing, and fill the interval to the next distinct stamp
+    (the last group at the mean scan period), with one warning."""
+    stamps = [1.00213e9] * 6 + [1.00214e9] * 6
+    text = "".join(
+        flaser((0.1 * k, 0, 0), (0.1 * k, 0, 0), stamp) for k, stamp in enumerate(stamps)
+    )
+    path = tmp_path / "lowres.log"
+    path.write_text(text)
+    with caplog.at_level("WARNING"):
+        seq = load_carmen(path)
+    assert sum("too few digits" in r.getMessage() for r in caplog.records) == 1
+    assert np.all(np.diff(seq.stamps_s) > 0)
+    assert seq.info["stamps_spread"] == "10" and seq.info["stamps_repaired"] == "0"
+    assert np.allclose(np.diff(seq.stamps_s), 1e4 / 6)  # 10 000 s over 6 scans, then the same
+    assert seq.stamps_s[0] == 1.00213e9 and seq.stamps_s[6] == 1.00214e9
+
+
+def test_a_few_repeated_stamps_are_repaired_not_spread(tmp_path):
+    stamps = [float(k) for k in range(20)]
+    stamps[10] = stamps[9]  # one repeat in 20: a clock glitch, not a low-resolution log
+    text = "".join(flaser((0.1 * k, 0, 0), (0.1 * k, 0, 0), t) for k, t in enumerate(stamps))
+    path = tmp_path / "glitch.log"
+    path.write_text(text)
+    seq = load_carmen(path)
+    assert seq.info["stamps_spread"] == "0" and seq.info["stamps_repaired"] == "1"
+    assert seq.stamps_s[10] == pytest.approx(9.001)
+
+
+@pytest.mark.parametrize(
+    ("beams", "last_deg", "step_deg"),
+    [(180, 89.0, 1.0), (181, 90.0, 1.0), (361, 90.0, 0.5), (360, 89.5, 0.5)],
+)
+def test_beam_angles_cover_minus_90_to_90_degrees(beams, last_deg, step_deg):
+    from omnislam.datasets.carmen import flaser_angles_rad
+
+    angles = np.rad2deg(flaser_angles_rad(beams))
+    assert angles[0] == pytest.approx(-90.0) and angles[-1] == pytest.approx(last_deg)
+    assert np.allclose(np.diff(angles), step_deg)
