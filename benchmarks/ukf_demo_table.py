@@ -156,9 +156,10 @@ def _association_check(data: Path, run_dir: Path) -> None:
         wrong += sum(int(labels[i] != j) for i, j in a.pairs)
         used += len(a.used)
         wrong_used += sum(int(labels[i] != j) for i, j in a.used)
+    n_lines = int(seq.prior_map.vertical_line.sum())
     print(
         f"ukf, world's map, against the renderer's truth: step-4 pairs {pairs} ({wrong} wrong),"
-        f" validated {used} ({wrong_used} wrong); map: {int(seq.prior_map.vertical_line.sum())} vertical lines"
+        f" validated {used} ({wrong_used} wrong); map: {n_lines} vertical lines"
     )
 
 
