@@ -7,7 +7,18 @@ position error of the UKF and of dead reckoning, ms per processed frame (steps 3
 steps 1-2 are the front end's vertical-edge time, printed separately), and association quality
 against the renderer's ground truth (lines labelled by their true projection within 4 px).
 
+``--sweep`` runs the paper's d_it sweep (sec. 5: 10-90 cm) on the same render, front end and
+survey, one table row per value. ``--sck`` runs the Sc_k calibration of sec. 5 ("first Sc_k was
+calibrated, to minimise the number of incorrect associations"): the only free constant of Sc_k
+is the weight of F_shift (``association.shift_weight``, paper 100), swept with d_it at its
+default; and for the chosen weight, the Sc_k / F_shift / mean C'_ij of the step-4 sets that
+were entirely right against those holding a wrong pair.
+
     PYTHONPATH=. python benchmarks/ukf_corridor21.py [--out DIR] [--noise 4] [--set k=v ...]
+        [--sweep [CM ...]] [--sck [W ...]] [--sck-min [T ...]] [--image-every K]
+
+corridor21 renders one image every 12 odometry steps (about 36 cm of travel), so d_it below
+that processes every image: the sweep renders with ``--image-every 3`` (about 9 cm).
 """
 
 from __future__ import annotations
@@ -22,90 +33,293 @@ import numpy as np
 
 warnings.filterwarnings("ignore", category=UserWarning)
 
+#: the sweep's d_it values [cm] (paper sec. 5: 10-40 cm vary little, 40-90 cm deteriorate)
+SWEEP_CM = (10.0, 20.0, 30.0, 37.5, 50.0, 70.0, 90.0)
+#: weights of F_shift in Sc_k tried by --sck (paper: 100)
+SCK_WEIGHTS = (0.0, 1.0, 10.0, 30.0, 100.0, 300.0, 1000.0, 1e6)
+#: minimum Sc_k of a step-4 set tried by --sck-min (100.5: F_shift at its ceiling, sqrt(n_k))
+SCK_THRESHOLDS = (0.0, 10.0, 30.0, 60.0, 100.5, 141.0)
 
-def main() -> None:
-    from omnislam.core.modality import Modality
+
+@dataclasses.dataclass
+class Setup:
+    """What every run shares: data, front-end log, truth, 1-D image, surveyed map."""
+
+    folder: Path
+    seq: object
+    log: object
+    truth: np.ndarray
+    line: object
+    prior: object
+    noise: object
+    err_dr: np.ndarray
+
+
+def prepare(out: Path, noise_factor: float, seed: int, image_every: int | None = None) -> Setup:
+    """Render (once), front end (cached), survey of the MC descriptors at the true poses."""
     from omnislam.core.se import se2_from_se3, se2_integrate
     from omnislam.datasets.synthetic.loader import load_synthetic
     from omnislam.datasets.synthetic.presets import PRESETS
     from omnislam.datasets.synthetic.simulate import simulate
     from omnislam.datasets.synthetic.writer import write_synthetic
     from omnislam.frontend.pipeline import cached_frontend
-    from omnislam.options import apply_options
-    from omnislam.ukf import UKFConfig, VerticalLineUKF
     from omnislam.ukf.image_line import image_line_from_rig
-    from omnislam.ukf.survey import label_lines, survey_descriptors
+    from omnislam.ukf.survey import survey_descriptors
 
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--out", default="/tmp/ukf_bench")
-    parser.add_argument("--noise", type=float, default=4.0, help="x the preset's alphas")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--set", nargs="*", default=["innovation_gate=0.999"])
-    args = parser.parse_args()
-    out = Path(args.out)
-    folder = out / f"corridor21-noise{args.noise:g}-seed{args.seed}"
     preset = PRESETS["corridor21"]
+    tag = "" if image_every in (None, preset.image_every_k) else f"-img{image_every}"
+    folder = out / f"corridor21-noise{noise_factor:g}-seed{seed}{tag}"
+    if image_every is not None:
+        preset = dataclasses.replace(preset, image_every_k=image_every)
     n = preset.motion_noise
     noise = dataclasses.replace(
         n,
-        a_vv=n.a_vv * args.noise,
-        a_vw=n.a_vw * args.noise,
-        a_wv=n.a_wv * args.noise,
-        a_ww=n.a_ww * args.noise,
+        a_vv=n.a_vv * noise_factor,
+        a_vw=n.a_vw * noise_factor,
+        a_wv=n.a_wv * noise_factor,
+        a_ww=n.a_ww * noise_factor,
     )
     if not folder.exists():
-        sim = simulate(dataclasses.replace(preset, motion_noise=noise), args.seed)
+        sim = simulate(dataclasses.replace(preset, motion_noise=noise), seed)
         write_synthetic(folder, sim)
     seq = load_synthetic(folder)
     log = cached_frontend(seq, out / (folder.name + ".log.npz"))
     truth = se2_from_se3(seq.ground_truth.trajectory.poses_w)
     line = image_line_from_rig(seq.calibration)
     prior = survey_descriptors(seq.prior_map, log.frames, truth, line, tol_px=4.0)
-    options = dict(kv.split("=", 1) for kv in args.set)
-    config = apply_options(UKFConfig(motion_noise=noise), options)
-    ukf = VerticalLineUKF(prior, config, Modality.VERTICAL_LINES, line)
-    processed_s = []
-    for frame in log.frames:
-        start = time.perf_counter()
-        ukf.step(frame)
-        elapsed = time.perf_counter() - start
-        if ukf.associations and ukf.associations[-1].index == frame.index:
-            processed_s.append(elapsed)
-    poses = ukf.estimate().trajectory.se2
-    err = np.hypot(*(poses[:, :2] - truth[:, :2]).T)
     dr = se2_integrate(seq.odometry_r, seq.initial_pose_w)
     err_dr = np.hypot(*(dr[:, :2] - truth[:, :2]).T)
-    pairs = wrong_pairs = used = wrong_used = seen = visible = 0
-    for a in ukf.associations:
-        labels = label_lines(truth[a.index], a.bearings_rad, prior, line, 4.0)
-        seen += int((labels >= 0).sum())
-        visible += len(a.candidates)
-        pairs += len(a.pairs)
-        wrong_pairs += sum(int(labels[i] != j) for i, j in a.pairs)
-        used += len(a.used)
-        wrong_used += sum(int(labels[i] != j) for i, j in a.used)
-    k = len(ukf.associations)
+    return Setup(folder, seq, log, truth, line, prior, noise, err_dr)
+
+
+def run_once(
+    setup: Setup, options: dict[str, str], spy_sets: bool = False, min_score: float | None = None
+) -> dict:
+    """One localisation; the numbers of a table row (and the step-4 sets when ``spy_sets``).
+
+    ``min_score``: a step-4 set of smaller Sc_k is discarded (no pair this frame): the threshold
+    reading of the paper's Sc_k calibration, applied here around ``associate_landmarks`` (the
+    localiser has no such option).
+    """
+    import omnislam.ukf.localiser as localiser_module
+    from omnislam.core.modality import Modality
+    from omnislam.options import apply_options
+    from omnislam.ukf import UKFConfig, VerticalLineUKF
+    from omnislam.ukf.association import set_score
+    from omnislam.ukf.survey import label_lines
+
+    config = apply_options(UKFConfig(motion_noise=setup.noise), options)
+    sets: list[tuple[float, float, float, np.ndarray]] = []  # (Sc_k, F_shift, mean C', lines)
+    original = localiser_module.associate_landmarks
+
+    def spy(u_lines, u_cands, scores, cfg):  # records the chosen set's terms
+        best = original(u_lines, u_cands, scores, cfg)
+        if min_score is not None and best.score < min_score:
+            best = dataclasses.replace(best, lines=best.lines[:0], candidates=best.candidates[:0])
+        if len(best):
+            shift = np.asarray(u_lines)[best.lines] - np.asarray(u_cands)[best.candidates]
+            c = scores[best.lines, best.candidates]
+            sc, f = set_score(shift, np.asarray(u_lines)[best.lines], c, cfg)
+            sets.append((sc, f, float(c.mean()), best.lines))
+        else:
+            sets.append((-np.inf, 0.0, np.nan, best.lines))
+        return best
+
+    localiser_module.associate_landmarks = spy
+    try:
+        ukf = VerticalLineUKF(setup.prior, config, Modality.VERTICAL_LINES, setup.line)
+        processed_s = []
+        for frame in setup.log.frames:
+            start = time.perf_counter()
+            ukf.step(frame)
+            elapsed = time.perf_counter() - start
+            if ukf.associations and ukf.associations[-1].index == frame.index:
+                processed_s.append(elapsed)
+    finally:
+        localiser_module.associate_landmarks = original
+    poses = ukf.estimate().trajectory.se2
+    err = np.hypot(*(poses[:, :2] - setup.truth[:, :2]).T)
+    row = dict(
+        mean_cm=err.mean() * 100,
+        max_cm=err.max() * 100,
+        frames=len(ukf.associations),
+        ms=float(np.median(processed_s)) * 1e3 if processed_s else float("nan"),
+        pairs=0,
+        wrong_pairs=0,
+        used=0,
+        wrong_used=0,
+        seen=0,
+        visible=0,
+        updated=ukf.info().frames_updated,
+        gated=ukf.info().pairs_gated_out,
+        ukf=ukf,
+        err=err,
+    )
+    scored = []
+    for k, a in enumerate(ukf.associations):
+        labels = label_lines(setup.truth[a.index], a.bearings_rad, setup.prior, setup.line, 4.0)
+        row["seen"] += int((labels >= 0).sum())
+        row["visible"] += len(a.candidates)
+        row["pairs"] += len(a.pairs)
+        wrong = sum(int(labels[i] != j) for i, j in a.pairs)
+        row["wrong_pairs"] += wrong
+        row["used"] += len(a.used)
+        row["wrong_used"] += sum(int(labels[i] != j) for i, j in a.used)
+        if spy_sets and k < len(sets) and len(a.pairs):
+            sc, f, c, _ = sets[k]
+            scored.append((sc, f, c, len(a.pairs), wrong))
+    row["sets"] = scored
+    return row
+
+
+def _print_single(setup: Setup, options: dict[str, str], r: dict) -> None:
+    err, err_dr, k = r["err"], setup.err_dr, max(r["frames"], 1)
     edges_s = (
-        log.stats.get("seconds_vertical_edges", float("nan"))
-        if hasattr(log, "stats")
+        setup.log.stats.get("seconds_vertical_edges", float("nan"))
+        if hasattr(setup.log, "stats")
         else float("nan")
     )
-    print(f"data: {folder} (odometry noise x{args.noise:g}); options {options}")
+    print(f"data: {setup.folder}; options {options}")
     print(
         f"UKF mean position error {err.mean() * 100:.1f} cm (max {err.max() * 100:.1f});"
         f" dead reckoning {err_dr.mean() * 100:.1f} cm (max {err_dr.max() * 100:.1f});"
         f" ratio {err_dr.mean() / err.mean():.1f}x"
     )
     print(
-        f"processed frames {k}; steps 3-5 + update median {np.median(processed_s) * 1e3:.2f} ms;"
-        f" steps 1-2 (front end vertical edges) {edges_s / max(k, 1) * 1e3:.1f} ms per image"
+        f"processed frames {r['frames']}; steps 3-5 + update median {r['ms']:.2f} ms;"
+        f" steps 1-2 (front end vertical edges) {edges_s / k * 1e3:.1f} ms per image"
     )
     print(
-        f"per processed frame: candidates {visible / k:.1f}, lines labelled {seen / k:.1f},"
-        f" step-4 pairs {pairs / k:.1f} ({wrong_pairs} of {pairs} wrong),"
-        f" used {used / k:.2f} ({wrong_used} of {used} wrong = {wrong_used / max(used, 1):.1%})"
+        f"per processed frame: candidates {r['visible'] / k:.1f}, lines labelled"
+        f" {r['seen'] / k:.1f}, step-4 pairs {r['pairs'] / k:.1f} ({r['wrong_pairs']} of"
+        f" {r['pairs']} wrong), used {r['used'] / k:.2f} ({r['wrong_used']} of {r['used']}"
+        f" wrong = {r['wrong_used'] / max(r['used'], 1):.1%})"
     )
-    print(ukf.info())
+    print(r["ukf"].info())
+
+
+_HEADER = (
+    "| {key} | mean err [cm] | max err [cm] | processed frames | updated | ms / processed frame"
+    " | step-4 pairs (wrong) | validated pairs used | wrong validated |"
+)
+
+
+def _row(value: str, r: dict) -> str:
+    return (
+        f"| {value} | {r['mean_cm']:.1f} | {r['max_cm']:.1f} | {r['frames']} | {r['updated']}"
+        f" | {r['ms']:.2f} | {r['pairs']} ({r['wrong_pairs']}) | {r['used']}"
+        f" | {r['wrong_used']} ({r['wrong_used'] / max(r['used'], 1):.0%}) |"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--out", default="/tmp/ukf_bench")
+    parser.add_argument("--noise", type=float, default=4.0, help="x the preset's alphas")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--set", nargs="*", default=["innovation_gate=0.999"])
+    parser.add_argument(
+        "--sweep",
+        nargs="*",
+        type=float,
+        default=None,
+        metavar="CM",
+        help=f"d_it sweep [cm] (no values: {SWEEP_CM})",
+    )
+    parser.add_argument(
+        "--sck",
+        nargs="*",
+        type=float,
+        default=None,
+        metavar="W",
+        help=f"Sc_k calibration: F_shift weights (no values: {SCK_WEIGHTS})",
+    )
+    parser.add_argument(
+        "--sck-min",
+        nargs="*",
+        type=float,
+        default=None,
+        metavar="T",
+        help=f"Sc_k thresholds (no values: {SCK_THRESHOLDS})",
+    )
+    parser.add_argument(
+        "--image-every",
+        type=int,
+        default=None,
+        metavar="K",
+        help="one image every K odometry steps (preset: 12, about 36 cm; the"
+        " sweep below that spacing needs a smaller K, e.g. 3)",
+    )
+    args = parser.parse_args()
+    setup = prepare(Path(args.out), args.noise, args.seed, args.image_every)
+    options = dict(kv.split("=", 1) for kv in args.set)
+    if args.sweep is None and args.sck is None and args.sck_min is None:
+        _print_single(setup, options, run_once(setup, options))
+        return
+    print(
+        f"data: {setup.folder} (odometry noise x{args.noise:g}); options {options};"
+        f" dead reckoning mean {setup.err_dr.mean() * 100:.1f} cm,"
+        f" max {setup.err_dr.max() * 100:.1f} cm"
+    )
+    if args.sweep is not None:
+        print("\nd_it sweep (paper sec. 5)")
+        print(_HEADER.format(key="d_it [cm]"))
+        print("|---" * 9 + "|")
+        for cm in args.sweep or SWEEP_CM:
+            r = run_once(setup, {**options, "d_it_m": str(cm / 100)})
+            print(_row(f"{cm:g}", r), flush=True)
+    if args.sck is not None:
+        print(
+            "\nSc_k calibration: weight of F_shift in Sc_k = mean(C'_ij) + w F_shift"
+            " (paper w = 100)"
+        )
+        print(_HEADER.format(key="w"))
+        print("|---" * 9 + "|")
+        chosen = None
+        for w in args.sck or SCK_WEIGHTS:
+            r = run_once(setup, {**options, "association.shift_weight": str(w)}, spy_sets=True)
+            print(_row(f"{w:g}", r), flush=True)
+            if w == 100.0:
+                chosen = r
+        if chosen is not None:
+            _print_sets(chosen["sets"])
+    if args.sck_min is not None:
+        print("\nSc_k calibration: sets of Sc_k below a threshold are dropped (w = 100)")
+        print(_HEADER.format(key="min Sc_k"))
+        print("|---" * 9 + "|")
+        for t in args.sck_min or SCK_THRESHOLDS:
+            print(_row(f"{t:g}", run_once(setup, options, min_score=t)), flush=True)
+
+
+def _print_sets(sets: list[tuple[float, float, float, int, int]]) -> None:
+    """Sc_k, F_shift and mean C'_ij of the chosen step-4 sets: right vs holding a wrong pair."""
+    a = np.array(sets, dtype=float).reshape(-1, 5)
+    print("\nchosen step-4 sets at w = 100: all pairs right vs at least one wrong")
+    print(
+        "| sets | n | pairs / set | Sc_k median (p10-p90) | 100 F_shift median"
+        " | mean C'_ij median |"
+    )
+    print("|---|---|---|---|---|---|")
+    for label, mask in (("all right", a[:, 4] == 0), ("some wrong", a[:, 4] > 0)):
+        s = a[mask]
+        if not len(s):
+            print(f"| {label} | 0 | | | | |")
+            continue
+        p10, p50, p90 = np.percentile(s[:, 0], [10, 50, 90])
+        print(
+            f"| {label} | {len(s)} | {s[:, 3].mean():.2f} | {p50:.1f} ({p10:.1f}-{p90:.1f})"
+            f" | {np.median(s[:, 1]) * 100:.1f} | {np.nanmedian(s[:, 2]):.2f} |"
+        )
+    right, wrong = a[a[:, 4] == 0, 0], a[a[:, 4] > 0, 0]
+    if len(right) and len(wrong):
+        best = max(
+            ((float(np.sum(right >= t) - np.sum(wrong >= t)), t) for t in np.unique(a[:, 0])),
+        )
+        t = best[1]
+        print(
+            f"a threshold Sc_k >= {t:.1f} keeps {np.sum(right >= t)} of {len(right)} right sets"
+            f" and {np.sum(wrong >= t)} of {len(wrong)} with a wrong pair"
+        )
 
 
 if __name__ == "__main__":
