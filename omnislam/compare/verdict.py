@@ -45,7 +45,7 @@ class ColumnSummary:
     def describe(self) -> str:
         text = f"median {self.median:.3g} m over {self.seeds} seed{'s' * (self.seeds != 1)}"
         if self.seeds > 1:
-            text += f" (range {self.low:.3g}–{self.high:.3g} m)"
+            text += f", range {self.low:.3g}–{self.high:.3g} m"
         return text
 
 
@@ -140,6 +140,8 @@ class Verdict:
                 f". Dead reckoning: median {self.baseline.median:.3g} m "
                 f"({best.median / self.baseline.median:.2f}× for {best.column})"
             )
+            if best.median > self.baseline.median:
+                text += "; no estimator beats dead reckoning here"
         return text + f" [{self.ground_truth}]."
 
 
