@@ -1,8 +1,10 @@
 """``omnislam report RESULTS_DIR --out reports/NAME``: a comparative report of finished runs.
 
 RESULTS_DIR is the folder ``omnislam compare`` wrote, a RUN_DIR, or a folder of RUN_DIRs.
-Writes ``report.md`` with its PNGs and a self-contained ``index.html`` (figures embedded), plus
-``exports/`` (TUM, KITTI, PLY, g2o) unless ``--no-exports``.
+Writes ``report.md`` with its PNGs and a self-contained ``index.html`` (figures embedded): a
+verdict per dataset first, the tables and figures, a provenance block last (this command line
+included). Every table is also written as ``tables/NAME.csv`` and ``tables/NAME.tex`` (LaTeX
+booktabs), plus ``exports/`` (TUM, KITTI, PLY, g2o) unless ``--no-exports``.
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"note: {note}")
     print(
         f"omnislam report: {summary.cells} runs, {len(summary.figures)} figures -> "
-        f"{summary.out_dir / 'index.html'} and {summary.out_dir / 'report.md'}"
+        f"{summary.out_dir / 'index.html'} and {summary.out_dir / 'report.md'} "
+        f"(tables as CSV and LaTeX in {summary.out_dir / 'tables'})"
     )
     return 0

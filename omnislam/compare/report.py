@@ -12,6 +12,13 @@ RUN_DIR, or a folder of RUN_DIRs), and writes:
 * exports per cell (``exports/CELL/``): trajectory as TUM and KITTI, the landmark map as PLY
   (open3d, the ``render`` extra) and the factor graph as g2o when the run has one.
 
+It opens with a verdict per dataset (``compare.verdict``: the best estimator by ATE RMSE, dead
+reckoning excluded, its margin over the next as medians over seeds, and whether that margin is
+within the seed spread) and ends with a provenance block (``compare.provenance``: omnislam
+version and commit, date, command line, seeds, frames and path length of each dataset, each
+estimator's options, the machine). Every table is also written as ``tables/NAME.csv`` (full
+precision) and ``tables/NAME.tex`` (LaTeX ``booktabs``), linked under the table.
+
 The folder is written under a hidden name and renamed into place when complete.
 """
 
@@ -31,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from omnislam._files import check_output_location, output_error
+from omnislam.compare import provenance
 from omnislam.compare.evaluation import GROUND_TRUTH_LABELS, evaluate_run
 from omnislam.compare.metrics import Alignment, ate
 from omnislam.compare.run_metrics import RunMetrics, read_run_metrics
@@ -38,16 +46,22 @@ from omnislam.compare.rundir import (
     CONFIG,
     GRAPH_G2O,
     METRICS,
+    RunConfig,
     RunRecord,
     make_shareable,
+    read_run_config,
     read_run_dir,
 )
+from omnislam.compare.tables import Cell, Num, Table, make_table, slug, to_csv, to_latex
+from omnislam.compare.verdict import Verdict, verdict
 from omnislam.datasets.registry import DatasetFormat
 from omnislam.datasets.sequence import GroundTruthKind
 from omnislam.errors import ConfigError, DataError, MissingExtraError, OmnislamError
 
 REPORT_MD = "report.md"
 REPORT_HTML = "index.html"
+#: folder of the CSV and LaTeX copies of every table
+TABLES = "tables"
 #: estimator name of the baseline column
 BASELINE = "deadreckoning"
 #: dataset formats whose Sequence can carry raw laser scans (occupancy grids)
@@ -95,6 +109,7 @@ class ReportOptions:
         occupancy: build occupancy grids where the data has laser scans.
         occupancy_resolution_m: grid cell size [m].
         occupancy_columns: at most this many estimators get an occupancy grid per dataset.
+        command: the command line recorded in the provenance block (default: ``sys.argv``).
     """
 
     title: str | None = None
@@ -102,6 +117,7 @@ class ReportOptions:
     occupancy: bool = True
     occupancy_resolution_m: float = 0.1
     occupancy_columns: int = 3
+    command: tuple[str, ...] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -227,6 +243,14 @@ def _fmt(values: Sequence[float], digits: int = 3) -> str:
     return text
 
 
+def _num(values: Sequence[float], digits: int = 3) -> Num:
+    """``_fmt`` of the values, keeping their mean and standard deviation for the CSV."""
+    if not values:
+        return Num("–")
+    std = float(np.std(values, ddof=1)) if len(values) > 1 else None
+    return Num(_fmt(values, digits), float(np.mean(values)), std)
+
+
 def _columns(cells: Sequence[ReportCell]) -> list[str]:
     """Column labels with the baseline first, then in grid order."""
     columns = list(dict.fromkeys(c.column for c in cells))
@@ -264,47 +288,257 @@ DETAIL_COLUMNS: tuple[tuple[str, Metric | None], ...] = (
 )
 
 
-def _detail_rows(cells: Sequence[ReportCell]) -> tuple[list[str], list[list[str]]]:
+def _detail_rows(cells: Sequence[ReportCell]) -> tuple[list[str], list[list[Cell]]]:
     header = ["estimator", *(name for name, _ in DETAIL_COLUMNS)]
     by_column = {col: [c for c in cells if c.column == col] for col in _columns(cells)}
     baseline = _values([c for c in cells if c.column == BASELINE and c.ok], _ate_rmse)
     rows = []
     for column, group in by_column.items():
         ok = [c for c in group if c.ok]
-        row = [column]
+        row: list[Cell] = [column]
         for name, metric in DETAIL_COLUMNS:
             if metric is not None:
-                row.append(_fmt(_values(ok, metric)))
+                row.append(_num(_values(ok, metric)))
             elif name.startswith("ATE /"):
                 ate_values = _values(ok, _ate_rmse)
-                row.append(
-                    f"{np.mean(ate_values) / np.mean(baseline):.2f}x"
-                    if ate_values and baseline
-                    else "–"
-                )
+                if ate_values and baseline and np.mean(baseline) > 0:
+                    ratio = float(np.mean(ate_values) / np.mean(baseline))
+                    row.append(Num(f"{ratio:.2f}x", ratio))
+                else:
+                    row.append(Num("–"))
             elif name.startswith("landmarks"):
                 matched = _values(ok, lambda m: m.landmarks.matched)
                 estimated = _values(ok, lambda m: m.landmarks.estimated)
                 row.append(f"{_fmt(matched)} / {_fmt(estimated)}" if any(estimated) else "–")
             else:
                 failed = len(group) - len(ok)
-                row.append(f"{len(ok)}" + (f" ({failed} failed)" if failed else ""))
+                row.append(
+                    Num(f"{len(ok)} ({failed} failed)") if failed else Num(f"{len(ok)}", len(ok))
+                )
         rows.append(row)
     return header, rows
 
 
-def _markdown_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(r) + " |" for r in rows]
+def _md_cell(text: object) -> str:
+    return str(text).replace("|", "\\|").replace("\n", " ")
+
+
+def _markdown_table(header: Sequence[str], rows: Sequence[Sequence[Cell]]) -> str:
+    lines = ["| " + " | ".join(map(_md_cell, header)) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(map(_md_cell, r)) + " |" for r in rows]
     return "\n".join(lines)
 
 
-def _html_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+def _html_table(header: Sequence[str], rows: Sequence[Sequence[Cell]]) -> str:
     head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
     body = "".join(
-        "<tr>" + "".join(f"<td>{html.escape(v)}</td>" for v in row) + "</tr>" for row in rows
+        "<tr>" + "".join(f"<td>{html.escape(str(v))}</td>" for v in row) + "</tr>" for row in rows
     )
     return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+# --------------------------------------------------------------------------------------------
+# Verdict and provenance
+# --------------------------------------------------------------------------------------------
+
+
+def _is_baseline(cells: Sequence[ReportCell], column: str) -> bool:
+    return column == BASELINE or any(c.column == column and c.estimator == BASELINE for c in cells)
+
+
+def dataset_verdicts(cells: Sequence[ReportCell]) -> list[Verdict]:
+    """The verdict of each dataset (``compare.verdict``), in the order of the cells."""
+    out = []
+    for dataset in dict.fromkeys(c.dataset for c in cells):
+        group = [c for c in cells if c.dataset == dataset]
+        out.append(
+            verdict(
+                dataset,
+                _gt_label(group),
+                _columns(group),
+                lambda col, g=group: _values([c for c in g if c.column == col and c.ok], _ate_rmse),
+                lambda col, g=group: _is_baseline(g, col),
+            )
+        )
+    return out
+
+
+def _range_text(low: float, high: float, seeds: int) -> str:
+    return f"{low:.3g}–{high:.3g}" if seeds > 1 else f"{low:.3g} (1 seed)"
+
+
+def verdict_table(verdicts: Sequence[Verdict]) -> Table:
+    header = (
+        "dataset",
+        "best",
+        "ATE RMSE median [m]",
+        "min–max [m]",
+        "seeds",
+        "runner-up",
+        "runner-up median [m]",
+        "runner-up min–max [m]",
+        "margin [m]",
+        "margin [%]",
+        "within seed spread",
+    )
+    csv_header = (
+        "dataset",
+        "ground truth",
+        "best",
+        "best median [m]",
+        "best min [m]",
+        "best max [m]",
+        "best seeds",
+        "runner-up",
+        "runner-up median [m]",
+        "runner-up min [m]",
+        "runner-up max [m]",
+        "runner-up seeds",
+        "margin [m]",
+        "margin [%]",
+        "within seed spread",
+        "dead reckoning median [m]",
+    )
+    rows: list[list[Cell]] = []
+    csv_rows: list[list[object]] = []
+    for v in verdicts:
+        best, runner = v.best, v.runner_up
+        spread = {None: "unknown (1 seed)", True: "yes", False: "no"}[v.within_spread]
+        if runner is None:
+            spread = "–"
+        frac = v.margin_fraction
+        rows.append(
+            [
+                v.dataset,
+                best.column if best else "–",
+                Num(f"{best.median:.3g}", best.median) if best else Num("–"),
+                _range_text(best.low, best.high, best.seeds) if best else "–",
+                Num(str(best.seeds), best.seeds) if best else Num("0", 0),
+                runner.column if runner else "–",
+                Num(f"{runner.median:.3g}", runner.median) if runner else Num("–"),
+                _range_text(runner.low, runner.high, runner.seeds) if runner else "–",
+                Num(f"{v.margin_m:.3g}", v.margin_m) if v.margin_m is not None else Num("–"),
+                Num(f"{100 * frac:.0f}", 100 * frac) if frac is not None else Num("–"),
+                spread,
+            ]
+        )
+        csv_rows.append(
+            [
+                v.dataset,
+                v.ground_truth,
+                best.column if best else None,
+                best.median if best else None,
+                best.low if best else None,
+                best.high if best else None,
+                best.seeds if best else 0,
+                runner.column if runner else None,
+                runner.median if runner else None,
+                runner.low if runner else None,
+                runner.high if runner else None,
+                runner.seeds if runner else None,
+                v.margin_m,
+                100 * frac if frac is not None else None,
+                None if runner is None else spread,
+                v.baseline.median if v.baseline else None,
+            ]
+        )
+    return make_table(
+        "verdict",
+        "Best estimator per dataset by ATE RMSE (median over seeds; dead reckoning excluded) "
+        "and its margin over the runner-up",
+        header,
+        rows,
+        csv_header,
+        csv_rows,
+    )
+
+
+def _config(cell: ReportCell) -> RunConfig | None:
+    try:
+        return read_run_config(cell.run_dir) if cell.run_dir is not None else None
+    except OmnislamError:
+        return None
+
+
+def _options_text(options: Mapping[str, str]) -> str:
+    return ", ".join(f"{k}={v}" for k, v in sorted(options.items())) or "defaults"
+
+
+def _path_length(cells: Sequence[ReportCell]) -> str:
+    """Path length of the dataset's ground truth, else of dead reckoning."""
+    ok = sorted((c for c in cells if c.ok), key=lambda c: (c.seed is None, c.seed or 0))
+    if not ok:
+        return provenance.UNKNOWN
+    try:
+        record = read_run_dir(ok[0].run_dir)  # type: ignore[arg-type]
+        truth = record.ground_truth.trajectory
+        if truth is not None and len(truth) > 1:
+            return f"{provenance.path_length_m(truth.positions_w):.1f} m (ground truth)"
+        dead = [c for c in ok if c.estimator == BASELINE]
+        if dead:
+            estimate = read_run_dir(dead[0].run_dir).estimate.trajectory  # type: ignore[arg-type]
+            return f"{provenance.path_length_m(estimate.positions_w):.1f} m (dead reckoning)"
+    except OmnislamError:
+        return provenance.UNKNOWN
+    return "unknown (no ground truth, no dead-reckoning run)"
+
+
+def provenance_rows(
+    results_dir: Path, title: str, cells: Sequence[ReportCell], options: ReportOptions
+) -> list[tuple[str, str]]:
+    """(field, value) of the provenance block; never raises."""
+    import omnislam
+    from omnislam.compare.runner import GRID_COPY
+
+    rows = [
+        ("omnislam version", omnislam.__version__),
+        ("git commit", provenance.package_commit()),
+        ("date (UTC)", provenance.now_utc()),
+        ("command line", provenance.command_line(options.command)),
+        ("results", str(Path(results_dir).resolve())),
+    ]
+    grid = Path(results_dir) / GRID_COPY
+    if grid.is_file():
+        digest = provenance.file_digest(grid)
+        rows.append(
+            ("grid", f"{grid.resolve()} ({title!r}" + (f", sha256 {digest})" if digest else ")"))
+        )
+    configs = {c.cell_id: _config(c) for c in cells}
+    made_with = sorted({cfg.omnislam_version for cfg in configs.values() if cfg is not None})
+    if made_with:
+        rows.append(("runs made with omnislam", ", ".join(made_with)))
+    seeds = sorted({c.seed for c in cells if c.seed is not None})
+    rows.append(("seeds", ", ".join(map(str, seeds)) if seeds else "none given"))
+    ok, failed = sum(c.ok for c in cells), sum(not c.ok for c in cells)
+    rows.append(("runs", f"{ok} successful" + (f", {failed} failed" if failed else "")))
+    for dataset in dict.fromkeys(c.dataset for c in cells):
+        group = [c for c in cells if c.dataset == dataset]
+        group_configs = [configs[c.cell_id] for c in group if configs[c.cell_id] is not None]
+        frames = sorted({cfg.frames for cfg in group_configs})  # type: ignore[union-attr]
+        source = group_configs[0].dataset if group_configs else provenance.UNKNOWN  # type: ignore[union-attr]
+        text = f"{source}; frames {', '.join(map(str, frames)) or provenance.UNKNOWN}"
+        text += f"; path length {_path_length(group)}"
+        loader = {_options_text(cfg.dataset_options) for cfg in group_configs}  # type: ignore[union-attr]
+        if loader - {"defaults"}:
+            text += f"; loader options {' / '.join(sorted(loader))}"
+        rows.append((f"dataset {dataset}", text))
+    for column in _columns(cells):
+        group = [c for c in cells if c.column == column]
+        group_configs = [configs[c.cell_id] for c in group if configs[c.cell_id] is not None]
+        estimator = group[0].estimator
+        chosen = sorted({_options_text(cfg.estimator_options) for cfg in group_configs})  # type: ignore[union-attr]
+        rows.append(
+            (f"estimator {column}", f"{estimator}; options: {' / '.join(chosen) or 'unknown'}")
+        )
+    host = provenance.machine()
+    rows.append(
+        (
+            "machine",
+            f"{host.cpu}; {host.cores or provenance.UNKNOWN} cores (os.cpu_count); "
+            f"Python {host.python}; {host.platform}",
+        )
+    )
+    return rows
 
 
 # --------------------------------------------------------------------------------------------
@@ -537,7 +771,7 @@ table{border-collapse:collapse;margin:1em 0;font-size:.9em}
 th,td{border:1px solid #ccc;padding:.3em .6em;text-align:right}
 th:first-child,td:first-child{text-align:left}
 thead{background:#f0f0f0} img{max-width:100%} figure{margin:1em 0}
-figcaption{font-size:.85em;color:#555} .note{color:#844}
+figcaption{font-size:.85em;color:#555} .note{color:#844} .tables{font-size:.8em;margin-top:-.6em}
 """
 
 
@@ -593,7 +827,7 @@ def write_report(
     try:
         make_shareable(staging)
         notes: list[str] = []
-        figure_names = _write_into(staging, title, cells, options, notes)
+        figure_names = _write_into(staging, Path(results_dir), title, cells, options, notes)
         if out_dir.exists():
             trash = out_dir.with_name(f".{out_dir.name}.old-{os.getpid()}")
             os.replace(out_dir, trash)
@@ -612,6 +846,7 @@ def write_report(
 
 def _write_into(
     out: Path,
+    results_dir: Path,
     title: str,
     cells: Sequence[ReportCell],
     options: ReportOptions,
@@ -621,19 +856,67 @@ def _write_into(
     columns = _columns(cells)
     md: list[str] = [f"# {title}", ""]
     doc: list[str] = [f"<h1>{html.escape(title)}</h1>"]
+    (out / TABLES).mkdir()
+    written: set[str] = set()
 
     def para(text: str) -> None:
         md.extend([text, ""])
         doc.append(f"<p>{html.escape(text)}</p>")
 
-    def table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
-        md.extend([_markdown_table(header, rows), ""])
-        doc.append(_html_table(header, rows))
+    def table(t: Table) -> None:
+        """The table in both outputs, its CSV and LaTeX in tables/ and links to them."""
+        name, k = t.name, 2
+        while name in written:
+            name, k = f"{t.name}-{k}", k + 1
+        written.add(name)
+        csv_text, tex_text = to_csv(t), to_latex(t)
+        (out / TABLES / f"{name}.csv").write_text(csv_text)
+        (out / TABLES / f"{name}.tex").write_text(tex_text)
+        md.extend(
+            [
+                _markdown_table(t.header, t.rows),
+                "",
+                f"*Table as [CSV]({TABLES}/{name}.csv) · [LaTeX]({TABLES}/{name}.tex)*",
+                "",
+            ]
+        )
+        links = " · ".join(
+            f'<a download="{name}.{ext}" href="data:{mime};charset=utf-8;base64,'
+            f'{base64.b64encode(text.encode()).decode("ascii")}">{label}</a>'
+            for ext, mime, label, text in (
+                ("csv", "text/csv", "CSV", csv_text),
+                ("tex", "application/x-tex", "LaTeX", tex_text),
+            )
+        )
+        doc.append(_html_table(t.header, t.rows))
+        doc.append(
+            f'<p class="tables">Table as {links} (also {TABLES}/{html.escape(name)}.csv and '
+            f".tex next to report.md)</p>"
+        )
 
     def heading(text: str, level: int = 2) -> None:
         md.extend(["#" * level + " " + text, ""])
         doc.append(f"<h{level}>{html.escape(text)}</h{level}>")
 
+    made = provenance_rows(results_dir, title, cells, options)
+    facts = dict(made)
+    commit = facts["git commit"]
+    heading("Verdict")
+    verdicts = dataset_verdicts(cells)
+    table(verdict_table(verdicts))
+    for v in verdicts:
+        para(v.sentence())
+    para(
+        "Best: the lowest median ATE RMSE over seeds; dead reckoning is the baseline and is "
+        "not ranked. The margin is the runner-up's median minus the best's (in % of the "
+        "runner-up's). A margin is within the seed spread when the two estimators' min–max "
+        "ranges over seeds overlap."
+    )
+    para(
+        f"Made with omnislam {facts['omnislam version']} (commit "
+        f"{commit[:12] if commit != provenance.UNKNOWN else commit}) on {facts['date (UTC)']}; "
+        "see Provenance at the end."
+    )
     para(
         "ATE: position RMSE after SE(2) alignment to the ground truth (Sturm et al. 2012); "
         "drift: the same with only the first pose anchored. RPE: segments of the stated length "
@@ -649,23 +932,37 @@ def _write_into(
     headline = []
     for dataset in datasets:
         group = [c for c in cells if c.dataset == dataset]
-        row = [dataset, _gt_label(group)]
+        row: list[Cell] = [dataset, _gt_label(group)]
         for column in columns:
             ok = [c for c in group if c.column == column and c.ok]
             failed = [c for c in group if c.column == column and not c.ok]
-            row.append(_fmt(_values(ok, _ate_rmse)) + (" (failed)" if failed and not ok else ""))
+            value = _num(_values(ok, _ate_rmse))
+            if failed and not ok:
+                value = Num(value.text + " (failed)")
+            row.append(value)
         headline.append(row)
-    table(["dataset", "ground truth", *columns], headline)
+    table(
+        make_table(
+            "ate-rmse",
+            "ATE RMSE [m] per dataset and estimator (mean ± std over seeds)",
+            ["dataset", "ground truth", *columns],
+            headline,
+        )
+    )
     segments = [c.metrics.rpe.segment_m for c in cells if c.ok and c.metrics is not None]
     segment = next((length for length in segments if length), None)
     heading("Estimators")
     ran = {c.estimator for c in cells}
     table(
-        ["estimator", "status", "in this report"],
-        [
-            [name, status, "yes" if name in ran else "no"]
-            for name, status in _estimator_availability()
-        ],
+        make_table(
+            "estimators",
+            "Estimators of omnislam and whether they are in this report",
+            ["estimator", "status", "in this report"],
+            [
+                [name, status, "yes" if name in ran else "no"]
+                for name, status in _estimator_availability()
+            ],
+        )
     )
 
     figure_names: list[str] = []
@@ -682,7 +979,14 @@ def _write_into(
         if segment:
             header = [h.replace("RPE trans", f"RPE {segment:g} m trans") for h in header]
             header = [h.replace("RPE rot", f"RPE {segment:g} m rot") for h in header]
-        table(header, rows)
+        table(
+            make_table(
+                f"{slug(dataset)}-metrics",
+                f"{dataset}: metrics per estimator, mean ± std over seeds ({gt_label})",
+                header,
+                rows,
+            )
+        )
         for c in group:
             if not c.ok:
                 para(f"Failed: {c.cell_id}: {c.error}")
@@ -708,6 +1012,20 @@ def _write_into(
             md.append(f"- {n}")
             doc.append(f'<p class="note">{html.escape(n)}</p>')
         md.append("")
+    heading("Provenance")
+    table(
+        make_table(
+            "provenance",
+            "How this report was made",
+            ["what", "value"],
+            [[k, v] for k, v in made],
+        )
+    )
+    para(
+        "Options are the estimator options a run was given (estimator_options in each "
+        "RUN_DIR's config.yaml); 'defaults' means none were set. Path length is that of the "
+        "ground truth, else of dead reckoning."
+    )
     (out / REPORT_MD).write_text("\n".join(md))
     page = (
         '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
