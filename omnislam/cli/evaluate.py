@@ -67,7 +67,9 @@ def run(args: argparse.Namespace) -> int:
             f"{record.ground_truth.note or 'nothing to compare against'}"
         )
     else:
-        print(f"ground truth: {record.ground_truth.kind.value}: {record.ground_truth.note}")
+        kind, note = record.ground_truth.kind.value, record.ground_truth.note
+        # notes usually begin with their kind ("exact: the renderer's own poses ...")
+        print(f"ground truth: {note if note.startswith(kind) else f'{kind}: {note}'}")
     ate, rpe, landmarks, timing = metrics.ate, metrics.rpe, metrics.landmarks, metrics.timing
     rows = [
         ("ATE RMSE, SE(2) aligned [m]", ate.rmse_m),
