@@ -734,9 +734,8 @@ def _(tmp, fx):
 # -- frontend
 
 
-@case("frontend-config-yaml-syntax")
-def _(tmp, fx):
-    (tmp / "fe.yaml").write_text("sift: {n_features: 5\n")
+def frontend_with_config(tmp: Path) -> list[str]:
+    """``frontend DS --out LOG --config fe.yaml`` in ``tmp`` (the config cases write fe.yaml)."""
     return [
         "frontend",
         str(tmp / "ds"),
@@ -744,45 +743,30 @@ def _(tmp, fx):
         str(tmp / "log.npz"),
         "--config",
         str(tmp / "fe.yaml"),
-    ], "fe.yaml"
+    ]
+
+
+@case("frontend-config-yaml-syntax")
+def _(tmp, fx):
+    (tmp / "fe.yaml").write_text("sift: {n_features: 5\n")
+    return frontend_with_config(tmp), "fe.yaml"
 
 
 @case("frontend-config-not-a-mapping")
 def _(tmp, fx):
     (tmp / "fe.yaml").write_text("- 1\n")
-    return [
-        "frontend",
-        str(tmp / "ds"),
-        "--out",
-        str(tmp / "log.npz"),
-        "--config",
-        str(tmp / "fe.yaml"),
-    ], "fe.yaml"
+    return frontend_with_config(tmp), "fe.yaml"
 
 
 @case("frontend-config-missing")
 def _(tmp, fx):
-    return [
-        "frontend",
-        str(tmp / "ds"),
-        "--out",
-        str(tmp / "log.npz"),
-        "--config",
-        str(tmp / "fe.yaml"),
-    ], "fe.yaml"
+    return frontend_with_config(tmp), "fe.yaml"
 
 
 @case("frontend-config-unknown-key")
 def _(tmp, fx):
     (tmp / "fe.yaml").write_text("colour: red\n")
-    return [
-        "frontend",
-        str(tmp / "ds"),
-        "--out",
-        str(tmp / "log.npz"),
-        "--config",
-        str(tmp / "fe.yaml"),
-    ], "colour"
+    return frontend_with_config(tmp), "colour"
 
 
 @case("frontend-frames-zero")
