@@ -74,5 +74,5 @@ def run_synth(args: argparse.Namespace) -> int:
     try:
         from omnislam.datasets.synthetic import cli_synth
     except (ImportError, AttributeError) as exc:
-        raise ConfigError(f"dataset synth is not available yet ({exc})") from None
+        raise ConfigError(f"dataset synth cannot run in this installation ({exc})") from None
     return int(cli_synth(args) or 0)
