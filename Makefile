@@ -47,7 +47,7 @@ test: venv
 	$(BIN)/python -m pytest -q
 
 demo: venv
-	$(BIN)/omnislam demo
+	$(BIN)/omnislam demo --overwrite
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache .hypothesis

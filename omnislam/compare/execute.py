@@ -24,14 +24,14 @@ import os
 import sys
 import tempfile
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field, is_dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from omnislam._files import NPZ_ERRORS, safe_name
+from omnislam._files import NPZ_ERRORS, make_public, safe_name
 from omnislam.compare.cache import LOGS, cache_dir
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction, reassign_ids
 from omnislam.compare.prior import PRIOR_MAP_OPTION, prior_map_from_run_dir
@@ -134,12 +134,21 @@ def check_spec(spec: RunSpec) -> None:
     )
 
 
-def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
+#: ``on_step(stage, done, total)``: what a run is doing ("loading", "front end", "running",
+#: "final estimate") and how many of its ``total`` frames it has stepped (0 of 0: not counted)
+StepCallback = Callable[[str, int, int], None]
+
+
+def execute_run(
+    spec: RunSpec, *, progress: bool = False, on_step: StepCallback | None = None
+) -> RunRecord:
     """Run ``spec.estimator`` on ``spec.dataset`` and return what a RUN_DIR holds.
 
     Args:
         spec: the run.
-        progress: say on stderr what takes time (running the front end, with a progress bar).
+        progress: say on stderr what takes time (running the front end, with a progress line).
+        on_step: called at every stage and after every frame (``StepCallback``; the callee
+            throttles what it shows).
 
     Returns:
         RunRecord with the final estimate, per-step wall times [s] and the sequence's ground
@@ -159,8 +168,10 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
         resolve_estimator_modality,
     )
 
+    say: StepCallback = on_step if on_step is not None else _silent
     reset_peak_rss()
     check_estimator(spec.estimator)
+    say("loading", 0, 0)
     resolved = resolve(spec.dataset)
     loader_keys = resolved.option_names()
     options = dict(spec.options)
@@ -174,6 +185,7 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
     ground_truth, reference = reference_for(resolved.format, resolved.path, sequence)
     log = spec.log
     if log is None and ESTIMATORS[spec.estimator].modalities:  # dead reckoning sees nothing
+        say("front end", 0, 0)
         computed = frontend_log_for(sequence, spec.dataset, cache_dir() / LOGS, progress)
         log = None if computed is None else str(computed)
     if reference or log is not None:  # computing them (when not cached) is not the run's memory
@@ -212,16 +224,21 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
     track_truth = False
     if replay is not None and modality is Modality.BEARINGS_3D:
         # the landmarks are the front end's tracks: score them against the tracks' true points
+        say("true points of the tracks", 0, 0)
         ground_truth, track_truth = _with_track_truth(sequence, replay, Path(log))
     rng = np.random.default_rng(spec.seed)
     estimator = make_estimator(spec.estimator, info, estimator_options, rng)
 
     step_s = np.zeros(len(sequence))
     clock = time.perf_counter
-    for frame in frames:
+    total = len(frames)
+    say("running", 0, total)
+    for done, frame in enumerate(frames, start=1):
         start = clock()
         estimator.step(frame)
         step_s[frame.index] = clock() - start
+        say("running", done, total)
+    say("final estimate", total, total)
     start = clock()
     estimate = estimator.estimate()
     final_s = clock() - start
@@ -251,6 +268,10 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
         prior_map=prior_run,
     )
     return RunRecord(config, estimate, step_s, ground_truth, attachments)
+
+
+def _silent(stage: str, done: int, total: int) -> None:
+    """The ``on_step`` of a run nobody watches."""
 
 
 def log_file_name(dataset: str) -> str:
@@ -349,6 +370,7 @@ def _with_track_truth(sequence: Any, replay: Any, log: Path) -> tuple[GroundTrut
         ids, points = track_truth(true_sightings(replay, sequence.point_map_loader))
         with tempfile.NamedTemporaryFile(dir=log.parent, suffix=".npz", delete=False) as tmp:
             np.savez_compressed(tmp, key=np.array(key), ids=ids, points_w=points)
+        make_public(tmp.name)
         os.replace(tmp.name, cache)
     truth = replace(
         sequence.ground_truth,

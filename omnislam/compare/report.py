@@ -110,6 +110,8 @@ class ReportOptions:
         occupancy_resolution_m: grid cell size [m].
         occupancy_columns: at most this many estimators get an occupancy grid per dataset.
         command: the command line recorded in the provenance block (default: ``sys.argv``).
+        on_step: progress: called with (stage, done, total) as the report is written
+            ("figures": datasets done of total, "exports": runs done of total).
     """
 
     title: str | None = None
@@ -118,6 +120,7 @@ class ReportOptions:
     occupancy_resolution_m: float = 0.1
     occupancy_columns: int = 3
     command: tuple[str, ...] | None = None
+    on_step: Callable[[str, int, int], None] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -966,7 +969,9 @@ def _write_into(
     )
 
     figure_names: list[str] = []
-    for dataset in datasets:
+    say = options.on_step or (lambda stage, done, total: None)
+    for index, dataset in enumerate(datasets):
+        say(f"figures of {dataset}", index, len(datasets))
         group = [c for c in cells if c.dataset == dataset]
         gt_label = _gt_label(group)
         heading(f"{dataset} — {gt_label}")
@@ -999,7 +1004,9 @@ def _write_into(
                 f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
                 f"<figcaption>{html.escape(caption)}</figcaption></figure>"
             )
+    say("figures", len(datasets), len(datasets))
     if options.exports:
+        say("exports", 0, 0)
         _exports(out, cells, notes)
         para(
             "Exports: exports/CELL/trajectory.tum and trajectory.kitti for every run, "

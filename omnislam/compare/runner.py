@@ -35,13 +35,15 @@ import sys
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from omnislam._files import atomic_write_text, check_output_location, output_error
 from omnislam.compare.cache import LOGS
+from omnislam.compare.channel import ProgressChannel, StepReporter
 from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
-from omnislam.compare.execute import execute_run, frontend_log_for
+from omnislam.compare.execute import RunSpec, execute_run, frontend_log_for
 from omnislam.compare.grid import Cell, Grid, column_label
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction
 from omnislam.compare.run_metrics import (
@@ -66,6 +68,8 @@ RESULTS_JSON = "results.json"
 RESULTS_CSV = "results.csv"
 #: a cell whose worker was lost is submitted at most this many times in all
 DEFAULT_MAX_ATTEMPTS = 3
+#: seconds the runner waits for a cell before it passes on the workers' progress
+PROGRESS_POLL_S = 0.25
 
 #: columns of results.csv before the metrics (``CSV_FIELDS`` of ``compare.run_metrics``)
 CSV_LABELS = ("cell", "dataset", "estimator", "override", "seed", "status")
@@ -96,6 +100,24 @@ class CellOutcome:
     metrics: RunMetrics | None = None
     error: str | None = None
     attempts: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class CellProgress:
+    """What a running cell is doing (``execute.StepCallback``, sent by its worker).
+
+    Attributes:
+        cell: the cell.
+        stage: "loading", "front end", "running", "final estimate" (in the worker), then
+            "storing" (this process writes and evaluates it).
+        done: frames stepped so far.
+        total: frames of the run (0 while loading).
+    """
+
+    cell: Cell
+    stage: str
+    done: int
+    total: int
 
 
 @dataclass(frozen=True, slots=True)
@@ -143,6 +165,11 @@ def die_with_parent(parent_pid: int) -> None:
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
     if os.getppid() != parent_pid:
         os._exit(1)
+
+
+def run_cell(spec: RunSpec, reporter: StepReporter | None = None) -> RunRecord:
+    """What a worker runs for one cell: ``execute_run``, its progress sent to ``reporter``."""
+    return execute_run(spec, on_step=reporter)
 
 
 def local_executor_factory(workers: int) -> Callable[[], Executor]:
@@ -222,7 +249,9 @@ def _matches(cell_dir: Path, cell: Cell) -> bool:
 
 def _evaluation_matches(metrics: RunMetrics, options: EvaluationOptions) -> bool:
     segment, gate = metrics.rpe.segment_m, metrics.landmarks.gate_m
-    return (segment is None or segment == options.rpe_segment_m) and (
+    travel = metrics.rpe.travel_m
+    wanted = options.segment_for(travel) if travel is not None else options.rpe_segment_m
+    return (segment is None or segment == wanted) and (
         gate is None or gate == options.landmark_gate_m
     )
 
@@ -325,6 +354,8 @@ def run_grid(
     *,
     max_attempts: int = DEFAULT_MAX_ATTEMPTS,
     on_outcome: Callable[[CellOutcome], None] | None = None,
+    on_progress: Callable[[CellProgress], None] | None = None,
+    reuse: bool = True,
 ) -> GridResult:
     """Run every cell of ``grid`` not already finished in ``out_dir``.
 
@@ -335,6 +366,12 @@ def run_grid(
             process pool of ``os.cpu_count()`` workers.
         max_attempts: submissions per cell when its worker is lost.
         on_outcome: called with every cell's outcome as it is known (progress bars).
+        on_progress: called in this process with what running cells are doing, frames
+            stepped included, as their workers report it (``channel``; workers on another
+            machine report nothing until their cell is done).
+        reuse: keep the cells ``out_dir`` already holds for this grid (resume); False computes
+            every cell again (each replaces its old folder atomically when done) and removes
+            the cell folders of cells the grid no longer has.
 
     Returns:
         GridResult with every cell's outcome.
@@ -360,7 +397,7 @@ def run_grid(
     pending: list[Cell] = []
     for cell in grid.cells:
         cell_dir = cells_dir / cell.cell_id
-        if _matches(cell_dir, cell):
+        if reuse and _matches(cell_dir, cell):
             try:
                 metrics: RunMetrics | None = read_run_metrics(cell_dir / METRICS)
             except DataError:  # unreadable or of another layout: evaluate the run again
@@ -385,7 +422,12 @@ def run_grid(
             on_outcome(outcome)
 
     if pending:
-        _execute(pending, grid, cells_dir, executor_factory, max_attempts, finish)
+        _execute(pending, grid, cells_dir, executor_factory, max_attempts, finish, on_progress)
+    if not reuse:
+        wanted = {cell.cell_id for cell in grid.cells}
+        for old in cells_dir.iterdir():
+            if old.is_dir() and not old.name.startswith(".") and old.name not in wanted:
+                shutil.rmtree(old, ignore_errors=True)
     result = summary()
     write_summary(result)
     return result
@@ -398,28 +440,46 @@ def _execute(
     executor_factory: Callable[[], Executor],
     max_attempts: int,
     finish: Callable[[CellOutcome], None],
+    on_progress: Callable[[CellProgress], None] | None = None,
 ) -> None:
     """Submit the pending cells, store results as they arrive, resubmit lost ones."""
     attempts = {cell.cell_id: 0 for cell in pending}
+    by_id = {cell.cell_id: cell for cell in pending}
+    stack = ExitStack()
+    channel = stack.enter_context(ProgressChannel()) if on_progress is not None else None
     executor = executor_factory()
     running: dict[Future, Cell] = {}
 
     def submit(cell: Cell) -> None:
         nonlocal executor
         attempts[cell.cell_id] += 1
+        reporter = channel.reporter(cell.cell_id) if channel is not None else None
         try:
-            future = executor.submit(execute_run, cell.spec)
+            future = executor.submit(run_cell, cell.spec, reporter)
         except (BrokenProcessPool, RuntimeError):  # a broken or shut down pool: renew it
             executor.shutdown(wait=False, cancel_futures=True)
             executor = executor_factory()
-            future = executor.submit(execute_run, cell.spec)
+            future = executor.submit(run_cell, cell.spec, reporter)
         running[future] = cell
+
+    def relay() -> None:
+        if channel is None or on_progress is None:
+            return
+        for message in channel.drain():
+            cell = by_id.get(message.key)
+            if cell is not None:
+                on_progress(CellProgress(cell, message.stage, message.done, message.total))
 
     try:
         for cell in pending:
             submit(cell)
         while running:
-            done, _ = wait(list(running), return_when=FIRST_COMPLETED)
+            done, _ = wait(
+                list(running),
+                timeout=PROGRESS_POLL_S if channel is not None else None,
+                return_when=FIRST_COMPLETED,
+            )
+            relay()
             for future in done:
                 cell = running.pop(future)
                 try:
@@ -443,6 +503,9 @@ def _execute(
                             )
                         )
                     continue
+                if on_progress is not None:
+                    frames = record.config.frames
+                    on_progress(CellProgress(cell, "storing", frames, frames))
                 metrics = store_cell(cells_dir, cell, record, grid.evaluation)
                 finish(
                     CellOutcome(cell, CellStatus.COMPUTED, metrics, attempts=attempts[cell.cell_id])
@@ -451,5 +514,7 @@ def _execute(
         for future in running:
             future.cancel()
         executor.shutdown(wait=False, cancel_futures=True)
+        stack.close()
         raise
     executor.shutdown(wait=True)
+    stack.close()

@@ -14,7 +14,6 @@ log: no estimator can use them.
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -103,7 +102,7 @@ def run_frontend(
         config: the configuration (default ``FrontendConfig()``: OMNI_THESIS SIFT).
         rng: generator for RANSAC (default: seeded with ``DEFAULT_SEED``).
         max_images: process at most this many images (the log still has every frame).
-        progress: show a tqdm bar on stderr.
+        progress: show the images done, rate and ETA on stderr (``omnislam._progress``).
 
     Returns:
         The ObservationLog; ``stats`` holds counts and seconds per stage.
@@ -132,9 +131,9 @@ def run_frontend(
         todo = set(processed.tolist())
         bar = None
         if progress:
-            from tqdm import tqdm
+            from omnislam._progress import Progress
 
-            bar = tqdm(total=int(processed.size), desc="frontend", unit="img", file=sys.stderr)
+            bar = Progress(f"frontend {sequence.name}", int(processed.size), "img")
         for i in range(n):
             if i not in todo:
                 continue
@@ -160,7 +159,7 @@ def run_frontend(
                 with clock("vertical_edges"):
                     lines[i] = extract_vertical_lines(image, rig, config.vertical_edges)
             if bar is not None:
-                bar.update(1)
+                bar.advance()
         if bar is not None:
             bar.close()
         sightings = tracker.sightings
