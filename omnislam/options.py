@@ -221,7 +221,7 @@ def _text(value: Any) -> str:
     if isinstance(value, tuple):
         return ",".join(_text(v) for v in value)
     if isinstance(value, float):
-        return f"{value:.6g}"
+        return repr(value)  # the shortest text that reads back as the same float
     return str(value)
 
 

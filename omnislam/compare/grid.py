@@ -304,14 +304,15 @@ datasets:                       # a registered name (`omnislam dataset list`) or
 estimators:                     # names from `omnislam estimators`, with their --set options
   - deadreckoning               #   (the baseline; not ranked in the verdict)
   - graphslam
-  - {{estimator: fastslam1, label: fs1-100, options: {{n_particles: 100}}}}
+  - {{estimator: fastslam1, label: fs1, options: {{resampling: stratified}}}}
   - ekfslam
 
 seeds: [0, 1, 2]                # one run per seed (default [0]); the verdict uses their spread
 
-overrides:                      # option sets crossed with the estimators: one more cell each
-  - {{n_particles: 30, estimators: [fs1-100]}}   # `estimators` limits it (names or labels)
-  # - {{wrong_id_fraction: 0.05}}                # harness options apply to every estimator
+overrides:                      # option sets: an estimator they apply to runs once per
+  - {{n_particles: 30, estimators: [fs1]}}    #   override (on top of its own options) instead
+  - {{n_particles: 300, estimators: [fs1]}}   #   of once; `estimators` limits where one applies
+  # - {{wrong_id_fraction: 0.05}}             # (names or labels); harness options apply to all
 
 evaluation:                     # how every cell is scored (optional)
 {evaluation_text}
