@@ -216,6 +216,7 @@ def _run_text(record: RunRecord, run_dir: Path, alignment: Any, notes: list[str]
             f"- the estimate is drawn SE(2)-aligned to the ground truth (as its ATE): "
             f"ATE RMSE {alignment.rmse_m:.4g} m over {alignment.matched} poses"
         )
+    lines.append(f"- covariance ellipses and ellipsoids: {SIGMAS:g} sigma")
     if (run_dir / METRICS).is_file():
         try:
             metrics = json.loads((run_dir / METRICS).read_text())
@@ -229,7 +230,6 @@ def _run_text(record: RunRecord, run_dir: Path, alignment: Any, notes: list[str]
             ]
         except (OSError, ValueError):
             pass
-    lines.append(f"- covariance ellipses and ellipsoids: {SIGMAS:g} sigma")
     if notes:
         lines += ["", "## not shown", ""] + [f"- {n}" for n in notes]
     return "\n".join(lines) + "\n"
