@@ -867,7 +867,7 @@ def _(tmp, fx):
 @case("run-out-exists-without-overwrite")
 def _(tmp, fx):
     run = fx.run_dir(tmp)
-    return run_args(mrclam(tmp), tmp)[:-1] + [str(run)], "--overwrite"
+    return [*run_args(mrclam(tmp), tmp)[:-1], str(run)], "--overwrite"
 
 
 @case("compare-out-exists-without-resume")
