@@ -25,6 +25,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable, Mapping
+from contextlib import nullcontext
 from dataclasses import asdict, dataclass, field, is_dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -225,7 +226,7 @@ def execute_run(
     if replay is not None and modality is Modality.BEARINGS_3D:
         # the landmarks are the front end's tracks: score them against the tracks' true points
         say("true points of the tracks", 0, 0)
-        ground_truth, track_truth = _with_track_truth(sequence, replay, Path(log))
+        ground_truth, track_truth = _with_track_truth(sequence, replay, Path(log), progress)
     rng = np.random.default_rng(spec.seed)
     estimator = make_estimator(spec.estimator, info, estimator_options, rng)
 
@@ -341,7 +342,24 @@ def _load_log(sequence: object, log: str) -> Any:
     return replay
 
 
-def _with_track_truth(sequence: Any, replay: Any, log: Path) -> tuple[GroundTruth, bool]:
+def cache_track_truth(sequence: Any, log: str | Path, progress: bool = False) -> None:
+    """Compute the true points of a log's tracks into the cache next to it, once.
+
+    The grid runner calls it in its own process before the cells start, so that workers running
+    cells of the same log read the cache instead of each computing it (``_with_track_truth``).
+    Nothing to do for a sequence without per-pixel ground truth.
+    """
+    if sequence.point_map_loader is None:
+        return
+    from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
+
+    replay = load_observation_log(Path(log), dataset_id=dataset_fingerprint(sequence))
+    _with_track_truth(sequence, replay, Path(log), progress=progress)
+
+
+def _with_track_truth(
+    sequence: Any, replay: Any, log: Path, progress: bool = False
+) -> tuple[GroundTruth, bool]:
     """Ground truth whose landmarks are the true points of the front end's tracks.
 
     With per-pixel ground truth (``Sequence.point_map_loader``: synthetic renders) every track
@@ -365,9 +383,23 @@ def _with_track_truth(sequence: Any, replay: Any, log: Path) -> tuple[GroundTrut
     except NPZ_ERRORS:  # no cache entry, or a truncated one: recompute
         pass
     if ids is None:
+        from omnislam._progress import Progress
         from omnislam.frontend.evaluation import track_truth, true_sightings
 
-        ids, points = track_truth(true_sightings(replay, sequence.point_map_loader))
+        images = sum(
+            f.bearings is not None and px is not None and len(f.bearings) > 0
+            for f, px in zip(replay.frames, replay.pixels, strict=True)
+        )
+        label = f"true points of the tracks of {log.name}"
+        with Progress(label, images, "img") if progress else nullcontext() as bar:
+
+            def points_w_of(index: int) -> np.ndarray:
+                points = sequence.point_map_loader(index)
+                if bar is not None:
+                    bar.advance()
+                return points
+
+            ids, points = track_truth(true_sightings(replay, points_w_of))
         with tempfile.NamedTemporaryFile(dir=log.parent, suffix=".npz", delete=False) as tmp:
             np.savez_compressed(tmp, key=np.array(key), ids=ids, points_w=points)
         make_public(tmp.name)

@@ -43,7 +43,7 @@ from omnislam._files import atomic_write_text, check_output_location, output_err
 from omnislam.compare.cache import LOGS
 from omnislam.compare.channel import ProgressChannel, StepReporter
 from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
-from omnislam.compare.execute import RunSpec, execute_run, frontend_log_for
+from omnislam.compare.execute import RunSpec, cache_track_truth, execute_run, frontend_log_for
 from omnislam.compare.grid import Cell, Grid, column_label
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction
 from omnislam.compare.run_metrics import (
@@ -329,15 +329,25 @@ def prepare_frontend_logs(grid: Grid, out_dir: Path) -> Grid:
     Returns:
         The grid with the log paths filled in.
     """
+    from omnislam.core.modality import Modality
     from omnislam.datasets.registry import load_dataset
+    from omnislam.estimators import ESTIMATORS
 
     logs: dict[str, str | None] = {}
     for cell in grid.cells:
         dataset = cell.spec.dataset
         if cell.spec.log is not None or dataset in logs:
             continue
-        path = frontend_log_for(load_dataset(dataset), dataset, out_dir / LOGS, progress=True)
+        sequence = load_dataset(dataset)
+        path = frontend_log_for(sequence, dataset, out_dir / LOGS, progress=True)
         logs[dataset] = None if path is None else str(path)
+        bearings = any(
+            Modality.BEARINGS_3D in ESTIMATORS[c.spec.estimator].modalities
+            for c in grid.cells
+            if c.spec.dataset == dataset
+        )
+        if path is not None and bearings:  # once here, not once per worker
+            cache_track_truth(sequence, path, progress=True)
     cells = tuple(
         cell
         if cell.spec.log is not None or logs.get(cell.spec.dataset) is None
