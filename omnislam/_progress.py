@@ -31,6 +31,7 @@ import shutil
 import sys
 import threading
 import time
+import weakref
 from types import TracebackType
 from typing import TextIO
 
@@ -48,8 +49,9 @@ INTERVAL_VARIABLE = "OMNISLAM_PROGRESS_INTERVAL"
 _OFF = {"0", "off", "no", "false"}
 _ERASE_LINE = "\x1b[K"
 _WRITE_LOCK = threading.Lock()
-#: the open stages, innermost last: only that one prints
-_OPEN: list[Progress] = []
+#: the open stages, innermost last: only that one prints (weak: a stage abandoned by an
+#: exception, never closed, goes away with its last reference, and so does its ticker)
+_OPEN: list[weakref.ref[Progress]] = []
 
 
 def enabled() -> bool:
@@ -139,8 +141,11 @@ class Progress:
         self._ticker: threading.Thread | None = None
         if self._enabled:
             with _WRITE_LOCK:
-                _OPEN.append(self)
-            self._ticker = threading.Thread(target=self._tick, daemon=True, name="progress")
+                _OPEN.append(weakref.ref(self))
+            period = min(max(self._interval_s, TTY_INTERVAL_S), 1.0)
+            self._ticker = threading.Thread(
+                target=_tick, args=(weakref.ref(self), self._closed, period), daemon=True
+            )
             self._ticker.start()
 
     # -- state -------------------------------------------------------------------------------
@@ -267,17 +272,11 @@ class Progress:
 
     def _leave(self) -> None:
         with _WRITE_LOCK:
-            if self in _OPEN:
-                _OPEN.remove(self)
+            _OPEN[:] = [ref for ref in _OPEN if ref() is not None and ref() is not self]
 
     def _delay_s(self) -> float:
         quiet = self.total is None and self.done == 0
         return min(QUIET_STAGE_DELAY_S if quiet else FIRST_LINE_DELAY_S, self._plain_s)
-
-    def _tick(self) -> None:
-        period = min(max(self._interval_s, TTY_INTERVAL_S), 1.0)
-        while not self._closed.wait(period):
-            self._print()
 
     def _out(self) -> TextIO:
         return self._stream if self._stream is not None else sys.stderr
@@ -298,7 +297,8 @@ class Progress:
             return
         text = self._text()
         with _WRITE_LOCK:  # checked and written at once: an inner stage cannot open between
-            if self._closed.is_set() or (_OPEN and _OPEN[-1] is not self):
+            _OPEN[:] = [ref for ref in _OPEN if ref() is not None]
+            if self._closed.is_set() or (_OPEN and _OPEN[-1]() is not self):
                 return
             self._last_print = now
             self._write(text, locked=True)
@@ -322,6 +322,16 @@ class Progress:
             out.flush()
         except (OSError, ValueError):  # a closed stderr: progress is never worth an error
             self._enabled = False
+
+
+def _tick(ref: weakref.ref[Progress], closed: threading.Event, period_s: float) -> None:
+    """A stage's ticker: print its line while nothing reports, until it closes or is gone."""
+    while not closed.wait(period_s):
+        progress = ref()
+        if progress is None:
+            return
+        progress._print()
+        del progress
 
 
 class Stages:

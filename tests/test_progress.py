@@ -143,3 +143,25 @@ def test_stages_count_frames_where_a_stage_counts_and_time_elsewhere(capsys):
     assert "run ekfslam on room: loading done in" in err
     assert "run ekfslam on room: 3/3 frame (100%)" in err
     assert "run ekfslam on room: final estimate done in" in err
+
+
+def test_a_stage_dropped_by_an_exception_stops_printing():
+    import gc
+
+    out = Capture(tty=False)
+
+    def stage_that_fails() -> None:
+        bar = Progress("frontend demo", 59, "img", stream=out)
+        bar.update(3)
+        raise ValueError("a bad image")
+
+    with pytest.raises(ValueError):
+        stage_that_fails()
+    gc.collect()
+    time.sleep(0.3)
+    printed = out.getvalue()
+    time.sleep(1.5)  # a leaked ticker would print a line a second here
+    assert out.getvalue() == printed
+    with Progress("run x", 2, stream=out) as bar:  # and the next stage is the innermost
+        bar.update(2)
+    assert "run x: 2/2 frame (100%)" in out.getvalue()

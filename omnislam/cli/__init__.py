@@ -113,13 +113,24 @@ class _Stderr(logging.Handler):
 _FORMAT = "%(levelname)s %(name)s: %(message)s"
 
 
+#: environment variables a command sets for itself and the processes it starts (put back after)
+COMMAND_ENVIRONMENT = ("DASK_LOGGING__DISTRIBUTED", "OMNISLAM_PROGRESS")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``omnislam`` console script (see the module docstring for exit codes)."""
+    saved = {name: os.environ.get(name) for name in COMMAND_ENVIRONMENT}
     try:
         return _main(argv)
     except BrokenPipeError:  # --help, --version, --template into a closed pipe
         _silence_stdout()
         return EXIT_BROKEN_PIPE
+    finally:  # a caller in the same process (tests, scripts) keeps its own environment
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
 
 
 def _main(argv: Sequence[str] | None) -> int:

@@ -457,7 +457,11 @@ def _execute(
     by_id = {cell.cell_id: cell for cell in pending}
     stack = ExitStack()
     channel = stack.enter_context(ProgressChannel()) if on_progress is not None else None
-    executor = executor_factory()
+    try:
+        executor = executor_factory()
+    except BaseException:
+        stack.close()
+        raise
     running: dict[Future, Cell] = {}
 
     def submit(cell: Cell) -> None:

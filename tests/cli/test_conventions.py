@@ -210,6 +210,8 @@ def test_help_texts_say_what_the_code_does():
             assert stale not in text, (name, stale)
     run_help = " ".join(commands["run"].format_help().split())
     assert "--log" in run_help and "omnislam frontend" in run_help
+    estimator_help = next(a.help for a in commands["run"]._actions if a.dest == "estimator")
+    assert all(name in estimator_help for name in ESTIMATORS)
 
 
 # ---- files are readable by others ------------------------------------------------------------

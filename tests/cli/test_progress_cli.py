@@ -25,6 +25,7 @@ CONTROL = re.compile(r"[\r\x1b]")
 def _env(**extra: str) -> dict[str, str]:
     env = {**os.environ, "PYTHONPATH": str(REPO), "OMNISLAM_PROGRESS_INTERVAL": "0", **extra}
     env.pop("OMNISLAM_PROGRESS", None)
+    env.pop("DASK_LOGGING__DISTRIBUTED", None)
     return env
 
 
