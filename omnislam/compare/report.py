@@ -952,8 +952,6 @@ def _write_into(
             headline,
         )
     )
-    segments = [c.metrics.rpe.segment_m for c in cells if c.ok and c.metrics is not None]
-    segment = next((length for length in segments if length), None)
     heading("Estimators")
     ran = {c.estimator for c in cells}
     table(
@@ -981,6 +979,9 @@ def _write_into(
         if note:
             para(f"Ground truth: {note}")
         header, rows = _detail_rows(group)
+        # each dataset's own segment (a short run's is shorter: evaluation.segment_for)
+        lengths = [c.metrics.rpe.segment_m for c in group if c.ok and c.metrics is not None]
+        segment = next((length for length in lengths if length), None)
         if segment:
             header = [h.replace("RPE trans", f"RPE {segment:g} m trans") for h in header]
             header = [h.replace("RPE rot", f"RPE {segment:g} m rot") for h in header]
