@@ -12,8 +12,9 @@ estimate is aligned to the reference by ``--align``: ``none``, ``origin`` (first
 anchored; evo's ``--align_origin``), ``se2`` (rotation about z and x-y translation; evo's ``-a``
 on planar runs), ``se3`` (evo's ``-a``) or ``sim3`` (evo's ``-as``); then ATE (position error
 statistics) and RPE (translation and rotation over segments of ``--rpe-segment`` metres of
-reference travel, all start poses: evo's ``--all_pairs --delta M --delta_unit m``; and
-between consecutive poses: ``--delta 1 --delta_unit f``). Nothing is written unless ``--out``.
+reference travel, all start poses: evo's ``--all_pairs --pairs_from_reference --delta M
+--delta_unit m``; and between consecutive poses: ``--delta 1 --delta_unit f``). Nothing is
+written unless ``--out``.
 
 The RPE segment defaults to 10 m, or to a quarter of the ground truth's travel (rounded down to
 1-2-5) when the run travels less than 40 m.

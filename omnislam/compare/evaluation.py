@@ -345,8 +345,9 @@ class TrajectoryComparison:
 
     The numbers are evo's: ATE is ``evo_ape`` with the matching alignment flags (none, ``-a``,
     ``-as``, ``--align_origin``; SE(2) equals ``-a`` on planar runs), RPE is ``evo_rpe
-    --all_pairs`` with ``--delta SEGMENT --delta_unit m`` (and ``--delta 1 --delta_unit f``), of
-    the estimate after the same alignment (only SIM3's scale changes an RPE).
+    --all_pairs --pairs_from_reference`` with ``--delta SEGMENT --delta_unit m`` (and
+    ``--delta 1 --delta_unit f``), of the estimate after the same alignment (only SIM3's scale
+    changes an RPE).
 
     Attributes:
         ate: the ATE result (statistics and per-pose errors).
