@@ -610,6 +610,12 @@ def _pose_errors(record: RunRecord, result: AteResult) -> np.ndarray:
 #: (file stem, caption) of each figure of a dataset, in report order; each answers one question
 FIGURES: tuple[tuple[str, str], ...] = (
     (
+        "trajectories",
+        "Where along the path does each estimator go wrong? Each estimator's "
+        "path (its lowest seed), SE(2)-aligned to the {gt} (dashed) and coloured by its position "
+        "error on one logarithmic scale for all panels; the dot marks the start.",
+    ),
+    (
         "ate-seeds",
         "How accurate is each estimator over seeds? ATE RMSE of every seed (dots) "
         "and its median (bar) against the {gt}.",
@@ -619,12 +625,6 @@ FIGURES: tuple[tuple[str, str], ...] = (
         "What does accuracy cost? ATE RMSE against the total run time of "
         "every run (log-log; ringed: the median over seeds). Wall-clock times of the machine in "
         "the provenance block.",
-    ),
-    (
-        "trajectories",
-        "Where along the path does each estimator go wrong? Each estimator's "
-        "path (its lowest seed), SE(2)-aligned to the {gt} (dashed) and coloured by its position "
-        "error on one logarithmic scale for all panels; the dot marks the start.",
     ),
     (
         "error-over-distance",
@@ -682,6 +682,8 @@ def _dataset_figures(
     gt_label = _gt_label(cells)
     stem = "".join(ch if ch.isalnum() or ch in "-_" else "-" for ch in dataset)
     figures: list[tuple[str, str, str]] = []
+
+    order = [kind for kind, _ in FIGURES]
 
     def add(kind: str, make: Callable[[str], str]) -> None:
         name = f"{stem}-{kind}"
@@ -776,7 +778,7 @@ def _dataset_figures(
         grids = _occupancy(reference, aligned, gt_label, options, notes)
         if grids:
             add("occupancy", lambda n: plots.occupancy(n, dataset, grids, colours))
-    return figures
+    return sorted(figures, key=lambda f: order.index(f[0][len(stem) + 1 : -len(".svg")]))
 
 
 def _occupancy(
@@ -1060,20 +1062,6 @@ def _write_into(
     )
     segments = [c.metrics.rpe.segment_m for c in cells if c.ok and c.metrics is not None]
     segment = next((length for length in segments if length), None)
-    heading("Estimators")
-    ran = {c.estimator for c in cells}
-    table(
-        make_table(
-            "estimators",
-            "Estimators of omnislam and whether they are in this report",
-            ["estimator", "status", "in this report"],
-            [
-                [name, status, "yes" if name in ran else "no"]
-                for name, status in _estimator_availability()
-            ],
-        )
-    )
-
     from omnislam.compare import plots
 
     figure_names: list[str] = []
@@ -1122,6 +1110,19 @@ def _write_into(
             md.append(f"- {n}")
             doc.append(f'<p class="note">{html.escape(n)}</p>')
         md.append("")
+    heading("Estimators")
+    ran = {c.estimator for c in cells}
+    table(
+        make_table(
+            "estimators",
+            "Estimators of omnislam and whether they are in this report",
+            ["estimator", "status", "in this report"],
+            [
+                [name, status, "yes" if name in ran else "no"]
+                for name, status in _estimator_availability()
+            ],
+        )
+    )
     heading("Provenance")
     table(
         make_table(
