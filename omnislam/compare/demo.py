@@ -84,7 +84,9 @@ def demo_grid(dataset: Path, estimators: list[str], seed: int) -> Grid:
     spec = {
         "name": "omnislam demo (synthetic omni world)",
         "datasets": [{"dataset": str(dataset.resolve()), "label": "demo"}],
-        "estimators": [{"estimator": name, "options": {}} for name in estimators],
+        "estimators": [
+            {"estimator": name, "options": {}} for name in estimators
+        ],
         "seeds": [seed],
         "evaluation": {"rpe_segment_m": 1.0, "landmark_gate_m": 0.3},
     }

@@ -349,6 +349,7 @@ def remove_stale_temporaries(path: Path) -> list[Path]:
     return removed
 
 
+
 def read_run_config(path: Path) -> RunConfig:
     """Read ``RUN_DIR/config.yaml``.
 
