@@ -336,12 +336,10 @@ def _html_cell(value: Cell, colours: Mapping[str, str]) -> str:
     """A cell's text, after a swatch of the estimator's colour when it names one."""
     text = str(value)
     colour = colours.get(text)
-    swatch = (
-        f'<span class="swatch" style="background:{colour}" title="{colour}"></span>'
-        if colour
-        else ""
-    )
-    return swatch + html.escape(text)
+    if not colour:
+        return html.escape(text)
+    swatch = f'<span class="swatch" style="background:{colour}" title="{colour}"></span>'
+    return f'<span class="estimator">{swatch}{html.escape(text)}</span>'
 
 
 def _html_table(
@@ -879,7 +877,7 @@ th:first-child,td:first-child{text-align:left}
 thead{background:#f0f0f0} img{max-width:100%} figure{margin:1.5em 0}
 figure svg{display:block;max-width:100%;height:auto}
 figcaption{font-size:.9em;color:#444;max-width:60em}
-.note{color:#844} .tables{font-size:.8em;margin-top:-.6em}
+.note{color:#844} .tables{font-size:.8em;margin-top:-.6em} .estimator{white-space:nowrap}
 .swatch{display:inline-block;width:.8em;height:.8em;margin-right:.35em;vertical-align:-.05em;
 border:1px solid rgba(0,0,0,.25)}
 """
