@@ -33,7 +33,7 @@ from omnislam.errors import ConfigError, EstimationError
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam.bearings_3d import Bearings3DGraph
 from omnislam.graphslam.builder import GraphBuilder
-from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.config import GraphSLAMConfig, PoseVariables
 from omnislam.graphslam.export import G2O_ATTACHMENT, format_g2o
 from omnislam.graphslam.poses import PlanarPoses, PoseChain, ViewpointPoses
 from omnislam.graphslam.range_bearing import CREATED_ID_BASE, RangeBearingGraph
@@ -158,19 +158,24 @@ class GraphSLAM:
     def step(self, frame: FrameInput) -> None:
         """Add one frame: its pose and odometry factor, its sightings, one iSAM2 update."""
         k = self._frames
-        graph = gtsam.NonlinearFactorGraph()
-        values = gtsam.Values()
-        guess_w = self._poses.add(k, frame, graph, values)
         used = self._modality.stream(frame)
         for other in (frame.bearings, frame.range_bearing, frame.vertical_lines):
             if other is not None and other is not used:
                 self._other_streams_ignored += len(other)
-        if used is not None and len(used):
+        seen = used is not None and len(used) > 0
+        key = k == 0 or seen or self.config.pose_variables is PoseVariables.FRAMES
+        self._stamps.append(frame.stamp_s)
+        self._frames += 1
+        if not key:  # its odometry waits for the next key frame's between-factor
+            self._poses.add(k, frame, None, None, key=False)
+            return
+        graph = gtsam.NonlinearFactorGraph()
+        values = gtsam.Values()
+        guess_w = self._poses.add(k, frame, graph, values, key=True)
+        if seen:
             self._graph.add(k, used, guess_w, graph, values)
         self._session.update(graph, values, frame.index)
         self._poses.read_newest(k)
-        self._stamps.append(frame.stamp_s)
-        self._frames += 1
 
     def estimate(self) -> Estimate:
         """The current iSAM2 estimate: all poses, all landmarks, covariances if configured."""
@@ -227,8 +232,9 @@ class GraphSLAM:
         return self._session.estimate()
 
     def newest_pose(self) -> np.ndarray:
-        """(3,) newest pose estimate [x, y, theta] of the robot frame (read every step)."""
-        return self._poses.newest_w.copy()
+        """(3,) newest pose estimate [x, y, theta] of the robot frame: the newest key frame's
+        iSAM2 estimate composed with the odometry since (read every step)."""
+        return self._poses.guess_w.copy()
 
     def attachments(self) -> Mapping[str, bytes]:
         """``{"graph.g2o": ...}``: the factor graph at ``values()`` in g2o text (``export.py``)."""
@@ -248,12 +254,14 @@ class GraphSLAM:
             raise EstimationError("estimate does not hold one value per pose and landmark")
         pose_covs = landmark_covs = None
         if marginal_covariance is not None:
-            pose_covs = np.array(
+            keys = self._poses.key_frames
+            key_covs = np.array(
                 [
                     self._poses.world_covariance(marginal_covariance(fx.pose_key(i)), planar[i, 2])
-                    for i in range(n)
+                    for i in keys
                 ]
-            ).reshape(n, 3, 3)
+            ).reshape(len(keys), 3, 3)
+            pose_covs = self._poses.frame_covariances(key_covs, planar)
             landmark_covs = np.zeros((len(ids), 3, 3))
             for row, lid in enumerate(ids.tolist()):
                 cov = marginal_covariance(fx.landmark_key(lid))
