@@ -66,6 +66,11 @@ class GraphSLAMInfo:
             every sighting of the other modalities.
         sightings_gated: bearings of mapped landmarks pointing away from them (outliers of
             the front end's association), not added to the graph.
+        sightings_between_key_frames: sightings of frames that got no pose variable (omni
+            images closer than ``keyframe_spacing_m`` to the newest key frame).
+        key_frames: frames with a pose variable (``GraphSLAMConfig.pose_variables``).
+        sightings_over_budget: bearings of tracks left out by the per-image landmark budget
+            (``GraphSLAMConfig.landmarks_per_image``).
         factorization_fallbacks: Cholesky failures recovered by rebuilding with QR (AUTO).
         batch_reorders: updates in which iSAM2 re-ordered and re-eliminated the whole Bayes
             tree (when most variables were affected, or by ``adaptive_reorder_threshold``).
@@ -92,6 +97,9 @@ class GraphSLAMInfo:
     sightings_ambiguous: int
     sightings_ignored: int
     sightings_gated: int = 0
+    sightings_between_key_frames: int = 0
+    key_frames: int = 0
+    sightings_over_budget: int = 0
     factorization_fallbacks: int = 0
     batch_reorders: int = 0
     tree_nonzeros: int = 0
@@ -152,6 +160,7 @@ class GraphSLAM:
         self._stamps: list[float] = []
         self._frames = 0
         self._other_streams_ignored = 0
+        self._between_keys = 0  # sightings of frames that got no pose variable
 
     # ------------------------------------------------------------------ protocol
 
@@ -163,19 +172,33 @@ class GraphSLAM:
             if other is not None and other is not used:
                 self._other_streams_ignored += len(other)
         seen = used is not None and len(used) > 0
-        key = k == 0 or seen or self.config.pose_variables is PoseVariables.FRAMES
+        guess_w = self._poses.fold(k, frame)
+        key = k == 0 or self.config.pose_variables is PoseVariables.FRAMES or (
+            seen and self._far_enough()
+        )
         self._stamps.append(frame.stamp_s)
         self._frames += 1
         if not key:  # its odometry waits for the next key frame's between-factor
-            self._poses.add(k, frame, None, None, key=False)
+            self._poses.add(k, None, None, key=False)
+            if seen:
+                self._between_keys += len(used)
             return
         graph = gtsam.NonlinearFactorGraph()
         values = gtsam.Values()
-        guess_w = self._poses.add(k, frame, graph, values, key=True)
+        self._poses.add(k, graph, values, key=True)
         if seen:
             self._graph.add(k, used, guess_w, graph, values)
         self._session.update(graph, values, frame.index)
         self._poses.read_newest(k)
+
+    def _far_enough(self) -> bool:
+        """Omni bearings: a frame with sightings becomes a key frame once the robot has moved
+        ``keyframe_spacing_m`` since the newest one (``GraphSLAMConfig``); other streams:
+        always."""
+        spacing = self.config.keyframe_spacing_m
+        if self._modality is not Modality.BEARINGS_3D or spacing <= 0:
+            return True
+        return bool(np.hypot(*self._poses.since_key[:2]) >= spacing)
 
     def estimate(self) -> Estimate:
         """The current iSAM2 estimate: all poses, all landmarks, covariances if configured."""
@@ -213,6 +236,9 @@ class GraphSLAM:
             sightings_associated=counts.sightings_associated,
             sightings_ambiguous=counts.sightings_ambiguous,
             sightings_ignored=counts.sightings_ignored + self._other_streams_ignored,
+            sightings_between_key_frames=self._between_keys,
+            key_frames=len(self._poses.key_frames),
+            sightings_over_budget=counts.sightings_over_budget,
             sightings_gated=counts.sightings_gated,
             factorization_fallbacks=self._session.fallbacks,
             batch_reorders=self._session.batch_reorders,

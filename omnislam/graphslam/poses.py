@@ -92,6 +92,7 @@ class PoseChain(abc.ABC):
         self._newest = self._initial_pose.copy()  # newest key frame's estimate [x, y, theta]
         self._newest_pose2 = fx.pose2(self._initial_pose)  # the same as a gtsam.Pose2
         self._guess = self._initial_pose.copy()  # initial guess of the frame being added
+        self._guess2 = fx.pose2(self._guess)  # the same as a gtsam.Pose2
         self._key_frames: list[int] = []  # frames with a pose variable, ascending
         self._newest_key = 0  # the key frame newest_w was read from
         # odometry since the newest key frame: delta [x, y, theta] and its covariance
@@ -121,19 +122,26 @@ class PoseChain(abc.ABC):
         """Frame indices with a pose variable, ascending (do not modify)."""
         return self._key_frames
 
-    def _next_guess(self, k: int, frame: FrameInput, key: bool) -> tuple[Any, Any]:
-        """Fold frame k's odometry in and set its guess.
+    @property
+    def since_key(self) -> np.ndarray:
+        """(3,) the odometry folded in since the newest key frame [x, y, theta] (do not modify)."""
+        return self._since_key
+
+    def fold(self, k: int, frame: FrameInput) -> np.ndarray:
+        """Fold frame k's odometry into the odometry since the newest key frame; set its guess.
+
+        Call once per frame, before ``add``.
 
         Returns:
-            (the guess as gtsam.Pose2, the odometry since the previous key frame as gtsam.Pose2,
-            or None for frame 0). Non-key frames only record their offset from the key frame.
+            (3,) the frame's guess [x, y, theta]: the newest key frame's estimate composed with
+            the odometry since (also ``guess_w``).
         """
         if k == 0:
             self._guess = self._initial_pose.copy()
             self._since_key = np.zeros(3)
             self._since_key_cov = np.zeros((3, 3))
-            self._record(k, key=True)
-            return fx.pose2(self._guess), None
+            self._guess2 = fx.pose2(self._guess)
+            return self._guess
         delta = np.asarray(frame.odometry.delta, dtype=float)
         if self._key_frames[-1] == k - 1:  # the first step since the key frame
             self._since_key, self._since_key_cov = delta, self._step_covariance(frame)
@@ -141,11 +149,9 @@ class PoseChain(abc.ABC):
             self._since_key, self._since_key_cov = compose_odometry(
                 self._since_key, self._since_key_cov, delta, self._step_covariance(frame)
             )
-        odometry = fx.pose2(self._since_key)
-        guess2 = self._newest_pose2.compose(odometry)
-        self._guess = fx.planar_from_pose2(guess2)
-        self._record(k, key)
-        return guess2, odometry
+        self._guess2 = self._newest_pose2.compose(fx.pose2(self._since_key))
+        self._guess = fx.planar_from_pose2(self._guess2)
+        return self._guess
 
     def _record(self, k: int, key: bool) -> None:
         """Remember frame k's key frame and offset (a key frame is its own, at zero offset)."""
@@ -220,13 +226,17 @@ class PoseChain(abc.ABC):
     def _estimated_viewpoint(self, frame: int) -> tuple[np.ndarray, np.ndarray]:
         """(origin_w, wRs) of an earlier frame's sensor, from iSAM2."""
 
-    @abc.abstractmethod
-    def add(self, k: int, frame: FrameInput, graph: Any, values: Any, key: bool) -> np.ndarray:
-        """Add frame k: a pose variable and its factors if ``key``, else only its odometry.
+    def add(self, k: int, graph: Any, values: Any, key: bool) -> None:
+        """Add frame k (after ``fold``): a pose variable and its factors if ``key``, else only
+        its offset from the newest key frame."""
+        previous = self._key_frames[-1] if self._key_frames else None
+        self._record(k, key)
+        if key:
+            self._add_variable(k, previous, graph, values)
 
-        Returns:
-            (3,) its guess [x, y, theta] (also ``guess_w``).
-        """
+    @abc.abstractmethod
+    def _add_variable(self, k: int, previous: int | None, graph: Any, values: Any) -> None:
+        """Key frame k's variable with its prior (k = 0) or odometry factor from ``previous``."""
 
     @abc.abstractmethod
     def read_newest(self, k: int) -> None:
@@ -275,21 +285,13 @@ class PlanarPoses(PoseChain):
         """0: planar sensors measure in the robot frame's plane."""
         return 0.0
 
-    def add(self, k: int, frame: FrameInput, graph: Any, values: Any, key: bool) -> np.ndarray:
-        """Add frame k: if ``key``, its pose variable with its prior (k = 0) or odometry factor
-        from the previous key frame.
-
-        Returns:
-            (3,) the pose's initial guess [x, y, theta] (also ``guess_w``).
-        """
-        previous = self._key_frames[-1] if self._key_frames else None
-        single_step = previous == k - 1
-        guess2, odometry = self._next_guess(k, frame, key)
-        if not key:
-            return self._guess
-        if k == 0:
+    def _add_variable(self, k: int, previous: int | None, graph: Any, values: Any) -> None:
+        """Key frame k's Pose2 with its prior (k = 0) or odometry factor from ``previous``."""
+        guess2 = self._guess2
+        if previous is None:
             graph.add(gtsam.PriorFactorPose2(fx.pose_key(0), guess2, self._prior_noise))
-        elif self._odometry_noise is not None and single_step:
+        elif self._odometry_noise is not None and previous == k - 1:
+            odometry = fx.pose2(self._since_key)
             graph.add(
                 gtsam.BetweenFactorPose2(
                     fx.pose_key(previous), fx.pose_key(k), odometry, self._odometry_noise
@@ -298,7 +300,6 @@ class PlanarPoses(PoseChain):
         else:
             graph.add(fx.between_pose2(previous, k, self._since_key, self._odometry_covariance()))
         values.insert(fx.pose_key(k), guess2)
-        return self._guess
 
     def read_newest(self, k: int) -> None:
         """Read frame k's pose back from iSAM2 after the update."""
@@ -351,20 +352,12 @@ class ViewpointPoses(PoseChain):
         """The omni viewpoint's height above the robot frame (``GraphSLAMConfig``) [m]."""
         return self._config.sensor_height_m
 
-    def add(self, k: int, frame: FrameInput, graph: Any, values: Any, key: bool) -> np.ndarray:
-        """Add frame k: if ``key``, its viewpoint with its priors (k = 0) or odometry from the
-        previous key frame and the planar prior.
-
-        Returns:
-            (3,) the robot pose's initial guess [x, y, theta] (also ``guess_w``).
-        """
-        previous = self._key_frames[-1] if self._key_frames else None
-        self._next_guess(k, frame, key)
-        if not key:
-            return self._guess
+    def _add_variable(self, k: int, previous: int | None, graph: Any, values: Any) -> None:
+        """Key frame k's viewpoint with its priors (k = 0) or odometry from ``previous`` and
+        the planar prior."""
         height = self._config.sensor_height_m
         viewpoint = fx.pose3_planar(self._guess, height)
-        if k == 0:
+        if previous is None:
             graph.add(gtsam.PriorFactorPose3(fx.pose_key(0), viewpoint, self._first_prior_noise))
         else:
             config = self._config
@@ -380,7 +373,6 @@ class ViewpointPoses(PoseChain):
             )
             graph.add(gtsam.PriorFactorPose3(fx.pose_key(k), viewpoint, self._planar_prior_noise))
         values.insert(fx.pose_key(k), fx.pose3_planar(self._guess, height))
-        return self._guess
 
     def read_newest(self, k: int) -> None:
         """Read frame k's viewpoint back from iSAM2 after the update."""
