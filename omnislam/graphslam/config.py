@@ -165,8 +165,8 @@ class GraphSLAMConfig:
     motion_noise: MotionNoise = field(default_factory=MotionNoise)
     odometry_sigmas: tuple[float, float, float] | None = None
     pose_variables: PoseVariables = PoseVariables.SIGHTINGS
-    keyframe_spacing_m: float = 0.0
-    landmarks_per_image: int = 0
+    keyframe_spacing_m: float = 0.2
+    landmarks_per_image: int = 40
     odometry_min_sigma_m: float = 1e-3
     prior_sigmas: tuple[float, float, float] = (1e-3, 1e-3, 1e-3)
     sensor_height_m: float = 0.0
