@@ -173,8 +173,10 @@ class GraphSLAM:
                 self._other_streams_ignored += len(other)
         seen = used is not None and len(used) > 0
         guess_w = self._poses.fold(k, frame)
-        key = k == 0 or self.config.pose_variables is PoseVariables.FRAMES or (
-            seen and self._far_enough()
+        key = (
+            k == 0
+            or self.config.pose_variables is PoseVariables.FRAMES
+            or (seen and self._far_enough())
         )
         self._stamps.append(frame.stamp_s)
         self._frames += 1

@@ -203,9 +203,7 @@ class PoseChain(abc.ABC):
         offsets = se3_from_se2(np.asarray(self._frame_offset).reshape(-1, 3))
         return key_poses_w[np.asarray(self._frame_key, dtype=np.int64)] @ offsets
 
-    def frame_covariances(
-        self, key_covariances_w: np.ndarray, planar_w: np.ndarray
-    ) -> np.ndarray:
+    def frame_covariances(self, key_covariances_w: np.ndarray, planar_w: np.ndarray) -> np.ndarray:
         """(N, 3, 3) world [x, y, yaw] covariance of every frame from its key frame's (K, 3, 3).
 
         ``J_a P_a J_a^T + J_b C J_b^T`` with the composition's Jacobians at (key pose, offset)

@@ -30,8 +30,8 @@ from omnislam.graphslam import (
     GraphSLAMConfig,
     RobustKernel,
 )
-from omnislam.graphslam.config import PoseVariables
 from omnislam.graphslam import factors as fx
+from omnislam.graphslam.config import PoseVariables
 
 gtsam = pytest.importorskip("gtsam")
 
