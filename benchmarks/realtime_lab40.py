@@ -186,7 +186,7 @@ def replay_once(data: Replay, estimator_name: str, options: dict[str, str], seed
             lm_rmse, lm_median = lm.rmse_m * 100, lm.median_m * 100
             lm_rmse_sim3, lm_median_sim3 = lm_sim3.rmse_m * 100, lm_sim3.median_m * 100
     image_cpu = cpu[data.images]
-    late = image_cpu[-LATE:] if len(image_cpu) >= EARLY.stop + LATE else image_cpu[:0]
+    late = image_cpu[-LATE:] if len(image_cpu) > EARLY.stop else image_cpu[:0]
     return Result(
         wall_s=wall_s,
         cpu_s=cpu_s,
