@@ -1,12 +1,16 @@
-"""The incremental GTSAM back end: one iSAM2 update per frame (estimator ``graphslam``).
+"""The incremental GTSAM back end: one iSAM2 update per key frame (estimator ``graphslam``).
 
 ``GraphSLAM`` is built for one ``Modality`` (resolved once by the registry, ``core.modality``)
 and reads only that stream of each frame; sightings of the other streams are counted as
-ignored. Each ``step``:
+ignored. A frame is a *key frame* -- it gets a pose variable -- when it has sightings of that
+stream (``GraphSLAMConfig.pose_variables``), for omni bearings only once the robot has moved
+``keyframe_spacing_m`` since the newest key frame; any other frame only folds its odometry into
+the next key frame's between-factor (``poses.py``) and costs no update. Each key frame's
+``step``:
 
-1. adds the frame's pose with the initial guess ``wTr_{k-1} (+) delta_k`` and its odometry
-   factor (``poses.py``: ``Pose2`` robot poses, or for omni bearings ``Pose3`` sensor
-   viewpoints with the planar prior);
+1. adds the frame's pose with the initial guess ``wTr_key (+) delta`` and its odometry
+   factor from the previous key frame (``poses.py``: ``Pose2`` robot poses, or for omni
+   bearings ``Pose3`` sensor viewpoints with the planar prior);
 2. turns the frame's sightings into factors and new landmarks (the modality's graph builder:
    ``bearings_3d.py``, ``range_bearing.py``, ``vertical_lines.py``);
 3. runs one iSAM2 update (``session.py``; Cholesky, rebuilt with QR if it fails) and reads back
