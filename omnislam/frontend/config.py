@@ -167,6 +167,9 @@ class VerificationConfig:
             the pure-rotation model ``f1 = R f2`` is verified instead.
         prior_rotation_tol_rad: a model whose rotation differs from the odometry prior's by
             more than this is rejected (the prior seeds and guards the search).
+        planar_motion: the viewpoints move on a horizontal plane and turn about the vertical
+            (a camera on a wheeled robot), so hypotheses come from 3 matches instead of 8
+            (``verification.planar_essential_from_bearings``); False for a hand-held camera.
         enabled: False skips verification (every ratio-test match is accepted).
     """
 
@@ -176,6 +179,7 @@ class VerificationConfig:
     min_inliers: int = 10
     min_baseline_m: float = 0.02
     prior_rotation_tol_rad: float = 0.35
+    planar_motion: bool = True
     enabled: bool = True
 
     def __post_init__(self) -> None:
@@ -207,7 +211,12 @@ class TrackConfig:
         min_track_length: tracks with fewer sightings are dropped from the log at the end;
             3 because a bearing-only landmark needs 3 sightings to be initialised (DESIGN.md,
             "Landmark insertion").
-        sigma_px: pixel noise turned into each bearing's angular sigma [px].
+        sigma_px: keypoint localisation std at size 0 [px] ...
+        sigma_px_per_size: ... plus this times the keypoint's SIFT diameter (2 sigma): the
+            pixel noise turned into each bearing's angular sigma through the camera model's
+            Jacobian (``bearing_noise``). Fitted to the RMS residuals of the tracks of the
+            ``lab40`` and ``demo`` renders against their true points
+            (``benchmarks/bearing_noise.py``); a real camera adds its calibration's residual.
     """
 
     window_images: int = 3
@@ -219,7 +228,8 @@ class TrackConfig:
     max_reference_images: int = 8
     prune_after_failures: int = 5
     min_track_length: int = 3
-    sigma_px: float = 1.0
+    sigma_px: float = 0.09
+    sigma_px_per_size: float = 0.027
 
     def __post_init__(self) -> None:
         if self.map_min_sightings < 1 or self.map_rebuild_every < 1:
@@ -228,8 +238,9 @@ class TrackConfig:
             raise ConfigError("TrackConfig: max_reference_images, prune_after_failures >= 1")
         if self.window_images < 1:
             raise ConfigError("TrackConfig.window_images must be >= 1")
-        if self.min_track_length < 1 or self.sigma_px <= 0:
-            raise ConfigError("TrackConfig: min_track_length >= 1 and sigma_px > 0")
+        if self.min_track_length < 1 or self.sigma_px <= 0 or self.sigma_px_per_size < 0:
+            raise ConfigError("TrackConfig: min_track_length >= 1, sigma_px > 0 and "
+                              "sigma_px_per_size >= 0")
 
 
 @dataclass(frozen=True, slots=True)

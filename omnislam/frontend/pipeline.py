@@ -28,8 +28,8 @@ import numpy as np
 
 from omnislam.core.se import se2_integrate
 from omnislam.core.types import Bearings, FrameInput, RangeBearing
-from omnislam.frontend.bearing_noise import bearing_sigmas
 from omnislam.errors import DataError
+from omnislam.frontend.bearing_noise import bearing_sigmas
 from omnislam.frontend.config import FrontendConfig, ScheduleConfig, ScheduleMode, config_hash
 from omnislam.frontend.config import config_to_dict as _config_to_dict
 from omnislam.frontend.groups import group_features
@@ -93,8 +93,9 @@ def _merge_sightings(a: RangeBearing | None, b: RangeBearing | None) -> RangeBea
     )
 
 
-#: images prepared ahead of the one being tracked when pipelined
-LOOKAHEAD = 2
+#: threads preparing images when pipelined, and images prepared ahead of the one being tracked
+WORKERS = 2
+LOOKAHEAD = 3
 
 
 @dataclass(frozen=True, slots=True)
@@ -151,13 +152,14 @@ class _ImagePreparer:
 
 def _prepared(prepare: _ImagePreparer, frames: list[int], pipelined: bool
               ) -> Iterator[tuple[int, PreparedImage]]:
-    """``(frame, prepared image)`` in order; pipelined: up to ``LOOKAHEAD`` images ahead in a
-    worker thread (OpenCV and most of numpy release the GIL)."""
+    """``(frame, prepared image)`` in order; pipelined: up to ``LOOKAHEAD`` images ahead in
+    ``WORKERS`` threads (OpenCV and most of numpy release the GIL), so that SIFT of the next
+    images runs on the other core while this thread tracks."""
     if not pipelined:
         for i in frames:
             yield i, prepare(i)
         return
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="frontend") as pool:
+    with ThreadPoolExecutor(max_workers=WORKERS, thread_name_prefix="frontend") as pool:
         pending: collections.deque = collections.deque()
         queue = iter(frames)
         for i in itertools.islice(queue, LOOKAHEAD):
@@ -187,8 +189,8 @@ def run_frontend(
         rng: generator for RANSAC (default: seeded with ``DEFAULT_SEED``).
         max_images: process at most this many images (the log still has every frame).
         progress: show a tqdm bar on stderr.
-        pipelined: prepare image k + 1 (load, SIFT, groups, rays, vertical edges) in a second
-            thread while image k is tracked; the log is the same either way (a test).
+        pipelined: prepare the next images (load, SIFT, groups, rays, vertical edges) in
+            worker threads while image k is tracked; the log is the same either way (a test).
 
     Returns:
         The ObservationLog; ``stats`` holds counts, and wall-clock (``seconds_<stage>``) and

@@ -75,7 +75,7 @@ class Octave:
 
 def n_octaves(height: int, width: int) -> int:
     """OpenCV's octave count for a first octave at the image's own size."""
-    return max(1, int(round(math.log2(min(height, width)) - 2)))
+    return max(1, round(math.log2(min(height, width)) - 2))
 
 
 def _octave(base: np.ndarray, sigma: float, layers: int, span: int, step_px: int, index: int
@@ -406,15 +406,15 @@ def detect_keypoints(
         if ref.layer.size == 0:
             continue
         scale = octave.sigma_px * 2.0 ** ((ref.layer + ref.offset[:, 2]) / layers)
-        # one patch size per layer (the window radius grows with the scale)
-        found = [_orientations(octave.gaussian, ref.layer[sel], ref.row[sel], ref.col[sel],
-                               scale[sel])
-                 for sel in (np.flatnonzero(ref.layer == layer)
-                             for layer in np.unique(ref.layer))]
-        k = np.concatenate([sel[which] for sel, (which, _) in zip(
-            (np.flatnonzero(ref.layer == layer) for layer in np.unique(ref.layer)), found,
-            strict=True)])
-        angles = np.concatenate([a for _, a in found])
+        # one call per layer: the window radius grows with the scale
+        k, angles = [], []
+        for layer in np.unique(ref.layer):
+            sel = np.flatnonzero(ref.layer == layer)
+            which, found = _orientations(octave.gaussian, ref.layer[sel], ref.row[sel],
+                                         ref.col[sel], scale[sel])
+            k.append(sel[which])
+            angles.append(found)
+        k, angles = np.concatenate(k), np.concatenate(angles)
         step = float(octave.step_px)
         # Lowe's octave and layer (the fine octave spans octaves -1 and 0)
         above = (ref.layer[k] - 1) // layers
