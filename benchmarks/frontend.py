@@ -50,7 +50,8 @@ from omnislam.frontend.pipeline import run_frontend
 from omnislam.frontend.sift import SiftExtractor, detection_mask
 from omnislam.frontend.vertical_edges import extract_vertical_lines
 
-STAGES = ("load", "extract", "group", "vertical_edges", "match", "verify", "track", "map")
+STAGES = ("load", "extract", "group", "vertical_edges", "match", "match_map", "verify", "track",
+          "map")
 #: parallax above which a triangulated landmark counts as constrained [rad]
 PARALLAX_RAD = np.deg2rad(3.0)
 
