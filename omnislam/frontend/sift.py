@@ -20,7 +20,8 @@ import numpy as np
 
 from omnislam._optional import require
 from omnislam.errors import DataError
-from omnislam.frontend.config import SiftBackend, SiftConfig
+from omnislam.frontend.config import FirstOctave, SiftBackend, SiftConfig
+from omnislam.frontend.scale_space import detect_keypoints
 
 #: descriptor length of SIFT (4 x 4 cells x 8 orientations)
 DESCRIPTOR_SIZE = 128
@@ -112,13 +113,19 @@ class SiftExtractor:
             cv2 = require("cv2")
             # OpenCV divides contrastThreshold by the number of layers (see cv2.SIFT_create);
             # Lowe's C is per layer, hence the product.
-            self._sift = cv2.SIFT_create(
-                nfeatures=config.max_features,
-                nOctaveLayers=config.n_octave_layers,
-                contrastThreshold=config.contrast_threshold * config.n_octave_layers,
-                edgeThreshold=config.edge_threshold,
-                sigma=config.sigma,
-            )
+            def opencv_sift(sigma: float):  # noqa: ANN202 (a cv2.SIFT)
+                return cv2.SIFT_create(
+                    nfeatures=config.max_features,
+                    nOctaveLayers=config.n_octave_layers,
+                    contrastThreshold=config.contrast_threshold * config.n_octave_layers,
+                    edgeThreshold=config.edge_threshold,
+                    sigma=sigma,
+                    enable_precise_upscale=config.precise_upscale,
+                )
+
+            self._sift = opencv_sift(config.sigma)
+            # octave -1 sampled at the image's pixels is octave 0 of a SIFT with half the sigma
+            self._sift_fine = opencv_sift(config.sigma / 2)
         else:
             pycolmap = require("pycolmap")
             options = pycolmap.FeatureExtractionOptions()
@@ -128,7 +135,7 @@ class SiftExtractor:
             sift.peak_threshold = config.contrast_threshold / config.n_octave_layers
             sift.edge_threshold = config.edge_threshold
             sift.octave_resolution = config.n_octave_layers
-            sift.first_octave = -1 if config.upsample_first_octave else 0
+            sift.first_octave = -1 if config.first_octave is FirstOctave.DOUBLED else 0
             if config.max_features:
                 sift.max_num_features = config.max_features
             self._sift = pycolmap.FeatureExtractor.create(options, pycolmap.Device.cpu)
@@ -149,16 +156,39 @@ class SiftExtractor:
         return self._extract_pycolmap(grey, mask)
 
     def _extract_opencv(self, grey: np.ndarray, mask: np.ndarray | None) -> Features:
-        keypoints, descriptors = self._sift.detectAndCompute(grey, mask)
-        if not keypoints:
+        cfg = self.config
+        if cfg.first_octave is FirstOctave.DOUBLED:
+            keypoints, descriptors = self._sift.detectAndCompute(grey, mask)
+            if not keypoints:
+                return Features.empty()
+            return Features(
+                pixels=np.array([k.pt for k in keypoints], dtype=float),
+                sizes_px=np.array([k.size for k in keypoints], dtype=float),
+                angles_rad=np.deg2rad([k.angle for k in keypoints]),
+                contrast=np.array([k.response for k in keypoints], dtype=float),
+                descriptors=np.ascontiguousarray(descriptors, dtype=np.float32),
+            )
+        found = detect_keypoints(
+            grey, mask, sigma=cfg.sigma, layers=cfg.n_octave_layers,
+            contrast_threshold=cfg.contrast_threshold, edge_threshold=cfg.edge_threshold,
+            fine=cfg.first_octave is FirstOctave.NATIVE)
+        if cfg.max_features and len(found) > cfg.max_features:
+            found = found.subset(np.argsort(-found.response, kind="stable")[: cfg.max_features])
+        if len(found) == 0:
             return Features.empty()
-        pixels = np.array([k.pt for k in keypoints], dtype=float)
+        # OpenCV's descriptor on the same pyramids: octave -1 through the half-sigma SIFT
+        fine = found.octave < 0
+        descriptors = np.empty((len(found), DESCRIPTOR_SIZE), dtype=np.float32)
+        for select, sift, offset in ((fine, self._sift_fine, 1), (~fine, self._sift, 0)):
+            if np.any(select):
+                _, described = sift.compute(grey, found.subset(select).keypoints(offset))
+                descriptors[select] = described
         return Features(
-            pixels=pixels,
-            sizes_px=np.array([k.size for k in keypoints], dtype=float),
-            angles_rad=np.deg2rad([k.angle for k in keypoints]),
-            contrast=np.array([k.response for k in keypoints], dtype=float),
-            descriptors=np.ascontiguousarray(descriptors, dtype=np.float32),
+            pixels=np.column_stack([found.x, found.y]),
+            sizes_px=2.0 * found.sigma,
+            angles_rad=np.deg2rad(found.angle_deg),
+            contrast=found.response.astype(float),
+            descriptors=descriptors,
         )
 
     def _extract_pycolmap(self, grey: np.ndarray, mask: np.ndarray | None) -> Features:
