@@ -44,6 +44,7 @@ from omnislam.fastslam.config import (
     Variant,
 )
 from omnislam.fastslam.dense_store import DenseLandmarkStore
+from omnislam.fastslam.diversity import DiversityLog
 from omnislam.fastslam.existence import ExistenceIndex
 from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkStore
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
@@ -100,6 +101,12 @@ class FastSLAMInfo:
             FastSLAM 2.0 proposal (3-D).
         triangulation_fallbacks: triangulated updates of established landmarks replaced by
             the direct bearing update for lack of parallax (3-D, ``BearingUpdate.TRIANGULATED``).
+        distinct_ancestors_min: fewest distinct particles of the previous step any step's set
+            descended from (``diversity.py``; 1: the set collapsed onto one particle).
+        distinct_ancestors_median: median distinct ancestors over the resampling steps.
+        single_ancestor_steps: steps with sightings whose set descended from one particle.
+        single_ancestor_longest_run: longest run of consecutive such steps.
+        ess_min: smallest effective sample size before resampling.
     """
 
     variant: Variant
@@ -116,6 +123,11 @@ class FastSLAMInfo:
     sightings_gated: int
     proposal_sightings_gated: int
     triangulation_fallbacks: int
+    distinct_ancestors_min: int
+    distinct_ancestors_median: float
+    single_ancestor_steps: int
+    single_ancestor_longest_run: int
+    ess_min: float
 
 
 class FastSLAM:
@@ -181,6 +193,7 @@ class FastSLAM:
                 config.existence, config.association_margin_m, config.sensor_height_m
             )
         )
+        self._diversity = DiversityLog(p)
         #: number of resamplings so far
         self.resample_count = 0
         #: effective sample size after the last update
@@ -205,6 +218,11 @@ class FastSLAM:
     def modality(self) -> Modality:
         """The observation stream the filter reads."""
         return self._mapper.modality
+
+    @property
+    def diversity(self) -> DiversityLog:
+        """Distinct ancestors and ESS of every step with sightings (``diversity.py``)."""
+        return self._diversity
 
     # -- the Estimator protocol -----------------------------------------------------------------
 
@@ -240,8 +258,10 @@ class FastSLAM:
         self.last_ess = particles.effective_sample_size()
         fraction = self.config.resample_ess_fraction
         # fraction 1 means "every step": ESS of equal weights is P only up to rounding
+        ancestors = None
         if fraction >= 1.0 or self.last_ess < fraction * len(particles):
-            self._resample()
+            ancestors = self._resample()
+        self._diversity.record(self.last_ess, ancestors)
 
     def estimate(self) -> Estimate:
         """The trajectory chosen by ``config.trajectory`` and the best particle's map.
@@ -275,6 +295,7 @@ class FastSLAM:
         status = self._store.particle_map(self._particles.best()).status
         mapper = self._mapper
         bearing = mapper if isinstance(mapper, BearingMapper) else None
+        diversity = self._diversity.summary()
         return FastSLAMInfo(
             variant=self.config.variant,
             modality=self.modality,
@@ -290,6 +311,11 @@ class FastSLAM:
             sightings_gated=0 if bearing is None else bearing.sightings_gated,
             proposal_sightings_gated=self._proposal_gated,
             triangulation_fallbacks=0 if bearing is None else bearing.triangulation_fallbacks,
+            distinct_ancestors_min=diversity.distinct_min,
+            distinct_ancestors_median=diversity.distinct_median_at_resampling,
+            single_ancestor_steps=diversity.single_ancestor_steps,
+            single_ancestor_longest_run=diversity.single_ancestor_longest_run,
+            ess_min=diversity.ess_min,
         )
 
     def add_known_landmarks(self, ids: np.ndarray) -> np.ndarray:
@@ -340,10 +366,12 @@ class FastSLAM:
 
     # -- resampling ---------------------------------------------------------------------------
 
-    def _resample(self) -> None:
-        """Low-variance resampling (thesis 4.49, Thrun et al. Table 4.4) of poses and maps."""
+    def _resample(self) -> np.ndarray:
+        """Low-variance resampling (thesis 4.49, Thrun et al. Table 4.4) of poses and maps;
+        returns the ancestors."""
         ancestors = _RESAMPLERS[self.config.resampling](self._particles.weights, self._rng)
         self._history.record_resampling(ancestors)
         self._particles.resample(ancestors)
         self._store.resample(ancestors)
         self.resample_count += 1
+        return ancestors
