@@ -80,6 +80,19 @@ class TriangulationMethod(Enum):
     MIDPOINT = "midpoint"
 
 
+class Kernels(Enum):
+    """Which implementation runs the per-pair loops (``omnislam.fastslam.kernels``).
+
+    AUTO: the compiled kernels when numba is installed (the extra ``fast``), else numpy.
+    NUMPY: the vectorised numpy path, the reference and test oracle.
+    NUMBA: the compiled kernels; an error naming the extra when numba is missing.
+    """
+
+    AUTO = "auto"
+    NUMPY = "numpy"
+    NUMBA = "numba"
+
+
 class TrajectoryMode(Enum):
     """Which trajectory ``estimate()`` reports.
 
@@ -187,6 +200,9 @@ class FastSLAMConfig:
         initial_pose_sigma: std of the initial pose (x, y, theta) [m, m, rad]; zero: all
             particles start at the given pose (the map frame is anchored at the first pose).
         initial_landmark_capacity: landmark slots allocated up front (the stores grow).
+        kernels: compiled kernels or the numpy reference for the landmark tree, the 2-D
+            landmark EKF and FastSLAM 2.0's sequential 2-D proposal (``Kernels``; same numbers
+            to rounding, ``kernels.py``).
     """
 
     variant: Variant = Variant.FASTSLAM1
@@ -210,6 +226,7 @@ class FastSLAMConfig:
     trajectory: TrajectoryMode = TrajectoryMode.WEIGHTED_MEAN
     initial_pose_sigma: tuple[float, float, float] = (0.0, 0.0, 0.0)
     initial_landmark_capacity: int = 64
+    kernels: Kernels = Kernels.AUTO
 
     def __post_init__(self) -> None:
         if self.n_particles < 1:

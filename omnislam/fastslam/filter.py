@@ -46,6 +46,7 @@ from omnislam.fastslam.config import (
 from omnislam.fastslam.dense_store import DenseLandmarkStore
 from omnislam.fastslam.diversity import DiversityLog
 from omnislam.fastslam.existence import ExistenceIndex
+from omnislam.fastslam.kernels import resolve as resolve_kernels
 from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkStore
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.mapper import make_mapper
@@ -67,13 +68,19 @@ _RESAMPLERS = {
 
 
 def make_store(
-    kind: StoreKind, n_particles: int, dim: int, ray_dim: int, capacity: int
+    kind: StoreKind,
+    n_particles: int,
+    dim: int,
+    ray_dim: int,
+    capacity: int,
+    kernels: object | None = None,
 ) -> LandmarkStore:
-    """The landmark store of the given kind (tree, leaf-only tree or dense arrays)."""
+    """The landmark store of the given kind (tree, leaf-only tree or dense arrays); the trees
+    walk with the compiled ``kernels`` when given."""
     if kind is StoreKind.DENSE:
         return DenseLandmarkStore(n_particles, dim, ray_dim, capacity)
     layout = TreeLayout.ALL_NODES if kind is StoreKind.TREE else TreeLayout.LEAF_ONLY
-    return LandmarkTree(n_particles, dim, ray_dim, 4 * capacity, layout)
+    return LandmarkTree(n_particles, dim, ray_dim, 4 * capacity, layout, kernels)
 
 
 @dataclass(frozen=True, slots=True)
@@ -158,7 +165,8 @@ class FastSLAM:
         self.name = config.name
         self._rng = rng
         self._motion = motion
-        self._mapper = make_mapper(modality, config)
+        kernels = resolve_kernels(config.kernels)
+        self._mapper = make_mapper(modality, config, kernels)
         pose = np.zeros(3) if initial_pose is None else np.asarray(initial_pose, dtype=float)
         if pose.shape != (3,) or not np.all(np.isfinite(pose)):
             raise ConfigError(f"initial_pose must be a finite (3,) array, got {pose!r}")
@@ -177,6 +185,7 @@ class FastSLAM:
             self._mapper.landmark_dim,
             self._mapper.ray_dim,
             config.initial_landmark_capacity,
+            kernels,
         )
         self._slots = SlotRegistry(self._store)
         self._association = SightingAssociation(
@@ -185,7 +194,9 @@ class FastSLAM:
             config.association_margin_m,
             config.new_landmark_log_likelihood,
         )
-        self._proposal = ProposalSampler(self._mapper, config.proposal_update, motion, rng)
+        self._proposal = ProposalSampler(
+            self._mapper, config.proposal_update, motion, rng, kernels
+        )
         self._existence = (
             None
             if config.existence is None
