@@ -47,7 +47,7 @@ from omnislam.fastslam.dense_store import DenseLandmarkStore
 from omnislam.fastslam.diversity import DiversityLog
 from omnislam.fastslam.existence import ExistenceIndex
 from omnislam.fastslam.kernels import resolve as resolve_kernels
-from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkStore
+from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkBlock, LandmarkStore
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.mapper import make_mapper
 from omnislam.fastslam.particles import ParticleSet, PathHistory
@@ -177,7 +177,7 @@ class FastSLAM:
             poses = poses + sigma * rng.standard_normal((p, 3))
         self._particles = ParticleSet(poses)
         self._history = PathHistory(
-            keep_particles=config.trajectory is TrajectoryMode.BEST_ANCESTRY
+            keep_particles=config.trajectory is TrajectoryMode.BEST_ANCESTRY, kernels=kernels
         )
         self._store = make_store(
             config.store,
@@ -254,14 +254,15 @@ class FastSLAM:
             poses = self._motion.sample(previous, delta, self._rng)
             pairs = self._association.pairs(sightings, poses, None, particles.weights)
             log_factors = np.zeros(len(particles))
+            gathered = None
         else:
-            mean, cov = self._motion.predict(previous, None, delta)
+            mean, cov = self._proposal.predict(previous, delta)
             pairs = self._association.pairs(sightings, mean, cov, particles.weights)
             draw = self._proposal.sample(previous, delta, mean, cov, sightings, pairs, self._store)
-            poses, log_factors = draw.poses, draw.log_factors
+            poses, log_factors, gathered = draw.poses, draw.log_factors, draw.block
             self._proposal_gated += draw.gated
         particles.poses = poses
-        log_factors += self._update_landmarks(poses, sightings, pairs)
+        log_factors += self._update_landmarks(poses, sightings, pairs, gathered)
         if self._existence is not None:
             self._existence.apply(self._store, self._slots, poses, particles.weights, pairs)
         particles.reweight(log_factors)
@@ -339,10 +340,17 @@ class FastSLAM:
     # -- mapping -------------------------------------------------------------------------------
 
     def _update_landmarks(
-        self, poses: np.ndarray, sightings: Sightings, pairs: Pairs
+        self,
+        poses: np.ndarray,
+        sightings: Sightings,
+        pairs: Pairs,
+        gathered: LandmarkBlock | None = None,
     ) -> np.ndarray:
         """Update every addressed landmark EKF with the sampled poses, in rounds (a landmark
         seen twice in a frame is updated twice, ``Pairs.rounds``).
+
+        ``gathered``: the landmarks of all ``pairs`` as gathered for the FastSLAM 2.0 proposal
+        (unchanged since), reused when one round updates them all.
 
         Returns:
             (P,) log weight factors: the EKF innovation likelihoods for FastSLAM 1.0 (thesis
@@ -358,14 +366,20 @@ class FastSLAM:
             )
         known = sightings.ids[sightings.ids >= 0]
         if known.size == sightings.ids.size and np.unique(known).size == known.size:
-            rank = np.zeros(pairs.particle.size, dtype=np.int64)  # one round: all distinct
+            rank = None  # one round: all (particle, slot) pairs distinct
+            rounds = 1
         else:
             rank = pairs.rounds(self._slots.n_slots)
+            rounds = int(rank.max(initial=0)) + 1
         weigh = self.config.variant is Variant.FASTSLAM1
-        for r in range(int(rank.max(initial=0)) + 1):
-            rows = np.flatnonzero(rank == r)
-            who, slots, obs = pairs.particle[rows], pairs.slot[rows], pairs.obs[rows]
-            block = self._store.gather(who, slots)
+        for r in range(rounds):
+            if rounds == 1:
+                who, slots, obs = pairs.particle, pairs.slot, pairs.obs
+                block = gathered if gathered is not None else self._store.gather(who, slots)
+            else:
+                rows = np.flatnonzero(rank == r)
+                who, slots, obs = pairs.particle[rows], pairs.slot[rows], pairs.obs[rows]
+                block = self._store.gather(who, slots)
             log_likelihood = self._mapper.update(block, poses[who], sightings, obs)
             if weigh:
                 np.add.at(log_factors, who, log_likelihood)

@@ -11,7 +11,11 @@ dominates. These kernels do the same work as one loop over the pairs each:
 * ``refine_range_bearing``: FastSLAM 2.0's sequential proposal over a step's sightings of
   established landmarks (``proposal.refine_proposal``, thesis eqs. 4.45-4.46 / Montemerlo 2003,
   Joseph form);
-* ``cholesky_draws``: the proposal's pose draws mean + L e (``core.gaussian.sample_gaussian``).
+* ``cholesky_draws``: the proposal's pose draws mean + L e (``core.gaussian.sample_gaussian``);
+* ``odometry_prediction``: the odometry model's prediction from exact poses, the start of the
+  FastSLAM 2.0 proposal (``core.motion.OdometryMotionModel.predict`` with P = None);
+* ``weighted_moments``: the particle set's weighted mean pose (circular mean heading) and
+  covariance, recorded every step (``particles.ParticleSet.mean_pose`` / ``pose_covariance``).
 
 The numpy path stays the reference and the test oracle (``tests/fastslam/test_kernels.py``):
 every kernel writes out the reference's arithmetic in the reference's order (products summed
@@ -91,6 +95,8 @@ def compiled() -> SimpleNamespace:
             ekf_range_bearing=jit(ekf_range_bearing),
             refine_range_bearing=jit(refine_range_bearing),
             cholesky_draws=jit(cholesky_draws),
+            odometry_prediction=jit(odometry_prediction),
+            weighted_moments=jit(weighted_moments),
         )
     return _COMPILED
 
@@ -436,3 +442,76 @@ def cholesky_draws(
         out[i, 0] = mean[i, 0] + l00 * e0
         out[i, 1] = mean[i, 1] + (l10 * e0 + l11 * e1)
         out[i, 2] = _wrap(mean[i, 2] + (l20 * e0 + l21 * e1 + l22 * e2))
+
+
+def odometry_prediction(
+    wTr: np.ndarray,
+    rot1: float,
+    trans: float,
+    rot2: float,
+    variances: np.ndarray,
+    out_mean: np.ndarray,
+    out_cov: np.ndarray,
+) -> None:
+    """Mean and covariance of P exact poses moved by one odometry step, thesis eqs. 4.41-4.44.
+
+    ``OdometryMotionModel.predict(wTr, None, delta)`` with the decomposed step (rot1, trans,
+    rot2) and its component variances: x' = x + [t cos(theta + rot1), t sin(theta + rot1),
+    rot1 + rot2] (heading wrapped) and V diag(variances) V^T with V the Jacobian with respect
+    to (rot1, trans, rot2) (Thrun et al. 2005, Table 7.1).
+    """
+    m0, m1, m2 = variances[0], variances[1], variances[2]
+    for i in range(wTr.shape[0]):
+        heading = wTr[i, 2] + rot1
+        c = math.cos(heading)
+        s = math.sin(heading)
+        out_mean[i, 0] = c * trans + wTr[i, 0]
+        out_mean[i, 1] = s * trans + wTr[i, 1]
+        out_mean[i, 2] = _wrap(heading + rot2)
+        # V = [[-t s, c, 0], [t c, s, 0], [1, 0, 1]]; N = (V M) V^T, terms in index order
+        v00, v01 = -trans * s, c
+        v10, v11 = trans * c, s
+        a00, a01 = v00 * m0, v01 * m1
+        a10, a11 = v10 * m0, v11 * m1
+        a20, a22 = m0, m2
+        out_cov[i, 0, 0] = a00 * v00 + a01 * v01
+        out_cov[i, 0, 1] = a00 * v10 + a01 * v11
+        out_cov[i, 0, 2] = a00
+        out_cov[i, 1, 0] = a10 * v00 + a11 * v01
+        out_cov[i, 1, 1] = a10 * v10 + a11 * v11
+        out_cov[i, 1, 2] = a10
+        out_cov[i, 2, 0] = a20 * v00
+        out_cov[i, 2, 1] = a20 * v10
+        out_cov[i, 2, 2] = a20 + a22
+
+
+def weighted_moments(
+    weights: np.ndarray, poses: np.ndarray, out_mean: np.ndarray, out_cov: np.ndarray
+) -> None:
+    """Weighted mean (heading: atan2 of the weighted sines and cosines) and weighted covariance
+    about it (heading residuals wrapped) of P poses; sums in particle order (the reference's
+    BLAS dot products may group them differently: equal to rounding)."""
+    sx = sy = ss = sc = 0.0
+    for i in range(poses.shape[0]):
+        w = weights[i]
+        sx += w * poses[i, 0]
+        sy += w * poses[i, 1]
+        ss += w * math.sin(poses[i, 2])
+        sc += w * math.cos(poses[i, 2])
+    theta = math.atan2(ss, sc)
+    out_mean[0], out_mean[1], out_mean[2] = sx, sy, theta
+    c00 = c01 = c02 = c11 = c12 = c22 = 0.0
+    for i in range(poses.shape[0]):
+        w = weights[i]
+        d0 = poses[i, 0] - sx
+        d1 = poses[i, 1] - sy
+        d2 = _wrap(poses[i, 2] - theta)
+        c00 += w * d0 * d0
+        c01 += w * d0 * d1
+        c02 += w * d0 * d2
+        c11 += w * d1 * d1
+        c12 += w * d1 * d2
+        c22 += w * d2 * d2
+    out_cov[0, 0], out_cov[0, 1], out_cov[0, 2] = c00, c01, c02
+    out_cov[1, 0], out_cov[1, 1], out_cov[1, 2] = c01, c11, c12
+    out_cov[2, 0], out_cov[2, 1], out_cov[2, 2] = c02, c12, c22

@@ -21,7 +21,7 @@ import numpy as np
 
 from omnislam.core.gaussian import log_likelihood_from_mahalanobis
 from omnislam.core.measurement import RangeBearing2D
-from omnislam.core.motion import MotionModel
+from omnislam.core.motion import MotionModel, OdometryMotionModel
 from omnislam.fastslam.config import ProposalUpdateMode
 from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkBlock, LandmarkStore
 from omnislam.fastslam.mapper import LandmarkMapper
@@ -38,11 +38,14 @@ class ProposalDraw:
         log_factors: (P,) log importance factors (0 for particles sampled from the motion
             model).
         gated: (particle, sighting) pairs the validation gate kept out of the proposal.
+        block: the landmarks of all the pairs as gathered for the proposal (not modified), for
+            the landmark update to reuse.
     """
 
     poses: np.ndarray
     log_factors: np.ndarray
     gated: int
+    block: LandmarkBlock
 
 
 class ProposalSampler:
@@ -76,6 +79,22 @@ class ProposalSampler:
         )
         self._kernels = kernels if compiled else None
         self._draw_kernels = kernels
+        self._odometry = motion if isinstance(motion, OdometryMotionModel) else None
+
+    def predict(self, previous: np.ndarray, delta_r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The motion prediction N(mu0, P) from the exactly known previous poses (thesis 4.41,
+        4.44; ``MotionModel.predict(previous, None, delta_r)``), compiled for the odometry
+        model when the kernels are on."""
+        if self._draw_kernels is None or self._odometry is None:
+            return self._motion.predict(previous, None, delta_r)
+        rot1, trans, rot2 = self._odometry.decompose(delta_r).tolist()
+        variances = self._odometry.component_sigmas(np.array([rot1, trans, rot2])) ** 2
+        p = previous.shape[0]
+        mean, cov = np.empty((p, 3)), np.empty((p, 3, 3))
+        self._draw_kernels.odometry_prediction(
+            np.ascontiguousarray(previous, dtype=float), rot1, trans, rot2, variances, mean, cov
+        )
+        return mean, cov
 
     def sample(
         self,
@@ -159,7 +178,7 @@ class ProposalSampler:
         plain = ~refined
         if plain.any():
             poses[plain] = self._motion.sample(previous[plain], delta_r, self._rng)
-        return ProposalDraw(poses, log_factors, gated)
+        return ProposalDraw(poses, log_factors, gated, block)
 
     def _refine_compiled(
         self,
