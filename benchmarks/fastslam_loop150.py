@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import itertools
 import math
 import tempfile
 import time
@@ -92,9 +93,7 @@ def run_one(
         sigma_range_m=float(sightings[0].sigma_range_m[0]),
         sigma_bearing_rad=float(sightings[0].sigma_bearing_rad[0]),
     )
-    info = dataclasses.replace(
-        info, modality=resolve_estimator_modality(estimator, info, options)
-    )
+    info = dataclasses.replace(info, modality=resolve_estimator_modality(estimator, info, options))
     slam = make_estimator(estimator, info, options, np.random.default_rng(seed))
     start = time.process_time()
     for frame in frames:
@@ -173,7 +172,7 @@ def summarise(rows: list[Row], variants: list[str], particles: list[int]) -> Non
         )
     for estimator in variants:
         labels = [_label(estimator, p) for p in particles if _label(estimator, p) in groups]
-        for fewer, more in zip(labels, labels[1:], strict=False):
+        for fewer, more in itertools.pairwise(labels):
             a = np.array([r.ate_m for r in groups[fewer]])
             b = np.array([r.ate_m for r in groups[more]])
             spread = max(a.std(), b.std())

@@ -33,7 +33,6 @@ from omnislam.core.modality import Modality
 from omnislam.core.motion import MotionNoise
 from omnislam.core.se import se2_between, se2_compose
 from omnislam.core.types import FrameInput, Odometry, RangeBearing
-from omnislam.fastslam.kernels import available as kernels_available
 from omnislam.fastslam import (
     FastSLAM,
     FastSLAMConfig,
@@ -45,6 +44,7 @@ from omnislam.fastslam import (
     Variant,
     make_fastslam,
 )
+from omnislam.fastslam.kernels import available as kernels_available
 
 NOISE = MotionNoise(a_vv=0.05, a_vw=0.02, a_wv=0.01, a_ww=0.05)
 SIGMA_R, SIGMA_B = 0.05, 0.01

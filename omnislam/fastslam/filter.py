@@ -194,9 +194,7 @@ class FastSLAM:
             config.association_margin_m,
             config.new_landmark_log_likelihood,
         )
-        self._proposal = ProposalSampler(
-            self._mapper, config.proposal_update, motion, rng, kernels
-        )
+        self._proposal = ProposalSampler(self._mapper, config.proposal_update, motion, rng, kernels)
         self._existence = (
             None
             if config.existence is None

@@ -397,16 +397,16 @@ def refine_range_bearing(
                 )
         for row in range(3):
             for col in range(3):
-                bp[row, col] = ikh[row, 0] * P[0, col] + ikh[row, 1] * P[1, col] + ikh[
-                    row, 2
-                ] * P[2, col]
+                bp[row, col] = (
+                    ikh[row, 0] * P[0, col] + ikh[row, 1] * P[1, col] + ikh[row, 2] * P[2, col]
+                )
         for row in range(3):
             d0 = k[row, 0] * q00 + k[row, 1] * q10
             d1 = k[row, 0] * q01 + k[row, 1] * q11
             for col in range(3):
-                joseph = bp[row, 0] * ikh[col, 0] + bp[row, 1] * ikh[col, 1] + bp[row, 2] * ikh[
-                    col, 2
-                ]
+                joseph = (
+                    bp[row, 0] * ikh[col, 0] + bp[row, 1] * ikh[col, 1] + bp[row, 2] * ikh[col, 2]
+                )
                 c[row, col] = joseph + (d0 * k[col, 0] + d1 * k[col, 1])
         for row in range(3):
             for col in range(3):

@@ -243,7 +243,10 @@ class LandmarkTree:
         particles = np.asarray(particles, dtype=np.int64)
         if self._kernels is not None:
             rows, visits = self._kernels.tree_rows(
-                self._links, self._roots, particles, np.asarray(slots, dtype=np.int64),
+                self._links,
+                self._roots,
+                particles,
+                np.asarray(slots, dtype=np.int64),
                 self._leaf_height(),
             )
             self.node_visits += int(visits)
@@ -326,8 +329,16 @@ class LandmarkTree:
         nodes, payloads = self._node_rows, self._payload_rows
         rows, node_taken, node_used, payload_taken, payload_used, copies, visits = (
             self._kernels.tree_scatter(
-                self._links, self._roots, self._tokens, particles, slots,
-                self._leaf_height(), nodes.free, nodes.used, payloads.free, payloads.used,
+                self._links,
+                self._roots,
+                self._tokens,
+                particles,
+                slots,
+                self._leaf_height(),
+                nodes.free,
+                nodes.used,
+                payloads.free,
+                payloads.used,
             )
         )
         nodes.free, nodes.used = nodes.free[node_taken:], int(node_used)

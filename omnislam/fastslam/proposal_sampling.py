@@ -141,7 +141,9 @@ class ProposalSampler:
             refined[pairs.particle[rows]] = True
             gated = int(joint.accepted.size - np.count_nonzero(joint.accepted))
         elif self._kernels is not None:
-            mean, cov, log_factors = self._refine_compiled(mean, cov, sightings, pairs, block, usable)
+            mean, cov, log_factors = self._refine_compiled(
+                mean, cov, sightings, pairs, block, usable
+            )
             refined[pairs.particle[usable]] = True
         else:
             log_factors = np.zeros(p)
@@ -200,8 +202,15 @@ class ProposalSampler:
         n = rows.size
         mahalanobis, det = np.empty(n), np.empty(n)
         self._kernels.refine_range_bearing(
-            mean, cov, who, sightings.z[obs], sightings.R[obs], block.mean[rows],
-            block.cov[rows], mahalanobis, det,
+            mean,
+            cov,
+            who,
+            sightings.z[obs],
+            sightings.R[obs],
+            block.mean[rows],
+            block.cov[rows],
+            mahalanobis,
+            det,
         )
         log_likelihood = log_likelihood_from_mahalanobis(mahalanobis, np.log(det), 2)
         log_factors = np.bincount(who, weights=log_likelihood, minlength=len(mean))

@@ -70,7 +70,9 @@ class RangeBearingMapper:
                 mean, cov = block.mean[est], block.cov[est]
                 log_likelihood[est] = self._compiled_update(wTr[est], mean, cov, z[est], R[est])
             else:
-                update = ekf_update(wTr[est], block.mean[est], block.cov[est], z[est], R[est], model)
+                update = ekf_update(
+                    wTr[est], block.mean[est], block.cov[est], z[est], R[est], model
+                )
                 mean, cov = update.mean, update.cov
                 log_likelihood[est] = update.log_likelihood
             block.mean[est] = mean
