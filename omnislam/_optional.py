@@ -18,6 +18,7 @@ EXTRAS: dict[str, str] = {
     "matplotlib": "plots",
     "filterpy": "ukf",
     "rerun": "view",
+    "numba": "fast",
 }
 
 
