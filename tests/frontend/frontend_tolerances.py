@@ -19,3 +19,5 @@ LINE_MATCH_RAD = 0.0175
 MIN_LINE_RECALL = 0.9
 #: median bearing error of the detected edges [rad] (0.5 deg)
 MAX_LINE_MEDIAN_RAD = 0.0087
+#: median bearing error of the door-frame edges of the pinhole corridor [rad] (1 px at f = 400)
+MAX_PINHOLE_LINE_MEDIAN_RAD = 0.0025
