@@ -112,8 +112,8 @@ def run_once(
     sets: list[tuple[float, float, float, np.ndarray]] = []  # (Sc_k, F_shift, mean C', lines)
     original = localiser_module.associate_landmarks
 
-    def spy(u_lines, u_cands, scores, cfg):  # records the chosen set's terms
-        best = original(u_lines, u_cands, scores, cfg)
+    def spy(u_lines, u_cands, scores, cfg, consistency=None):  # records the chosen set's terms
+        best = original(u_lines, u_cands, scores, cfg, consistency)
         if min_score is not None and best.score < min_score:
             best = dataclasses.replace(best, lines=best.lines[:0], candidates=best.candidates[:0])
         if len(best):

@@ -70,6 +70,17 @@ class AssociationConfig:
             Off by default: ground-truth ids never reach the association unless asked for.
         validate: step 5, use a pair only when the previous frame associated the same landmark
             with the same physical line (paper: on).
+        gate_probability: chi-square probability of the two gates step 4 gets from the UKF's
+            predicted covariance (ours; None: the paper's step 4 alone): a pair enters step 4
+            only if its bearing innovation passes the 1-dof gate (the pre-gate, before the
+            photometric stage), and each window's set is cut to its largest subset whose
+            innovation vector passes the n-dof joint gate (the pairs share one pose error).
+        largest_set_first: compare the windows' sets by their number of pairs first and by Sc_k
+            among sets of equal size (ours; False: by Sc_k alone, the paper's, with the
+            ``min_set_pairs`` rule). Eq. 1's |mean(u_shift)| d_max / 7 term makes a large
+            correct set with the common shift of a heading error lose to a two-pair set of
+            small shift; with the joint gate a common shift that the covariance explains is
+            no evidence against a set.
     """
 
     max_range_m: float = 50.0
@@ -85,6 +96,8 @@ class AssociationConfig:
     max_depth_m: float = 50.0
     use_ids: bool = False
     validate: bool = True
+    gate_probability: float | None = 0.999
+    largest_set_first: bool = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,10 +121,11 @@ class UKFConfig:
         alpha, beta, kappa: the scaled sigma points (van der Merwe 2004; filterpy's
             MerweScaledSigmaPoints).
         innovation_gate: chi-square probability above which a validated bearing is dropped
-            before the update (ours; None, the default: the paper's validation alone). On
-            corridor21 one wrong validated pair at a corridor's end moved the pose by 1 m
-            without it (use 0.999 there); on MR.CLAM, whose odometry is worse than the motion
-            model says (NEES ~ 100), it rejected 90 of 124 correct sightings.
+            before the update (ours; None, the default). Step 4's gates
+            (``association.gate_probability``) already hold the associated pairs to the
+            predicted covariance; this one also applies to ``association.use_ids``. On
+            MR.CLAM, whose odometry is worse than the motion model says (NEES ~ 100), it
+            rejected 90 of 124 correct sightings.
         photometric: PhotometricMode.
         association, colour: see their classes.
     """
@@ -148,6 +162,8 @@ class UKFConfig:
             raise ConfigError("UKFConfig: windows_px > 0 and fov_widening >= 1")
         if a.variance_floor_px2 <= 0 or a.max_range_m <= 0:
             raise ConfigError("UKFConfig: variance_floor_px2 > 0 and max_range_m > 0")
+        if a.gate_probability is not None and not 0 < a.gate_probability < 1:
+            raise ConfigError("UKFConfig: association.gate_probability is a probability in (0, 1)")
 
     def with_(self, **changes: object) -> UKFConfig:
         """A copy with fields replaced."""

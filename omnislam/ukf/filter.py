@@ -20,6 +20,7 @@ Observation: the bearing of each validated line from the pose, ``core.measuremen
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -62,6 +63,35 @@ def _move(pose: np.ndarray, dt: float, components: np.ndarray) -> np.ndarray:
 
 def _bearings(pose: np.ndarray, landmarks_w: np.ndarray) -> np.ndarray:
     return _BEARING.predict(pose, landmarks_w, jacobians=False)[0][:, 0]
+
+
+@dataclass(frozen=True, slots=True)
+class BearingPrediction:
+    """The unscented prediction of the bearings of C landmarks from the current (x, P).
+
+    The sigma points of (x, P) are moved through the bearing model: ``mean`` is their circular
+    weighted mean and the (C, C) covariance of the predicted bearings is
+    ``deviations.T @ diag(weights) @ deviations``, the Pzz of the filter's update without R.
+
+    Attributes:
+        mean: (C,) predicted bearings [rad].
+        deviations: (S, C) sigma-point bearings minus the mean, wrapped [rad].
+        weights: (S,) the covariance weights Wc.
+    """
+
+    mean: np.ndarray
+    deviations: np.ndarray
+    weights: np.ndarray
+
+    @property
+    def variance(self) -> np.ndarray:
+        """(C,) variance of each predicted bearing [rad^2]."""
+        return self.weights @ (self.deviations**2)
+
+    def covariance(self, columns: np.ndarray) -> np.ndarray:
+        """(n, n) covariance of the predicted bearings of ``columns`` [rad^2]."""
+        d = self.deviations[:, columns]
+        return (d * self.weights[:, None]).T @ d
 
 
 class PoseUKF:
@@ -139,6 +169,16 @@ class PoseUKF:
         h = H[:, 0, :]
         s = np.einsum("ki,ij,kj->k", h, self._ukf.P, h) + np.asarray(sigmas_rad) ** 2
         return y * y / s
+
+    def predict_bearings(self, landmarks_w: np.ndarray) -> BearingPrediction:
+        """The unscented prediction of the bearings of landmarks (C, 2) [m] from (x, P): the same
+        sigma points and weights as ``update``, before any measurement is chosen."""
+        ukf = self._ukf
+        sigmas = ukf.points_fn.sigma_points(ukf.x, ukf.P)
+        landmarks = np.asarray(landmarks_w, dtype=float).reshape(-1, 2)
+        z = _BEARING.predict(sigmas[:, None, :], landmarks[None], jacobians=False)[0][..., 0]
+        mean = bearing_mean(z, ukf.Wm)
+        return BearingPrediction(mean, wrap_angle(z - mean[None, :]), np.asarray(ukf.Wc))
 
     def update(
         self, bearings_rad: np.ndarray, landmarks_w: np.ndarray, sigmas_rad: np.ndarray
