@@ -1,8 +1,9 @@
 """The vertical-line UKF on corridor21 (Barra & Costa's 21 m U corridor, pinhole camera).
 
 Renders corridor21 with odometry noise 4x the preset's (so that dead reckoning is clearly
-wrong), runs the shared front end (vertical lines), surveys the map's MC descriptors from the
-frames at their true poses (the paper's hand-made map), then localises and reports: mean
+wrong), runs the shared front end (vertical lines), takes the folder's prior map (the world's
+line map with the MC descriptors surveyed while rendering, ``line_colours.csv``: the paper's
+hand-made map, and what ``omnislam run`` gives the UKF), then localises and reports: mean
 position error of the UKF and of dead reckoning, ms per processed frame (steps 3-5 + update;
 steps 1-2 are the front end's vertical-edge time, printed separately), and association quality
 against the renderer's ground truth (lines labelled by their true projection within 4 px).
@@ -56,7 +57,7 @@ class Setup:
 
 
 def prepare(out: Path, noise_factor: float, seed: int, image_every: int | None = None) -> Setup:
-    """Render (once), front end (cached), survey of the MC descriptors at the true poses."""
+    """Render (once), front end (cached), the folder's prior map with its MC descriptors."""
     from omnislam.core.se import se2_from_se3, se2_integrate
     from omnislam.datasets.synthetic.loader import load_synthetic
     from omnislam.datasets.synthetic.presets import PRESETS
@@ -64,7 +65,6 @@ def prepare(out: Path, noise_factor: float, seed: int, image_every: int | None =
     from omnislam.datasets.synthetic.writer import write_synthetic
     from omnislam.frontend.pipeline import cached_frontend
     from omnislam.ukf.image_line import image_line_from_rig
-    from omnislam.ukf.survey import survey_descriptors
 
     preset = PRESETS["corridor21"]
     tag = "" if image_every in (None, preset.image_every_k) else f"-img{image_every}"
@@ -86,7 +86,9 @@ def prepare(out: Path, noise_factor: float, seed: int, image_every: int | None =
     log = cached_frontend(seq, out / (folder.name + ".log.npz"))
     truth = se2_from_se3(seq.ground_truth.trajectory.poses_w)
     line = image_line_from_rig(seq.calibration)
-    prior = survey_descriptors(seq.prior_map, log.frames, truth, line, tol_px=4.0)
+    prior = seq.prior_map  # MC descriptors surveyed while rendering (line_colours.csv)
+    if prior.means_left is None:
+        raise SystemExit(f"{folder} has no line_colours.csv (an older render): remove it")
     dr = se2_integrate(seq.odometry_r, seq.initial_pose_w)
     err_dr = np.hypot(*(dr[:, :2] - truth[:, :2]).T)
     return Setup(folder, seq, log, truth, line, prior, noise, err_dr)

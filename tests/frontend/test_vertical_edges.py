@@ -9,6 +9,7 @@ from frontend_tolerances import (
     MAX_LINE_MEDIAN_RAD,
     MAX_PINHOLE_LINE_MEDIAN_RAD,
     MIN_LINE_RECALL,
+    MIN_PHOTOMETRIC_PASS,
 )
 
 from omnislam.frontend.config import VerticalEdgeConfig
@@ -70,3 +71,49 @@ def test_profiles_see_a_dark_frame_on_a_light_wall():
     np.testing.assert_allclose(lines.means_left[0], 200, atol=1)
     np.testing.assert_allclose(lines.means_right[0], (40, 30, 20), atol=1)
     assert lines.profiles[0, 0, 0] > lines.profiles[0, 0, -1]
+
+
+@pytest.mark.filterwarnings("ignore:loadtxt")
+def test_the_surveyed_mc_of_a_door_frame_line_has_the_dark_frame_on_one_side(corridor_folder):
+    """line_colours.csv (the MC of every line, surveyed while rendering): the outer edge of a
+    door frame has the dark frame on one side and the light wall on the other, and the MC is the
+    one the front end extracts at that line passes the photometric gate (sec. 3.2) against it."""
+    from omnislam.core.se import wrap_angle
+    from omnislam.datasets.synthetic.loader import SyntheticFolder, load_synthetic
+    from omnislam.frontend.evaluation import visible_lines
+    from omnislam.ukf.config import PhotometricConfig
+    from omnislam.ukf.photometric import colour_differences, photometric_scores
+
+    sequence = load_synthetic(corridor_folder)
+    prior = sequence.prior_map
+    seen = np.isfinite(prior.means_left[:, 0]) & prior.vertical_line
+    assert seen.sum() >= 4
+    left, right = prior.means_left[seen].mean(axis=1), prior.means_right[seen].mean(axis=1)
+    assert np.all(np.minimum(left, right) < 110.0)  # the frame's dark wood (mixed when far)
+    assert np.all(np.abs(left - right) > 25.0)  # against the light wall
+    # in every image, the extracted line at each visible surveyed landmark has an MC that passes
+    # the photometric gate (sec. 3.2) against the map's, mostly: the MC of a line changes with
+    # its apparent width (a frame narrower than the profile mixes in the door), so not always
+    folder = SyntheticFolder(corridor_folder)
+    row = {int(i): k for k, i in enumerate(prior.landmark_ids)}
+    lines_w = np.array([(v.x_m, v.y_m) for v in folder.world.vertical_lines])
+    ids = [v.landmark_id for v in folder.world.vertical_lines]
+    passed = []
+    for i in sequence.image_frames:
+        lines = extract_vertical_lines(sequence.image(i), sequence.calibration, CONFIG)
+        index, bearings = visible_lines(
+            lines_w, folder.groundtruth.poses_w[i], sequence.calibration,
+            folder.ground_truth_maps(i).points_w,
+        )
+        for k, b in zip(index, bearings, strict=True):
+            gap = np.abs(wrap_angle(lines.bearings_rad - b))
+            if not gap.size or gap.min() >= 0.005:
+                continue
+            c, j = int(gap.argmin()), row[ids[k]]
+            band, mean = colour_differences(
+                lines.means_left[c : c + 1], lines.means_right[c : c + 1],
+                prior.means_left[j : j + 1], prior.means_right[j : j + 1],
+            )
+            passed.append(bool(np.isfinite(photometric_scores(band, mean, PhotometricConfig()))))
+    assert len(passed) >= 20
+    assert np.mean(passed) >= MIN_PHOTOMETRIC_PASS
