@@ -119,7 +119,9 @@ class UKFConfig:
             default is corridor21's focal length.
         fov_rad: full field of view of sightings without a camera (before widening) [rad].
         alpha, beta, kappa: the scaled sigma points (van der Merwe 2004; filterpy's
-            MerweScaledSigmaPoints).
+            MerweScaledSigmaPoints). alpha = 1, kappa = 0 (lambda = 0) keeps every weight
+            non-negative (the centre point's Wc is 2): with alpha = 0.5 its Wc of -0.25 made
+            the covariance indefinite on MR.CLAM robot 4 after a 2 m error.
         innovation_gate: chi-square probability above which a validated bearing is dropped
             before the update (ours; None, the default). Step 4's gates
             (``association.gate_probability``) already hold the associated pairs to the
@@ -138,7 +140,7 @@ class UKFConfig:
     sigma_bearing_rad: float | None = None
     pixels_per_rad: float = 400.0
     fov_rad: float = 2.0 * math.pi
-    alpha: float = 0.5
+    alpha: float = 1.0
     beta: float = 2.0
     kappa: float = 0.0
     innovation_gate: float | None = None

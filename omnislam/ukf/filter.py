@@ -56,6 +56,19 @@ def bearing_mean(sigmas: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return np.arctan2(weights @ np.sin(sigmas), weights @ np.cos(sigmas))
 
 
+def positive_definite(P: np.ndarray, floor: float = 1e-12) -> np.ndarray:
+    """P symmetrised, with eigenvalues below ``floor`` raised to it when it is not positive
+    definite (the unscented update P - K S K^T can lose definiteness in rounding when a bearing
+    is far more certain than the pose; the next sigma points need a Cholesky factor)."""
+    P = 0.5 * (P + P.T)
+    try:
+        np.linalg.cholesky(P)
+        return P
+    except np.linalg.LinAlgError:
+        values, vectors = np.linalg.eigh(P)
+        return (vectors * np.maximum(values, floor)) @ vectors.T
+
+
 def _move(pose: np.ndarray, dt: float, components: np.ndarray) -> np.ndarray:
     del dt
     return OdometryMotionModel.apply(pose, components)
@@ -109,7 +122,7 @@ class PoseUKF:
         wTr: np.ndarray,
         P: np.ndarray,
         motion: OdometryMotionModel,
-        alpha: float = 0.5,
+        alpha: float = 1.0,
         beta: float = 2.0,
         kappa: float = 0.0,
     ) -> None:
@@ -157,7 +170,7 @@ class PoseUKF:
         # keep Q positive definite when the robot stands still (V M V^T is then rank 1)
         self._ukf.Q = Q + np.diag([1e-12, 1e-12, 1e-12])
         self._ukf.predict(components=components)
-        self._ukf.P = 0.5 * (self._ukf.P + self._ukf.P.T)
+        self._ukf.P = positive_definite(self._ukf.P)
 
     def innovations(
         self, bearings_rad: np.ndarray, landmarks_w: np.ndarray, sigmas_rad: np.ndarray
@@ -192,4 +205,4 @@ class PoseUKF:
         self._ukf.sigmas_f = self._ukf.points_fn.sigma_points(self._ukf.x, self._ukf.P)
         self._ukf.update(bearings, R=R, landmarks_w=np.asarray(landmarks_w, dtype=float))
         self._ukf.x[2] = wrap_angle(self._ukf.x[2])
-        self._ukf.P = 0.5 * (self._ukf.P + self._ukf.P.T)
+        self._ukf.P = positive_definite(self._ukf.P)
