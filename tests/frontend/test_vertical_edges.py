@@ -10,6 +10,7 @@ from frontend_tolerances import (
     MAX_PINHOLE_LINE_MEDIAN_RAD,
     MIN_LINE_RECALL,
     MIN_PHOTOMETRIC_PASS,
+    PINHOLE_LINE_RANGE_M,
 )
 
 from omnislam.frontend.config import VerticalEdgeConfig
@@ -19,7 +20,7 @@ from omnislam.frontend.vertical_edges import extract_vertical_lines
 CONFIG = VerticalEdgeConfig(enabled=True)
 
 
-def _recall_and_errors(folder_path, frames=None):
+def _recall_and_errors(folder_path, frames=None, max_range_m=np.inf):
     from omnislam.datasets.synthetic.loader import SyntheticFolder, load_synthetic
 
     sequence = load_synthetic(folder_path)
@@ -29,8 +30,10 @@ def _recall_and_errors(folder_path, frames=None):
     for i in sequence.image_frames[:frames]:
         lines = extract_vertical_lines(sequence.image(i), sequence.calibration, CONFIG)
         assert lines.profiles.shape == (len(lines), 3, 2 * CONFIG.profile_half_width + 1)
-        truth = visible_line_bearings(lines_w, folder.groundtruth.poses_w[i],
-                                      sequence.calibration, folder.ground_truth_maps(i).points_w)
+        pose = folder.groundtruth.poses_w[i]
+        near = np.hypot(*(lines_w - pose[:2, 3]).T) <= max_range_m
+        truth = visible_line_bearings(lines_w[near], pose, sequence.calibration,
+                                      folder.ground_truth_maps(i).points_w)
         errors.append(bearing_errors(lines.bearings_rad, truth))
     errors = np.concatenate(errors)
     assert errors.size >= 10
@@ -40,7 +43,9 @@ def _recall_and_errors(folder_path, frames=None):
 
 @pytest.mark.filterwarnings("ignore:loadtxt")
 def test_door_frames_in_a_perspective_corridor(corridor_folder):
-    recall, median = _recall_and_errors(corridor_folder)
+    # the extraction needs a line over min_support of the image height: a 2.13 m door frame
+    # spans 30 % of 480 px at f = 400 px up to 5.9 m (the corridor's end door is 9 m away)
+    recall, median = _recall_and_errors(corridor_folder, max_range_m=PINHOLE_LINE_RANGE_M)
     assert recall >= MIN_LINE_RECALL
     assert median <= MAX_LINE_MEDIAN_RAD
     # the world's line landmarks lie on the rendered edges (the frame's plane, 2 cm in front of
@@ -89,7 +94,7 @@ def test_the_surveyed_mc_of_a_door_frame_line_has_the_dark_frame_on_one_side(cor
     seen = np.isfinite(prior.means_left[:, 0]) & prior.vertical_line
     assert seen.sum() >= 4
     left, right = prior.means_left[seen].mean(axis=1), prior.means_right[seen].mean(axis=1)
-    assert np.all(np.minimum(left, right) < 110.0)  # the frame's dark wood (mixed when far)
+    assert np.all(np.minimum(left, right) < 120.0)  # the frame's dark wood (mixed when far)
     assert np.all(np.abs(left - right) > 25.0)  # against the light wall
     # in every image, the extracted line at each visible surveyed landmark has an MC that passes
     # the photometric gate (sec. 3.2) against the map's, mostly: the MC of a line changes with
