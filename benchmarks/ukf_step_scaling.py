@@ -68,7 +68,7 @@ def time_run(setup, prior, options: dict[str, str], max_frames: int | None) -> d
     from omnislam.options import apply_options
     from omnislam.ukf import UKFConfig, VerticalLineUKF
 
-    config = apply_options(UKFConfig(motion_noise=setup.noise), options)
+    config = apply_options(UKFConfig(), options)
     ukf = VerticalLineUKF(prior, config, Modality.VERTICAL_LINES, setup.line)
     cpu, wall = [], []
     for frame in setup.log.frames:
@@ -96,7 +96,7 @@ def main() -> None:
 
     parser = argparse.ArgumentParser()
     parser.add_argument("--out", default="/tmp/ukf_bench")
-    parser.add_argument("--noise", type=float, default=4.0)
+    parser.add_argument("--noise", type=float, default=1.0)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--sizes", nargs="*", type=int, default=list(SIZES))
     parser.add_argument("--paper-frames", type=int, default=5)
