@@ -26,7 +26,9 @@ those holding a wrong pair. ``--sck-min`` drops sets below an Sc_k threshold.
         [--sck-min [T ...]] [--image-every K]
 
 corridor21 renders one image every 12 odometry steps (about 36 cm of travel), so d_it below
-that processes every image: the sweep renders with ``--image-every 3`` (about 9 cm).
+that processes every image: the sweep renders with ``--image-every 3`` (about 9 cm). Renders and
+front-end logs are kept in ``--out`` (default /tmp/ukf_corridor21) and reused; a folder
+rendered before ``line_colours.csv`` existed is refused.
 """
 
 from __future__ import annotations
@@ -277,7 +279,7 @@ def _row(value: str, r: dict) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("--out", default="/tmp/ukf_bench")
+    parser.add_argument("--out", default="/tmp/ukf_corridor21")
     parser.add_argument("--noise", type=float, default=1.0, help="x the preset's alphas")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--set", nargs="*", default=[])

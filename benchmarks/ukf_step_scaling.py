@@ -95,7 +95,7 @@ def main() -> None:
     import ukf_corridor21
 
     parser = argparse.ArgumentParser()
-    parser.add_argument("--out", default="/tmp/ukf_bench")
+    parser.add_argument("--out", default="/tmp/ukf_corridor21")
     parser.add_argument("--noise", type=float, default=1.0)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--sizes", nargs="*", type=int, default=list(SIZES))

@@ -99,13 +99,15 @@ def _largest_matching(
     """Indices (into the window) of a maximum matching of largest total score; among those
     (e.g. without colour, every C'_ij = 0) the one whose u_shifts lie closest to the window's
     median (ours: the paper leaves the choice open; this is its least-variance criterion)."""
-    if np.unique(lines).size == lines.size and np.unique(cands).size == cands.size:
-        return np.arange(lines.size)
+    n = lines.size
+    if len(set(lines.tolist())) == n and len(set(cands.tolist())) == n:
+        return np.arange(n)
     from scipy.optimize import linear_sum_assignment
 
     rows, row_of = np.unique(lines, return_inverse=True)
     cols, col_of = np.unique(cands, return_inverse=True)
-    deviation = np.abs(shift - np.median(shift))
+    median = 0.5 * (shift[(n - 1) // 2] + shift[n // 2])  # a window's shifts are sorted
+    deviation = np.abs(shift - median)
     closeness = _TIE_BREAK * (1.0 - deviation / max(float(deviation.max()), 1e-12))
     weight = np.zeros((rows.size, cols.size))
     weight[row_of, col_of] = _CARDINALITY + scores + closeness
