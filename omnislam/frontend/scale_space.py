@@ -3,11 +3,11 @@
 Lowe (2004, sec. 3.3) doubles the image before building the first octave so that the DoG is
 sampled finely enough at its smallest scales; the thesis keeps this optional ("durante a
 construção da primeira oitava pode-se ainda dobrar as dimensões da imagem", sec. 4.1.1).
-OpenCV always doubles, which puts ~3/4 of its work into the doubled octave: 75-80 ms of CPU per
-640 x 640 omni image here, ~85 % of it detection. Starting the scale space at the image's own
-sampling with the *same* scales (sigma_0 = 0.8 px instead of 1.6 doubled px) keeps the fine
-keypoints that make the best landmarks at a quarter of the pixels (measured in the README's
-front-end section).
+OpenCV always doubles, which puts ~3/4 of its work into the doubled octave: 70-85 ms of CPU per
+640 x 640 omni image here, ~90 % of it detection. Sampling the *same* scales (sigma / 2 ..
+sigma, i.e. 0.8 .. 1.6 px) at the image's own pixels keeps the fine keypoints, which make the
+best-localised landmarks, on a quarter of the pixels; dropping them (Lowe's octave 0 first)
+loses most tracks (measured in the README's front-end section).
 
 The detector follows Lowe and OpenCV's ``SIFT`` step for step, vectorised over candidates:
 
@@ -21,9 +21,9 @@ The detector follows Lowe and OpenCV's ``SIFT`` step for step, vectorised over c
    Gaussian-weighted with 1.5 sigma, smoothed; every peak >= 80 % of the highest makes a
    keypoint (parabolic interpolation of the peak).
 
-Keypoints come out as ``cv2.KeyPoint`` with OpenCV's octave packing (octave, layer, sub-scale),
-so OpenCV's own descriptor (``SIFT.compute`` of a ``SIFT`` with the same ``sigma`` and layers,
-which then builds the same pyramid without doubling) describes them.
+Detections convert to ``cv2.KeyPoint`` with OpenCV's octave packing (octave, layer, sub-scale),
+so that OpenCV's own descriptor (``SIFT.compute``, which then builds its pyramid without
+doubling) describes them (``sift.SiftExtractor``).
 """
 
 from __future__ import annotations
