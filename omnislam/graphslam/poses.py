@@ -35,7 +35,13 @@ import numpy as np
 
 from omnislam._optional import require
 from omnislam.core.motion import OdometryMotionModel, compose_odometry
-from omnislam.core.se import se2_compose_jacobians, se2_from_se3, se3_from_se2
+from omnislam.core.se import (
+    se2_between,
+    se2_compose_jacobians,
+    se2_from_se3,
+    se3_from_se2,
+    wrap_angle,
+)
 from omnislam.core.types import FrameInput
 from omnislam.errors import EstimationError
 from omnislam.graphslam import factors as fx
@@ -99,6 +105,8 @@ class PoseChain(abc.ABC):
         self._since_key = np.zeros(3)
         self._since_key_cov = np.zeros((3, 3))
         self._steps_since_key = 0
+        self._key_delta: list[np.ndarray] = []  # per key frame: odometry from the previous
+        self._key_delta_cov: list[np.ndarray] = []  # ... and its covariance
         self._frame_key: list[int] = []  # per frame: row of its key frame in _key_frames
         self._frame_offset: list[np.ndarray] = []  # per frame: delta from its key frame
         self._frame_offset_cov: list[np.ndarray] = []  # ... and its covariance
@@ -160,6 +168,9 @@ class PoseChain(abc.ABC):
         """Remember frame k's key frame and offset (a key frame is its own, at zero offset)."""
         if key:
             self._key_frames.append(k)
+            # the odometry from the previous key frame (what the between-factor measures)
+            self._key_delta.append(self._since_key.copy() if k else np.zeros(3))
+            self._key_delta_cov.append(self._since_key_cov.copy() if k else np.zeros((3, 3)))
             self._frame_offset.append(np.zeros(3))
             self._frame_offset_cov.append(np.zeros((3, 3)))
         else:
@@ -193,15 +204,35 @@ class PoseChain(abc.ABC):
         return fx.condition_odometry_covariance(cov, self._config.odometry_min_sigma_m)
 
     def frame_poses(self, key_poses_w: np.ndarray) -> np.ndarray:
-        """(N, 4, 4) every frame's pose from its key frame's (K, 4, 4) and its odometry offset.
+        """(N, 4, 4) every frame's pose from the key frames' (K, 4, 4) and the odometry.
 
-        A key frame keeps its own pose (offset zero); frame j between key frames a and b is
-        ``wTa * aTj`` with ``aTj`` the odometry composed since a.
+        A key frame keeps its own pose. Frame j between key frames a and b is ``wTa * aTj``
+        with ``aTj`` the odometry composed since a, *conditioned on the estimated* ``aTb``: to
+        first order the composed odometry ``D_ab = D_aj (+) D_jb`` has ``Cov(D_aj, D_ab) =
+        C_aj J^T`` (J the composition's Jacobian in ``D_aj``), so given the residual
+        ``r = between(wTa, wTb) - D_ab`` the mean of ``aTj`` is ``D_aj + C_aj J^T C_ab^-1 r``
+        -- what a pose variable per frame, with no sighting between a and b, would give (the
+        odometry chain smoothed between its ends). After the newest key frame: ``D_aj``.
         """
         if len(key_poses_w) != len(self._key_frames):
             raise EstimationError("estimate does not hold one value per pose and landmark")
-        offsets = se3_from_se2(np.asarray(self._frame_offset).reshape(-1, 3))
-        return key_poses_w[np.asarray(self._frame_key, dtype=np.int64)] @ offsets
+        rows = np.asarray(self._frame_key, dtype=np.int64)
+        offsets = np.asarray(self._frame_offset, dtype=float).reshape(-1, 3).copy()
+        inside = np.flatnonzero(rows + 1 < len(self._key_frames))  # a later key frame exists
+        inside = inside[np.asarray(self._key_frames)[rows[inside]] != inside]  # not keys
+        if len(inside):
+            planar = se2_from_se3(key_poses_w)
+            nxt = rows[inside] + 1
+            d_ab = np.asarray(self._key_delta)[nxt]
+            c_ab = np.asarray(self._key_delta_cov)[nxt]
+            residual = se2_between(planar[rows[inside]], planar[nxt]) - d_ab
+            residual[:, 2] = wrap_angle(residual[:, 2])
+            d_aj = offsets[inside]
+            c_aj = np.asarray(self._frame_offset_cov)[inside]
+            J, _ = se2_compose_jacobians(d_aj, se2_between(d_aj, d_ab))
+            gain = c_aj @ np.swapaxes(J, 1, 2) @ np.linalg.inv(c_ab)
+            offsets[inside] = d_aj + np.einsum("nij,nj->ni", gain, residual)
+        return key_poses_w[rows] @ se3_from_se2(offsets)
 
     def frame_covariances(self, key_covariances_w: np.ndarray, planar_w: np.ndarray) -> np.ndarray:
         """(N, 3, 3) world [x, y, yaw] covariance of every frame from its key frame's (K, 3, 3).
