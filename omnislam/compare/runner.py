@@ -341,13 +341,15 @@ def prepare_dataset(dataset: str, render: RenderSpec | None, logs_dir: str) -> P
     ``logs_dir`` is current (``execute.prepare_frontend``), so all estimators replay the same
     observations and a comparison measures estimators, not front ends (``omnislam run``
     without ``--log`` replays the same log from the cache). Other datasets keep their own
-    sightings.
+    sightings. A dataset scored against a reference solution (``compare.reference``) gets it
+    computed into the cache here, once, not by each of its cells.
     """
     import time
 
     from omnislam.compare.execute import log_file_name, prepare_frontend
+    from omnislam.compare.reference import reference_for
     from omnislam.compare.renders import ensure_render
-    from omnislam.datasets.registry import load_dataset
+    from omnislam.datasets.registry import load_dataset, resolve
 
     def stamp() -> int | None:
         try:
@@ -357,7 +359,9 @@ def prepare_dataset(dataset: str, render: RenderSpec | None, logs_dir: str) -> P
 
     wall, cpu = time.perf_counter(), time.process_time()
     rendered = ensure_render(render, dataset) if render is not None else False
-    sequence = load_dataset(dataset)
+    resolved = resolve(dataset)
+    sequence = load_dataset(resolved)
+    reference_for(resolved.format, resolved.path, sequence)
     before = stamp()
     log = prepare_frontend(sequence, dataset, Path(logs_dir))
     computed = log is not None and stamp() != before
