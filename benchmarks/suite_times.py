@@ -11,7 +11,8 @@ time is the number to read on a loaded machine; wall time adds the waiting.
 
 With ``--run`` it first runs a subset of ``benchmarks/grids/suite.yaml`` into the folder (the
 named dataset labels, estimator labels and seeds; a cell of the subset is the same cell as in
-the whole suite, so a later ``make suite`` into the same folder reuses it).
+the whole suite, so a later ``make suite`` into the same folder reuses it: both pass
+``compare --resume``).
 """
 
 from __future__ import annotations
@@ -150,7 +151,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         engine = ["--scheduler", args.scheduler] if args.scheduler else []
         engine += ["--workers", str(args.workers)] if args.workers is not None else []
-        code = omnislam(["compare", str(path), "--out", str(results), *engine])
+        code = omnislam(["compare", str(path), "--out", str(results), "--resume", *engine])
         if code not in (0, 1):
             return code
     print_table(cell_rows(results), args.top)

@@ -17,6 +17,7 @@ EXTRAS: dict[str, str] = {
     "distributed": "distributed",
     "matplotlib": "plots",
     "filterpy": "ukf",
+    "rerun": "view",
 }
 
 

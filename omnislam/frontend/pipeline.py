@@ -14,7 +14,6 @@ log: no estimator can use them.
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -75,6 +74,12 @@ def log_key(config: FrontendConfig, max_images: int | None = None) -> str:
     return key if max_images is None else f"{key}-first{max_images}"
 
 
+def _has_own_sightings(sequence: Any) -> bool:
+    """True when the loader gives range-bearing sightings in at least one frame."""
+    own = sequence.range_bearing
+    return own is not None and any(f is not None and len(f.landmark_ids) for f in own)
+
+
 def _merge_sightings(a: RangeBearing | None, b: RangeBearing | None) -> RangeBearing | None:
     if a is None or b is None:
         return a if b is None else b
@@ -103,7 +108,7 @@ def run_frontend(
         config: the configuration (default ``FrontendConfig()``: OMNI_THESIS SIFT).
         rng: generator for RANSAC (default: seeded with ``DEFAULT_SEED``).
         max_images: process at most this many images (the log still has every frame).
-        progress: show a tqdm bar on stderr.
+        progress: show the images done, rate and ETA on stderr (``omnislam._progress``).
 
     Returns:
         The ObservationLog; ``stats`` holds counts and seconds per stage.
@@ -132,9 +137,9 @@ def run_frontend(
         todo = set(processed.tolist())
         bar = None
         if progress:
-            from tqdm import tqdm
+            from omnislam._progress import Progress
 
-            bar = tqdm(total=int(processed.size), desc="frontend", unit="img", file=sys.stderr)
+            bar = Progress(f"frontend {sequence.name}", int(processed.size), "img")
         for i in range(n):
             if i not in todo:
                 continue
@@ -160,7 +165,7 @@ def run_frontend(
                 with clock("vertical_edges"):
                     lines[i] = extract_vertical_lines(image, rig, config.vertical_edges)
             if bar is not None:
-                bar.update(1)
+                bar.advance()
         if bar is not None:
             bar.close()
         sightings = tracker.sightings
@@ -169,7 +174,9 @@ def run_frontend(
         sightings = np.zeros(0, dtype=np.int64)
 
     laser_sightings: dict[int, RangeBearing] = {}
-    if sequence.laser is not None and config.laser.enabled:
+    if sequence.laser is not None and config.laser.enabled and (
+        config.laser.merge_with_sightings or not _has_own_sightings(sequence)
+    ):
         from omnislam.frontend.laser_landmarks import extract_laser_landmarks
 
         scans = sequence.laser
