@@ -74,6 +74,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import logging
     import os
     from contextlib import ExitStack
 
@@ -122,7 +123,11 @@ def run(args: argparse.Namespace) -> int:
                 n = args.workers or os.cpu_count() or 1
                 cluster = stack.enter_context(
                     distributed.LocalCluster(
-                        n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
+                        n_workers=n,
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=None,
+                        silence_logs=logging.ERROR,  # not its shutdown chatter
                     )
                 )
                 address = cluster.scheduler_address

@@ -102,12 +102,18 @@ def check_estimator(name: str) -> None:
     estimator_factory(name)
 
 
-def check_spec(spec: RunSpec) -> None:
+def check_spec(spec: RunSpec, *, rendered: bool = True) -> None:
     """Validate a run without doing it: estimator, dataset, every option (loader, harness and
     estimator, the latter against its configuration dataclass), nothing loaded or computed.
 
     A grid calls it for every cell before any work starts, so a bad value fails the grid up
     front instead of when its cell's turn comes (after the front end, with a results folder).
+
+    Args:
+        spec: the run.
+        rendered: False for a synthetic render the grid runner has yet to make
+            (``compare.renders``): ``spec.dataset`` need not exist, its options are checked
+            against the synthetic format.
 
     Raises:
         ConfigError: unknown estimator or option, a value that does not parse, a prior map
@@ -115,21 +121,22 @@ def check_spec(spec: RunSpec) -> None:
         DataError: a dataset that cannot be resolved.
     """
     from omnislam.compare.rundir import CONFIG
-    from omnislam.datasets.registry import parse_options, resolve
+    from omnislam.datasets.registry import FORMATS, DatasetFormat, parse_options, resolve
     from omnislam.estimators import check_estimator_options
 
     check_estimator(spec.estimator)
-    resolved = resolve(spec.dataset)
-    loader_keys = resolved.option_names()
+    if rendered:
+        resolved = resolve(spec.dataset)
+        fmt, fixed, loader_keys = resolved.format, resolved.options, resolved.option_names()
+    else:
+        fmt, fixed = DatasetFormat.SYNTHETIC, {}
+        loader_keys = frozenset(FORMATS[fmt].options)
     options = dict(spec.options)
     parse_fraction(options.pop(WRONG_ID_OPTION, "0"))
     prior_run = options.pop(PRIOR_MAP_OPTION, None)
     if prior_run is not None and not (Path(prior_run) / CONFIG).is_file():
         raise ConfigError(f"{PRIOR_MAP_OPTION}={prior_run}: not a RUN_DIR folder")
-    parse_options(
-        resolved.format,
-        {**resolved.options, **{k: v for k, v in options.items() if k in loader_keys}},
-    )
+    parse_options(fmt, {**fixed, **{k: v for k, v in options.items() if k in loader_keys}})
     check_estimator_options(
         spec.estimator, {k: v for k, v in options.items() if k not in loader_keys}
     )
