@@ -468,12 +468,20 @@ datasets:                       # a registered name (`omnislam dataset list`) or
                                 #   label: its name in the report; options: loader options
                                 #   (`omnislam estimators` lists them per dataset format)
   # - renders/lab40             # e.g. `omnislam dataset synth lab40 --out renders/lab40`
+  # - {{synthetic: lab40, seeds: [0, 1, 2]}}   # a preset rendered on demand, once per seed,
+                                #   into the cache; every estimator runs on each seed's world
+                                #   with that seed (`images: N` stops after N images)
+  # - {{dataset: victoria-park, estimators: [deadreckoning, fs1]}}   # only these run on it
 
 estimators:                     # names from `omnislam estimators`, with their --set options
   - deadreckoning               #   (the baseline; not ranked in the verdict)
   - graphslam
   - {{estimator: fastslam1, label: fs1, options: {{resampling: stratified}}}}
   - ekfslam
+  # - {{estimator: ukf, label: ukf-on-graph, options: {{prior_map: {{from: graphslam}}}}}}
+                                #   a localiser in the map of the graphslam cell of the same
+                                #   dataset and seed (computed first; recomputed with it)
+  # - {{estimator: fastslam2, seeds: [0, 1, 2, 3, 4]}}   # its own seeds instead of the grid's
 
 seeds: [0, 1, 2]                # one run per seed (default [0]); the verdict uses their spread
 
