@@ -49,7 +49,7 @@ test: venv
 	$(BIN)/python -m pytest -q
 
 demo: venv
-	$(BIN)/omnislam demo
+	$(BIN)/omnislam demo --overwrite
 
 # SUITE_WORKERS=N: N local worker processes (default: one per core);
 # SCHEDULER=tcp://HOST:8786: a Dask cluster (README, "Running the suite on a cluster"), or
@@ -62,7 +62,7 @@ SCHEDULER     ?=
 SUITE_MAX_BYTES := 5242880
 
 suite: venv
-	$(BIN)/omnislam compare benchmarks/grids/suite.yaml --out $(SUITE_RESULTS) \
+	$(BIN)/omnislam compare benchmarks/grids/suite.yaml --out $(SUITE_RESULTS) --resume \
 	  $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(if $(SUITE_WORKERS),--workers $(SUITE_WORKERS)); \
 	status=$$?; test $$status -le 1 || exit $$status; \
 	$(BIN)/omnislam report $(SUITE_RESULTS) --out $(SUITE_REPORT) --no-exports \

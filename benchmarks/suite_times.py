@@ -150,7 +150,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         engine = ["--scheduler", args.scheduler] if args.scheduler else []
         engine += ["--workers", str(args.workers)] if args.workers is not None else []
-        code = omnislam(["compare", str(path), "--out", str(results), *engine])
+        code = omnislam(["compare", str(path), "--out", str(results), "--resume", *engine])
         if code not in (0, 1):
             return code
     print_table(cell_rows(results), args.top)

@@ -430,3 +430,66 @@ def load_grid(path: str | Path) -> Grid:
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read the grid file ({exc.strerror or exc})") from None
     return parse_grid(text, path)
+
+
+#: the template's comment on each EvaluationOptions field (a test keeps the two in step)
+EVALUATION_COMMENTS = {
+    "rpe_segment_m": "RPE segment [m]; null: 10 m, shorter for runs under 40 m",
+    "landmark_gate_m": "landmark association gate of maps without true ids [m]",
+    "curve_lengths": "segment lengths of the error-over-distance curve",
+}
+
+
+def grid_template() -> str:
+    """A commented grid file with every key ``parse_grid`` reads (``omnislam compare
+    --template``); the ``evaluation`` keys, defaults and meanings come from EvaluationOptions.
+    """
+    import dataclasses
+
+    evaluation = []
+    for f in dataclasses.fields(EvaluationOptions):
+        default = f.default
+        value = "null" if default is None else yaml.safe_dump(default).splitlines()[0]
+        evaluation.append(f"  {f.name}: {value}".ljust(32) + f"# {EVALUATION_COMMENTS[f.name]}")
+    evaluation_text = "\n".join(evaluation)
+    return f"""\
+# omnislam grid: datasets x estimators x seeds x overrides, one run (cell) each.
+# Run it:     omnislam compare GRID.yaml --out RESULTS_DIR [--workers N | --scheduler ADDRESS]
+# Continue:   omnislam compare GRID.yaml --out RESULTS_DIR --resume   (finished cells are kept)
+# Report it:  omnislam report RESULTS_DIR --out reports/NAME
+# Every key but `datasets` and `estimators` is optional. The whole grid is checked before any
+# cell runs (names, datasets, every option against the estimator's configuration).
+
+name: my comparison             # the report's title (default: the file's name)
+
+datasets:                       # a registered name (`omnislam dataset list`) or a path
+  - mrclam6-r1                  #   (relative to this file): a synthetic or folder dataset
+  - {{dataset: mrclam6-r2, label: r2-no-ids, options: {{association: unknown}}}}
+                                #   label: its name in the report; options: loader options
+                                #   (`omnislam estimators` lists them per dataset format)
+  # - renders/lab40             # e.g. `omnislam dataset synth lab40 --out renders/lab40`
+  # - {{synthetic: lab40, seeds: [0, 1, 2]}}   # a preset rendered on demand, once per seed,
+                                #   into the cache; every estimator runs on each seed's world
+                                #   with that seed (`images: N` stops after N images)
+  # - {{dataset: victoria-park, estimators: [deadreckoning, fs1]}}   # only these run on it
+
+estimators:                     # names from `omnislam estimators`, with their --set options
+  - deadreckoning               #   (the baseline; not ranked in the verdict)
+  - graphslam
+  - {{estimator: fastslam1, label: fs1, options: {{resampling: stratified}}}}
+  - ekfslam
+  # - {{estimator: ukf, label: ukf-on-graph, options: {{prior_map: {{from: graphslam}}}}}}
+                                #   a localiser in the map of the graphslam cell of the same
+                                #   dataset and seed (computed first; recomputed with it)
+  # - {{estimator: fastslam2, seeds: [0, 1, 2, 3, 4]}}   # its own seeds instead of the grid's
+
+seeds: [0, 1, 2]                # one run per seed (default [0]); the verdict uses their spread
+
+overrides:                      # option sets: an estimator they apply to runs once per
+  - {{n_particles: 30, estimators: [fs1]}}    #   override (on top of its own options) instead
+  - {{n_particles: 300, estimators: [fs1]}}   #   of once; `estimators` limits where one applies
+  # - {{wrong_id_fraction: 0.05}}             # (names or labels); harness options apply to all
+
+evaluation:                     # how every cell is scored (optional)
+{evaluation_text}
+"""

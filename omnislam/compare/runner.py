@@ -45,11 +45,13 @@ import sys
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from omnislam._files import atomic_write_text, check_output_location, output_error
 from omnislam.compare.cache import LOGS
+from omnislam.compare.channel import ProgressChannel, StepReporter
 from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
 from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.compare.grid import Cell, Grid, column_label
@@ -80,6 +82,8 @@ RESULTS_CSV = "results.csv"
 CELL_TIME = "cell_time.json"
 #: a cell whose worker was lost is submitted at most this many times in all
 DEFAULT_MAX_ATTEMPTS = 3
+#: seconds the runner waits for a cell before it passes on the workers' progress
+PROGRESS_POLL_S = 0.25
 
 #: columns of results.csv before the metrics (``CSV_FIELDS`` of ``compare.run_metrics``)
 CSV_LABELS = ("cell", "dataset", "estimator", "override", "seed", "status")
@@ -113,6 +117,24 @@ class CellOutcome:
     error: str | None = None
     attempts: int = 0
     time: CellTime | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class CellProgress:
+    """What a running cell is doing (``execute.StepCallback``, sent by its worker).
+
+    Attributes:
+        cell: the cell.
+        stage: "loading", "front end", "running", "final estimate" (in the worker), then
+            "storing" (this process writes and evaluates it).
+        done: frames stepped so far.
+        total: frames of the run (0 while loading).
+    """
+
+    cell: Cell
+    stage: str
+    done: int
+    total: int
 
 
 @dataclass(frozen=True, slots=True)
@@ -241,7 +263,9 @@ def _matches(cell_dir: Path, cell: Cell) -> bool:
 
 def _evaluation_matches(metrics: RunMetrics, options: EvaluationOptions) -> bool:
     segment, gate = metrics.rpe.segment_m, metrics.landmarks.gate_m
-    return (segment is None or segment == options.rpe_segment_m) and (
+    travel = metrics.rpe.travel_m
+    wanted = options.segment_for(travel) if travel is not None else options.rpe_segment_m
+    return (segment is None or segment == wanted) and (
         gate is None or gate == options.landmark_gate_m
     )
 
@@ -333,20 +357,24 @@ class Prepared:
     cpu_s: float = 0.0
 
 
-def prepare_dataset(dataset: str, render: RenderSpec | None, logs_dir: str) -> Prepared:
+def prepare_dataset(
+    dataset: str, render: RenderSpec | None, logs_dir: str, track_truth: bool = False
+) -> Prepared:
     """Make what every cell of a dataset needs, once; runs on a worker.
 
     Renders a synthetic dataset that is not in the cache yet (``compare.renders``), then runs
     the shared front end on a dataset with images or laser scans unless its log in
-    ``logs_dir`` is current (``execute.prepare_frontend``), so all estimators replay the same
+    ``logs_dir`` is current (``execute.frontend_log_for``), so all estimators replay the same
     observations and a comparison measures estimators, not front ends (``omnislam run``
     without ``--log`` replays the same log from the cache). Other datasets keep their own
     sightings. A dataset scored against a reference solution (``compare.reference``) gets it
-    computed into the cache here, once, not by each of its cells.
+    computed into the cache here, once, not by each of its cells; so do the true points of the
+    log's tracks (``execute.cache_track_truth``) when ``track_truth`` (an estimator of the
+    grid consumes the omni bearings).
     """
     import time
 
-    from omnislam.compare.execute import log_file_name, prepare_frontend
+    from omnislam.compare.execute import cache_track_truth, frontend_log_for, log_file_name
     from omnislam.compare.reference import reference_for
     from omnislam.compare.renders import ensure_render
     from omnislam.datasets.registry import load_dataset, resolve
@@ -363,8 +391,10 @@ def prepare_dataset(dataset: str, render: RenderSpec | None, logs_dir: str) -> P
     sequence = load_dataset(resolved)
     reference_for(resolved.format, resolved.path, sequence)
     before = stamp()
-    log = prepare_frontend(sequence, dataset, Path(logs_dir))
+    log = frontend_log_for(sequence, dataset, Path(logs_dir))
     computed = log is not None and stamp() != before
+    if log is not None and track_truth:
+        cache_track_truth(sequence, log)
     return Prepared(
         dataset,
         None if log is None else str(log),
@@ -394,13 +424,14 @@ class CellTime:
         return {"wall_s": self.wall_s, "cpu_s": self.cpu_s, "host": self.host}
 
 
-def run_cell(spec: RunSpec) -> tuple[RunRecord, CellTime]:
-    """``execute_run(spec)`` and what it cost; runs on a worker."""
+def run_cell(spec: RunSpec, reporter: StepReporter | None = None) -> tuple[RunRecord, CellTime]:
+    """What a worker runs for one cell: ``execute_run``, its progress sent to ``reporter``,
+    and what it cost."""
     import socket
     import time
 
     wall, cpu = time.perf_counter(), time.process_time()
-    record = execute_run(spec)
+    record = execute_run(spec, on_step=reporter)
     return record, CellTime(
         time.perf_counter() - wall, time.process_time() - cpu, socket.gethostname()
     )
@@ -439,6 +470,8 @@ def run_grid(
     *,
     max_attempts: int = DEFAULT_MAX_ATTEMPTS,
     on_outcome: Callable[[CellOutcome], None] | None = None,
+    on_progress: Callable[[CellProgress], None] | None = None,
+    reuse: bool = True,
 ) -> GridResult:
     """Run every cell of ``grid`` not already finished in ``out_dir``.
 
@@ -455,6 +488,12 @@ def run_grid(
             process pool of ``os.cpu_count()`` workers.
         max_attempts: submissions per task when its worker is lost.
         on_outcome: called with every cell's outcome as it is known (progress bars).
+        on_progress: called in this process with what running cells are doing, frames
+            stepped included, as their workers report it (``channel``; workers on another
+            machine report nothing until their cell is done).
+        reuse: keep the cells ``out_dir`` already holds for this grid (resume); False computes
+            every cell again (each replaces its old folder atomically when done) and removes
+            the cell folders of cells the grid no longer has.
 
     Returns:
         GridResult with every cell's outcome.
@@ -489,7 +528,12 @@ def run_grid(
         if on_outcome is not None:
             on_outcome(outcome)
 
-    _GridRun(grid, out_dir, executor_factory, max_attempts, finish).run()
+    _GridRun(grid, out_dir, executor_factory, max_attempts, finish, on_progress, reuse).run()
+    if not reuse:
+        wanted = {cell.cell_id for cell in grid.cells}
+        for old in cells_dir.iterdir():
+            if old.is_dir() and not old.name.startswith(".") and old.name not in wanted:
+                shutil.rmtree(old, ignore_errors=True)
     result = summary()
     write_summary(result)
     return result
@@ -524,8 +568,16 @@ class _GridRun:
         executor_factory: Callable[[], Executor],
         max_attempts: int,
         finish: Callable[[CellOutcome], None],
+        on_progress: Callable[[CellProgress], None] | None = None,
+        reuse: bool = True,
     ) -> None:
         self.grid = grid
+        self.on_progress = on_progress
+        self.reuse = reuse
+        self.stack = ExitStack()
+        self.channel = (
+            self.stack.enter_context(ProgressChannel()) if on_progress is not None else None
+        )
         self.cells_dir = out_dir / CELLS
         self.logs_dir = out_dir / LOGS
         self.factory = executor_factory
@@ -553,11 +605,35 @@ class _GridRun:
         self.running[future] = (kind, key)
 
     def _submit_prepare(self, dataset: str) -> None:
-        render = next(c.render for c in self.grid.cells if c.spec.dataset == dataset)
-        self._submit("prepare", dataset, prepare_dataset, dataset, render, str(self.logs_dir))
+        from omnislam.core.modality import Modality
+        from omnislam.estimators import ESTIMATORS
+
+        cells = [c for c in self.grid.cells if c.spec.dataset == dataset]
+        bearings = any(
+            Modality.BEARINGS_3D in ESTIMATORS[c.spec.estimator].modalities for c in cells
+        )
+        self._submit(
+            "prepare",
+            dataset,
+            prepare_dataset,
+            dataset,
+            cells[0].render,
+            str(self.logs_dir),
+            bearings,
+        )
 
     def _submit_cell(self, cell: Cell) -> None:
-        self._submit("cell", cell.cell_id, run_cell, self._spec(cell))
+        reporter = self.channel.reporter(cell.cell_id) if self.channel is not None else None
+        self._submit("cell", cell.cell_id, run_cell, self._spec(cell), reporter)
+
+    def _relay(self) -> None:
+        """Pass on what the workers said about their running cells."""
+        if self.channel is None or self.on_progress is None:
+            return
+        for message in self.channel.drain():
+            cell = self.by_id.get(message.key)
+            if cell is not None:
+                self.on_progress(CellProgress(cell, message.stage, message.done, message.total))
 
     def _spec(self, cell: Cell) -> RunSpec:
         log = self.logs.get(cell.spec.dataset)
@@ -601,7 +677,11 @@ class _GridRun:
                 else:  # computed in this invocation: wait for it, then compute this one too
                     self.waiting.setdefault(source, []).append(cell)
                 continue
-            reused = _reuse(cell, self.cells_dir / cell.cell_id, self.grid.evaluation)
+            reused = (
+                _reuse(cell, self.cells_dir / cell.cell_id, self.grid.evaluation)
+                if self.reuse
+                else None
+            )
             if reused is not None:
                 self._done(cell, reused)
             else:
@@ -649,6 +729,9 @@ class _GridRun:
             return
         record, time_taken = result  # type: ignore[misc]
         cell = self.by_id[key]
+        if self.on_progress is not None:
+            frames = record.config.frames
+            self.on_progress(CellProgress(cell, "storing", frames, frames))
         metrics = store_cell(self.cells_dir, cell, record, self.grid.evaluation, time_taken)
         self._done(
             cell,
@@ -656,21 +739,24 @@ class _GridRun:
         )
 
     def run(self) -> None:
-        try:
-            for dataset in dict.fromkeys(c.spec.dataset for c in self.grid.cells):
-                self._submit_prepare(dataset)
-            while self.running:
-                done, _ = wait(list(self.running), return_when=FIRST_COMPLETED)
-                for future in done:
-                    self._collect(future)
-        except BaseException:  # interrupted: keep finished cells, do not wait for running ones
-            for future in self.running:
-                future.cancel()
+        poll = PROGRESS_POLL_S if self.channel is not None else None
+        with self.stack:
+            try:
+                for dataset in dict.fromkeys(c.spec.dataset for c in self.grid.cells):
+                    self._submit_prepare(dataset)
+                while self.running:
+                    done, _ = wait(list(self.running), timeout=poll, return_when=FIRST_COMPLETED)
+                    self._relay()
+                    for future in done:
+                        self._collect(future)
+            except BaseException:  # interrupted: keep finished cells, do not wait for running ones
+                for future in self.running:
+                    future.cancel()
+                if self.executor is not None:
+                    self.executor.shutdown(wait=False, cancel_futures=True)
+                raise
             if self.executor is not None:
-                self.executor.shutdown(wait=False, cancel_futures=True)
-            raise
-        if self.executor is not None:
-            self.executor.shutdown(wait=True)
+                self.executor.shutdown(wait=True)
 
 
 def _say_prepared(prepared: Prepared) -> None:

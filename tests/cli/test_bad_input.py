@@ -389,6 +389,40 @@ def _(tmp, fx):
     return run_args(folder, tmp), "laser.npz"
 
 
+def _edit_laser(folder: Path, **changes: object) -> None:
+    path = folder / "laser.npz"
+    with np.load(path) as data:
+        arrays = {key: data[key] for key in data.files}
+    for key, change in changes.items():
+        arrays[key] = change(arrays[key])
+    np.savez(path, **arrays)
+
+
+def _laser_case(name: str, **changes: object) -> None:
+    @case(f"synthetic-laser-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        folder = fx.synthetic(tmp)
+        _edit_laser(folder, **changes)
+        return run_args(folder, tmp), "laser.npz"
+
+
+def _with(value: float) -> object:
+    def change(ranges: np.ndarray) -> np.ndarray:
+        out = ranges.copy()
+        out[0, 3] = value
+        return out
+
+    return change
+
+
+_laser_case("range-nan", ranges_m=_with(float("nan")))
+_laser_case("range-beyond-max", ranges_m=_with(1e3))
+_laser_case("range-negative", ranges_m=_with(-0.5))
+_laser_case("fewer-scans-than-frames", ranges_m=lambda r: r[:-1])
+_laser_case("beam-count-mismatch", ranges_m=lambda r: r[:, :-1])
+_laser_case("angles-not-increasing", angles_rad=lambda a: a[::-1])
+
+
 @case("synthetic-groundtruth-cut-mid-line")
 def _(tmp, fx):
     folder = fx.synthetic(tmp)
@@ -825,6 +859,55 @@ def _(tmp, fx):
     (tmp / "demo").mkdir()
     (tmp / "demo" / "keep.txt").write_text("x")
     return ["dataset", "synth", "demo", "--out", str(tmp / "demo"), "--frames", "1"], "demo"
+
+
+# -- the one overwrite rule, evaluate --ref, view
+
+
+@case("run-out-exists-without-overwrite")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    return [*run_args(mrclam(tmp), tmp)[:-1], str(run)], "--overwrite"
+
+
+@case("compare-out-exists-without-resume")
+def _(tmp, fx):
+    path = grid(tmp, GRID_OK)
+    (tmp / "results").mkdir()
+    (tmp / "results" / "grid.yaml").write_text(GRID_OK)
+    return ["compare", str(path), "--out", str(tmp / "results")], "--resume"
+
+
+@case("evaluate-ref-missing")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    return ["evaluate", str(run / "trajectory.tum"), "--ref", str(tmp / "none.tum")], "none.tum"
+
+
+@case("evaluate-ref-five-columns")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    (tmp / "gt.txt").write_text("0 1 2 3 4\n")
+    return ["evaluate", str(run / "trajectory.tum"), "--ref", str(tmp / "gt.txt")], "gt.txt"
+
+
+@case("evaluate-ref-out-exists")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    (tmp / "m.json").write_text("{}")
+    argv = ["evaluate", str(run / "trajectory.tum"), "--ref", str(run / "ground_truth.tum")]
+    return [*argv, "--out", str(tmp / "m.json")], "m.json"
+
+
+@case("view-not-a-run-dir")
+def _(tmp, fx):
+    (tmp / "empty").mkdir()
+    return ["view", str(tmp / "empty")], "empty"
+
+
+@case("view-out-not-rrd")
+def _(tmp, fx):
+    return ["view", str(fx.run_dir(tmp)), "--out", str(tmp / "run.txt")], "run.txt"
 
 
 # ---- the test --------------------------------------------------------------------------------

@@ -176,6 +176,57 @@ def read_ground_truth_maps(path: str | Path, index: int) -> GroundTruthMaps:
     return SyntheticFolder(path).ground_truth_maps(index)
 
 
+def _line_colours(path: Path, landmark_ids: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """``line_colours.csv`` as (means_left, means_right) rows of ``landmark_ids`` (NaN where the
+    survey has none), or None when the folder has no such file (rendered before it existed, or
+    without images)."""
+    if not path.exists():
+        return None
+    table = _read_csv(path, 8)
+    row = {int(i): k for k, i in enumerate(landmark_ids)}
+    left = np.full((len(landmark_ids), 3), np.nan)
+    right = np.full((len(landmark_ids), 3), np.nan)
+    for line, values in enumerate(table, start=2):
+        k = row.get(int(values[0]))
+        if k is None:
+            raise DataError(f"line {line}: landmark {int(values[0])} is not in landmarks.csv", path)
+        if not np.all(np.isfinite(values[2:]) | np.isnan(values[2:])):
+            raise DataError(f"line {line}: colours must be finite or empty", path)
+        left[k], right[k] = values[2:5], values[5:8]
+    return left, right
+
+
+def _read_laser(path: Path, frames: int) -> LaserScans:
+    """``laser.npz`` checked against the folder: one scan per frame, ranges in [0, max]."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            angles = np.asarray(data["angles_rad"], dtype=float)
+            ranges = np.asarray(data["ranges_m"], dtype=float)
+            max_range = float(data["max_range_m"])
+    except NPZ_ERRORS as exc:
+        raise DataError(f"cannot read laser scans ({npz_reason(exc)})", path) from None
+    except (TypeError, ValueError) as exc:
+        raise DataError(f"laser scans are not numeric arrays ({exc})", path) from None
+    if angles.ndim != 1 or not np.all(np.isfinite(angles)) or np.any(np.diff(angles) <= 0):
+        raise DataError("angles_rad must be finite and increasing, one per beam", path)
+    if ranges.ndim != 2 or ranges.shape[1] != angles.size:
+        raise DataError(
+            f"ranges_m is {ranges.shape}, expected ({frames}, {angles.size}): "
+            "one row per frame, one column per beam", path)
+    if ranges.shape[0] != frames:
+        raise DataError(
+            f"{ranges.shape[0]} laser scans for {frames} frames (odometry.csv)", path)
+    if not (np.isfinite(max_range) and max_range > 0):
+        raise DataError(f"max_range_m must be positive, got {max_range}", path)
+    bad = ~np.isfinite(ranges) | (ranges < 0) | (ranges > max_range)
+    if bad.any():
+        frame, beam = (int(v) for v in np.argwhere(bad)[0])
+        raise DataError(
+            f"scan {frame}, beam {beam}: range {ranges[frame, beam]} outside "
+            f"[0, max_range_m = {max_range:g}] ({int(bad.sum())} such ranges)", path)
+    return LaserScans(angles, ranges, max_range)
+
+
 def load_synthetic(path: str | Path, association: Association = Association.KNOWN) -> Sequence:
     """Read a synthetic folder as a Sequence (images on demand, exact ground truth).
 
@@ -203,12 +254,7 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
         if association is Association.UNKNOWN:
             ids = np.full_like(ids, UNKNOWN_ID)
         sightings.append(RangeBearing(ids, rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5]))
-    laser_path = root / "laser.npz"
-    try:
-        with np.load(laser_path, allow_pickle=False) as data:
-            laser = LaserScans(data["angles_rad"], data["ranges_m"], float(data["max_range_m"]))
-    except NPZ_ERRORS as exc:
-        raise DataError(f"cannot read laser scans ({npz_reason(exc)})", laser_path) from None
+    laser = _read_laser(root / "laser.npz", n)
     landmarks = _read_csv(root / "landmarks.csv", 4)
     images = sorted(int(p.stem) for p in (root / "images").glob("*.png")) if (
         root / "images").is_dir() else []
@@ -218,11 +264,15 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
     landmark_ids = landmarks[:, 0].astype(np.int64)
     line_ids = {line.landmark_id for line in world.vertical_lines}
     walls = np.array([[w.x0_m, w.y0_m, w.x1_m, w.y1_m] for w in world.walls_2d])
+    means = _line_colours(root / "line_colours.csv", landmark_ids)
     prior_map = PriorMap(
-        source="the world's 2-D map (landmarks.csv: poles and vertical lines; walls.csv)",
+        source="the world's 2-D map (landmarks.csv: poles and vertical lines; walls.csv"
+        + ("; MC surveyed in the rendered images, line_colours.csv)" if means else ")"),
         landmark_ids=landmark_ids,
         points_w=landmarks[:, 1:4],
         vertical_line=np.isin(landmark_ids, sorted(line_ids)),
+        means_left=means[0] if means else None,
+        means_right=means[1] if means else None,
         walls_w=walls.reshape(-1, 2, 2),
         initial_pose_w=se2_from_se3(gt_traj.poses_w[0]),
     )

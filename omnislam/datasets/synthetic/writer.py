@@ -8,7 +8,8 @@ byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
 
 ``meta.json``
     ``{"format": "omnislam-synthetic", "version": 1, "preset", "seed", "backend", "frames",
-    "images", "description", "source"}``.
+    "images", "description", "source", "odometry_bias", "motion_noise"}`` (the last two: the
+    simulated robot's systematic odometry errors and alpha coefficients, as dicts).
 ``world.json``
     The world: quads (surface id = index), texture specs, poles, vertical lines, 2-D walls.
 ``calibration.yaml``
@@ -18,8 +19,9 @@ byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
     True pose of every frame (10 Hz), TUM format ``stamp x y z qx qy qz qw``, z = 0.
 ``odometry.csv``
     ``stamp_s,dx_m,dy_m,dtheta_rad,true_dx_m,true_dy_m,true_dtheta_rad``: one row per frame;
-    the robot-frame motion since the previous frame, measured (thesis alpha model, eqs.
-    4.38-4.44) and true. Row 0 is zero.
+    the robot-frame motion since the previous frame, measured (the robot's systematic bias,
+    ``routes.OdometryBias``, then the thesis alpha model, eqs. 4.38-4.44) and true. Row 0 is
+    zero.
 ``images/NNNNNN.png``
     RGB images (8 bit) of the frames that have one; NNNNNN = frame index (zero-padded).
 ``gt/NNNNNN.npz``
@@ -37,10 +39,16 @@ byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
     ``id,x,y,z`` ground-truth 2-D landmarks (pole centres, door-frame vertical lines), z = 0.
 ``walls.csv``
     ``x0,y0,x1,y1`` main walls of the 2-D map (Barra & Costa's occlusion map).
+``line_colours.csv``
+    ``id,count,r_left,g_left,b_left,r_right,g_right,b_right``: the MC (Barra & Costa sec. 2.2)
+    of every vertical-line landmark, surveyed in the rendered images at the true poses
+    (``line_survey``), ``count`` images; empty colours where never seen. Only with images and
+    vertical lines.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import os
@@ -53,6 +61,7 @@ import numpy as np
 
 from omnislam._files import check_output_location, output_error
 from omnislam.core.types import Trajectory
+from omnislam.datasets.synthetic.line_survey import LineSurvey
 from omnislam.datasets.synthetic.raycast import Backend
 from omnislam.datasets.synthetic.render import Renderer
 from omnislam.datasets.synthetic.simulate import Simulation
@@ -148,6 +157,8 @@ def write_synthetic(
             "images": int(sim.image_frames.size),
             "description": sim.preset.description,
             "source": sim.preset.source,
+            "odometry_bias": dataclasses.asdict(sim.preset.odometry_bias),
+            "motion_noise": dataclasses.asdict(sim.preset.motion_noise),
         }
         (tmp / "meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
         (tmp / "world.json").write_text(sim.world.to_json() + "\n")
@@ -183,14 +194,29 @@ def write_synthetic(
             (tmp / "images").mkdir()
             (tmp / "gt").mkdir()
             renderer = Renderer(sim.world, sim.rig, backend, supersample)
+            lines = sim.world.vertical_lines
+            survey = LineSurvey(
+                np.array([v.landmark_id for v in lines], dtype=np.int64),
+                np.array([(v.x_m, v.y_m) for v in lines]),
+                sim.rig,
+            )
+            poses_se3 = Trajectory.from_se2(sim.stamps_s, sim.poses_w).poses_w
             for count, index in enumerate(sim.image_frames, start=1):
                 frame = renderer.render(sim.poses_w[index])
+                survey.add(frame.image, frame.points_w, poses_se3[index])
                 name = frame_name(int(index))
                 if not cv2.imwrite(str(tmp / "images" / f"{name}.png"), frame.image[..., ::-1]):
                     raise DataError("cannot write image", tmp / "images" / f"{name}.png")
                 write_npz(tmp / "gt" / f"{name}.npz", {"surface_id": frame.surface_ids})
                 if progress is not None:
                     progress(count)
+            if lines:
+                _write_csv(
+                    tmp / "line_colours.csv",
+                    "id,count,r_left,g_left,b_left,r_right,g_right,b_right",
+                    survey.rows().astype(object),
+                    ["%d", "%d"] + [_FLOAT] * 6,
+                )
         if out.exists():
             trash = out.parent / f".{out.name}.old-{os.getpid()}"
             out.rename(trash)
