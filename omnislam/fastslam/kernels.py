@@ -196,6 +196,8 @@ def tree_scatter(
                 new = node_free[node_taken]
                 node_taken += 1
             else:
+                if node_used >= links.shape[0]:
+                    raise IndexError("landmark tree: node table full (reservation too small)")
                 new = node_used
                 node_used += 1
             for c in range(4):
@@ -212,6 +214,8 @@ def tree_scatter(
                     new = node_free[node_taken]
                     node_taken += 1
                 else:
+                    if node_used >= links.shape[0]:
+                        raise IndexError("landmark tree: node table full (reservation too small)")
                     new = node_used
                     node_used += 1
                 for c in range(4):

@@ -319,13 +319,15 @@ class LandmarkTree:
         self, particles: np.ndarray, slots: np.ndarray, block: LandmarkBlock
     ) -> None:
         """``scatter`` by ``kernels.tree_scatter``: one walk per pair, copying the nodes the
-        particle does not own; room for one new node per level of every pair is reserved."""
+        particle does not own. Room is reserved for one new node per level of every pair, but
+        never more than a whole tree of that height per writing particle."""
         n = particles.shape[0]
         if self._layout is TreeLayout.ALL_NODES:
             levels = int(int(slots.max()) + 1).bit_length()
         else:
             levels = self._height + 1
-        self._reserve(n * levels, n)
+        writers = int(np.count_nonzero(np.bincount(particles)))
+        self._reserve(min(n * levels, writers * ((1 << levels) - 1)), n)
         nodes, payloads = self._node_rows, self._payload_rows
         rows, node_taken, node_used, payload_taken, payload_used, copies, visits = (
             self._kernels.tree_scatter(
