@@ -18,9 +18,10 @@ Reports, on the synthetic omni dataset, with the default configuration (vertical
   allow (every consistent track of >= 3 sightings triangulated from the true poses: median,
   90th percentile, RMS, and for tracks with >= 3 deg of parallax); the bearings' noise ratio
   (``evaluation.noise_ratio``: RMS residual / logged sigma, 1 = calibrated);
-- ``--variants``: the same quality and CPU figures for the scale-space choices of
+- ``--variants``: the same quality and CPU figures (per stage) for the scale-space choices of
   ``SiftConfig.first_octave`` (doubled with OpenCV's default upscale, doubled with the exact
-  one, native, none), sequentially, one run each;
+  one, native, none) and for the general 8-point RANSAC instead of the planar one,
+  sequentially, one run each (``--variant NAME`` picks some; ``--repeat 0`` runs only them);
 and optionally vertical-edge recall / bearing error on corridor21 and verified matches per
 image pair on the real OCamCalib VMR lab images.
 """
@@ -68,6 +69,8 @@ def variants(config: FrontendConfig) -> dict[str, FrontendConfig]:
             sift, first_octave=FirstOctave.NATIVE)),
         "none": dataclasses.replace(config, sift=dataclasses.replace(
             sift, first_octave=FirstOctave.NONE)),
+        "native, 8-point RANSAC": dataclasses.replace(config, verification=dataclasses.replace(
+            config.verification, planar_motion=False)),
     }
 
 
@@ -183,8 +186,12 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", required=True, type=Path, help="synthetic omni folder")
     parser.add_argument("--images", type=int, default=None, help="process the first N images")
-    parser.add_argument("--repeat", type=int, default=3, help="pipelined speed runs (median)")
+    parser.add_argument("--repeat", type=int, default=3,
+                        help="pipelined speed runs (median); 0: no speed or default-quality runs")
     parser.add_argument("--variants", action="store_true", help="scale-space choices table")
+    parser.add_argument("--variant", action="append", default=None, metavar="NAME",
+                        help="with --variants: only these (repeatable); with --repeat 0 only "
+                             "the variants run")
     parser.add_argument("--corridor", type=Path, help="corridor21 folder (vertical edges)")
     parser.add_argument("--real", action="store_true", help="real VMR lab image pairs")
     parser.add_argument("--json", type=Path, help="write the results here")
@@ -195,29 +202,33 @@ def main() -> int:
     config = FrontendConfig(laser=LaserLandmarkConfig(enabled=False))
     results: dict[str, object] = {"dataset": str(args.dataset), "images": args.images,
                                   "cpus": os.cpu_count(), "load_average_before": os.getloadavg()}
-    runs = []
-    for _ in range(args.repeat):
-        log = run_frontend(sequence, config, max_images=args.images, progress=True)
-        runs.append(totals(log))
-    results["pipelined"] = {k: float(np.median([r[k] for r in runs])) for k in runs[0]}
-    results["pipelined_runs"] = runs
-    sequential = run_frontend(sequence, config, max_images=args.images, progress=True,
-                              pipelined=False)
-    results["sequential"] = totals(sequential) | per_stage(sequential)
-    frames = log.image_frames
-    results["sequential"] |= sift_alone(sequence, frames[: min(30, frames.size)], config)
-    results["load_average_after_speed"] = os.getloadavg()
-    results["verified"] = quality(log, sequence, truth)
-    unverified = dataclasses.replace(config, verification=VerificationConfig(enabled=False))
-    results["unverified"] = quality(run_frontend(sequence, unverified, max_images=args.images,
-                                                 progress=True), sequence, truth)
+    if args.repeat > 0:
+        runs = []
+        for _ in range(args.repeat):
+            log = run_frontend(sequence, config, max_images=args.images, progress=True)
+            runs.append(totals(log))
+        results["pipelined"] = {k: float(np.median([r[k] for r in runs])) for k in runs[0]}
+        results["pipelined_runs"] = runs
+        sequential = run_frontend(sequence, config, max_images=args.images, progress=True,
+                                  pipelined=False)
+        results["sequential"] = totals(sequential) | per_stage(sequential)
+        frames = log.image_frames
+        results["sequential"] |= sift_alone(sequence, frames[: min(30, frames.size)], config)
+        results["load_average_after_speed"] = os.getloadavg()
+        results["verified"] = quality(log, sequence, truth)
+        unverified = dataclasses.replace(config, verification=VerificationConfig(enabled=False))
+        results["unverified"] = quality(run_frontend(sequence, unverified,
+                                                     max_images=args.images, progress=True),
+                                        sequence, truth)
     if args.variants:
         table = {}
         for name, variant in variants(config).items():
+            if args.variant and name not in args.variant:
+                continue
             run = run_frontend(sequence, variant, max_images=args.images, progress=True,
                                pipelined=False)
-            table[name] = totals(run) | {"cpu_ms_extract": per_stage(run)["cpu_ms_extract"]} \
-                | quality(run, sequence, truth)
+            cpu = {k: v for k, v in per_stage(run).items() if k.startswith("cpu_ms_")}
+            table[name] = totals(run) | cpu | quality(run, sequence, truth)
         results["variants"] = table
     if args.corridor:
         results["vertical_edges"] = vertical_edges(args.corridor)

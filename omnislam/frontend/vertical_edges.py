@@ -118,11 +118,13 @@ class VerticalLineExtractor:
         centre, _ = rig.project_r(viewpoint[None, :] + [[0.0, 0.0, -1.0]])  # type: ignore[attr-defined]
         self.cu, self.cv = (float(x) for x in centre[0])
         self.mask = camera.mask()
-        self.rows, self.cols = np.nonzero(self.mask)
-        du, dv = self.cols - self.cu, self.rows - self.cv
+        rows, cols = np.nonzero(self.mask)
+        self.flat = rows * self.mask.shape[1] + cols  # ring pixels, row-major
+        du, dv = cols - self.cu, rows - self.cv
         radius = np.hypot(du, dv)
         safe = np.maximum(radius, 1e-9)
-        self.unit_u, self.unit_v = du / safe, dv / safe  # radial unit vector of each pixel
+        # radial unit vector of each pixel (float32 like the gradients)
+        self.unit_u, self.unit_v = (du / safe).astype(np.float32), (dv / safe).astype(np.float32)
         self.azimuth = np.arctan2(dv, du)
         bins = config.azimuth_bins
         self.bin = np.floor((self.azimuth + np.pi) / (2 * np.pi) * bins).astype(int) % bins
@@ -143,12 +145,14 @@ class VerticalLineExtractor:
     def _omni(self, image: np.ndarray) -> VerticalLines:
         config, rig = self.config, self.rig
         gx, gy = _gradients(image)
-        g_u, g_v = gx[self.rows, self.cols], gy[self.rows, self.cols]
-        g_radial = np.abs(g_u * self.unit_u + g_v * self.unit_v)
-        g_tangential = np.abs(-g_u * self.unit_v + g_v * self.unit_u)
-        magnitude = np.hypot(g_u, g_v)
-        edge = np.flatnonzero((magnitude >= config.min_gradient) & (
-            g_radial <= np.tan(config.max_direction_error_rad) * g_tangential))
+        g_u, g_v = gx.ravel()[self.flat], gy.ravel()[self.flat]
+        radial2 = np.square(g_u * self.unit_u + g_v * self.unit_v)
+        tangential2 = np.square(g_v * self.unit_u - g_u * self.unit_v)
+        # |g| >= min_gradient and |g_radial| <= tan(max error) |g_tangential|, squared
+        edge = np.flatnonzero((radial2 + tangential2 >= config.min_gradient**2) & (
+            radial2 <= np.tan(config.max_direction_error_rad) ** 2 * tangential2))
+        magnitude = np.zeros(g_u.shape[0])
+        magnitude[edge] = np.sqrt(radial2[edge] + tangential2[edge])
         bins = config.azimuth_bins
         # support: fraction of the ring's integer radii holding an edge pixel within +-1 bin
         occupied = np.zeros((bins, self.n_radii), dtype=bool)
