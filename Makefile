@@ -65,7 +65,8 @@ suite: venv
 	$(BIN)/omnislam compare benchmarks/grids/suite.yaml --out $(SUITE_RESULTS) --resume \
 	  $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(if $(SUITE_WORKERS),--workers $(SUITE_WORKERS)); \
 	status=$$?; test $$status -le 1 || exit $$status; \
-	$(BIN)/omnislam report $(SUITE_RESULTS) --out $(SUITE_REPORT) --no-exports --overwrite \
+	$(BIN)/omnislam report $(SUITE_RESULTS) --out $(SUITE_REPORT) --no-exports --no-figures \
+	  --overwrite \
 	  && $(BIN)/python benchmarks/suite_table.py --report $(SUITE_REPORT) --readme README.md \
 	  || exit $$?; \
 	size=$$(du -sb $(SUITE_REPORT) | cut -f1); \

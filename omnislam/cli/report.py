@@ -4,7 +4,8 @@ RESULTS_DIR is the folder ``omnislam compare`` wrote, a RUN_DIR, or a folder of 
 Writes ``report.md`` with its SVGs and a self-contained ``index.html`` (figures inlined): a
 verdict per dataset first, the tables and figures, a provenance block last (this command line
 included). Every table is also written as ``tables/NAME.csv`` and ``tables/NAME.tex`` (LaTeX
-booktabs), plus ``exports/`` (TUM, KITTI, PLY, g2o) unless ``--no-exports``. An existing
+booktabs), plus ``exports/`` (TUM, KITTI, PLY, g2o) unless ``--no-exports``; ``--no-figures``
+leaves out the figures (a report of many datasets small enough to commit). An existing
 report folder is replaced only with ``--overwrite``. Progress goes to stderr; the last line
 names the report.
 """
@@ -27,6 +28,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="report folder")
     p.add_argument("--title", default=None, help="report title (default: the grid's name)")
     p.add_argument("--no-exports", action="store_true", help="skip exports/ (TUM, KITTI, PLY)")
+    p.add_argument(
+        "--no-figures", action="store_true", help="verdicts and tables only (a small report)"
+    )
     p.add_argument("--no-occupancy", action="store_true", help="skip occupancy grids")
     p.add_argument(
         "--resolution", type=float, default=0.1, metavar="M", help="occupancy cell size [m]"
@@ -50,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
         ReportOptions(
             title=args.title,
             exports=not args.no_exports,
+            figures=not args.no_figures,
             occupancy=not args.no_occupancy,
             occupancy_resolution_m=args.resolution,
         ),

@@ -111,6 +111,8 @@ class ReportOptions:
     Attributes:
         title: the report's title (default: the grid's name).
         exports: write ``exports/CELL/`` (TUM, KITTI, PLY, g2o).
+        figures: draw each dataset's figures (False: verdicts and tables only -- a report of
+            many datasets small enough to commit, e.g. the suite's).
         occupancy: build occupancy grids where the data has laser scans.
         occupancy_resolution_m: grid cell size [m].
         command: the command line recorded in the provenance block (default: ``sys.argv``).
@@ -120,6 +122,7 @@ class ReportOptions:
 
     title: str | None = None
     exports: bool = True
+    figures: bool = True
     occupancy: bool = True
     occupancy_resolution_m: float = 0.1
     command: tuple[str, ...] | None = None
@@ -1093,7 +1096,8 @@ def _write_into(
         for c in group:
             if not c.ok:
                 para(f"Failed: {c.cell_id}: {c.error}")
-        for name, caption, svg in _dataset_figures(dataset, group, colours, options, notes):
+        drawn = _dataset_figures(dataset, group, colours, options, notes) if options.figures else []
+        for name, caption, svg in drawn:
             (out / name).write_text(svg)
             figure_names.append(name)
             md.extend([f"![{caption}]({name})", "", f"*{caption}*", ""])
@@ -1102,6 +1106,11 @@ def _write_into(
                 f"<figcaption>{html.escape(caption)}</figcaption></figure>"
             )
     say("figures", len(datasets), len(datasets))
+    if not options.figures:
+        para(
+            "Figures: not drawn for this report (omnislam report --no-figures); "
+            "omnislam report RESULTS_DIR --out DIR draws them from the same results."
+        )
     if options.exports:
         say("exports", 0, 0)
         _exports(out, cells, notes)

@@ -38,7 +38,8 @@ def small_report(tmp_path_factory) -> tuple[Path, object]:
     write_room_log(root / "data" / "room_b.log", frames=120, seed=2)
     (root / "grid.yaml").write_text(GRID)
     result = run_grid(load_grid(root / "grid.yaml"), root / "results", SerialExecutor)
-    write_report(root / "results", root / "report", ReportOptions(exports=False, occupancy=False))
+    # as make suite writes it: no figures (the suite's report must stay small enough to commit)
+    write_report(root / "results", root / "report", ReportOptions(exports=False, figures=False))
     return root / "report", result
 
 
@@ -67,6 +68,15 @@ def test_the_table_is_the_reports_numbers_with_each_rows_verdict(small_report, t
         assert row[3] == f"**{mean:.3g} ± {std:.2g}**"
         assert row[4].startswith("fastslam2 (")
     assert suite_table.main(["--report", str(report), "--readme", str(readme), "--check"]) == 0
+
+
+def test_the_suites_report_has_its_tables_and_no_figures(small_report):
+    report, _ = small_report
+    assert not list(report.glob("*.svg")) and "<svg" not in (report / "index.html").read_text()
+    assert "Figures: not drawn for this report" in (report / "report.md").read_text()
+    assert {"ate-rmse.csv", "verdict.csv", "room_a-metrics.csv", "b-metrics.csv"} <= {
+        p.name for p in (report / "tables").iterdir()
+    }
 
 
 def test_check_fails_on_a_stale_table_and_bad_input_exits_2(small_report, tmp_path, capsys):
