@@ -125,7 +125,9 @@ def test_the_render_key_ignores_docstrings_and_comments_but_not_code():
         closure.add(module)
         pending.extend(renders._imported_modules(ast.parse(path.read_text())))
     assert {"omnislam.core.motion", "omnislam.camera.hyperbolic"} <= closure
-    assert not any(m.startswith(("omnislam.compare", "omnislam.frontend")) for m in closure)
+    # the render surveys the lines' MC descriptors with the front end's extraction
+    # (datasets/synthetic/line_survey.py), so the front end is part of it; the harness is not
+    assert not any(m.startswith(("omnislam.compare", "omnislam.cli")) for m in closure)
 
 
 def test_the_render_path_depends_on_preset_seed_images_and_nothing_random():
