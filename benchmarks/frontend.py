@@ -20,7 +20,8 @@ Reports, on the synthetic omni dataset, with the default configuration (vertical
   (``evaluation.noise_ratio``: RMS residual / logged sigma, 1 = calibrated);
 - ``--variants``: the same quality and CPU figures (per stage) for the scale-space choices of
   ``SiftConfig.first_octave`` (doubled with OpenCV's default upscale, doubled with the exact
-  one, native, none) and for the general 8-point RANSAC instead of the planar one,
+  one, native, none), for native with 2 layers per octave or a budget of the 300 strongest
+  keypoints, and for the general 8-point RANSAC instead of the planar one,
   sequentially, one run each (``--variant NAME`` picks some; ``--repeat 0`` runs only them);
 and optionally vertical-edge recall / bearing error on corridor21 and verified matches per
 image pair on the real OCamCalib VMR lab images.
@@ -69,6 +70,11 @@ def variants(config: FrontendConfig) -> dict[str, FrontendConfig]:
             sift, first_octave=FirstOctave.NATIVE)),
         "none": dataclasses.replace(config, sift=dataclasses.replace(
             sift, first_octave=FirstOctave.NONE)),
+        "native, 2 layers per octave": dataclasses.replace(config, sift=dataclasses.replace(
+            sift, first_octave=FirstOctave.NATIVE, n_octave_layers=2)),
+        "native, the 300 strongest keypoints": dataclasses.replace(
+            config, sift=dataclasses.replace(sift, first_octave=FirstOctave.NATIVE,
+                                             max_features=300)),
         "native, 8-point RANSAC": dataclasses.replace(config, verification=dataclasses.replace(
             config.verification, planar_motion=False)),
     }
