@@ -21,8 +21,8 @@ error (the synthetic presets' realistic odometry) shows as a scale, not as a gra
 prefix)::
 
     .venv/bin/python benchmarks/realtime_lab40.py --runs 3
-    .venv/bin/python benchmarks/realtime_lab40.py --dataset lab40 /work/renders/lab40-v2 LOG \\
-        --dataset demo /work/renders/demo-rt --dataset loop150 /work/renders/loop150-v2 \\
+    .venv/bin/python benchmarks/realtime_lab40.py --dataset lab40 runs/lab40 LOG \\
+        --dataset demo runs/demo/demo-seed0 --dataset loop150 runs/loop150 \\
         --runs 3 --others
     .venv/bin/python benchmarks/realtime_lab40.py --frames 1000 --variants all
 
@@ -251,7 +251,7 @@ def main() -> None:
         action="append",
         metavar="NAME DIR [LOG]",
         help="preset name, its rendered folder (rendered when missing) and optionally its "
-        "front-end log (default: lab40 /work/renders/lab40-rt, log cached)",
+        "front-end log (default: lab40 runs/lab40, log cached)",
     )
     parser.add_argument("--runs", type=int, default=3, help="replays per graph variant")
     parser.add_argument("--frames", type=int, default=None, help="replay only the first N")
@@ -267,7 +267,7 @@ def main() -> None:
         help="extra graph option for every graph variant (repeatable)",
     )
     args = parser.parse_args()
-    datasets = args.dataset or [["lab40", "/work/renders/lab40-rt"]]
+    datasets = args.dataset or [["lab40", "runs/lab40"]]
     names = list(VARIANTS) if args.variants == "all" else args.variants.split(",")
     unknown = [n for n in names if n not in VARIANTS]
     if unknown:
