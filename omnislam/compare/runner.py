@@ -764,7 +764,9 @@ class _GridRun:
                         return_when=FIRST_COMPLETED,
                     )
                     self._relay()
-                    for future in done:
+                    # futures finished together are stored in submission order (``done`` is a
+                    # set): the same grid reports its cells in the same order on every run
+                    for future in [f for f in self.running if f in done]:
                         self._collect(future)
             except BaseException:  # interrupted: keep finished cells, do not wait for running
                 for future in self.running:
