@@ -8,6 +8,10 @@ MIN_TRACK_PRECISION = 0.99
 MIN_SIGHTINGS_PER_IMAGE = 30
 #: minimum median number of sightings of a track
 MIN_TRACK_LENGTH = 5
+#: logged bearing sigmas agree with the RMS residuals against ground truth within this factor
+MAX_NOISE_RATIO_ERROR = 1.5
+#: median error of landmarks triangulated from the true poses (>= 3 deg of parallax) [m]
+MAX_TRIANGULATION_MEDIAN_M = 0.02
 #: images of the demo preset rendered for the tests (~0.2 m apart, half its loop)
 DEMO_IMAGES = 24
 #: images of corridor21 rendered for the vertical-edge tests
