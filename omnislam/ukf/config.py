@@ -119,9 +119,9 @@ class UKFConfig:
             correct lines after a stretch without landmarks. Real odometry drifts
             systematically (wheel scale, turn scale, curvature: the synthetic presets' 1-3 %
             per 10 m), which the zero-mean alpha model does not describe: with core's alphas
-            the UKF's pose NEES on corridor21 was 3-12 at the preset's odometry and 11-2700 at
-            4x its alpha noise, with wrong or missing updates (mean error 3.2 and 15.7 cm over
-            seeds 0-4); with these 0.2-1.7 (conservative) and 1.1 and 2.4 cm.
+            the UKF's pose NEES on corridor21 (seed 0) was 5.9 at the preset's odometry and 2742
+            at 4x its alpha noise, mean error 2.7 and 26.3 cm; with these 0.21 and 1.20
+            (conservative), 1.1 and 2.0 cm (``benchmarks/ukf_corridor21.py --ablation``).
         initial_sigma_xy_m, initial_sigma_theta_rad: std of the start pose (the map's
             ``initial_pose_w``).
         sigma_bearing_rad: bearing std when the sightings state none; None: theirs.

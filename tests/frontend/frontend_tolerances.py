@@ -29,5 +29,5 @@ MAX_LINE_MEDIAN_RAD = 0.0087
 #: median bearing error of the door-frame edges of the pinhole corridor [rad] (1 px at f = 400)
 MAX_PINHOLE_LINE_MEDIAN_RAD = 0.0025
 #: fraction of the door-frame lines whose MC passes Barra & Costa's photometric gate against the
-#: surveyed MC of their landmark (corridor21, 59 images: 72%)
+#: surveyed MC of their landmark (67 % on corridor21: benchmarks/ukf_corridor21.py)
 MIN_PHOTOMETRIC_PASS = 0.6

@@ -223,8 +223,8 @@ def campus_world(rng: np.random.Generator) -> World:
 
 def corridor_world(rng: np.random.Generator) -> World:
     """Barra & Costa's U-shaped corridor: 2 m wide, door frames on both sides and at the three
-    ends the route faces (the paper's camera saw 8 landmarks per processed frame; with blank
-    end walls ours saw 0-1 over 40% of the route, where no vision can localise)."""
+    ends the route faces (the paper's camera saw 8 landmarks per processed frame; facing blank
+    end walls ours saw none, and no vision can localise there)."""
     b = WorldBuilder("corridor21", 0, rng)
     b.walls_polygon([(0, 0), (10, 0), (10, 7), (0, 7), (0, 5), (8, 5), (8, 2), (0, 2)])
     b.floor_and_ceiling(0, 0, 10, 7)
