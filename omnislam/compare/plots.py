@@ -26,6 +26,7 @@ import math
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -233,6 +234,25 @@ def _grid_of_panels(n: int, extra_width_in: float = 0.0) -> tuple[Figure, list, 
     for ax in axes[n:]:
         ax.set_axis_off()
     return figure, list(axes[:n]), columns
+
+
+def _map_panel(ax: Any, colour: str, ids: _Ids, label: str) -> None:
+    """One small-multiple map panel: framed in the estimator's colour, metric and square."""
+    _frame(ax, colour, ids, label)
+    ax.set_aspect("equal", adjustable="box")
+    ax.grid(alpha=0.25)
+    ax.tick_params(labelsize=7)
+
+
+def _map_axes(axes: Sequence[Any], xlim: tuple[float, float], ylim: tuple[float, float]) -> None:
+    """Shared limits of small-multiple map panels; x labels on the bottom row, y on the left."""
+    axes[0].set_xlim(*xlim)
+    axes[0].set_ylim(*ylim)
+    for ax in axes:
+        if ax.get_subplotspec().is_last_row() or ax is axes[-1]:
+            ax.set_xlabel("x [m]")
+        if ax.get_subplotspec().is_first_col():
+            ax.set_ylabel("y [m]")
 
 
 def _frame(ax: object, colour: str, ids: _Ids, label: str) -> None:
@@ -445,17 +465,8 @@ def trajectories(
             ax.plot(xy[:1, 0], xy[:1, 1], marker="o", markersize=3, color=TRUTH, linestyle="")
             head = s.label if s.ate_rmse_m is None else f"{s.label}\nATE {s.ate_rmse_m:.3g} m"
             ax.set_title(head, color=colour, fontsize=9, gid=ids(s.label))
-            _frame(ax, colour, ids, s.label)
-            ax.set_aspect("equal", adjustable="box")
-            ax.grid(alpha=0.25)
-            ax.tick_params(labelsize=7)
-        axes[0].set_xlim(x0, x1)
-        axes[0].set_ylim(y0, y1)
-        for ax in axes:
-            if ax.get_subplotspec().is_last_row() or ax is axes[-1]:
-                ax.set_xlabel("x [m]")
-            if ax.get_subplotspec().is_first_col():
-                ax.set_ylabel("y [m]")
+            _map_panel(ax, colour, ids, s.label)
+        _map_axes(axes, (x0, x1), (y0, y1))
         if norm is not None:
             from matplotlib.cm import ScalarMappable
 
@@ -542,17 +553,8 @@ def landmark_maps(
             if outside:
                 head += f"; {outside} outside the view"
             ax.set_title(head, color=colour, fontsize=8.5, gid=ids(m.label))
-            _frame(ax, colour, ids, m.label)
-            ax.set_aspect("equal", adjustable="box")
-            ax.grid(alpha=0.25)
-            ax.tick_params(labelsize=7)
-        axes[0].set_xlim(x0, x1)
-        axes[0].set_ylim(y0, y1)
-        for ax in axes:
-            if ax.get_subplotspec().is_last_row() or ax is axes[-1]:
-                ax.set_xlabel("x [m]")
-            if ax.get_subplotspec().is_first_col():
-                ax.set_ylabel("y [m]")
+            _map_panel(ax, colour, ids, m.label)
+        _map_axes(axes, (x0, x1), (y0, y1))
         figure.suptitle(
             f"{title}: landmark maps" + (" (+: true landmarks)" if has_truth else ""),
             fontsize=10,
