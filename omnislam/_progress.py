@@ -96,6 +96,27 @@ def format_rate(done: float, elapsed_s: float, unit: str) -> str:
     return f"{1.0 / rate:.3g} s/{unit}"
 
 
+def say(text: str) -> None:
+    """One message line on stderr that does not break an open stage's terminal line.
+
+    On a terminal the innermost open stage's line is erased, ``text`` printed on its own line
+    and the stage redrawn at its next tick; elsewhere (plain lines) it is simply printed.
+    Messages are not progress: ``OMNISLAM_PROGRESS=0`` does not silence them.
+    """
+    with _WRITE_LOCK:
+        _OPEN[:] = [ref for ref in _OPEN if ref() is not None]
+        top = _OPEN[-1]() if _OPEN else None
+        redraw = top is not None and top._tty and top._printed and top._enabled
+        out = top._out() if top is not None else sys.stderr
+        try:
+            out.write(("\r" + text + _ERASE_LINE if redraw else text) + "\n")
+            out.flush()
+        except (OSError, ValueError):
+            return
+        if redraw:
+            top._last_print = -math.inf  # type: ignore[union-attr]  # redrawn at the next tick
+
+
 class Progress:
     """The progress of one stage (see the module docstring for where and how it prints).
 

@@ -165,3 +165,26 @@ def test_a_stage_dropped_by_an_exception_stops_printing():
     with Progress("run x", 2, stream=out) as bar:  # and the next stage is the innermost
         bar.update(2)
     assert "run x: 2/2 frame (100%)" in out.getvalue()
+
+
+def test_a_message_on_a_terminal_erases_the_stage_line_and_the_stage_comes_back():
+    out = Capture(tty=True)
+    with Progress("compare suite", 4, "cell", stream=out) as bar:
+        bar.advance()
+        _progress.say("omnislam compare: room.log: ran the shared front end (1 s wall, 1 s CPU)")
+        bar.advance()
+    lines = out.getvalue().split("\n")
+    # the message is a line of its own: what precedes it on that line is erased
+    message = next(line for line in lines if "ran the shared front end" in line)
+    assert message.rsplit("\r", 1)[-1].startswith("omnislam compare: room.log")
+    assert message.endswith("CPU)\x1b[K")  # the rest of the old line erased
+    assert "2/4 cell" in lines[-2].rsplit("\r", 1)[-1]  # redrawn after it, then ended
+
+
+def test_a_message_off_a_terminal_is_a_plain_line(capsys):
+    with Progress("compare suite", 4, "cell", tty=False) as bar:
+        bar.advance()
+        _progress.say("omnislam compare: room.log: rendered (3 s wall, 3 s CPU)")
+    err = capsys.readouterr().err
+    assert not CONTROL.search(err), repr(err)
+    assert "omnislam compare: room.log: rendered (3 s wall, 3 s CPU)\n" in err

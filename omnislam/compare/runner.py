@@ -50,6 +50,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from omnislam._files import atomic_write_text, check_output_location, output_error
+from omnislam._progress import say
 from omnislam.compare.cache import LOGS
 from omnislam.compare.channel import ProgressChannel, StepReporter
 from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
@@ -790,9 +791,7 @@ def _say_prepared(prepared: Prepared) -> None:
         if flag
     ]
     if done:
-        print(
+        say(
             f"omnislam compare: {prepared.dataset}: {' and '.join(done)} "
-            f"({prepared.wall_s:.0f} s wall, {prepared.cpu_s:.0f} s CPU)",
-            file=sys.stderr,
-            flush=True,
+            f"({prepared.wall_s:.0f} s wall, {prepared.cpu_s:.0f} s CPU)"
         )
