@@ -125,6 +125,11 @@ class GraphSLAMConfig:
             to within 0.5 m by (0.5/10)^2 = 0.25% of its offset from the insertion point. On
             lab40 without it, Cholesky failed at frame ~1930 and the rebuild into QR then
             crawled. Range-bearing landmarks are fully observed and get none.
+        floor_scale: omni bearings: multiply each odometry translation by the scale the floor
+            points give (default True; ``floor_scale.py``): bearings alone leave the map at the
+            odometry's scale, and floor points seen from the known camera height are metric.
+            Needs a camera height (``sensor_height_m`` > 0); without floor points in the log
+            the scale stays 1 and nothing changes.
         min_consistent_sightings: range-bearing landmarks with given ids enter the graph once
             this many of their sightings agree on the position (chi-square gate at
             ``association_gate_probability``); default 1 = on the first sighting. Use 2 or more
@@ -178,6 +183,7 @@ class GraphSLAMConfig:
     min_sightings: int = 3
     min_parallax_deg: float = 3.0
     landmark_prior_sigma_m: float | None = 10.0
+    floor_scale: bool = True
     min_consistent_sightings: int = 1
     factorization: Factorization = Factorization.AUTO
     robust_kernel: RobustKernel = RobustKernel.NONE

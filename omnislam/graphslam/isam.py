@@ -24,7 +24,7 @@ by the association get ids from ``range_bearing.CREATED_ID_BASE`` upwards.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -39,6 +39,7 @@ from omnislam.graphslam.bearings_3d import Bearings3DGraph
 from omnislam.graphslam.builder import GraphBuilder
 from omnislam.graphslam.config import GraphSLAMConfig, PoseVariables
 from omnislam.graphslam.export import G2O_ATTACHMENT, format_g2o
+from omnislam.graphslam.floor_scale import FloorScale
 from omnislam.graphslam.poses import PlanarPoses, PoseChain, ViewpointPoses
 from omnislam.graphslam.range_bearing import CREATED_ID_BASE, RangeBearingGraph
 from omnislam.graphslam.session import ISAM2Session
@@ -86,6 +87,9 @@ class GraphSLAMInfo:
             sightings (clutter).
         tentative_sightings_dropped: sightings dropped with them.
         tentative_pending: such landmarks still waiting.
+        odometry_scale: the factor the odometry's translations are multiplied by now (omni
+            bearings with ``GraphSLAMConfig.floor_scale``: from the floor points; else 1).
+        floor_pairs: floor-point pairs supporting ``odometry_scale`` (0: the scale is 1).
     """
 
     modality: Modality
@@ -111,6 +115,8 @@ class GraphSLAMInfo:
     tentative_dropped: int = 0
     tentative_sightings_dropped: int = 0
     tentative_pending: int = 0
+    odometry_scale: float = 1.0
+    floor_pairs: int = 0
 
 
 class GraphSLAM:
@@ -161,6 +167,13 @@ class GraphSLAM:
                 if modality is Modality.RANGE_BEARING_2D
                 else VerticalLinesGraph(self.config, planar)
             )
+        self._floor: FloorScale | None = None  # see GraphSLAMConfig.floor_scale
+        if (
+            modality is Modality.BEARINGS_3D
+            and self.config.floor_scale
+            and self.config.sensor_height_m > 0
+        ):
+            self._floor = FloorScale(self.config.sensor_height_m)
         self._stamps: list[float] = []
         self._frames = 0
         self._other_streams_ignored = 0
@@ -171,6 +184,8 @@ class GraphSLAM:
     def step(self, frame: FrameInput) -> None:
         """Add one frame: its pose and odometry factor, its sightings, one iSAM2 update."""
         k = self._frames
+        if self._floor is not None:
+            frame = self._scaled(k, frame)
         used = self._modality.stream(frame)
         for other in (frame.bearings, frame.range_bearing, frame.vertical_lines):
             if other is not None and other is not used:
@@ -196,6 +211,25 @@ class GraphSLAM:
             self._graph.add(k, used, guess_w, graph, values)
         self._session.update(graph, values, frame.index)
         self._poses.read_newest(k)
+
+    def _scaled(self, k: int, frame: FrameInput) -> FrameInput:
+        """``frame`` with its odometry translation (and stated covariance) multiplied by the
+        floor's scale, estimated with the frame's own bearings included (``floor_scale.py``;
+        the first frame's odometry is not used)."""
+        assert self._floor is not None
+        odometry = frame.odometry
+        self._floor.observe(odometry.delta if k > 0 else np.zeros(3), frame.bearings)
+        scale = self._floor.scale
+        if scale == 1.0 or k == 0:
+            return frame
+        factors = np.array([scale, scale, 1.0])
+        covariance = odometry.covariance
+        if covariance is not None:
+            covariance = covariance * np.outer(factors, factors)
+        return replace(
+            frame,
+            odometry=replace(odometry, delta=odometry.delta * factors, covariance=covariance),
+        )
 
     def _far_enough(self) -> bool:
         """Omni bearings: a frame with sightings becomes a key frame once the robot has moved
@@ -253,6 +287,8 @@ class GraphSLAM:
             tentative_dropped=tentative.dropped,
             tentative_sightings_dropped=tentative.sightings_dropped,
             tentative_pending=tentative.pending,
+            odometry_scale=1.0 if self._floor is None else self._floor.scale,
+            floor_pairs=0 if self._floor is None else self._floor.inliers,
         )
 
     def factor_graph(self) -> Any:
