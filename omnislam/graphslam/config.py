@@ -130,6 +130,11 @@ class GraphSLAMConfig:
             odometry's scale, and floor points seen from the known camera height are metric.
             Needs a camera height (``sensor_height_m`` > 0); without floor points in the log
             the scale stays 1 and nothing changes.
+        online_lag_key_frames: omni bearings: the online estimate is a fixed-lag smoother over
+            the variables touched within this many key frames, and ``estimate()`` is LM over
+            the whole graph (default 20; ``session.FixedLagSession``). None: iSAM2 over the
+            whole graph at every key frame (its update grew 35x over lab40, the smoother's
+            stays flat; benchmarks/realtime_lab40.py).
         min_consistent_sightings: range-bearing landmarks with given ids enter the graph once
             this many of their sightings agree on the position (chi-square gate at
             ``association_gate_probability``); default 1 = on the first sighting. Use 2 or more
@@ -184,6 +189,7 @@ class GraphSLAMConfig:
     min_parallax_deg: float = 3.0
     landmark_prior_sigma_m: float | None = 10.0
     floor_scale: bool = True
+    online_lag_key_frames: int | None = 20
     min_consistent_sightings: int = 1
     factorization: Factorization = Factorization.AUTO
     robust_kernel: RobustKernel = RobustKernel.NONE
@@ -243,6 +249,10 @@ class GraphSLAMConfig:
             raise ConfigError(
                 "landmark_prior_sigma_m must be positive or unset, "
                 f"got {self.landmark_prior_sigma_m}"
+            )
+        if self.online_lag_key_frames is not None and self.online_lag_key_frames < 1:
+            raise ConfigError(
+                f"online_lag_key_frames must be >= 1 or unset, got {self.online_lag_key_frames}"
             )
         if self.adaptive_reorder_threshold is not None and not self.adaptive_reorder_threshold > 1:
             raise ConfigError(

@@ -45,8 +45,9 @@ FLOOR_MIN_DEPRESSION_DEG = 35.0
 MIN_BASELINE_M = 0.05
 #: a pair whose residual across the baseline exceeds this many sigmas is no floor point
 PERPENDICULAR_GATE_SIGMAS = 3.0
-#: scales considered: within [1 / MAX_SCALE, MAX_SCALE] of the odometry's
-MAX_SCALE = 1.5
+#: scales considered: within [1 / MAX_SCALE, MAX_SCALE] of the odometry's (a wheel odometry off
+#: by more than 10% is a broken one; a point 0.08 m above the floor already looks like 1.1)
+MAX_SCALE = 1.1
 #: bandwidth of the kernel density of log(s_pair) whose mode is the floor
 MODE_BANDWIDTH = 0.02
 #: pairs within this many bandwidths of the mode are its support (and its mean)

@@ -15,7 +15,11 @@ the next key frame's between-factor (``poses.py``) and costs no update. Each key
    ``bearings_3d.py``, ``range_bearing.py``, ``vertical_lines.py``);
 3. runs one iSAM2 update (``session.py``; Cholesky, rebuilt with QR if it fails) and reads back
    **only the newest pose**; the full estimate is computed only in ``estimate()`` (DESIGN.md:
-   reading everything every step cost as much as the update).
+   reading everything every step cost as much as the update). Omni bearings, by default: the
+   update goes to a fixed-lag smoother over the last ``online_lag_key_frames`` key frames, and
+   ``estimate()`` is LM over the whole graph (``session.FixedLagSession``): iSAM2 over the
+   whole graph re-eliminates a block that grows with the run where a room is seen from
+   everywhere.
 
 Landmark ids in the estimate are the sightings' ids (track ids, dataset ids); landmarks created
 by the association get ids from ``range_bearing.CREATED_ID_BASE`` upwards.
@@ -42,7 +46,7 @@ from omnislam.graphslam.export import G2O_ATTACHMENT, format_g2o
 from omnislam.graphslam.floor_scale import FloorScale
 from omnislam.graphslam.poses import PlanarPoses, PoseChain, ViewpointPoses
 from omnislam.graphslam.range_bearing import CREATED_ID_BASE, RangeBearingGraph
-from omnislam.graphslam.session import ISAM2Session
+from omnislam.graphslam.session import FixedLagSession, ISAM2Session
 from omnislam.graphslam.vertical_lines import VerticalLinesGraph
 
 gtsam = require("gtsam")
@@ -90,6 +94,9 @@ class GraphSLAMInfo:
         odometry_scale: the factor the odometry's translations are multiplied by now (omni
             bearings with ``GraphSLAMConfig.floor_scale``: from the floor points; else 1).
         floor_pairs: floor-point pairs supporting ``odometry_scale`` (0: the scale is 1).
+        online_factors_skipped: omni with ``GraphSLAMConfig.online_lag_key_frames``: factors on
+            variables the fixed-lag smoother had marginalised (in the full graph only).
+        online_restarts: restarts of the fixed-lag smoother after a failed marginalisation.
     """
 
     modality: Modality
@@ -117,6 +124,8 @@ class GraphSLAMInfo:
     tentative_pending: int = 0
     odometry_scale: float = 1.0
     floor_pairs: int = 0
+    online_factors_skipped: int = 0
+    online_restarts: int = 0
 
 
 class GraphSLAM:
@@ -152,7 +161,11 @@ class GraphSLAM:
         self.config = config if config is not None else GraphSLAMConfig()
         self._modality = modality
         initial = np.asarray(initial_pose, dtype=float).reshape(3)
-        self._session = ISAM2Session(self.config)
+        self._session: ISAM2Session | FixedLagSession = (
+            FixedLagSession(self.config)
+            if modality is Modality.BEARINGS_3D and self.config.online_lag_key_frames is not None
+            else ISAM2Session(self.config)
+        )
         self._motion = OdometryMotionModel(self.config.motion_noise) if motion is None else motion
         self._poses: PoseChain
         self._graph: GraphBuilder
@@ -255,8 +268,9 @@ class GraphSLAM:
         return self._modality
 
     @property
-    def session(self) -> ISAM2Session:
-        """The iSAM2 session (for inspection: marginals, linearisation point)."""
+    def session(self) -> ISAM2Session | FixedLagSession:
+        """The iSAM2 session, or the fixed-lag one (for inspection: marginals, linearisation
+        point)."""
         return self._session
 
     def info(self) -> GraphSLAMInfo:
@@ -289,6 +303,8 @@ class GraphSLAM:
             tentative_pending=tentative.pending,
             odometry_scale=1.0 if self._floor is None else self._floor.scale,
             floor_pairs=0 if self._floor is None else self._floor.inliers,
+            online_factors_skipped=getattr(self._session, "online_factors_skipped", 0),
+            online_restarts=getattr(self._session, "online_restarts", 0),
         )
 
     def factor_graph(self) -> Any:
