@@ -21,10 +21,14 @@ must be multiplied:
   exceeds ``PERPENDICULAR_GATE_SIGMAS`` are no floor point (or a wrong track) and are dropped;
   pairs with a baseline under ``MIN_BASELINE_M`` say little and are not used;
 * a point at height z > 0 projected onto the floor moves with the robot by ``h / (h - z)``
-  times the motion: it looks like a scale of ``h / (h - z)`` along ``t`` and cannot be told
-  from the floor by one pair. The estimate is therefore robust: the inverse-variance weighted
-  median of the pairs, then the weighted mean of the pairs within ``INLIER_GATE_SIGMAS`` of it.
-  Until ``MIN_PAIRS`` pairs agree the scale is 1 (the odometry as it is).
+  times the motion: it looks like a scale of ``h / (h - z)`` along ``t`` and no single pair
+  tells it from the floor; features fixed in the robot frame (the robot's own body in the
+  mirror) give ``s = 0``. The floor is the *mode*: the estimate is the maximum of the
+  inverse-variance weighted kernel density of ``log s_pair`` (bandwidth ``MODE_BANDWIDTH``)
+  within ``[1 / MAX_SCALE, MAX_SCALE]``, refined by mean shift over the pairs within
+  ``MODE_WINDOW`` bandwidths. Until ``MIN_PAIRS`` pairs support the mode the scale is 1 (the
+  odometry as it is). On lab40 (528 of the 8512 tracks lie on the floor, 3 sightings each,
+  39-57 deg below the horizon) the estimate is 0.9894 against the true 1 / 1.01 = 0.9901.
 
 ``GraphSLAM`` multiplies each frame's odometry translation (and its stated covariance) by the
 current estimate before it builds the between-factors (``GraphSLAMConfig.floor_scale``), so the

@@ -212,6 +212,7 @@ class FixedLagSession:
         self._skipped = 0
         self._restarts = 0
         self._final: Any = None  # LM solution, until the next update
+        self._marginals: Any = None  # gtsam.Marginals at it
 
     def _new_smoother(self) -> Any:
         params = gtsam.ISAM2Params()
@@ -224,7 +225,7 @@ class FixedLagSession:
 
     def update(self, graph: Any, values: Any, frame_index: int) -> None:
         """Add the frame's factors and variables (see ``ISAM2Session.update``)."""
-        self._final = None
+        self._final = self._marginals = None
         self._all_factors.push_back(graph)
         new_keys = {int(k) for k in values.keys()}
         online = gtsam.NonlinearFactorGraph()
@@ -302,7 +303,9 @@ class FixedLagSession:
 
     def marginal_covariance(self, key: int) -> np.ndarray:
         """The marginal covariance of one variable in the full graph, at ``estimate()``."""
-        return gtsam.Marginals(self._all_factors, self.estimate()).marginalCovariance(key)
+        if self._marginals is None:
+            self._marginals = gtsam.Marginals(self._all_factors, self.estimate())
+        return self._marginals.marginalCovariance(key)
 
     def estimate(self) -> Any:
         """LM over every factor of the run, from the newest estimates (cached)."""
