@@ -98,7 +98,8 @@ def run(data: rt.Replay, options: dict[str, str], params: dict[str, str], growth
     image = cpu[data.images]
     early, late = (np.percentile(w, 95) * 1e3 for w in (image[rt.EARLY], image[-rt.LATE :]))
     table = np.array(recorder.updates, dtype=float)
-    label = " ".join([*(f"{k}={v}" for k, v in options.items()), *params]) or "defaults"
+    settings = {**options, **{f"P:{k}": v for k, v in params.items()}}
+    label = " ".join(f"{k}={v}" for k, v in settings.items()) or "defaults"
     print(
         f"{label:60s} CPU {total:6.2f} s  ATE {error.rmse_m * 100:5.2f} cm  "
         f"p95 {early:5.1f} / {late:5.1f} ms = {late / early:4.2f}x  last 20 updates: "
