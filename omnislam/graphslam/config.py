@@ -134,7 +134,9 @@ class GraphSLAMConfig:
             the variables touched within this many key frames, and ``estimate()`` is LM over
             the whole graph (default 20; ``session.FixedLagSession``). None: iSAM2 over the
             whole graph at every key frame (its update grew 35x over lab40, the smoother's
-            stays flat; benchmarks/realtime_lab40.py).
+            stays flat; benchmarks/realtime_lab40.py). The smoother's iSAM2 takes
+            ``relinearize_threshold`` / ``relinearize_skip``; ``factorization`` and
+            ``adaptive_reorder_threshold`` act on the whole-graph iSAM2 only.
         min_consistent_sightings: range-bearing landmarks with given ids enter the graph once
             this many of their sightings agree on the position (chi-square gate at
             ``association_gate_probability``); default 1 = on the first sighting. Use 2 or more
