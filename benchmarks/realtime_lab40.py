@@ -29,7 +29,9 @@ prefix)::
 Variants (``--variants``, comma-separated, or ``all``): ``default`` (the estimator's defaults),
 ``images`` (a pose per image, every track), ``images-budget`` (a pose per image, 40 landmarks
 per image), ``spacing`` (key frames 0.2 m apart, every track), ``frames`` (the former graph:
-a pose per odometry step, every track), ``batch`` (``graphslam-batch`` with the defaults).
+a pose per odometry step, every track), ``batch`` (``graphslam-batch`` with the defaults),
+``whole`` (iSAM2 over the whole graph at every key frame instead of the default fixed-lag
+smoother), ``wheel-scale`` (the odometry's scale, without the floor points').
 """
 
 from __future__ import annotations
@@ -74,6 +76,8 @@ VARIANTS: dict[str, tuple[str, dict[str, str]]] = {
         {"pose_variables": "frames", "keyframe_spacing_m": "0", "landmarks_per_image": "0"},
     ),
     "batch": ("graphslam-batch", {}),
+    "whole": ("graphslam", {"online_lag_key_frames": "none"}),
+    "wheel-scale": ("graphslam", {"floor_scale": "false"}),
 }
 #: the other estimators timed on the same log (omni options as in benchmarks/fastslam_lab40.py)
 #: (EKF-SLAM consumes range-bearing sightings only: on a synthetic log, the poles and laser

@@ -125,6 +125,18 @@ class GraphSLAMConfig:
             to within 0.5 m by (0.5/10)^2 = 0.25% of its offset from the insertion point. On
             lab40 without it, Cholesky failed at frame ~1930 and the rebuild into QR then
             crawled. Range-bearing landmarks are fully observed and get none.
+        floor_scale: omni bearings: multiply each odometry translation by the scale the floor
+            points give (default True; ``floor_scale.py``): bearings alone leave the map at the
+            odometry's scale, and floor points seen from the known camera height are metric.
+            Needs a camera height (``sensor_height_m`` > 0); without floor points in the log
+            the scale stays 1 and nothing changes.
+        online_lag_key_frames: omni bearings: the online estimate is a fixed-lag smoother over
+            the variables touched within this many key frames, and ``estimate()`` is LM over
+            the whole graph (default 20; ``session.FixedLagSession``). None: iSAM2 over the
+            whole graph at every key frame (its update grew 35x over lab40, the smoother's
+            stays flat; benchmarks/realtime_lab40.py). The smoother's iSAM2 takes
+            ``relinearize_threshold`` / ``relinearize_skip``; ``factorization`` and
+            ``adaptive_reorder_threshold`` act on the whole-graph iSAM2 only.
         min_consistent_sightings: range-bearing landmarks with given ids enter the graph once
             this many of their sightings agree on the position (chi-square gate at
             ``association_gate_probability``); default 1 = on the first sighting. Use 2 or more
@@ -178,6 +190,8 @@ class GraphSLAMConfig:
     min_sightings: int = 3
     min_parallax_deg: float = 3.0
     landmark_prior_sigma_m: float | None = 10.0
+    floor_scale: bool = True
+    online_lag_key_frames: int | None = 20
     min_consistent_sightings: int = 1
     factorization: Factorization = Factorization.AUTO
     robust_kernel: RobustKernel = RobustKernel.NONE
@@ -237,6 +251,10 @@ class GraphSLAMConfig:
             raise ConfigError(
                 "landmark_prior_sigma_m must be positive or unset, "
                 f"got {self.landmark_prior_sigma_m}"
+            )
+        if self.online_lag_key_frames is not None and self.online_lag_key_frames < 1:
+            raise ConfigError(
+                f"online_lag_key_frames must be >= 1 or unset, got {self.online_lag_key_frames}"
             )
         if self.adaptive_reorder_threshold is not None and not self.adaptive_reorder_threshold > 1:
             raise ConfigError(

@@ -15,7 +15,11 @@ the next key frame's between-factor (``poses.py``) and costs no update. Each key
    ``bearings_3d.py``, ``range_bearing.py``, ``vertical_lines.py``);
 3. runs one iSAM2 update (``session.py``; Cholesky, rebuilt with QR if it fails) and reads back
    **only the newest pose**; the full estimate is computed only in ``estimate()`` (DESIGN.md:
-   reading everything every step cost as much as the update).
+   reading everything every step cost as much as the update). Omni bearings, by default: the
+   update goes to a fixed-lag smoother over the last ``online_lag_key_frames`` key frames, and
+   ``estimate()`` is LM over the whole graph (``session.FixedLagSession``): iSAM2 over the
+   whole graph re-eliminates a block that grows with the run where a room is seen from
+   everywhere.
 
 Landmark ids in the estimate are the sightings' ids (track ids, dataset ids); landmarks created
 by the association get ids from ``range_bearing.CREATED_ID_BASE`` upwards.
@@ -24,7 +28,7 @@ by the association get ids from ``range_bearing.CREATED_ID_BASE`` upwards.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -39,9 +43,10 @@ from omnislam.graphslam.bearings_3d import Bearings3DGraph
 from omnislam.graphslam.builder import GraphBuilder
 from omnislam.graphslam.config import GraphSLAMConfig, PoseVariables
 from omnislam.graphslam.export import G2O_ATTACHMENT, format_g2o
+from omnislam.graphslam.floor_scale import FloorScale
 from omnislam.graphslam.poses import PlanarPoses, PoseChain, ViewpointPoses
 from omnislam.graphslam.range_bearing import CREATED_ID_BASE, RangeBearingGraph
-from omnislam.graphslam.session import ISAM2Session
+from omnislam.graphslam.session import FixedLagSession, ISAM2Session
 from omnislam.graphslam.vertical_lines import VerticalLinesGraph
 
 gtsam = require("gtsam")
@@ -86,6 +91,12 @@ class GraphSLAMInfo:
             sightings (clutter).
         tentative_sightings_dropped: sightings dropped with them.
         tentative_pending: such landmarks still waiting.
+        odometry_scale: the factor the odometry's translations are multiplied by now (omni
+            bearings with ``GraphSLAMConfig.floor_scale``: from the floor points; else 1).
+        floor_pairs: floor-point pairs supporting ``odometry_scale`` (0: the scale is 1).
+        online_factors_skipped: omni with ``GraphSLAMConfig.online_lag_key_frames``: factors on
+            variables the fixed-lag smoother had marginalised (in the full graph only).
+        online_restarts: restarts of the fixed-lag smoother after a failed marginalisation.
     """
 
     modality: Modality
@@ -111,6 +122,10 @@ class GraphSLAMInfo:
     tentative_dropped: int = 0
     tentative_sightings_dropped: int = 0
     tentative_pending: int = 0
+    odometry_scale: float = 1.0
+    floor_pairs: int = 0
+    online_factors_skipped: int = 0
+    online_restarts: int = 0
 
 
 class GraphSLAM:
@@ -146,7 +161,11 @@ class GraphSLAM:
         self.config = config if config is not None else GraphSLAMConfig()
         self._modality = modality
         initial = np.asarray(initial_pose, dtype=float).reshape(3)
-        self._session = ISAM2Session(self.config)
+        self._session: ISAM2Session | FixedLagSession = (
+            FixedLagSession(self.config)
+            if modality is Modality.BEARINGS_3D and self.config.online_lag_key_frames is not None
+            else ISAM2Session(self.config)
+        )
         self._motion = OdometryMotionModel(self.config.motion_noise) if motion is None else motion
         self._poses: PoseChain
         self._graph: GraphBuilder
@@ -161,6 +180,13 @@ class GraphSLAM:
                 if modality is Modality.RANGE_BEARING_2D
                 else VerticalLinesGraph(self.config, planar)
             )
+        self._floor: FloorScale | None = None  # see GraphSLAMConfig.floor_scale
+        if (
+            modality is Modality.BEARINGS_3D
+            and self.config.floor_scale
+            and self.config.sensor_height_m > 0
+        ):
+            self._floor = FloorScale(self.config.sensor_height_m)
         self._stamps: list[float] = []
         self._frames = 0
         self._other_streams_ignored = 0
@@ -171,6 +197,8 @@ class GraphSLAM:
     def step(self, frame: FrameInput) -> None:
         """Add one frame: its pose and odometry factor, its sightings, one iSAM2 update."""
         k = self._frames
+        if self._floor is not None:
+            frame = self._scaled(k, frame)
         used = self._modality.stream(frame)
         for other in (frame.bearings, frame.range_bearing, frame.vertical_lines):
             if other is not None and other is not used:
@@ -197,6 +225,25 @@ class GraphSLAM:
         self._session.update(graph, values, frame.index)
         self._poses.read_newest(k)
 
+    def _scaled(self, k: int, frame: FrameInput) -> FrameInput:
+        """``frame`` with its odometry translation (and stated covariance) multiplied by the
+        floor's scale, estimated with the frame's own bearings included (``floor_scale.py``;
+        the first frame's odometry is not used)."""
+        assert self._floor is not None
+        odometry = frame.odometry
+        self._floor.observe(odometry.delta if k > 0 else np.zeros(3), frame.bearings)
+        scale = self._floor.scale
+        if scale == 1.0 or k == 0:
+            return frame
+        factors = np.array([scale, scale, 1.0])
+        covariance = odometry.covariance
+        if covariance is not None:
+            covariance = covariance * np.outer(factors, factors)
+        return replace(
+            frame,
+            odometry=replace(odometry, delta=odometry.delta * factors, covariance=covariance),
+        )
+
     def _far_enough(self) -> bool:
         """Omni bearings: a frame with sightings becomes a key frame once the robot has moved
         ``keyframe_spacing_m`` since the newest one (``GraphSLAMConfig``); other streams:
@@ -221,8 +268,9 @@ class GraphSLAM:
         return self._modality
 
     @property
-    def session(self) -> ISAM2Session:
-        """The iSAM2 session (for inspection: marginals, linearisation point)."""
+    def session(self) -> ISAM2Session | FixedLagSession:
+        """The iSAM2 session, or the fixed-lag one (for inspection: marginals, linearisation
+        point)."""
         return self._session
 
     def info(self) -> GraphSLAMInfo:
@@ -253,6 +301,10 @@ class GraphSLAM:
             tentative_dropped=tentative.dropped,
             tentative_sightings_dropped=tentative.sightings_dropped,
             tentative_pending=tentative.pending,
+            odometry_scale=1.0 if self._floor is None else self._floor.scale,
+            floor_pairs=0 if self._floor is None else self._floor.inliers,
+            online_factors_skipped=getattr(self._session, "online_factors_skipped", 0),
+            online_restarts=getattr(self._session, "online_restarts", 0),
         )
 
     def factor_graph(self) -> Any:

@@ -168,3 +168,199 @@ class ISAM2Session:
     def tree_nonzeros(self) -> int:
         """Non-zeros of the Bayes tree's conditionals after the latest update (fill-in)."""
         return int(self._isam.treeNnz())
+
+
+class FixedLagSession:
+    """A fixed-lag smoother for the online estimate, the whole graph for the final one.
+
+    ``GraphSLAMConfig.online_lag_key_frames`` = L (omni bearings): every update goes to a
+    ``gtsam.IncrementalFixedLagSmoother`` whose variables are those touched within the last L
+    key frames (a pose by its own key frame, a landmark by the newest factor on it); older
+    ones are marginalised, so each update re-eliminates a window of bounded size instead of
+    the Bayes tree of the whole run (in a room the camera sees from everywhere, iSAM2's update
+    grew from 2 to 70 ms over lab40's 158 key frames; the smoother's stays at 2-6 ms). A new
+    factor on a variable the smoother has marginalised (a landmark seen again after the lag)
+    does not enter the smoother, only the full graph (counted, ``online_factors_skipped``).
+    GTSAM 4.3.0's smoother sometimes fails to marginalise ("Asking to remove variables from the
+    variable index that are not unused", loop150 at key frame 202 with a lag of 10; known
+    fixed-lag bugs upstream, borglab/gtsam#1890, #2474): the session then restarts the
+    smoother on the window -- its variables at their newest estimates, every factor among them,
+    and a prior at its estimate on the window's oldest pose for the marginalised past --
+    (counted, ``online_restarts``).
+
+    Reads during the run (the newest pose, the viewpoints of held-back sightings) are the
+    smoother's estimate, or for marginalised variables their estimate when they left it.
+    ``estimate()`` is **Levenberg-Marquardt over every factor of the run** from those
+    estimates (``batch.optimize_batch``), cached until the next update: the final map is the
+    full smoothing solution, as with iSAM2, not the window's.
+
+    Args:
+        config: ``online_lag_key_frames``, ``relinearize_threshold``, ``relinearize_skip``,
+            ``batch_max_iterations``, ``batch_relative_error_tol``.
+    """
+
+    def __init__(self, config: GraphSLAMConfig) -> None:
+        if config.online_lag_key_frames is None:
+            raise ValueError("FixedLagSession needs online_lag_key_frames")
+        self._config = config
+        self._smoother = self._new_smoother()
+        self._all_factors = gtsam.NonlinearFactorGraph()
+        self._last = gtsam.Values()  # every variable's newest estimate (frozen once marginalised)
+        self._alive: set[int] = set()
+        self._stamp: dict[int, float] = {}  # every variable's newest time (key-frame count)
+        self._updates = 0
+        self._skipped = 0
+        self._restarts = 0
+        self._final: Any = None  # LM solution, until the next update
+        self._marginals: Any = None  # gtsam.Marginals at it
+
+    def _new_smoother(self) -> Any:
+        params = gtsam.ISAM2Params()
+        params.setRelinearizeThreshold(self._config.relinearize_threshold)
+        params.relinearizeSkip = self._config.relinearize_skip
+        # times are key-frame counts: variables older than the lag are marginalised
+        return gtsam.IncrementalFixedLagSmoother(
+            float(self._config.online_lag_key_frames) - 0.5, params
+        )
+
+    def update(self, graph: Any, values: Any, frame_index: int) -> None:
+        """Add the frame's factors and variables (see ``ISAM2Session.update``)."""
+        self._final = self._marginals = None
+        self._all_factors.push_back(graph)
+        new_keys = {int(k) for k in values.keys()}
+        online = gtsam.NonlinearFactorGraph()
+        stamps = gtsam.FixedLagSmootherKeyTimestampMap()
+        now = float(self._updates)
+        touched = set(new_keys)
+        alive = self._alive
+        for i in range(graph.size()):
+            factor = graph.at(i)
+            keys = [int(k) for k in factor.keys()]
+            if all(k in alive or k in new_keys for k in keys):
+                online.push_back(factor)
+                touched.update(keys)
+            else:
+                self._skipped += 1
+        for key in touched:
+            stamps.insert((key, now))
+            self._stamp[key] = now
+        try:
+            self._smoother.update(online, values, stamps)
+        except (RuntimeError, ValueError, IndexError):
+            self._restart(values, alive | new_keys, frame_index)
+        self._updates += 1
+        window = self._smoother.calculateEstimate()
+        self._last.insert_or_assign(window)
+        self._alive = {int(k) for k in window.keys()}
+
+    def _restart(self, values: Any, window: set[int], frame_index: int) -> None:
+        """A fresh smoother on ``window`` (see the class docstring)."""
+        self._restarts += 1
+        self._smoother = self._new_smoother()
+        factors = gtsam.NonlinearFactorGraph()
+        for i in range(self._all_factors.size()):
+            factor = self._all_factors.at(i)
+            if all(int(k) in window for k in factor.keys()):
+                factors.push_back(factor)
+        initial = gtsam.Values()
+        stamps = gtsam.FixedLagSmootherKeyTimestampMap()
+        poses = []
+        for key in window:
+            source = values if values.exists(key) else self._last
+            stamps.insert((key, self._stamp[key]))
+            if gtsam.Symbol(key).chr() == ord("x"):  # omni: Pose3 viewpoints, Point3 landmarks
+                initial.insert(key, source.atPose3(key))
+                poses.append(key)
+            else:
+                initial.insert(key, source.atPoint3(key))
+        oldest = min(poses, key=lambda key: (self._stamp[key], gtsam.Symbol(key).index()))
+        anchor = gtsam.noiseModel.Isotropic.Sigma(6, self._config.planar_sigma_m)
+        factors.push_back(gtsam.PriorFactorPose3(oldest, initial.atPose3(oldest), anchor))
+        try:
+            self._smoother.update(factors, initial, stamps)
+        except (RuntimeError, ValueError, IndexError) as exc:
+            raise EstimationError(
+                f"fixed-lag update at frame {frame_index} failed, also restarted: {exc}"
+            ) from exc
+
+    # ------------------------------------------------------------------ reads
+
+    def pose2(self, key: int) -> Any:
+        """The newest estimate of one Pose2 variable."""
+        return self._last.atPose2(key)
+
+    def pose3(self, key: int) -> Any:
+        """The newest estimate of one Pose3 variable."""
+        return self._last.atPose3(key)
+
+    def point2(self, key: int) -> np.ndarray:
+        """The newest estimate of one Point2 variable, (2,) [m]."""
+        return self._last.atPoint2(key)
+
+    def exists(self, key: int) -> bool:
+        """True when the variable ``key`` is in the graph."""
+        return bool(self._last.exists(key))
+
+    def marginal_covariance(self, key: int) -> np.ndarray:
+        """The marginal covariance of one variable in the full graph, at ``estimate()``."""
+        if self._marginals is None:
+            self._marginals = gtsam.Marginals(self._all_factors, self.estimate())
+        return self._marginals.marginalCovariance(key)
+
+    def estimate(self) -> Any:
+        """LM over every factor of the run, from the newest estimates (cached)."""
+        if self._final is None:
+            from omnislam.graphslam.batch import optimize_batch
+
+            self._final = optimize_batch(
+                self._all_factors,
+                self._last,
+                self._config.batch_max_iterations,
+                self._config.batch_relative_error_tol,
+            ).values
+        return self._final
+
+    def factors(self) -> Any:
+        """Every factor of the run (the full graph)."""
+        return self._all_factors
+
+    def linearization_point(self) -> Any:
+        """The newest estimates (``gtsam.Values``)."""
+        return self._last
+
+    # ------------------------------------------------------------------ bookkeeping
+
+    @property
+    def factorization(self) -> Factorization:
+        """Cholesky (the smoother's iSAM2)."""
+        return Factorization.CHOLESKY
+
+    @property
+    def fallbacks(self) -> int:
+        """Always 0 (no QR rebuild)."""
+        return 0
+
+    @property
+    def batch_reorders(self) -> int:
+        """Always 0 (not tracked for the smoother)."""
+        return 0
+
+    @property
+    def factor_count(self) -> int:
+        """Factors in the full graph."""
+        return int(self._all_factors.size())
+
+    @property
+    def tree_nonzeros(self) -> int:
+        """Non-zeros of the smoother's Bayes tree (the window's fill-in)."""
+        return int(self._smoother.getISAM2().treeNnz())
+
+    @property
+    def online_restarts(self) -> int:
+        """Smoother restarts after a failed marginalisation (class docstring)."""
+        return self._restarts
+
+    @property
+    def online_factors_skipped(self) -> int:
+        """Factors on marginalised variables, in the full graph but not in the smoother."""
+        return self._skipped

@@ -255,11 +255,10 @@ def test_a_creeping_robot_does_not_make_isam2_indeterminate():
 def test_adaptive_reorder_bounds_fill_in_and_keeps_the_estimate():
     """GTSAM's adaptive batch re-ordering: fewer non-zeros, the same solution."""
     scenario = simulate_omni(np.random.default_rng(1))
-    plain = GraphSLAM(OMNI, _config(sensor_height_m=SENSOR_HEIGHT_M), scenario.poses_true[0])
+    whole = {"sensor_height_m": SENSOR_HEIGHT_M, "online_lag_key_frames": None}  # iSAM2 itself
+    plain = GraphSLAM(OMNI, _config(**whole), scenario.poses_true[0])
     reordering = GraphSLAM(
-        OMNI,
-        _config(sensor_height_m=SENSOR_HEIGHT_M, adaptive_reorder_threshold=1.2),
-        scenario.poses_true[0],
+        OMNI, _config(**whole, adaptive_reorder_threshold=1.2), scenario.poses_true[0]
     )
     a, b = run(plain, scenario.frames), run(reordering, scenario.frames)
     # iSAM2 also re-orders everything when most variables are affected (early updates)
@@ -280,12 +279,10 @@ def test_adaptive_reorder_threshold_must_be_a_ratio_above_one():
 
 def test_weak_landmark_prior_is_one_factor_per_landmark_and_barely_moves_the_estimate():
     scenario = simulate_omni(np.random.default_rng(0))
-    with_prior = GraphSLAM(OMNI, _config(sensor_height_m=SENSOR_HEIGHT_M), scenario.poses_true[0])
-    without = GraphSLAM(
-        OMNI,
-        _config(sensor_height_m=SENSOR_HEIGHT_M, landmark_prior_sigma_m=None),
-        scenario.poses_true[0],
-    )
+    # iSAM2 over the whole graph: without the prior it needs its QR fallback
+    whole = {"sensor_height_m": SENSOR_HEIGHT_M, "online_lag_key_frames": None}
+    with_prior = GraphSLAM(OMNI, _config(**whole), scenario.poses_true[0])
+    without = GraphSLAM(OMNI, _config(**whole, landmark_prior_sigma_m=None), scenario.poses_true[0])
     a, b = run(with_prior, scenario.frames), run(without, scenario.frames)
     graph = with_prior.factor_graph()
     priors = [

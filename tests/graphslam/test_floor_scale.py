@@ -1,0 +1,183 @@
+"""The odometry's scale from floor points (``floor_scale.py``) and the fixed-lag session.
+
+Scenario: a robot drives a 2 m circle whose wheel odometry over-states every translation by
+3%; around the path lie points on the floor (z = 0) and points on low objects (z 0.15-0.6 m)
+that the omni camera at ``SENSOR_HEIGHT_M`` sees within 1.2 m, with angular noise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from graphslam_scenarios import SENSOR_HEIGHT_M
+
+from omnislam.core.measurement import unit_vectors_from_azimuth_elevation
+from omnislam.core.modality import Modality
+from omnislam.core.se import se2_between, wrap_angle
+from omnislam.core.types import Bearings, FrameInput, Odometry
+from omnislam.graphslam import GraphSLAM, GraphSLAMConfig
+from omnislam.graphslam.floor_scale import FloorScale
+from omnislam.graphslam.session import FixedLagSession
+
+WHEEL_SCALE = 1.03  # the odometry says 3% more than was driven
+SIGMA_RAD = 0.003
+
+
+def _scenario(rng, floor_points=400, raised_points=200, n=200):
+    """(frames, true poses (n, 3), points (M, 3)) of the module docstring's circle."""
+    angle = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    poses = np.column_stack(
+        [2 * np.sin(angle), 2 - 2 * np.cos(angle), wrap_angle(angle)]
+    )  # starts at the origin heading +x, counter-clockwise
+
+    def near_path(count):
+        anchor = poses[rng.integers(0, n, count), :2]
+        offset = rng.uniform(0.3, 1.0, count)
+        direction = rng.uniform(-np.pi, np.pi, count)
+        return anchor + offset[:, None] * np.column_stack([np.cos(direction), np.sin(direction)])
+
+    points = np.vstack(
+        [
+            np.column_stack([near_path(floor_points), np.zeros(floor_points)]),
+            np.column_stack([near_path(raised_points), rng.uniform(0.15, 0.6, raised_points)]),
+        ]
+    )
+    frames = []
+    for k in range(n):
+        delta = np.zeros(3) if k == 0 else se2_between(poses[k - 1], poses[k])
+        delta[:2] *= WHEEL_SCALE
+        x, y, theta = poses[k]
+        to = points[:, :2] - (x, y)
+        seen = np.flatnonzero(np.hypot(*to.T) < 1.2)
+        azimuth = np.arctan2(to[seen, 1], to[seen, 0]) - theta
+        elevation = np.arctan2(points[seen, 2] - SENSOR_HEIGHT_M, np.hypot(*to[seen].T))
+        noisy = np.column_stack([azimuth, elevation])
+        noisy += SIGMA_RAD * rng.standard_normal(noisy.shape)
+        frames.append(
+            FrameInput(
+                index=k,
+                odometry=Odometry(delta, float(k)),
+                bearings=Bearings(
+                    seen,
+                    unit_vectors_from_azimuth_elevation(noisy[:, 0], noisy[:, 1]),
+                    np.full(len(seen), SIGMA_RAD),
+                ),
+            )
+        )
+    return frames, poses, points
+
+
+def _observe_all(frames) -> FloorScale:
+    floor = FloorScale(SENSOR_HEIGHT_M)
+    for frame in frames:
+        floor.observe(frame.odometry.delta, frame.bearings)
+    return floor
+
+
+def test_floor_points_give_the_wheel_scale_despite_raised_points():
+    frames, _, _ = _scenario(np.random.default_rng(0))
+    floor = _observe_all(frames)
+    # the raised points (a third of the pairs) look like scales of 1.2-3.4 and are not the mode
+    assert floor.scale == pytest.approx(1 / WHEEL_SCALE, rel=3e-3)
+    assert floor.inliers >= 50
+
+
+def test_without_floor_points_the_scale_stays_one():
+    frames, _, _ = _scenario(np.random.default_rng(1), floor_points=0)
+    floor = _observe_all(frames)
+    assert floor.pairs > 50  # the raised points do form pairs
+    assert floor.scale == 1.0 and floor.inliers == 0
+
+
+def test_points_fixed_in_the_robot_frame_are_no_floor():
+    """Features that move with the robot (its own body in the mirror) give s = 0, not 1."""
+    frames, _, _ = _scenario(np.random.default_rng(2), floor_points=0, raised_points=0)
+    body = unit_vectors_from_azimuth_elevation(np.array([0.5, 2.0]), np.array([-0.9, -1.0]))
+    frames = [
+        replace(f, bearings=Bearings(np.array([7, 8]), body, np.full(2, SIGMA_RAD))) for f in frames
+    ]
+    assert _observe_all(frames).scale == 1.0
+
+
+def _ate_scale(estimate, poses):
+    """Least-squares scale of the estimated positions about the first pose vs the truth."""
+    est = estimate.trajectory.se2[:, :2] - estimate.trajectory.se2[0, :2]
+    true = poses[:, :2] - poses[0, :2]
+    return float(np.sum(est * true) / np.sum(true * true))
+
+
+def test_graphslam_takes_the_floors_scale():
+    frames, poses, _ = _scenario(np.random.default_rng(3))
+    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M)
+    metric = GraphSLAM(Modality.BEARINGS_3D, config)
+    wheel = GraphSLAM(Modality.BEARINGS_3D, replace(config, floor_scale=False))
+    for frame in frames:
+        metric.step(frame)
+        wheel.step(frame)
+    assert metric.info().odometry_scale == pytest.approx(1 / WHEEL_SCALE, rel=5e-3)
+    assert wheel.info().odometry_scale == 1.0 and wheel.info().floor_pairs == 0
+    # bearings alone keep the odometry's 3% (the graph cannot see scale) ...
+    assert _ate_scale(wheel.estimate(), poses) == pytest.approx(WHEEL_SCALE, rel=5e-3)
+    # ... the floor points remove it (the first ~20 images still had the wheel's scale)
+    assert abs(_ate_scale(metric.estimate(), poses) - 1) < 0.006
+
+
+def test_fixed_lag_final_estimate_is_the_whole_graph_optimum():
+    """The smoother's window is bounded; ``estimate()`` smooths every factor, as iSAM2 does."""
+    frames, _, _ = _scenario(np.random.default_rng(4))
+    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M, online_lag_key_frames=5)
+    lagged = GraphSLAM(Modality.BEARINGS_3D, config)
+    whole = GraphSLAM(Modality.BEARINGS_3D, replace(config, online_lag_key_frames=None))
+    window = []
+    for frame in frames:
+        lagged.step(frame)
+        whole.step(frame)
+        window.append(len(lagged.session._alive))
+    assert isinstance(lagged.session, FixedLagSession)
+    assert lagged.info().factors == whole.info().factors
+    assert max(window[-50:]) < 0.5 * (lagged.info().landmarks + lagged.info().key_frames)
+    a, b = lagged.estimate(), whole.estimate()
+    np.testing.assert_array_equal(a.landmark_ids, b.landmark_ids)
+    np.testing.assert_allclose(a.trajectory.se2, b.trajectory.se2, atol=2e-3)
+    np.testing.assert_allclose(a.landmarks_w, b.landmarks_w, atol=5e-3)
+
+
+class _FailingOnce(FixedLagSession):
+    """A session whose smoother fails once, as GTSAM 4.3.0's does on loop150."""
+
+    fail_at = 12
+
+    def __init__(self, config):
+        super().__init__(config)
+        real = self._smoother
+
+        class Smoother:
+            def __init__(self, outer):
+                self._outer = outer
+
+            def update(self, *args):
+                if self._outer._updates == self._outer.fail_at:
+                    raise ValueError("Asking to remove variables from the variable index")
+                return real.update(*args)
+
+            def __getattr__(self, name):
+                return getattr(real, name)
+
+        self._smoother = Smoother(self)
+
+
+def test_fixed_lag_restarts_on_the_window_after_a_failed_update():
+    frames, _, _ = _scenario(np.random.default_rng(5))
+    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M, online_lag_key_frames=5)
+    restarted = GraphSLAM(Modality.BEARINGS_3D, config)
+    restarted._session = _FailingOnce(config)
+    restarted._poses._session = restarted._session
+    plain = GraphSLAM(Modality.BEARINGS_3D, config)
+    for frame in frames:
+        restarted.step(frame)
+        plain.step(frame)
+    assert restarted.info().online_restarts == 1 and plain.info().online_restarts == 0
+    a, b = restarted.estimate(), plain.estimate()
+    np.testing.assert_allclose(a.trajectory.se2, b.trajectory.se2, atol=5e-3)
