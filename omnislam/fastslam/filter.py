@@ -385,7 +385,10 @@ class FastSLAM:
                 block = self._store.gather(who, slots)
             log_likelihood = self._mapper.update(block, poses[who], sightings, obs)
             if weigh:
-                np.add.at(log_factors, who, self.config.likelihood_temper * log_likelihood)
+                temper = self.config.likelihood_temper
+                if temper != 1.0:
+                    log_likelihood = temper * log_likelihood
+                np.add.at(log_factors, who, log_likelihood)
             block.existence += 1  # thesis 5.1.2: +1 when seen
             self._store.scatter(who, slots, block)
             estimated = block.status == ESTIMATED
