@@ -12,7 +12,13 @@ at each particle count plus graphslam and dead reckoning, and prints per run:
 * pose NEES mean (first pose anchored, as ``omnislam evaluate``'s ``nees_mean``), dof 3,
 * FastSLAM's particle diversity (``fastslam/diversity.py``): resamplings, the fewest distinct
   ancestors of a step, the longest run of steps whose set descends from one particle,
-* the estimator's CPU time (``time.process_time``) over its steps.
+* the estimator's CPU time (``time.process_time``) over its steps,
+* the end error: the last pose's position error with the first pose anchored (no fit): whether
+  the robot knows it is back at its start (the thesis's "returns to the initial point",
+  sec. 5.1.2); dead reckoning's is its drift over the loop,
+* with ``--set trajectory=best_ancestry``, "one path until": the fraction of the run at whose
+  frames all final particles' paths pass through one particle (``PathHistory.lineages``):
+  that part of the trajectory no later sighting can revise.
 
 ``graphslam-online`` is the same iSAM2 run read out causally: after every step its newest pose
 (the estimate given the data so far, as a filter reports it), where ``graphslam`` reports the
@@ -27,7 +33,8 @@ NEES mean <= 10x dof::
 
     PYTHONPATH=. .venv/bin/python benchmarks/fastslam_loop150.py [--seeds 0 1 2 3 4]
         [--particles 10 50 200 1000] [--variants fastslam1 fastslam2] [--no-baselines]
-        [--set trajectory=best_ancestry ...] [--backend open3d|numpy]
+        [--set trajectory=best_ancestry ...] [--backend open3d|numpy] [--no-bias]
+        [--keep DIR] [--graph-set motion_noise.a_vv=0.1 ...]
 """
 
 from __future__ import annotations
@@ -49,10 +56,12 @@ from omnislam.core.types import Trajectory
 from omnislam.datasets.sequence import Sequence
 from omnislam.datasets.synthetic.loader import load_synthetic
 from omnislam.datasets.synthetic.presets import PRESETS
+from omnislam.datasets.synthetic.routes import NO_BIAS
 from omnislam.datasets.synthetic.simulate import simulate
 from omnislam.datasets.synthetic.writer import write_synthetic
 from omnislam.estimators import SequenceInfo, make_estimator, resolve_estimator_modality
 from omnislam.fastslam import FastSLAM
+from omnislam.fastslam.config import TrajectoryMode
 
 PRESET = "loop150"
 #: graphslam read out causally (its newest pose after every step)
@@ -73,16 +82,28 @@ class Row:
     particles: int | None
     seed: int
     ate_m: float
+    end_m: float
     nees_mean: float | None
     resamplings: int | None
     distinct_min: int | None
     single_run: int | None
     cpu_s: float
+    one_path_until: float | None = None
 
 
-def laser_only_sequence(seed: int, folder: Path, backend: str | None) -> Sequence:
-    """Simulate ``loop150`` with ``seed`` and read it back without rendering any image."""
-    sim = simulate(PRESETS[PRESET], seed, backend=backend)
+def laser_only_sequence(
+    seed: int, folder: Path, backend: str | None, bias: bool = True
+) -> Sequence:
+    """Simulate ``loop150`` with ``seed`` and read it back without rendering any image.
+
+    ``bias=False``: the robot's systematic odometry errors (``routes.OdometryBias``) switched
+    off, only the thesis's zero-mean alpha noise left (the thesis's own simulation, sec. 5.1.1:
+    Gaussian errors whose mean is the deterministic value).
+    """
+    preset = PRESETS[PRESET]
+    if not bias:
+        preset = dataclasses.replace(preset, odometry_bias=NO_BIAS)
+    sim = simulate(preset, seed, backend=backend)
     sim = dataclasses.replace(sim, image_frames=sim.image_frames[:0])
     write_synthetic(folder, sim, backend=backend)
     return load_synthetic(folder)
@@ -119,18 +140,33 @@ def run_one(
     if online:
         trajectory = Trajectory.from_se2(sequence.stamps_s, np.array(newest))
     ate_m = ate(trajectory, truth, Alignment.SE2).rmse_m
+    end_m = float(ate(trajectory, truth, Alignment.ORIGIN).errors_m[-1])
     nees_mean = None
     if estimate.pose_covariances is not None and not online:
         nees_mean = float(pose_nees(estimate.trajectory, estimate.pose_covariances, truth).mean)
-    particles = resamplings = distinct_min = single_run = None
+    particles = resamplings = distinct_min = single_run = one_path_until = None
     if isinstance(slam, FastSLAM):
+        if slam.config.trajectory is TrajectoryMode.BEST_ANCESTRY:
+            lineages = slam.history.lineages()
+            single = np.flatnonzero(lineages == 1)
+            one_path_until = float(single[-1] + 1) / lineages.size if single.size else 0.0
         summary = slam.diversity.summary()
         particles = slam.config.n_particles
         resamplings = summary.resamplings
         distinct_min = summary.distinct_min
         single_run = summary.single_ancestor_longest_run
     row = Row(
-        estimator, particles, seed, ate_m, nees_mean, resamplings, distinct_min, single_run, cpu_s
+        estimator,
+        particles,
+        seed,
+        ate_m,
+        end_m,
+        nees_mean,
+        resamplings,
+        distinct_min,
+        single_run,
+        cpu_s,
+        one_path_until,
     )
     return row, slam
 
@@ -150,6 +186,7 @@ def _fmt(value: float | int | None, spec: str) -> str:
 def print_row(row: Row) -> None:
     print(
         f"{_label(row.estimator, row.particles):16s} seed {row.seed}  ATE {row.ate_m:7.3f} m  "
+        f"end {row.end_m:6.3f} m  one path until {_fmt(row.one_path_until, '5.3f')}  "
         f"NEES {_fmt(row.nees_mean, '10.3g')}  resamplings {_fmt(row.resamplings, '4d')}  "
         f"distinct min {_fmt(row.distinct_min, '4d')}  single-ancestor run "
         f"{_fmt(row.single_run, '3d')}  CPU {row.cpu_s:6.1f} s",
@@ -162,8 +199,11 @@ def summarise(rows: list[Row], variants: list[str], particles: list[int]) -> Non
     groups: dict[str, list[Row]] = {}
     for row in rows:
         groups.setdefault(_label(row.estimator, row.particles), []).append(row)
-    print("\n| run | median ATE [m] | min-max ATE | median NEES | max single-ancestor run |")
-    print("|---|---:|---:|---:|---:|")
+    print(
+        "\n| run | median ATE [m] | min-max ATE | median end error [m] | median NEES | "
+        "max single-ancestor run |"
+    )
+    print("|---|---:|---:|---:|---:|---:|")
     medians: dict[str, float] = {}
     for label, group in groups.items():
         ates = np.array([r.ate_m for r in group])
@@ -172,6 +212,7 @@ def summarise(rows: list[Row], variants: list[str], particles: list[int]) -> Non
         runs = [r.single_run for r in group if r.single_run is not None]
         print(
             f"| {label} | {medians[label]:.3f} | {ates.min():.3f}-{ates.max():.3f} | "
+            f"{np.median([r.end_m for r in group]):.3f} | "
             f"{_fmt(float(np.median(nees)) if nees else None, '.3g')} | "
             f"{max(runs) if runs else '-'} |"
         )
@@ -220,23 +261,52 @@ def main() -> None:
     parser.add_argument("--no-baselines", action="store_true", help="skip graphslam and DR")
     parser.add_argument("--backend", default=None, help="ray caster of the simulation")
     parser.add_argument(
+        "--no-bias",
+        action="store_true",
+        help="odometry without the robot's systematic errors (zero-mean alpha noise only)",
+    )
+    parser.add_argument(
+        "--keep",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="write each seed's laser-only folder to DIR/loop150-sSEED instead of a temporary one",
+    )
+    parser.add_argument(
         "--set",
         action="append",
         default=[],
         metavar="KEY=VALUE",
         help="extra FastSLAM option for every FastSLAM run (repeatable)",
     )
+    parser.add_argument(
+        "--graph-set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="extra graphslam option for graphslam and graphslam-online (repeatable)",
+    )
     args = parser.parse_args()
     extra = dict(item.split("=", 1) for item in args.set)
+    graph_extra = dict(item.split("=", 1) for item in args.graph_set)
+    if args.no_bias:
+        print("odometry: zero-mean alpha noise only (no systematic bias)")
+    if graph_extra:
+        print("extra graphslam options:", " ".join(f"{k}={v}" for k, v in graph_extra.items()))
     if extra:
         print("extra FastSLAM options:", " ".join(f"{k}={v}" for k, v in extra.items()))
     rows: list[Row] = []
     for seed in args.seeds:
-        with tempfile.TemporaryDirectory(prefix="loop150-") as tmp:
-            sequence = laser_only_sequence(seed, Path(tmp) / f"{PRESET}-s{seed}", args.backend)
+        if args.keep is not None:
+            folder = args.keep / f"{PRESET}-s{seed}"
+            sequence = laser_only_sequence(seed, folder, args.backend, not args.no_bias)
+        else:
+            with tempfile.TemporaryDirectory(prefix="loop150-") as tmp:
+                folder = Path(tmp) / f"{PRESET}-s{seed}"
+                sequence = laser_only_sequence(seed, folder, args.backend, not args.no_bias)
         runs: list[tuple[str, dict[str, str]]] = []
         if not args.no_baselines:
-            runs += [("deadreckoning", {}), ("graphslam", {}), (ONLINE, {})]
+            runs += [("deadreckoning", {}), ("graphslam", graph_extra), (ONLINE, graph_extra)]
         runs += [
             (variant, {**extra, "n_particles": str(count)})
             for variant in args.variants

@@ -229,6 +229,11 @@ class FastSLAM:
         return self._mapper.modality
 
     @property
+    def history(self) -> PathHistory:
+        """The per-step record of the particle set (``particles.PathHistory``)."""
+        return self._history
+
+    @property
     def diversity(self) -> DiversityLog:
         """Distinct ancestors and ESS of every step with sightings (``diversity.py``)."""
         return self._diversity
@@ -380,6 +385,9 @@ class FastSLAM:
                 block = self._store.gather(who, slots)
             log_likelihood = self._mapper.update(block, poses[who], sightings, obs)
             if weigh:
+                temper = self.config.likelihood_temper
+                if temper != 1.0:
+                    log_likelihood = temper * log_likelihood
                 np.add.at(log_factors, who, log_likelihood)
             block.existence += 1  # thesis 5.1.2: +1 when seen
             self._store.scatter(who, slots, block)

@@ -138,3 +138,23 @@ class PathHistory:
                 index = int(ancestors[index])
             path[t] = self._poses[t][index]
         return Trajectory.from_se2(np.array(self._stamps), path)
+
+    def lineages(self) -> np.ndarray:
+        """(N,) for every recorded step, how many distinct particles of that step the current
+        set's paths pass through (1: every current path shares that pose).
+
+        The path degeneracy of a particle filter (Bailey, Nieto & Nebot 2006; Kantas et al.
+        2015): resampling prunes lineages, so going back in time the current paths coalesce
+        onto one ancestor, and a later observation (a loop closure) can only choose among the
+        path histories that are still distinct.
+        """
+        if not self._keep:
+            raise ValueError("PathHistory was created without keep_particles")
+        counts = np.empty(len(self), dtype=np.int64)
+        index = np.arange(len(self._poses[-1])) if self._poses else np.empty(0, np.int64)
+        for t in range(len(self) - 1, -1, -1):
+            ancestors = self._ancestors[t]
+            if ancestors is not None:
+                index = np.unique(ancestors[index])
+            counts[t] = index.size
+        return counts

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from fastslam_scenario import SCENARIO_NOISE, make_scenario
 
 from omnislam.core.modality import Modality
-from omnislam.fastslam import FastSLAMConfig, Variant, make_fastslam
+from omnislam.fastslam import FastSLAMConfig, TrajectoryMode, Variant, make_fastslam
 from omnislam.fastslam.diversity import DiversityLog
+from omnislam.fastslam.particles import ParticleSet, PathHistory
 
 
 def test_counts_distinct_ancestors_and_runs_of_collapse():
@@ -52,3 +54,44 @@ def test_the_filter_records_every_step_with_sightings():
     assert info.distinct_ancestors_min == summary.distinct_min
     assert info.single_ancestor_longest_run == summary.single_ancestor_longest_run
     assert info.ess_min == summary.ess_min <= slam.last_ess
+
+
+def test_lineages_count_the_distinct_poses_the_current_paths_pass_through():
+    history = PathHistory(keep_particles=True)
+    particles = ParticleSet(np.zeros((4, 3)))
+    for step, ancestors in enumerate(
+        [np.array([0, 0, 1, 1]), None, np.array([2, 2, 3, 3]), np.array([0, 1, 1, 1])]
+    ):
+        particles.poses = particles.poses + 1.0
+        history.record(float(step), particles)
+        if ancestors is not None:
+            history.record_resampling(ancestors)
+            particles.resample(ancestors)
+    # back from the last step: step 3 draws from {0, 1}, which step 2 drew from {2}; step 1
+    # kept its set ({2}), which step 0 drew from {1}
+    np.testing.assert_array_equal(history.lineages(), [1, 1, 1, 2])
+
+
+def test_lineages_agree_with_the_traced_paths_of_a_run():
+    frames = make_scenario(1, steps=60).frames
+    config = FastSLAMConfig(
+        variant=Variant.FASTSLAM1,
+        n_particles=20,
+        motion_noise=SCENARIO_NOISE,
+        trajectory=TrajectoryMode.BEST_ANCESTRY,
+    )
+    slam = make_fastslam(config, Modality.RANGE_BEARING_2D, np.random.default_rng(2))
+    for frame in frames:
+        slam.step(frame)
+    paths = np.stack([slam.history.ancestry_trajectory(i).se2 for i in range(20)])
+    distinct = [np.unique(paths[:, t], axis=0).shape[0] for t in range(len(frames))]
+    lineages = slam.history.lineages()
+    np.testing.assert_array_equal(lineages, distinct)  # sampled poses are all distinct
+    assert lineages[-1] == 20 or slam.diversity.resampled[-1]
+    assert np.all(np.diff(lineages) >= 0)  # going back in time, lineages only merge
+    assert lineages[0] < 20  # 60 steps of resampling coalesce the paths
+
+
+def test_lineages_need_the_kept_particles():
+    with pytest.raises(ValueError, match="keep_particles"):
+        PathHistory(keep_particles=False).lineages()

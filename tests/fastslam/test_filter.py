@@ -323,3 +323,28 @@ def test_resample_fraction_one_resamples_every_step_and_zero_never(n):
         slam = _slam(_config(Variant.FASTSLAM1, n, resample_ess_fraction=fraction), 0)
         slam.step(first)
         assert slam.resample_count == expected
+
+
+def test_a_tempered_likelihood_scales_fastslam1_log_weights():
+    """likelihood_temper t: FastSLAM 1.0 weighs by p(z | x)^t; the same draws, the same map."""
+    frames = make_scenario(2, steps=5).frames
+    runs = []
+    for temper in (1.0, 0.25):
+        config = _config(Variant.FASTSLAM1, 30, resample_ess_fraction=0.0, likelihood_temper=temper)
+        slam = _slam(config, 4)
+        for frame in frames:
+            slam.step(frame)
+        runs.append(slam)
+    plain, tempered = runs
+    np.testing.assert_array_equal(plain.particles.poses, tempered.particles.poses)
+    log_plain = plain.particles.log_weights - plain.particles.log_weights[0]
+    log_tempered = tempered.particles.log_weights - tempered.particles.log_weights[0]
+    assert np.ptp(log_plain) > 1.0  # the sightings do separate the particles
+    np.testing.assert_allclose(log_tempered, 0.25 * log_plain, rtol=1e-9, atol=1e-9)
+    assert tempered.particles.effective_sample_size() > plain.particles.effective_sample_size()
+
+
+@pytest.mark.parametrize("temper", [0.0, -0.5, 1.5])
+def test_likelihood_temper_outside_0_1_is_refused(temper):
+    with pytest.raises(ConfigError, match="likelihood_temper"):
+        FastSLAMConfig(likelihood_temper=temper)
