@@ -56,6 +56,7 @@ Measured on corridor21 with ``benchmarks/ukf_corridor21.py`` (numbers in the REA
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -247,6 +248,10 @@ def associate_landmarks(
             key = (size, sc, abs(float(shift[pick].mean())))
             if key[:2] > best[:2] or (key[:2] == best[:2] and key[2] < best[2]):
                 best, best_set = key, pick
+    if config.unambiguous_single and best_set.size == 1:
+        line, cand = int(li[best_set[0]]), int(ci[best_set[0]])
+        if ok[line].sum() > 1 or ok[:, cand].sum() > 1:
+            return dataclasses.replace(empty, sets=len(seen))
     return LandmarkAssociation(li[best_set], ci[best_set], best[1], len(seen))
 
 
