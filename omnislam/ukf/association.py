@@ -50,6 +50,9 @@ many validated pairs on corridor21 were wrong (README). With the UKF's predicted
   shift of a heading error lose to a two-pair set of small shift (after a turn on
   corridor21: 4.6 deg, 34 px); with the joint gate such a shift is no evidence against a
   set. With ``largest_set_first=False`` Sc_k alone decides, as printed.
+* a set of a single pair is kept only when neither its projection nor its landmark has another
+  pair that passed the gates (``unambiguous_single``): a lone pair is the nearest candidate,
+  not evidence for it.
 
 Measured on corridor21 with ``benchmarks/ukf_corridor21.py`` (numbers in the README).
 """
