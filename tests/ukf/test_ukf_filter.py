@@ -173,11 +173,12 @@ def test_a_sighting_far_outside_the_innovation_gate_is_dropped_with_ids(rng):
     wrong[0] = wrap_angle(wrong[0] + 3.0)
     sightings[20] = RangeBearing(bad.landmark_ids, 1.0, wrong, 1.0, 0.01)
     errors = {}
-    for gate in (0.999, None):
+    default = UKFConfig().innovation_gate
+    for gate in (default, None):
         ukf = localiser(innovation_gate=gate, association=AssociationConfig(use_ids=True))
         for frame in frames(deltas[:21], sightings[:21]):
             ukf.step(frame)
         errors[gate] = float(np.hypot(*(ukf.estimate().trajectory.se2[20, :2] - true[20, :2])))
         if gate is not None:
             assert ukf.info().pairs_gated_out == 1
-    assert errors[0.999] < 0.05 < errors[None]
+    assert errors[default] < 0.05 < errors[None]
