@@ -33,7 +33,11 @@ def prior_map_from_run_dir(run_dir: str | Path) -> PriorMap:
         raise ConfigError(f"{PRIOR_MAP_OPTION}={run_dir}: not a RUN_DIR folder")
     ids, points_w = read_landmarks_csv(folder / LANDMARKS)
     if not len(ids):
-        raise DataError("no landmarks: this run cannot serve as a prior map", folder / LANDMARKS)
+        raise DataError(
+            "no landmarks: this run cannot serve as a prior map (give the RUN_DIR of a SLAM run "
+            "that mapped landmarks, e.g. graphslam on the same data)",
+            folder / LANDMARKS,
+        )
     trajectory = read_tum(folder / TRAJECTORY)
     return PriorMap(
         source=f"landmarks of the run {folder}",

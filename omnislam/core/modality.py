@@ -80,6 +80,14 @@ _LABELS = {
     Modality.VERTICAL_LINES: "vertical-line bearings (2-D)",
 }
 
+#: where each stream comes from, for the message of data that carry none an estimator takes
+_SOURCES = {
+    Modality.RANGE_BEARING_2D: "landmark sightings with bearings (e.g. MR.CLAM's "
+    "RobotN_Measurement.dat) or laser scans the front end finds landmarks in",
+    Modality.BEARINGS_3D: "omni camera images (the shared front end tracks their features)",
+    Modality.VERTICAL_LINES: "camera images (the shared front end extracts their vertical lines)",
+}
+
 #: the shared preference order of ``resolve_modality``
 PRIORITY: tuple[Modality, ...] = (
     Modality.BEARINGS_3D,
@@ -136,4 +144,5 @@ def resolve_modality(
     for modality in PRIORITY:
         if modality in available and modality in accepted:
             return modality
-    raise ConfigError(f"{estimator} cannot run on {dataset}: {detail}")
+    wanted = " or ".join(_SOURCES[m] for m in PRIORITY if m in accepted)
+    raise ConfigError(f"{estimator} cannot run on {dataset}: {detail}; give it {wanted}")

@@ -50,12 +50,16 @@ many validated pairs on corridor21 were wrong (README). With the UKF's predicted
   shift of a heading error lose to a two-pair set of small shift (after a turn on
   corridor21: 4.6 deg, 34 px); with the joint gate such a shift is no evidence against a
   set. With ``largest_set_first=False`` Sc_k alone decides, as printed.
+* a set of a single pair is kept only when neither its projection nor its landmark has another
+  pair that passed the gates (``unambiguous_single``): a lone pair is the nearest candidate,
+  not evidence for it.
 
 Measured on corridor21 with ``benchmarks/ukf_corridor21.py`` (numbers in the README).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -247,6 +251,10 @@ def associate_landmarks(
             key = (size, sc, abs(float(shift[pick].mean())))
             if key[:2] > best[:2] or (key[:2] == best[:2] and key[2] < best[2]):
                 best, best_set = key, pick
+    if config.unambiguous_single and best_set.size == 1:
+        line, cand = int(li[best_set[0]]), int(ci[best_set[0]])
+        if ok[line].sum() > 1 or ok[:, cand].sum() > 1:
+            return dataclasses.replace(empty, sets=len(seen))
     return LandmarkAssociation(li[best_set], ci[best_set], best[1], len(seen))
 
 

@@ -1,7 +1,8 @@
 """The vertical-line UKF localiser of Barra & Costa: the five steps of sec. 3 around the UKF.
 
 Per frame: predict with the odometry (sec. 4). Once the robot has travelled d_it since the last
-processed frame (sec. 5: 37.5 cm) and the frame carries sightings, process it:
+processed frame (sec. 5: 37.5 cm between images; ``UKFConfig.d_it_sightings_m``, 0, for the
+frames of a range-bearing sensor) and the frame carries sightings, process it:
 
 1.-2. the front end's vertical lines and their PMCs (``frontend.vertical_edges``), or the
       bearings of a range-bearing sensor (ranges unused);
@@ -141,7 +142,8 @@ class VerticalLineUKF:
         if config.photometric is PhotometricMode.ON and not has_mc:
             raise ConfigError(
                 f"ukf: photometric=on needs MC descriptors (means_left/means_right) in the prior "
-                f"map, and {prior_map.source} has none; set photometric=off or auto"
+                f"map, and {prior_map.source} has none (a synthetic folder's line_colours.csv, "
+                "written by `omnislam dataset synth`, holds them); set photometric=off or auto"
             )
         self._photometric = (
             config.photometric is not PhotometricMode.OFF
@@ -161,6 +163,10 @@ class VerticalLineUKF:
             None
             if config.innovation_gate is None
             else chi_square_gate(config.innovation_gate, 1)  # one bearing: 1 degree of freedom
+        )
+        # images every d_it (sec. 5); a range-bearing sensor's frames as they come (config)
+        self._d_it_m = (
+            config.d_it_m if modality is Modality.VERTICAL_LINES else config.d_it_sightings_m
         )
         self._stamps: list[float] = []
         self._poses: list[np.ndarray] = []
@@ -191,7 +197,7 @@ class VerticalLineUKF:
             self._ukf.predict(delta, frame.odometry.covariance)
             self._travel_m += math.hypot(delta[0], delta[1])
         sightings = self._sightings(frame)
-        due = self._travel_m >= (1.0 - self.config.d_it_tolerance) * self.config.d_it_m
+        due = self._travel_m >= (1.0 - self.config.d_it_tolerance) * self._d_it_m
         if sightings is not None and len(sightings.bearings_rad) and due:
             self._process(frame.index, sightings)
             self._travel_m = 0.0

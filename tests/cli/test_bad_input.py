@@ -528,6 +528,31 @@ def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "ukf", "--set", f"prior_map={tmp / 'nope'}"), "prior_map"
 
 
+@case("run-ukf-without-prior-map")
+def _(tmp, fx):
+    return run_args(victoria(tmp), tmp, "ukf"), "--set prior_map=RUN_DIR"
+
+
+@case("run-ukf-photometric-map-without-descriptors")
+def _(tmp, fx):
+    argv = run_args(mrclam(tmp), tmp, "ukf", "--set", "photometric=on")
+    return argv, "needs MC descriptors"
+
+
+@case("run-ukf-prior-map-without-landmarks")
+def _(tmp, fx):
+    run_dir = fx.run_dir(tmp)  # dead reckoning: a trajectory, no landmarks
+    return run_args(mrclam(tmp), tmp, "ukf", "--set", f"prior_map={run_dir}"), "no landmarks"
+
+
+@case("run-ukf-without-images-or-bearings")
+def _(tmp, fx):
+    # every sighting is of robot 2 (barcode 5): no landmark bearings, and no images
+    only_robots = measurement_text().replace(" 63 ", " 5 ")
+    folder = mrclam(tmp, **{"Robot1_Measurement.dat": only_robots})
+    return run_args(folder, tmp, "ukf"), "give it camera images"
+
+
 @case("run-out-parent-is-a-file")
 def _(tmp, fx):
     folder = mrclam(tmp)

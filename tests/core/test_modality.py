@@ -65,6 +65,15 @@ def test_unusable_data_names_both_sides(available, accepted, override):
     assert "\n" not in message
 
 
+def test_data_without_a_usable_stream_are_told_what_would_provide_one():
+    accepted = {Modality.VERTICAL_LINES, Modality.RANGE_BEARING_2D}
+    with pytest.raises(ConfigError) as raised:
+        resolve_modality(set(), accepted, estimator="ukf", dataset="room")
+    message = str(raised.value)
+    assert "give it camera images" in message and "landmark sightings with bearings" in message
+    assert "omni camera" not in message  # ukf does not take the omni bearings
+
+
 def test_parse_accepts_both_spellings_and_lists_known_names():
     assert Modality.parse("range_bearing_2d") is Modality.RANGE_BEARING_2D
     assert Modality.parse("Bearings-3D") is Modality.BEARINGS_3D

@@ -144,3 +144,20 @@ def test_an_angular_line_widens_its_field_of_view():
     line = AngularLine(px_per_rad=100.0, fov_rad=1.0)
     assert line.in_widened_view(np.array([0.9, 1.1])).tolist() == [True, False]
     assert np.allclose(line.u_px(np.array([0.5])), 50.0)
+
+
+def test_a_single_pair_is_used_only_when_no_other_pair_passed_its_gates():
+    # one projection (MR.CLAM: one sighting, no colour): with one gated candidate it is the set,
+    # with two it carries no evidence for either and the frame gets no pair
+    alone = associate_landmarks(np.array([100.0]), np.array([101.0]), np.zeros((1, 1)), CONFIG)
+    assert alone.lines.tolist() == [0] and alone.candidates.tolist() == [0]
+    two = associate_landmarks(np.array([100.0]), np.array([101.0, 96.0]), np.zeros((1, 2)), CONFIG)
+    assert len(two) == 0
+    rejected = np.array([[0.0, np.nan]])  # the second candidate failed a gate: unambiguous again
+    one = associate_landmarks(np.array([100.0]), np.array([101.0, 96.0]), rejected, CONFIG)
+    assert one.candidates.tolist() == [0]
+    paper = AssociationConfig(unambiguous_single=False)
+    nearest = associate_landmarks(
+        np.array([100.0]), np.array([101.0, 96.0]), np.zeros((1, 2)), paper
+    )
+    assert nearest.candidates.tolist() == [0]  # the smaller |u_shift|

@@ -141,7 +141,10 @@ def test_pose_nees_of_a_simulated_run_is_in_the_95_percent_band(rng):
 def test_frames_are_processed_every_d_it_of_travel(rng, d_it):
     _, sightings, _ = simulate(rng, n=40)
     deltas = circle_deltas(40)  # exact 0.1 m steps
-    ukf = localiser(d_it_m=d_it, association=AssociationConfig(use_ids=True))
+    # range-bearing frames follow d_it_sightings_m; d_it_m (the images') does not apply
+    ukf = localiser(
+        d_it_m=0.35 - d_it, d_it_sightings_m=d_it, association=AssociationConfig(use_ids=True)
+    )
     for frame in frames(deltas, sightings):
         ukf.step(frame)
     processed = [a.index for a in ukf.associations]
@@ -159,3 +162,23 @@ def test_a_covariance_that_lost_definiteness_in_rounding_is_repaired():
     fixed = positive_definite(bad)
     np.linalg.cholesky(fixed)
     assert np.allclose(fixed, bad, atol=1e-11)
+
+
+def test_a_sighting_far_outside_the_innovation_gate_is_dropped_with_ids(rng):
+    # a misread id (MR.CLAM robot 3: 3.0 rad from its landmark's predicted bearing) must not
+    # throw the pose; without the gate the unscented update follows it
+    deltas, sightings, true = simulate(rng, n=30)
+    bad = sightings[20]
+    wrong = bad.bearings_rad.copy()
+    wrong[0] = wrap_angle(wrong[0] + 3.0)
+    sightings[20] = RangeBearing(bad.landmark_ids, 1.0, wrong, 1.0, 0.01)
+    errors = {}
+    default = UKFConfig().innovation_gate
+    for gate in (default, None):
+        ukf = localiser(innovation_gate=gate, association=AssociationConfig(use_ids=True))
+        for frame in frames(deltas[:21], sightings[:21]):
+            ukf.step(frame)
+        errors[gate] = float(np.hypot(*(ukf.estimate().trajectory.se2[20, :2] - true[20, :2])))
+        if gate is not None:
+            assert ukf.info().pairs_gated_out == 1
+    assert errors[default] < 0.05 < errors[None]
