@@ -14,9 +14,9 @@
     ``corner_min_angle_deg`` whose supporting readings both come within ``corner_max_gap_m``
     of it -- a wall corner, a door frame, the end of a cupboard: a point fixed in the world,
     seen the same from every pose;
-  * ``feet`` (the tutorial's, the default): the **foot of the perpendicular** from a fixed world point (the
-    origin of the odometry frame, through the dead-reckoning pose) to the line, as the tutorial
-    does with its estimated pose. Through a drifting pose the foot is not a fixed point: a
+  * ``feet`` (the tutorial's, the default): the **foot of the perpendicular** from a fixed
+    world point (the origin of the odometry frame, through the dead-reckoning pose) to the
+    line, as the tutorial does with its estimated pose. Through a drifting pose the foot is not a fixed point: a
     heading error delta moves it along the wall by about delta times the distance to the
     origin. On CARMEN aces (``benchmarks/ekfslam_accuracy.py --diagnose``), projected with the
     corrected poses, the nearest foot of the same wall within 5 scans is 0.21 m away (median),
