@@ -16,14 +16,15 @@
     seen the same from every pose;
   * ``feet`` (the tutorial's, the default): the **foot of the perpendicular** from a fixed
     world point (the origin of the odometry frame, through the dead-reckoning pose) to the
-    line, as the tutorial does with its estimated pose. Through a drifting pose the foot is not a fixed point: a
-    heading error delta moves it along the wall by about delta times the distance to the
-    origin. On CARMEN aces (``benchmarks/ekfslam_accuracy.py --diagnose``), projected with the
-    corrected poses, the nearest foot of the same wall within 5 scans is 0.21 m away (median),
-    a spike 0.05 m, a corner 0.035 m; after the odometry's 5 m of drift a revisited wall's
-    feet lie metres from the first ones. Corners are repeatable but rare (54 in aces' 440
-    scans against 768 feet), and with spikes and corners alone every back end does worse on
-    CARMEN than with the feet (docs/results.md, EKF-SLAM): the default stays the tutorial's.
+    line, as the tutorial does with its estimated pose. Through a drifting pose the foot is
+    not a fixed point: a heading error delta moves it along the wall by about delta times the
+    distance to the origin. On CARMEN (``benchmarks/ekfslam_accuracy.py --diagnose``),
+    projected with the corrected poses, the nearest foot of the same wall within 5 scans is
+    0.21 m away (median; intel and aces), a spike 0.03-0.05 m, a corner 0.035 m; after the
+    odometry's metres of drift a revisited wall's feet lie metres from the first ones. Corners
+    are repeatable but rare (0.12-0.21 per scan against 1.7 feet), and with spikes and corners
+    alone the back ends do worse on CARMEN than with the feet (docs/results.md, EKF-SLAM): the
+    default stays the tutorial's.
 
 Readings beyond the sensor's valid range (8.1 m for the tutorial's SICK) are ignored.
 """
