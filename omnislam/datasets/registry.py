@@ -42,8 +42,9 @@ def _carmen_odometry_noise(text: str) -> object:
 #: default 95 and 10.5: its 0.1 mm floor gives a keyframe step that is mostly a turn almost no
 #: translation uncertainty, where these logs have 3-4 cm). Not stated by default: with it
 #: (``--set odometry_noise=...``, ``benchmarks/ekfslam_accuracy.py --stated-odometry``) the
-#: wider gates let the unknown association of the laser landmarks go wrong more often and aces
-#: gets worse for every back end (docs/results.md, EKF-SLAM).
+#: wider gates let the unknown association of the laser landmarks go wrong more often: aces
+#: gets worse for graphslam and EKF-SLAM (FastSLAM samples its own motion model and ignores a
+#: stated covariance); docs/results.md, EKF-SLAM.
 CARMEN_ODOMETRY_NOISE = {
     "carmen-intel": "0.0313,0.0438,0.0028,0.0721,0.0373,0.0024",
     "carmen-aces": "0.0575,0.005,0.0039,0.1308,0.0302,0.0018",
