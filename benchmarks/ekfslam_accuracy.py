@@ -186,8 +186,12 @@ def main() -> None:
                     used = dict(options)
                     if estimator == "deadreckoning":  # uses no sightings: no modality
                         used.pop("modality", None)
-                    record = execute_run(RunSpec(dataset, estimator, seed, used, log))
-                    metrics = evaluate_run(record)
+                    try:
+                        record = execute_run(RunSpec(dataset, estimator, seed, used, log))
+                        metrics = evaluate_run(record)
+                    except Exception as exc:
+                        print(f"{label} {estimator} seed {seed}: FAILED ({exc})", flush=True)
+                        continue
                     cell = (
                         metrics.ate.rmse_m,
                         metrics.landmarks.rmse_m,
