@@ -138,9 +138,10 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
     ),
     "ekfslam": EstimatorEntry(
         "omnislam.ekfslam:make_estimator",
-        frozenset({Modality.RANGE_BEARING_2D}),
+        _SLAM_2D_3D,
         "omnislam.ekfslam.factory:check_options",
-        summary="EKF-SLAM on range-bearing sightings, one joint Gaussian (SLAM for Dummies)",
+        summary="EKF-SLAM on range-bearing sightings or omni bearings (delayed triangulation), "
+        "one joint Gaussian (SLAM for Dummies)",
         config="omnislam.ekfslam.config:EKFSLAMConfig",
     ),
 }

@@ -46,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+from omnislam.core.motion import MotionNoise, OdometryMotionModel
 from omnislam.core.se import se2_between
 from omnislam.core.types import Trajectory
 from omnislam.datasets._text import iter_records, parse_float, parse_int
@@ -237,12 +238,37 @@ def is_carmen_log(path: Path) -> bool:
     return path.is_file() and (path.name.endswith(".log") or path.name.endswith(".log.gz"))
 
 
-def load_carmen(path: Path, *, name: str | None = None) -> Sequence:
+def parse_odometry_noise(text: str) -> MotionNoise:
+    """``"a_vv,a_vw,a_wv,a_ww,floor_trans_m,floor_rot_rad"`` -> the MotionNoise it states.
+
+    Raises:
+        ValueError: not six non-negative numbers.
+    """
+    values = [float(v) for v in text.split(",")]
+    if len(values) != 6 or min(values) < 0:
+        raise ValueError(
+            "odometry_noise needs six non-negative numbers: "
+            "a_vv,a_vw,a_wv,a_ww,floor_trans_m,floor_rot_rad"
+        )
+    a_vv, a_vw, a_wv, a_ww, floor_t, floor_r = values
+    return MotionNoise(
+        a_vv=a_vv, a_vw=a_vw, a_wv=a_wv, a_ww=a_ww, min_sigma=(floor_r, floor_t, floor_r)
+    )
+
+
+def load_carmen(
+    path: Path, *, name: str | None = None, odometry_noise: MotionNoise | None = None
+) -> Sequence:
     """Load a CARMEN laser log as a Sequence (one frame per FLASER keyframe).
 
     Args:
         path: ``*.log`` or ``*.log.gz`` file.
         name: sequence name (default: the file name without ``.log[.gz]``).
+        odometry_noise: the log's odometry noise, stated with every frame
+            (``Sequence.odometry_covariance_r`` from ``OdometryMotionModel.covariance``, thesis
+            eq. 4.41) -- a sensor noise, set per dataset by the registry (``--set
+            odometry_noise=a_vv,a_vw,a_wv,a_ww,floor_trans_m,floor_rot_rad``); None leaves it
+            to each estimator's motion model.
 
     Returns:
         The Sequence with laser scans, odometry between keyframes, and (for corrected logs) the
@@ -296,7 +322,12 @@ def load_carmen(path: Path, *, name: str | None = None) -> Sequence:
         else "FLASER odom fields",
         "stamps_repaired": str(repaired),
         "stamps_spread": str(spread),
+        "odometry_noise": "not stated" if odometry_noise is None else f"stated ({odometry_noise})",
     }
+    odometry_cov = None
+    if odometry_noise is not None:
+        model = OdometryMotionModel(odometry_noise)
+        odometry_cov = np.array([model.covariance(delta) for delta in odometry])
     return Sequence(
         name=name or stem,
         source=SOURCE,
@@ -306,4 +337,5 @@ def load_carmen(path: Path, *, name: str | None = None) -> Sequence:
         initial_pose_w=initial_pose,
         laser=laser,
         info=info,
+        odometry_covariance_r=odometry_cov,
     )

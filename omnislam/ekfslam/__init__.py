@@ -1,15 +1,24 @@
 """EKF-SLAM, the baseline of "SLAM for Dummies" (Riisgaard & Blas; SEEDS.md sec. 3).
 
 ``EKFSLAM(config, motion, initial_pose_w)`` implements the ``Estimator`` protocol (and ``info()``)
-for 2-D range-bearing sightings with known or unknown ids. Modules: ``state`` (the joint Gaussian
-and its O(n) prediction, O(n^2) sparse update, augmentation), ``association`` (nearest neighbour,
-validation gate, tentative landmarks), ``gating`` (the chi-square gate), ``config``, ``filter``,
-``factory``.
+for 2-D range-bearing sightings with known or unknown ids; ``BearingEKFSLAM`` for the omni
+camera's bearings (3-D landmarks by delayed triangulation). Modules: ``state`` (the joint
+Gaussian and its O(n) prediction, O(n^2) sparse update, augmentation), ``association`` (nearest
+neighbour, validation gate, tentative landmarks), ``bearings`` (the omni filter), ``config``,
+``filter``, ``factory``.
 """
 
+from omnislam.ekfslam.bearings import BearingEKFSLAM
 from omnislam.ekfslam.config import EKFSLAMConfig
 from omnislam.ekfslam.factory import make_estimator
 from omnislam.ekfslam.filter import EKFSLAM, EKFSLAMInfo
 from omnislam.ekfslam.state import SlamGaussian
 
-__all__ = ["EKFSLAM", "EKFSLAMConfig", "EKFSLAMInfo", "SlamGaussian", "make_estimator"]
+__all__ = [
+    "EKFSLAM",
+    "BearingEKFSLAM",
+    "EKFSLAMConfig",
+    "EKFSLAMInfo",
+    "SlamGaussian",
+    "make_estimator",
+]

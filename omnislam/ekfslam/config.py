@@ -46,6 +46,19 @@ class EKFSLAMConfig:
             when the data carry ids).
         initial_landmark_capacity: landmark slots preallocated in the state; the arrays double
             when full.
+        sensor_height_m: omni bearings: height of the camera's single viewpoint above the
+            ground plane [m] (set from the calibration rig by the factory).
+        bearing_min_sightings: omni bearings: sightings a track needs before it is
+            triangulated and enters the state (delayed initialisation, ``bearings``); >= 2.
+        bearing_min_parallax_deg: omni bearings: the angle the track's viewpoints subtend at
+            the triangulated point needed before it enters the state [deg] (graphslam's and
+            FastSLAM's 3 deg).
+        bearing_gate_probability: omni bearings: an (azimuth, elevation) innovation of a mapped
+            track outside this chi-square quantile (2 dof) is an outlier (a feature track that
+            jumped to another point) and is skipped.
+        landmarks_per_image: omni bearings: the per-image landmark budget of
+            ``core.track_budget`` (graphslam's 40); 0: every track. Each landmark adds three rows
+            and columns to P and each sighting an O(n^2) update.
     """
 
     motion_noise: MotionNoise = field(default_factory=MotionNoise)
@@ -57,6 +70,11 @@ class EKFSLAMConfig:
     known_gate_probability: float = 1.0
     ignore_ids: bool = False
     initial_landmark_capacity: int = 64
+    sensor_height_m: float = 0.0
+    bearing_min_sightings: int = 3
+    bearing_min_parallax_deg: float = 3.0
+    bearing_gate_probability: float = 0.999
+    landmarks_per_image: int = 40
 
     def __post_init__(self) -> None:
         if not 0.0 < self.gate_probability < 1.0:
@@ -80,6 +98,16 @@ class EKFSLAMConfig:
             raise ConfigError("initial_pose_sigma must be three non-negative stds")
         if self.initial_landmark_capacity < 1:
             raise ConfigError("initial_landmark_capacity must be >= 1")
+        if self.bearing_min_sightings < 2:
+            raise ConfigError(
+                f"bearing_min_sightings must be >= 2, got {self.bearing_min_sightings}"
+            )
+        if self.bearing_min_parallax_deg < 0 or self.landmarks_per_image < 0:
+            raise ConfigError("bearing_min_parallax_deg and landmarks_per_image must be >= 0")
+        if not 0.0 < self.bearing_gate_probability <= 1.0:
+            raise ConfigError(
+                f"bearing_gate_probability must be in (0, 1], got {self.bearing_gate_probability}"
+            )
 
     def with_(self, **changes: object) -> EKFSLAMConfig:
         """A copy with some fields changed (validated again)."""

@@ -7,25 +7,39 @@ from collections.abc import Mapping
 import numpy as np
 
 from omnislam.core.modality import Modality
+from omnislam.ekfslam.bearings import BearingEKFSLAM
 from omnislam.ekfslam.config import EKFSLAMConfig
 from omnislam.ekfslam.filter import EKFSLAM
 from omnislam.errors import ConfigError
 from omnislam.options import apply_options
 
 
-def make_estimator(info: object, options: Mapping[str, str], rng: np.random.Generator) -> EKFSLAM:
+def make_estimator(
+    info: object, options: Mapping[str, str], rng: np.random.Generator
+) -> EKFSLAM | BearingEKFSLAM:
     """EKF-SLAM from the default ``EKFSLAMConfig`` with ``--set`` overrides.
 
-    The filter is deterministic (``rng`` is unused); the sighting noise comes from the data.
+    On range-bearing sightings the 2-D filter (``filter.EKFSLAM``); on the omni front end's
+    bearings the 3-D one with delayed initialisation (``bearings.BearingEKFSLAM``), its
+    ``sensor_height_m`` taken from the calibration rig (``info.sensor_height_m``) unless set.
+    The filters are deterministic (``rng`` is unused); the sighting noise comes from the data.
 
     Raises:
-        ConfigError: an unknown option or a bad value, or a modality other than 2-D range-bearing.
+        ConfigError: an unknown option or a bad value, or a modality other than these two.
     """
     del rng
     modality = getattr(info, "modality", None)
+    config = EKFSLAMConfig()
+    if modality is Modality.BEARINGS_3D:
+        height = getattr(info, "sensor_height_m", None)
+        if height is not None and "sensor_height_m" not in options:
+            config = config.with_(sensor_height_m=float(height))
+        return BearingEKFSLAM(apply_options(config, options))
     if modality is not None and modality is not Modality.RANGE_BEARING_2D:
-        raise ConfigError(f"ekfslam consumes range_bearing_2d sightings, not {modality.value}")
-    return EKFSLAM(apply_options(EKFSLAMConfig(), options))
+        raise ConfigError(
+            f"ekfslam consumes range-bearing-2d or bearings-3d sightings, not {modality.value}"
+        )
+    return EKFSLAM(apply_options(config, options))
 
 
 def check_options(options: Mapping[str, str]) -> None:

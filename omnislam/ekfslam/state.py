@@ -1,4 +1,9 @@
-"""The EKF-SLAM Gaussian: the joint state [x_r, y_r, theta_r, x_1, y_1, ...] and its covariance.
+"""The EKF-SLAM Gaussian: the joint state [x_r, y_r, theta_r, l_1, l_2, ...] and its covariance.
+
+Each landmark l_i is a point of ``landmark_dim`` coordinates: (x, y) for range-bearing
+sightings, (x, y, z) for the omni camera's bearings (``ekfslam.bearings``); the measurement
+model of each update or augmentation may be passed per call (the omni filter updates with
+(azimuth, elevation) and augments with the triangulated (d, azimuth, elevation)).
 
 SLAM for Dummies ("O EKF", "As matrizes"): the state X holds the robot pose and the position of
 every landmark, P their joint covariance. Both live in preallocated arrays whose capacity doubles
@@ -22,20 +27,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.measurement import MeasurementModel, RangeBearing2D
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.se import se2_compose_jacobians, wrap_angle
 
 #: dimension of the robot pose block
 POSE_DIM = 3
-#: dimension of one landmark block
+#: dimension of one landmark block of the 2-D (range-bearing) filter
 LANDMARK_DIM = 2
 
 
-def landmark_columns(slot: int) -> slice:
-    """The state indices of landmark ``slot`` (0-based): 3 + 2 slot, 3 + 2 slot + 1."""
-    start = POSE_DIM + LANDMARK_DIM * slot
-    return slice(start, start + LANDMARK_DIM)
+def landmark_columns(slot: int, landmark_dim: int = LANDMARK_DIM) -> slice:
+    """The state indices of landmark ``slot`` (0-based): 3 + dim slot ... 3 + dim (slot + 1)."""
+    start = POSE_DIM + landmark_dim * slot
+    return slice(start, start + landmark_dim)
 
 
 class SlamGaussian:
@@ -45,7 +50,8 @@ class SlamGaussian:
         pose_w: (3,) initial robot pose [x, y, theta] in the world.
         pose_cov: (3, 3) its covariance.
         capacity: landmark slots preallocated.
-        model: the range-bearing measurement model (``core.measurement``).
+        model: the default measurement model (``core.measurement``; range-bearing by
+            default); its ``dim_landmark`` sets the landmark dimension (2 or 3).
     """
 
     def __init__(
@@ -53,10 +59,11 @@ class SlamGaussian:
         pose_w: np.ndarray,
         pose_cov: np.ndarray,
         capacity: int = 64,
-        model: RangeBearing2D | None = None,
+        model: MeasurementModel | None = None,
     ) -> None:
         self.model = RangeBearing2D() if model is None else model
-        size = POSE_DIM + LANDMARK_DIM * max(int(capacity), 1)
+        self.landmark_dim = int(getattr(self.model, "dim_landmark", LANDMARK_DIM))
+        size = POSE_DIM + self.landmark_dim * max(int(capacity), 1)
         self._x = np.zeros(size)
         self._P = np.zeros((size, size))
         self._x[:POSE_DIM] = np.asarray(pose_w, dtype=float).reshape(POSE_DIM)
@@ -67,22 +74,22 @@ class SlamGaussian:
 
     @property
     def dim(self) -> int:
-        """3 + 2 n."""
-        return POSE_DIM + LANDMARK_DIM * self.n_landmarks
+        """3 + dim n."""
+        return POSE_DIM + self.landmark_dim * self.n_landmarks
 
     @property
     def capacity(self) -> int:
         """Landmark slots allocated."""
-        return (self._x.shape[0] - POSE_DIM) // LANDMARK_DIM
+        return (self._x.shape[0] - POSE_DIM) // self.landmark_dim
 
     @property
     def mean(self) -> np.ndarray:
-        """(3 + 2n,) view of X (writes change the state)."""
+        """(3 + dim n,) view of X (writes change the state)."""
         return self._x[: self.dim]
 
     @property
     def cov(self) -> np.ndarray:
-        """(3 + 2n, 3 + 2n) view of P (writes change the state)."""
+        """(3 + dim n, 3 + dim n) view of P (writes change the state)."""
         d = self.dim
         return self._P[:d, :d]
 
@@ -98,14 +105,15 @@ class SlamGaussian:
 
     @property
     def landmarks(self) -> np.ndarray:
-        """(n, 2) copy of the landmark positions [m]."""
-        return self._x[POSE_DIM : self.dim].reshape(-1, LANDMARK_DIM).copy()
+        """(n, dim) copy of the landmark positions [m]."""
+        return self._x[POSE_DIM : self.dim].reshape(-1, self.landmark_dim).copy()
 
     def landmark_covariances(self, slots: np.ndarray | None = None) -> np.ndarray:
-        """(m, 2, 2) diagonal blocks P_ii of the given landmark slots (all by default)."""
+        """(m, dim, dim) diagonal blocks P_ii of the given landmark slots (all by default)."""
         slots = np.arange(self.n_landmarks) if slots is None else np.asarray(slots, dtype=int)
-        rows = POSE_DIM + LANDMARK_DIM * slots[:, None, None] + np.arange(2)[None, :, None]
-        cols = POSE_DIM + LANDMARK_DIM * slots[:, None, None] + np.arange(2)[None, None, :]
+        k, span = self.landmark_dim, np.arange(self.landmark_dim)
+        rows = POSE_DIM + k * slots[:, None, None] + span[None, :, None]
+        cols = POSE_DIM + k * slots[:, None, None] + span[None, None, :]
         return self._P[rows, cols]
 
     # -- Passo 1: prediction --------------------------------------------------------------------
@@ -149,25 +157,35 @@ class SlamGaussian:
 
     # -- Passo 2: update ------------------------------------------------------------------------
 
-    def innovation(self, slot: int, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def innovation(
+        self, slot: int, z: np.ndarray, model: MeasurementModel | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Innovation of one sighting of landmark ``slot`` and the sparse Jacobian.
 
+        Args:
+            slot: landmark slot.
+            z: (k,) the sighting.
+            model: its measurement model (the state's default when None).
+
         Returns:
-            nu (2,) = z - h(X) (bearing wrapped), Hs (2, 5) = [H_r | H_l] (the tutorial's
-            a b c / d e f and -a -b / -d -e columns, from ``RangeBearing2D.predict``), and the
-            five state indices those columns belong to.
+            nu (k,) = z - h(X) (angles wrapped), Hs (k, 3 + dim) = [H_r | H_l] (for
+            range-bearing the tutorial's a b c / d e f and -a -b / -d -e columns, from
+            ``RangeBearing2D.predict``), and the 3 + dim state indices those columns belong to.
         """
-        cols = landmark_columns(slot)
-        z_hat, H_r, H_l = self.model.predict(self._x[:POSE_DIM], self._x[cols])
+        model = self.model if model is None else model
+        cols = landmark_columns(slot, self.landmark_dim)
+        z_hat, H_r, H_l = model.predict(self._x[:POSE_DIM], self._x[cols])
         Hs = np.concatenate([H_r, H_l], axis=-1)
         idx = np.r_[0:POSE_DIM, cols.start : cols.stop]
-        return self.model.residual(z, z_hat), Hs, idx
+        return model.residual(z, z_hat), Hs, idx
 
     def innovation_covariance(self, Hs: np.ndarray, idx: np.ndarray, R: np.ndarray) -> np.ndarray:
-        """S = H P H^T + R from the five relevant rows and columns of P (tutorial "Passo 2")."""
+        """S = H P H^T + R from the 3 + dim relevant rows and columns of P (tutorial "Passo 2")."""
         return Hs @ self._P[np.ix_(idx, idx)] @ Hs.T + R
 
-    def update(self, slot: int, z: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def update(
+        self, slot: int, z: np.ndarray, R: np.ndarray, model: MeasurementModel | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Correct the state with one sighting of landmark ``slot`` (tutorial "Passo 2"), O(n^2).
 
         K = P H^T S^-1, X' = X + K (z - h), and the Joseph form
@@ -178,18 +196,19 @@ class SlamGaussian:
         the exact expansion for any gain K, using (I - K H) P H^T = P H^T - K (S - R). With the
         optimal K the second term is zero up to rounding; keeping it is what makes the Joseph
         form insensitive (to first order) to rounding errors in K. P H^T is gathered from the
-        five columns of the robot and the landmark; the correction is one (d x 4)(4 x d)
+        3 + dim columns of the robot and the landmark; the correction is one (d x 2k)(2k x d)
         product. The caller symmetrises P (``symmetrise``) once per frame.
 
         Args:
             slot: landmark slot.
-            z: (2,) measured (range [m], bearing [rad]).
-            R: (2, 2) sighting noise covariance.
+            z: (k,) measured, e.g. (range [m], bearing [rad]).
+            R: (k, k) sighting noise covariance.
+            model: the sighting's measurement model (the state's default when None).
 
         Returns:
-            (nu, S): the innovation (2,) and its covariance (2, 2) before the update.
+            (nu, S): the innovation (k,) and its covariance (k, k) before the update.
         """
-        nu, Hs, idx = self.innovation(slot, z)
+        nu, Hs, idx = self.innovation(slot, z, model)
         d = self.dim
         P = self._P[:d, :d]
         PHt = P[:, idx] @ Hs.T  # (d, 2)
@@ -197,10 +216,56 @@ class SlamGaussian:
         K = PHt @ np.linalg.inv(S)
         self._x[:d] += K @ nu
         self._x[2] = wrap_angle(self._x[2])
-        U = np.concatenate([K, PHt - K @ S], axis=1)  # (d, 4)
-        V = np.concatenate([PHt, K], axis=1)  # (d, 4)
+        U = np.concatenate([K, PHt - K @ S], axis=1)  # (d, 2k)
+        V = np.concatenate([PHt, K], axis=1)  # (d, 2k)
         P -= U @ V.T
         return nu, S
+
+    def update_batch(
+        self, slots: np.ndarray, z: np.ndarray, R: np.ndarray, model: MeasurementModel | None = None
+    ) -> None:
+        """Correct the state with m sightings at once, all linearised at the current state.
+
+        The stacked H (mk x d) has non-zeros only in the robot's and each sighted landmark's
+        columns; P H^T is gathered from those columns (d x mk), S = H P H^T + blockdiag(R) and
+        the Joseph-form correction of ``update`` is one (d x 2mk)(2mk x d) product: the same
+        O(m n^2) as m sequential updates, but one pass over P instead of m (the omni filter's
+        ~40 bearings per image). Equal to m sequential updates up to the relinearisation
+        between them (exact for a linear model).
+
+        Args:
+            slots: (m,) distinct landmark slots.
+            z: (m, k) sightings; R: (m, k, k) their noise covariances.
+            model: their measurement model (the state's default when None).
+        """
+        model = self.model if model is None else model
+        slots = np.asarray(slots, dtype=int)
+        m = slots.size
+        if m == 0:
+            return
+        k_dim, dim_l = int(model.dim_z), self.landmark_dim
+        d = self.dim
+        cols = POSE_DIM + dim_l * slots[:, None] + np.arange(dim_l)[None, :]  # (m, dim_l)
+        z_hat, H_r, H_l = model.predict(self._x[:POSE_DIM], self._x[cols])
+        nu = model.residual(np.asarray(z, dtype=float), z_hat).reshape(m * k_dim)
+        P = self._P[:d, :d]
+        # P H^T = P[:, robot] H_r^T + P[:, landmark_i] H_l,i^T, one (d, k) block per sighting
+        PHt = np.einsum("dr,mkr->dmk", P[:, :POSE_DIM], H_r)
+        PHt += np.einsum("dmj,mkj->dmk", P[:, cols], H_l)
+        PHt = PHt.reshape(d, m * k_dim)
+        # H P H^T from the rows of P H^T that H touches
+        HPHt = np.einsum("mkr,rn->mkn", H_r, PHt[:POSE_DIM])
+        HPHt += np.einsum("mkj,mjn->mkn", H_l, PHt[cols])
+        S = HPHt.reshape(m * k_dim, m * k_dim)
+        for i in range(m):
+            S[i * k_dim : (i + 1) * k_dim, i * k_dim : (i + 1) * k_dim] += R[i]
+        S = 0.5 * (S + S.T)
+        K = np.linalg.solve(S, PHt.T).T  # P H^T S^-1 (S symmetric)
+        self._x[:d] += K @ nu
+        self._x[2] = wrap_angle(self._x[2])
+        U = np.concatenate([K, PHt - K @ S], axis=1)
+        V = np.concatenate([PHt, K], axis=1)
+        P -= U @ V.T
 
     def symmetrise(self) -> None:
         """P <- (P + P^T) / 2: removes the rounding asymmetry of the sequential updates."""
@@ -211,7 +276,7 @@ class SlamGaussian:
 
     # -- Passo 3: augmentation ------------------------------------------------------------------
 
-    def augment(self, z: np.ndarray, R: np.ndarray) -> int:
+    def augment(self, z: np.ndarray, R: np.ndarray, model: object | None = None) -> int:
         """Add a landmark seen at z = (range, bearing) (tutorial "Passo 3"), O(n).
 
         l = g(x_r, z) = (x_r + r cos(theta_r + b), y_r + r sin(theta_r + b)) with the tutorial's
@@ -219,26 +284,34 @@ class SlamGaussian:
 
             X' = [X; l],   P_ll = J_xr P_rr J_xr^T + J_z R J_z^T,   P_lx = J_xr P_rx.
 
+        Args:
+            z: the sighting the landmark is computed from.
+            R: its noise covariance.
+            model: a model whose ``inverse(wTr, z)`` returns (l (dim,), J_xr (dim, 3),
+                J_z (dim, k)): the state's default model when None; the omni filter passes
+                ``RangeAzimuthElevation3D`` with a triangulated range.
+
         Returns:
             the new landmark's slot.
         """
         if self.n_landmarks == self.capacity:
             self._grow(2 * self.capacity)
-        landmark, J_xr, J_z = self.model.inverse(self._x[:POSE_DIM], np.asarray(z, dtype=float))
-        d = self.dim
+        inverse = (self.model if model is None else model).inverse  # type: ignore[attr-defined]
+        landmark, J_xr, J_z = inverse(self._x[:POSE_DIM], np.asarray(z, dtype=float))
+        d, k = self.dim, self.landmark_dim
         P = self._P
-        cross = J_xr @ P[:POSE_DIM, :d]  # (2, d) = P_lx
-        P[d : d + 2, :d] = cross
-        P[:d, d : d + 2] = cross.T
-        P_ll = J_xr @ P[:POSE_DIM, d : d + 2] + J_z @ R @ J_z.T  # J_xr P_rl = J_xr P_rr J_xr^T
-        P[d : d + 2, d : d + 2] = 0.5 * (P_ll + P_ll.T)
-        self._x[d : d + 2] = landmark
+        cross = J_xr @ P[:POSE_DIM, :d]  # (k, d) = P_lx
+        P[d : d + k, :d] = cross
+        P[:d, d : d + k] = cross.T
+        P_ll = J_xr @ P[:POSE_DIM, d : d + k] + J_z @ R @ J_z.T  # J_xr P_rl = J_xr P_rr J_xr^T
+        P[d : d + k, d : d + k] = 0.5 * (P_ll + P_ll.T)
+        self._x[d : d + k] = landmark
         self.n_landmarks += 1
         return self.n_landmarks - 1
 
     def _grow(self, capacity: int) -> None:
         d = self.dim
-        size = POSE_DIM + LANDMARK_DIM * capacity
+        size = POSE_DIM + self.landmark_dim * capacity
         x = np.zeros(size)
         P = np.zeros((size, size))
         x[:d] = self._x[:d]
@@ -258,6 +331,8 @@ class SlamGaussian:
         Returns:
             (d2 (m,), nu (m, 2)).
         """
+        if self.landmark_dim != LANDMARK_DIM:
+            raise ValueError("mahalanobis_all is for 2-D range-bearing landmarks")
         slots = np.asarray(slots, dtype=int)
         if slots.size == 0:
             return np.zeros(0), np.zeros((0, 2))

@@ -294,6 +294,13 @@ class VerticalEdgeConfig:
             raise ConfigError("VerticalEdgeConfig: azimuth_bins >= 36, profile_half_width >= 1")
 
 
+class LineLandmarks(enum.Enum):
+    """Which points a laser scan's RANSAC lines become (``frontend.laser_landmarks``)."""
+
+    CORNERS = "corners"
+    FEET = "feet"
+
+
 @dataclass(frozen=True, slots=True)
 class LaserLandmarkConfig:
     """Laser landmarks (SLAM for Dummies, "landmark extraction").
@@ -315,6 +322,13 @@ class LaserLandmarkConfig:
         ransac_consensus: C, minimum support of a line.
         sigma_range_fraction: range std as a fraction of the range (1 %).
         sigma_bearing_rad: bearing std (1 deg).
+        line_landmarks: ``feet`` (default: the tutorial's feet of the perpendicular from the
+            odometry origin, which slide along the walls as the odometry drifts) or
+            ``corners`` (intersections of two lines that both reach them: points fixed in the
+            world, but far fewer); see ``laser_landmarks`` and docs/results.md for both on
+            CARMEN.
+        corner_min_angle_deg: two lines closer than this to parallel make no corner.
+        corner_max_gap_m: a corner needs a supporting reading of each line within this.
     """
 
     enabled: bool = True
@@ -329,10 +343,17 @@ class LaserLandmarkConfig:
     ransac_consensus: int = 30
     sigma_range_fraction: float = 0.01
     sigma_bearing_rad: float = 0.0175
+    line_landmarks: LineLandmarks = LineLandmarks.FEET
+    corner_min_angle_deg: float = 45.0
+    corner_max_gap_m: float = 0.3
 
     def __post_init__(self) -> None:
         if self.ransac_samples < 2 or self.ransac_consensus < self.ransac_samples:
             raise ConfigError("LaserLandmarkConfig: samples >= 2 and consensus >= samples")
+        if not 0 < self.corner_min_angle_deg <= 90 or self.corner_max_gap_m <= 0:
+            raise ConfigError(
+                "LaserLandmarkConfig: corner_min_angle_deg in (0, 90] and corner_max_gap_m > 0"
+            )
 
 
 @dataclass(frozen=True, slots=True)

@@ -158,3 +158,32 @@ def test_beam_angles_cover_minus_90_to_90_degrees(beams, last_deg, step_deg):
     angles = np.rad2deg(flaser_angles_rad(beams))
     assert angles[0] == pytest.approx(-90.0) and angles[-1] == pytest.approx(last_deg)
     assert np.allclose(np.diff(angles), step_deg)
+
+
+def test_a_stated_odometry_noise_gives_every_frame_the_motion_model_covariance(tmp_path):
+    from omnislam.core.motion import OdometryMotionModel
+    from omnislam.datasets.carmen import parse_odometry_noise
+    from omnislam.datasets.registry import CARMEN_ODOMETRY_NOISE, DatasetFormat, parse_options
+
+    text = (
+        odom((0, 0, 0), 0.1)
+        + flaser((0, 0, 0), (0, 0, 0), 0.1)
+        + odom((0, 0, 0), 0)
+        + odom((1.1, 0, 0.3), 1.0)
+        + flaser((1.0, 0.1, 0.05), (1.0, 0.1, 0.05), 1.0)
+    )
+    path = tmp_path / "small.log.gz"
+    with gzip.open(path, "wt") as stream:
+        stream.write(text)
+    assert load_carmen(path).odometry_covariance_r is None  # not stated by default
+    options = parse_options(
+        DatasetFormat.CARMEN, {"odometry_noise": CARMEN_ODOMETRY_NOISE["carmen-aces"]}
+    )
+    seq = load_carmen(path, **options)
+    noise = parse_odometry_noise(CARMEN_ODOMETRY_NOISE["carmen-aces"])
+    assert noise.min_sigma == (0.0018, 0.0302, 0.0018)  # (rot, trans, rot) floors
+    expected = OdometryMotionModel(noise).covariance(seq.odometry_r[1])
+    np.testing.assert_allclose(seq.odometry_covariance_r[1], expected)
+    np.testing.assert_allclose(seq.frame_input(1).odometry.covariance, expected)
+    with pytest.raises(ValueError):
+        parse_odometry_noise("0.1,0.2")

@@ -184,7 +184,7 @@ def test_bad_options_raise_config_error(rng, options):
 def test_other_modality_raises_config_error(rng):
     from omnislam.ekfslam import make_estimator as factory
 
-    info = SequenceInfo(name="omni", frames=0, modality=Modality.BEARINGS_3D)
+    info = SequenceInfo(name="lines", frames=0, modality=Modality.VERTICAL_LINES)
     with pytest.raises(ConfigError):
         factory(info, {}, rng)
 

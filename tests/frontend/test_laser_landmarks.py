@@ -65,3 +65,25 @@ def test_line_feet_come_from_the_odometry_origin_when_a_pose_is_given(rng):
     r, b = np.hypot(*foot_r), np.arctan2(foot_r[1], foot_r[0])
     d_b = np.abs((sightings.bearings_rad - b + np.pi) % (2 * np.pi) - np.pi)
     assert np.any((np.abs(sightings.ranges_m - r) < RANGE_TOL_M) & (d_b < BEARING_TOL_RAD))
+
+
+def test_corners_are_where_two_walls_meet_and_do_not_depend_on_the_pose(rng):
+    """With ``line_landmarks=corners`` the lines become the room's corners that the scan
+    reaches (both walls end there), the same points whatever the odometry pose."""
+    from omnislam.frontend.config import LineLandmarks
+
+    angles, ranges = _room_scan(pole=(10.0, 10.0))  # pole outside the room: walls only
+    ranges = ranges + rng.normal(scale=0.005, size=ranges.shape)
+    config = LaserLandmarkConfig(line_landmarks=LineLandmarks.CORNERS)
+    for pose in (None, np.array([1.0, 0.0, np.pi / 2])):
+        sightings = extract_laser_landmarks(angles, ranges, 30.0, config, rng, pose)
+        points = np.column_stack(
+            [
+                sightings.ranges_m * np.cos(sightings.bearings_rad),
+                sightings.ranges_m * np.sin(sightings.bearings_rad),
+            ]
+        )
+        corners = np.array([[3.0, 2.0], [-3.0, 2.0], [-3.0, -2.0], [3.0, -2.0]])
+        gaps = np.linalg.norm(points[:, None, :] - corners[None], axis=-1)
+        assert len(points) >= 3 and np.all(gaps.min(axis=1) < 0.05)  # only true corners
+        assert np.unique(gaps.argmin(axis=1)).size == len(points)  # each once
