@@ -13,7 +13,7 @@ its sightings see true points within 5 cm of their median), measures
 Residual variances are corrected for the true point being the mean of the track's own n
 sightings (factor n / (n - 1)).
 
-    .venv/bin/python benchmarks/bearing_noise.py --dataset /work/renders/lab40-v2 \
+    .venv/bin/python benchmarks/bearing_noise.py --dataset runs/lab40 \
         [--images N] [--set tracks.sigma_px=1.0 ...]
 """
 

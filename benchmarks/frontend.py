@@ -2,7 +2,7 @@
 
 Usage (render the datasets first with ``omnislam dataset synth PRESET --out DIR``):
 
-    .venv/bin/python benchmarks/frontend.py --dataset /work/renders/lab40-v2 [--images N] \
+    .venv/bin/python benchmarks/frontend.py --dataset runs/lab40 [--images N] \
         [--repeat 3] [--variants] [--corridor DIR] [--real] [--json results.json]
 
 Reports, on the synthetic omni dataset, with the default configuration (vertical edges on, as

@@ -85,6 +85,7 @@ def main() -> None:
                 *options,
                 "--out",
                 str(run_dir),
+                "--overwrite",
             )
             _cli("evaluate", str(run_dir), "--json")
         metrics = json.loads((run_dir / "metrics.json").read_text())

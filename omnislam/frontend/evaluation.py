@@ -193,14 +193,14 @@ def reassociation_rate(
     return (good / returns if returns else 0.0), returns
 
 
-def visible_line_bearings(
+def visible_lines(
     lines_w: np.ndarray,
     wTr: np.ndarray,
     rig: object,
     points_w: np.ndarray,
     tol_m: float = 0.12,
-) -> np.ndarray:
-    """True robot-frame bearings of the vertical-line landmarks visible in one image.
+) -> tuple[np.ndarray, np.ndarray]:
+    """The vertical-line landmarks visible in one image and their true robot-frame bearings.
 
     A line (x, y) is visible when its point at the camera's height projects into the usable
     image and the renderer's world point at that pixel (or up to 3 px aside) lies within
@@ -211,11 +211,14 @@ def visible_line_bearings(
         wTr: (4, 4) true robot pose.
         rig: the camera rig.
         points_w: (H, W, 3) the renderer's world point of every pixel.
+
+    Returns:
+        (indices into ``lines_w`` (V,), bearings (V,) [rad]).
     """
     R, t = wTr[:3, :3], wTr[:3, 3]
     viewpoint_r = rig.viewpoint_r  # type: ignore[attr-defined]
-    out = []
-    for x, y in np.asarray(lines_w, dtype=float).reshape(-1, 2):
+    index, out = [], []
+    for k, (x, y) in enumerate(np.asarray(lines_w, dtype=float).reshape(-1, 2)):
         p_w = np.array([x, y, (R @ viewpoint_r + t)[2]])
         p_r = (p_w - t) @ R
         pixels, valid = rig.project_r(p_r[None])  # type: ignore[attr-defined]
@@ -227,8 +230,21 @@ def visible_line_bearings(
         near = np.hypot(seen[:, 0] - x, seen[:, 1] - y) < tol_m
         if np.any(near):
             d_r = p_r - viewpoint_r
+            index.append(k)
             out.append(np.arctan2(d_r[1], d_r[0]))
-    return np.array(out)
+    return np.array(index, dtype=np.int64), np.array(out)
+
+
+def visible_line_bearings(
+    lines_w: np.ndarray,
+    wTr: np.ndarray,
+    rig: object,
+    points_w: np.ndarray,
+    tol_m: float = 0.12,
+) -> np.ndarray:
+    """True robot-frame bearings of the vertical-line landmarks visible in one image
+    (``visible_lines`` without the indices)."""
+    return visible_lines(lines_w, wTr, rig, points_w, tol_m)[1]
 
 
 def bearing_errors(detected_rad: np.ndarray, true_rad: np.ndarray) -> np.ndarray:

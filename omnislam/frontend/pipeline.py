@@ -19,7 +19,6 @@ import dataclasses
 import itertools
 import multiprocessing
 import pickle
-import sys
 import time
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -83,6 +82,12 @@ def log_key(config: FrontendConfig, max_images: int | None = None) -> str:
     """The configuration key of a log: ``config_hash``, suffixed when images were limited."""
     key = config_hash(config)
     return key if max_images is None else f"{key}-first{max_images}"
+
+
+def _has_own_sightings(sequence: Any) -> bool:
+    """True when the loader gives range-bearing sightings in at least one frame."""
+    own = sequence.range_bearing
+    return own is not None and any(f is not None and len(f.landmark_ids) for f in own)
 
 
 def _merge_sightings(a: RangeBearing | None, b: RangeBearing | None) -> RangeBearing | None:
@@ -237,7 +242,7 @@ def run_frontend(
         config: the configuration (default ``FrontendConfig()``: OMNI_THESIS SIFT).
         rng: generator for RANSAC (default: seeded with ``DEFAULT_SEED``).
         max_images: process at most this many images (the log still has every frame).
-        progress: show a tqdm bar on stderr.
+        progress: show the images done, rate and ETA on stderr (``omnislam._progress``).
         pipelined: prepare the next images (load, SIFT, groups, rays, vertical edges) in
             ``WORKERS`` processes while image k is tracked (the CLI does); the log is the same
             either way (a test). The processes are spawned: a script calling this must guard
@@ -271,9 +276,9 @@ def run_frontend(
         poses_dr = se2_integrate(sequence.odometry_r)
         bar = None
         if progress:
-            from tqdm import tqdm
+            from omnislam._progress import Progress
 
-            bar = tqdm(total=int(processed.size), desc="frontend", unit="img", file=sys.stderr)
+            bar = Progress(f"frontend {sequence.name}", int(processed.size), "img")
         for i, image in _prepared(sequence, config, processed.tolist(), pipelined):
             for stage, seconds in image.seconds.items():
                 clock.add(stage, seconds, image.cpu_seconds[stage])
@@ -293,7 +298,7 @@ def run_frontend(
             if image.lines is not None:
                 lines[i] = image.lines
             if bar is not None:
-                bar.update(1)
+                bar.advance()
         if bar is not None:
             bar.close()
         sightings = tracker.sightings
@@ -304,7 +309,9 @@ def run_frontend(
     images_cpu_s = time.process_time() - cpu_start + prepared_cpu_s
 
     laser_sightings: dict[int, RangeBearing] = {}
-    if sequence.laser is not None and config.laser.enabled:
+    if sequence.laser is not None and config.laser.enabled and (
+        config.laser.merge_with_sightings or not _has_own_sightings(sequence)
+    ):
         from omnislam.frontend.laser_landmarks import extract_laser_landmarks
 
         scans = sequence.laser

@@ -220,11 +220,13 @@ def _bearing(rays_r: np.ndarray) -> np.ndarray:
 
 def _perspective(image: np.ndarray, rig: object, config: VerticalEdgeConfig) -> VerticalLines:
     gx, gy = _gradients(image)
-    magnitude = np.hypot(gx, gy)
-    direction_ok = np.abs(gy) <= np.tan(config.max_direction_error_rad) * np.abs(gx)
-    edge = (magnitude >= config.min_gradient) & direction_ok
+    abs_gx = np.abs(gx)
+    direction_ok = np.abs(gy) <= np.tan(config.max_direction_error_rad) * abs_gx
+    # |g| >= min as |g|^2 >= min^2: the same pixels (gradients are quarter integers, their
+    # squares exact in float32), without a square root per pixel
+    edge = (gx * gx + gy * gy >= np.float32(config.min_gradient) ** 2) & direction_ok
     votes = edge.sum(axis=0).astype(float)
-    strength = np.where(edge, np.abs(gx), 0.0).sum(axis=0)
+    strength = (abs_gx * edge).sum(axis=0, dtype=float)
     height = gx.shape[0]
     score = votes / height
     peaks = _peaks(score, config.min_support, circular=False)
@@ -234,12 +236,17 @@ def _perspective(image: np.ndarray, rig: object, config: VerticalEdgeConfig) -> 
         return _lines(np.zeros(0), np.zeros((0, 3, 2 * config.profile_half_width + 1)), config)
     rays = rig.rays_r(np.column_stack([columns, np.full(columns.shape, cv_mid)]))  # type: ignore[attr-defined]
     bearings = _bearing(rays)
-    # profile: columns u - n .. u + n (left to right in the image = decreasing bearing)
+    # profile: columns u - n .. u + n (left to right in the image = decreasing bearing); a
+    # line's samples are whole image columns (nearest pixel), so the profile is the mean
+    # colour of those columns (NaN outside the image)
     n = config.profile_half_width
     k = np.arange(-n, n + 1)
-    rows = np.arange(height)
-    u = columns[:, None, None] + k[None, :, None] + 0 * rows[None, None, :]
-    v = np.broadcast_to(rows[None, None, :].astype(float), u.shape)
-    colours = _sample_colours(image, u, v)  # (L, W, H, 3)
-    profiles = _nanmean(colours, axis=2).transpose(0, 2, 1)
+    cols = np.round(columns[:, None] + k[None, :]).astype(int)  # (L, W)
+    inside = (cols >= 0) & (cols < image.shape[1])
+    used = np.unique(cols[inside])
+    column_means = np.zeros((image.shape[1], 3))
+    column_means[used] = image[:, used, :3].mean(axis=0, dtype=float)
+    colours = np.full((*cols.shape, 3), np.nan)
+    colours[inside] = column_means[cols[inside]]
+    profiles = colours.transpose(0, 2, 1)  # (L, 3, W)
     return _lines(bearings, profiles, config)

@@ -148,8 +148,9 @@ class RangeBearingGraph:
         config = self._config
         pose_cov = None
         if config.association_pose_covariance and k > 0:
-            # the newest estimated pose (frame k-1) is in the root clique: a cheap marginal
-            previous = self._session.marginal_covariance(fx.pose_key(k - 1))
+            # the newest estimated pose (the previous key frame) is in the root clique: a
+            # cheap marginal
+            previous = self._session.marginal_covariance(fx.pose_key(self._poses.newest_key))
             pose_cov = self._poses.world_covariance(previous, self._poses.newest_w[2])
         points, covs = sighting_points(
             guess_w,

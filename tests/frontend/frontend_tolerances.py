@@ -21,5 +21,13 @@ CORRIDOR_IMAGES = 12
 LINE_MATCH_RAD = 0.0175
 #: fraction of the door-frame edges in view that must be detected
 MIN_LINE_RECALL = 0.9
+#: the pinhole corridor's recall counts door-frame lines up to this range [m]: farther, a 2.13 m
+#: frame spans less than min_support (30 %) of the image height (480 px at f = 400 px)
+PINHOLE_LINE_RANGE_M = 5.9
 #: median bearing error of the detected edges [rad] (0.5 deg)
 MAX_LINE_MEDIAN_RAD = 0.0087
+#: median bearing error of the door-frame edges of the pinhole corridor [rad] (1 px at f = 400)
+MAX_PINHOLE_LINE_MEDIAN_RAD = 0.0025
+#: fraction of the door-frame lines whose MC passes Barra & Costa's photometric gate against the
+#: surveyed MC of their landmark (corridor21, 59 images: 72%)
+MIN_PHOTOMETRIC_PASS = 0.6
