@@ -11,7 +11,7 @@ front end runs from the images every time (pipelined, as the CLI runs it) before
 replays its log. Printed per run and as medians: wall-clock seconds of the command, its CPU
 seconds (user + system of the command and of every process it started: the front end's
 workers), the front end's own wall and CPU seconds over the images (the log's stats), the
-estimator's replay time (the run folder's ``config.json``), and the machine's load average
+estimator's replay time (the run folder's ``config.yaml``), and the machine's load average
 before and after (on a shared 2-core machine wall-clock depends on the neighbours; CPU does
 not).
 """
@@ -53,7 +53,9 @@ def one_run(dataset: Path, estimator: str, options: list[str], keep_log: Path | 
         if done.returncode != 0:
             sys.stderr.write(done.stderr)
             raise SystemExit(f"{' '.join(command)} failed ({done.returncode})")
-        config = json.loads((out / "config.json").read_text())
+        import yaml
+
+        config = yaml.safe_load((out / "config.yaml").read_text())
         logs = list((Path(tmp) / "cache" / "logs").glob("*.npz"))
         frontend = {}
         if logs:

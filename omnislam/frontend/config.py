@@ -97,14 +97,13 @@ LOWE = SiftConfig()
 #: Thesis 4.1.2: on omnidirectional images keep Lowe's rejection rate with R ~ 2. The contrast
 #: threshold is lowered to 0.02 so that the ring (a third of the pixels of a perspective image
 #: of the same size, blurred by the mirror) still yields several hundred features. The finest
-#: octave is sampled at the image's pixels (the thesis leaves doubling optional, 4.1.1). A budget
-#: of the strongest keypoints, 1.2 per 1000 px of the usable ring (318 of ~490 on a lab40 image):
-#: on the full lab40 run a budget of 300 raised track precision from 98.98 % to 99.66 % and cut
-#: the RMS error of landmarks triangulated from the true poses from 182 to 28 cm (the weakest
-#: keypoints make the wrong tracks), at 134 instead of 226 sightings per image
-#: (docs/results.md, "Front-end speed").
+#: octave is sampled at the image's pixels (the thesis leaves doubling optional, 4.1.1). No
+#: keypoint budget by default: ``features_per_kpx=1.2`` (318 of ~490 keypoints on a lab40 image)
+#: raised lab40's track precision from 98.98 % to 99.60 % and cut the RMS error of landmarks
+#: triangulated from the true poses from 182 to 27 cm, at 140 instead of 226 sightings per
+#: image, but changes every estimator's input (docs/results.md, "Front-end speed and quality").
 OMNI_THESIS = SiftConfig(contrast_threshold=0.02, edge_threshold=2.0,
-                         first_octave=FirstOctave.NATIVE, features_per_kpx=1.2)
+                         first_octave=FirstOctave.NATIVE)
 SIFT_PRESETS: dict[str, SiftConfig] = {"lowe": LOWE, "omni-thesis": OMNI_THESIS}
 
 
