@@ -56,7 +56,8 @@ def one_run(dataset: Path, estimator: str, options: list[str], keep_log: Path | 
         import yaml
 
         config = yaml.safe_load((out / "config.yaml").read_text())
-        logs = list((Path(tmp) / "cache" / "logs").glob("*.npz"))
+        logs = [p for p in (Path(tmp) / "cache" / "logs").glob("*.npz")
+                if not p.name.endswith(".truth.npz")]  # not the tracks' true points
         frontend = {}
         if logs:
             from omnislam.frontend.observation_log import load_observation_log
