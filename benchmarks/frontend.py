@@ -205,6 +205,8 @@ def main() -> int:
     parser.add_argument("--variant", action="append", default=None, metavar="NAME",
                         help="with --variants: only these (repeatable); with --repeat 0 only "
                              "the variants run")
+    parser.add_argument("--speed-only", action="store_true",
+                        help="no quality figures after the speed runs")
     parser.add_argument("--sequential", action="store_true",
                         help="also one run without the worker processes")
     parser.add_argument("--unverified", action="store_true",
@@ -239,7 +241,8 @@ def main() -> int:
                                       pipelined=False)
             results["sequential"] = totals(sequential) | per_stage(sequential)
         results["load_average_after_speed"] = os.getloadavg()
-        results["verified"] = quality(log, sequence, truth)
+        if not args.speed_only:
+            results["verified"] = quality(log, sequence, truth)
         if args.unverified:
             unverified = dataclasses.replace(config,
                                              verification=VerificationConfig(enabled=False))
