@@ -3,26 +3,32 @@
 Usage (render the datasets first with ``omnislam dataset synth PRESET --out DIR``):
 
     .venv/bin/python benchmarks/frontend.py --dataset runs/lab40 [--images N] \
-        [--repeat 3] [--variants] [--corridor DIR] [--real] [--json results.json]
+        [--repeat 3] [--sequential] [--unverified] [--variants] [--corridor DIR] [--real] \
+        [--json results.json]
+    .venv/bin/python benchmarks/frontend.py --dataset runs/lab40 --log LOG  # quality only
 
 Reports, on the synthetic omni dataset, with the default configuration (vertical edges on, as
 ``omnislam frontend`` runs; no laser):
 
 - speed of the whole image loop (load, SIFT, groups, vertical edges, matching, verification,
   tracks), pipelined as ``omnislam frontend`` runs it: images/s wall-clock and CPU ms per
-  image (all threads), medians of ``--repeat`` runs, with the machine's load average; then one
-  sequential run for wall and CPU ms per image of every stage; SIFT alone for reference;
-- quality: track precision (two sightings of one track see true points within 5 cm) with and
-  without geometric verification; tracks kept, median verified sightings per image, median
-  track length; re-association after a return (>= 60 s); the landmark error the bearings
-  allow (every consistent track of >= 3 sightings triangulated from the true poses: median,
-  90th percentile, RMS, and for tracks with >= 3 deg of parallax); the bearings' noise ratio
-  (``evaluation.noise_ratio``: RMS residual / logged sigma, 1 = calibrated);
+  image (this process and its worker processes, every thread), and wall and CPU ms per image
+  of every stage (the preparation's stages in the workers, each CPU figure its own
+  process's), medians of ``--repeat`` runs, with the machine's load average; SIFT alone for
+  reference; ``--sequential``: one run without the workers;
+- quality: track precision (two sightings of one track see true points within 5 cm; without
+  geometric verification too with ``--unverified``); tracks kept, median verified sightings
+  per image, median track length; re-association after a return (>= 60 s); the landmark
+  error the bearings allow (every consistent track of >= 3 sightings triangulated from the
+  true poses: median, 90th percentile, RMS, and for tracks with >= 3 deg of parallax); the
+  bearings' noise ratio (``evaluation.noise_ratio``: RMS residual / logged sigma, 1 =
+  calibrated);
 - ``--variants``: the same quality and CPU figures (per stage) for the scale-space choices of
   ``SiftConfig.first_octave`` (doubled with OpenCV's default upscale, doubled with the exact
-  one, native, none), for native with 2 layers per octave or a budget of the 300 strongest
-  keypoints, and for the general 8-point RANSAC instead of the planar one,
-  sequentially, one run each (``--variant NAME`` picks some; ``--repeat 0`` runs only them);
+  one, native, none), for native with 2 layers per octave or a budget of the strongest 1.2
+  keypoints per 1000 px of the ring (``SiftConfig.features_per_kpx``), and for the general
+  8-point RANSAC instead of the planar one, sequentially, one run each (``--variant NAME``
+  picks some; ``--repeat 0`` runs only them);
 and optionally vertical-edge recall / bearing error on corridor21 and verified matches per
 image pair on the real OCamCalib VMR lab images.
 """
@@ -48,6 +54,7 @@ from omnislam.frontend.config import (
     VerificationConfig,
     VerticalEdgeConfig,
 )
+from omnislam.frontend.observation_log import load_observation_log
 from omnislam.frontend.pipeline import run_frontend
 from omnislam.frontend.sift import SiftExtractor, detection_mask
 from omnislam.frontend.vertical_edges import extract_vertical_lines
@@ -72,9 +79,9 @@ def variants(config: FrontendConfig) -> dict[str, FrontendConfig]:
             sift, first_octave=FirstOctave.NONE)),
         "native, 2 layers per octave": dataclasses.replace(config, sift=dataclasses.replace(
             sift, first_octave=FirstOctave.NATIVE, n_octave_layers=2)),
-        "native, the 300 strongest keypoints": dataclasses.replace(
+        "native, 1.2 keypoints per 1000 px": dataclasses.replace(
             config, sift=dataclasses.replace(sift, first_octave=FirstOctave.NATIVE,
-                                             max_features=300)),
+                                             features_per_kpx=1.2)),
         "native, 8-point RANSAC": dataclasses.replace(config, verification=dataclasses.replace(
             config.verification, planar_motion=False)),
     }
@@ -198,6 +205,14 @@ def main() -> int:
     parser.add_argument("--variant", action="append", default=None, metavar="NAME",
                         help="with --variants: only these (repeatable); with --repeat 0 only "
                              "the variants run")
+    parser.add_argument("--speed-only", action="store_true",
+                        help="no quality figures after the speed runs")
+    parser.add_argument("--sequential", action="store_true",
+                        help="also one run without the worker processes")
+    parser.add_argument("--unverified", action="store_true",
+                        help="also the quality without geometric verification")
+    parser.add_argument("--log", type=Path, default=None,
+                        help="only the quality of this log of the dataset (no speed runs)")
     parser.add_argument("--corridor", type=Path, help="corridor21 folder (vertical edges)")
     parser.add_argument("--real", action="store_true", help="real VMR lab image pairs")
     parser.add_argument("--json", type=Path, help="write the results here")
@@ -208,24 +223,32 @@ def main() -> int:
     config = FrontendConfig(laser=LaserLandmarkConfig(enabled=False))
     results: dict[str, object] = {"dataset": str(args.dataset), "images": args.images,
                                   "cpus": os.cpu_count(), "load_average_before": os.getloadavg()}
-    if args.repeat > 0:
+    if args.log is not None:  # the quality of a log written before (omnislam frontend / run)
+        results["log"] = str(args.log)
+        results["verified"] = quality(load_observation_log(args.log), sequence, truth)
+    elif args.repeat > 0:
         runs = []
         for _ in range(args.repeat):
-            log = run_frontend(sequence, config, max_images=args.images, progress=True)
-            runs.append(totals(log))
+            log = run_frontend(sequence, config, max_images=args.images, progress=True,
+                               pipelined=True)
+            runs.append(totals(log) | per_stage(log))
         results["pipelined"] = {k: float(np.median([r[k] for r in runs])) for k in runs[0]}
         results["pipelined_runs"] = runs
-        sequential = run_frontend(sequence, config, max_images=args.images, progress=True,
-                                  pipelined=False)
-        results["sequential"] = totals(sequential) | per_stage(sequential)
         frames = log.image_frames
-        results["sequential"] |= sift_alone(sequence, frames[: min(30, frames.size)], config)
+        results["sift_alone"] = sift_alone(sequence, frames[: min(30, frames.size)], config)
+        if args.sequential:
+            sequential = run_frontend(sequence, config, max_images=args.images, progress=True,
+                                      pipelined=False)
+            results["sequential"] = totals(sequential) | per_stage(sequential)
         results["load_average_after_speed"] = os.getloadavg()
-        results["verified"] = quality(log, sequence, truth)
-        unverified = dataclasses.replace(config, verification=VerificationConfig(enabled=False))
-        results["unverified"] = quality(run_frontend(sequence, unverified,
-                                                     max_images=args.images, progress=True),
-                                        sequence, truth)
+        if not args.speed_only:
+            results["verified"] = quality(log, sequence, truth)
+        if args.unverified:
+            unverified = dataclasses.replace(config,
+                                             verification=VerificationConfig(enabled=False))
+            results["unverified"] = quality(run_frontend(sequence, unverified,
+                                                         max_images=args.images, progress=True),
+                                            sequence, truth)
     if args.variants:
         table = {}
         for name, variant in variants(config).items():

@@ -86,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
         rng=np.random.default_rng(args.seed),
         max_images=args.frames,
         progress=True,
+        pipelined=True,
     )
     save_observation_log(log, out)
     stats = log.stats

@@ -318,7 +318,7 @@ def frontend_log_for(
             flush=True,
         )
     path.parent.mkdir(parents=True, exist_ok=True)
-    cached_frontend(sequence, path, progress=progress)
+    cached_frontend(sequence, path, progress=progress, pipelined=True)
     return path
 
 

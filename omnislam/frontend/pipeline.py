@@ -15,16 +15,20 @@ log: no estimator can use them.
 from __future__ import annotations
 
 import collections
+import dataclasses
 import itertools
+import multiprocessing
+import pickle
 import time
 from collections.abc import Iterator
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from omnislam._optional import require
 from omnislam.core.se import se2_integrate
 from omnislam.core.types import Bearings, FrameInput, RangeBearing
 from omnislam.errors import DataError
@@ -98,9 +102,9 @@ def _merge_sightings(a: RangeBearing | None, b: RangeBearing | None) -> RangeBea
     )
 
 
-#: threads preparing images when pipelined, and images prepared ahead of the one being tracked
+#: processes preparing images when pipelined, and images prepared ahead of the one tracked
 WORKERS = 2
-LOOKAHEAD = 3
+LOOKAHEAD = 4
 
 
 @dataclass(frozen=True, slots=True)
@@ -111,8 +115,11 @@ class PreparedImage:
         features: its SIFT features.
         groups: (N,) feature-group labels (``groups.NO_GROUP``: unused).
         rays_r: (N, 3) unit bearings of the features in the robot frame (NaN: none).
-        sigmas_rad: (N,) angular std of each bearing (``sigma_model``).
+        sigmas_rad: (N,) angular std of each bearing (``bearing_noise``).
         lines: its vertical lines, or None when they are not extracted.
+        seconds: wall-clock seconds per stage spent preparing it.
+        cpu_seconds: CPU seconds per stage (of the process that prepared it).
+        in_worker: prepared in a worker process (whose CPU this process does not count).
     """
 
     features: Any
@@ -120,15 +127,23 @@ class PreparedImage:
     rays_r: np.ndarray
     sigmas_rad: np.ndarray
     lines: Any
+    seconds: dict[str, float]
+    cpu_seconds: dict[str, float]
+    in_worker: bool = False
 
 
 class _ImagePreparer:
-    """Load, SIFT, groups, rays and vertical edges of one image (no state between images)."""
+    """Load, SIFT, groups, rays and vertical edges of one image (no state between images).
 
-    def __init__(self, sequence: Any, config: FrontendConfig, clock: StageClock) -> None:
-        rig = sequence.calibration
+    Args:
+        image_loader: ``image_loader(i)`` -> (H, W, 3) uint8 image of frame i.
+        rig: the camera rig.
+        config: the front-end configuration.
+    """
+
+    def __init__(self, image_loader: Any, rig: Any, config: FrontendConfig) -> None:
         camera = rig.camera
-        self.sequence, self.config, self.clock, self.rig = sequence, config, clock, rig
+        self.image_loader, self.config, self.rig = image_loader, config, rig
         self.mask = detection_mask(camera.mask(), (camera.height, camera.width))
         self.extractor = SiftExtractor(config.sift)
         self.vertical = None
@@ -138,9 +153,9 @@ class _ImagePreparer:
             self.vertical = VerticalLineExtractor(rig, config.vertical_edges)
 
     def __call__(self, i: int) -> PreparedImage:
-        clock, config = self.clock, self.config
+        clock, config = StageClock(), self.config
         with clock("load"):
-            image = self.sequence.image(i)
+            image = self.image_loader(i)
         with clock("extract"):
             features = self.extractor.extract(image, self.mask)
         with clock("group"):
@@ -152,27 +167,72 @@ class _ImagePreparer:
         if self.vertical is not None:
             with clock("vertical_edges"):
                 lines = self.vertical.extract(image)
-        return PreparedImage(features, groups, rays_r, sigmas, lines)
+        return PreparedImage(features, groups, rays_r, sigmas, lines, clock.seconds,
+                             clock.cpu_seconds)
 
 
-def _prepared(prepare: _ImagePreparer, frames: list[int], pipelined: bool
+#: the preparer of a worker process (built once by ``_start_worker``)
+_WORKER: _ImagePreparer | None = None
+
+
+def _start_worker(image_loader: Any, rig: Any, config: FrontendConfig) -> None:
+    global _WORKER
+    require("cv2").setNumThreads(1)  # the processes share the cores, not OpenCV's threads
+    _WORKER = _ImagePreparer(image_loader, rig, config)
+
+
+def _prepare_in_worker(i: int) -> PreparedImage:
+    assert _WORKER is not None
+    return dataclasses.replace(_WORKER(i), in_worker=True)
+
+
+def _children_cpu_s() -> float | None:
+    """User + system CPU seconds of this process's ended (waited-for) children; None where
+    the platform does not count them."""
+    try:
+        import resource
+    except ImportError:  # not POSIX
+        return None
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _picklable(*objects: Any) -> bool:
+    try:
+        pickle.dumps(objects)
+    except (pickle.PicklingError, AttributeError, TypeError):
+        return False
+    return True
+
+
+def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipelined: bool
               ) -> Iterator[tuple[int, PreparedImage]]:
-    """``(frame, prepared image)`` in order; pipelined: up to ``LOOKAHEAD`` images ahead in
-    ``WORKERS`` threads (OpenCV and most of numpy release the GIL), so that SIFT of the next
-    images runs on the other core while this thread tracks."""
-    if not pipelined:
+    """``(frame, prepared image)`` in order.
+
+    Pipelined, up to ``LOOKAHEAD`` images are prepared ahead in ``WORKERS`` processes while
+    this one tracks (threads would not overlap: the preparation is mostly numpy calls that
+    hold the GIL; measured in the README). A sequence whose image loader cannot be sent to
+    another process is prepared here, one image at a time.
+    """
+    rig = sequence.calibration
+    if (not pipelined or multiprocessing.current_process().daemon  # may not have children
+            or not _picklable(sequence.image_loader, rig, config)):
+        prepare = _ImagePreparer(sequence.image_loader, rig, config)
         for i in frames:
             yield i, prepare(i)
         return
-    with ThreadPoolExecutor(max_workers=WORKERS, thread_name_prefix="frontend") as pool:
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=WORKERS, mp_context=context,
+                             initializer=_start_worker,
+                             initargs=(sequence.image_loader, rig, config)) as pool:
         pending: collections.deque = collections.deque()
         queue = iter(frames)
         for i in itertools.islice(queue, LOOKAHEAD):
-            pending.append((i, pool.submit(prepare, i)))
+            pending.append((i, pool.submit(_prepare_in_worker, i)))
         while pending:
             i, future = pending.popleft()
             for j in itertools.islice(queue, 1):
-                pending.append((j, pool.submit(prepare, j)))
+                pending.append((j, pool.submit(_prepare_in_worker, j)))
             yield i, future.result()
 
 
@@ -183,7 +243,7 @@ def run_frontend(
     rng: np.random.Generator | None = None,
     max_images: int | None = None,
     progress: bool = False,
-    pipelined: bool = True,
+    pipelined: bool = False,
 ) -> ObservationLog:
     """Run the front end over a Sequence.
 
@@ -195,12 +255,15 @@ def run_frontend(
         max_images: process at most this many images (the log still has every frame).
         progress: show the images done, rate and ETA on stderr (``omnislam._progress``).
         pipelined: prepare the next images (load, SIFT, groups, rays, vertical edges) in
-            worker threads while image k is tracked; the log is the same either way (a test).
+            ``WORKERS`` processes while image k is tracked (the CLI does); the log is the same
+            either way (a test). The processes are spawned: a script calling this must guard
+            its top level with ``if __name__ == "__main__":``.
 
     Returns:
         The ObservationLog; ``stats`` holds counts, and wall-clock (``seconds_<stage>``) and
-        CPU (``cpu_seconds_<stage>``, exact only when not pipelined) seconds per stage, and
-        both for the whole image loop (``*_images_total``).
+        CPU (``cpu_seconds_<stage>``) seconds per stage, and both for the whole image loop
+        (``*_images_total``; its CPU counts the worker processes' whole CPU, start-up and
+        pickling included, as the children's resource usage once they have ended).
     """
     config = config if config is not None else FrontendConfig()
     rng = rng if rng is not None else np.random.default_rng(DEFAULT_SEED)
@@ -214,21 +277,25 @@ def run_frontend(
     if processed.size and rig is None:
         raise DataError(f"{sequence.name}: images without a camera calibration")
 
-    clock = StageClock()  # preparing images (the worker thread when pipelined)
+    clock = StageClock()  # preparing images (in worker processes when pipelined)
     track_clock = StageClock()  # tracking them (this thread)
     raw: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
     lines: dict[int, Any] = {}
     wall_start, cpu_start = time.perf_counter(), time.process_time()
+    children_start = _children_cpu_s()
+    prepared_cpu_s = 0.0  # the workers' CPU in their stages (a lower bound of their total)
     if processed.size:
         tracker = LandmarkTracker(rig.viewpoint_r, config, rng, track_clock)
         poses_dr = se2_integrate(sequence.odometry_r)
-        prepare = _ImagePreparer(sequence, config, clock)
         bar = None
         if progress:
             from omnislam._progress import Progress
 
             bar = Progress(f"frontend {sequence.name}", int(processed.size), "img")
-        for i, image in _prepared(prepare, processed.tolist(), pipelined):
+        for i, image in _prepared(sequence, config, processed.tolist(), pipelined):
+            for stage, seconds in image.seconds.items():
+                clock.add(stage, seconds, image.cpu_seconds[stage])
+            prepared_cpu_s += sum(image.cpu_seconds.values()) if image.in_worker else 0.0
             before = sum(track_clock.seconds.values()), sum(track_clock.cpu_seconds.values())
             start, cpu = time.perf_counter(), time.process_time()
             tracked = tracker.process(image.features.descriptors, image.groups, image.rays_r,
@@ -252,7 +319,9 @@ def run_frontend(
     else:
         sightings = np.zeros(0, dtype=np.int64)
     images_wall_s = time.perf_counter() - wall_start
-    images_cpu_s = time.process_time() - cpu_start
+    # the workers ended with the loop: their whole CPU (start-up, pickling included) is known
+    children_cpu_s = _children_cpu_s() - children_start if children_start is not None else 0.0
+    images_cpu_s = time.process_time() - cpu_start + max(prepared_cpu_s, children_cpu_s)
 
     laser_sightings: dict[int, RangeBearing] = {}
     if sequence.laser is not None and config.laser.enabled and (
@@ -322,9 +391,10 @@ def cached_frontend(
     *,
     rng: np.random.Generator | None = None,
     progress: bool = False,
+    pipelined: bool = False,
 ) -> ObservationLog:
     """Load the log at ``path`` if it was built from this sequence and configuration, else
-    run the front end and write it there.
+    run the front end (``run_frontend``, ``pipelined`` or not) and write it there.
     """
     config = config if config is not None else FrontendConfig()
     path = Path(path)
@@ -334,6 +404,6 @@ def cached_frontend(
                                         config_hash=log_key(config))
         except StaleLogError:
             pass
-    log = run_frontend(sequence, config, rng=rng, progress=progress)
+    log = run_frontend(sequence, config, rng=rng, progress=progress, pipelined=pipelined)
     save_observation_log(log, path)
     return log

@@ -156,8 +156,21 @@ class SiftExtractor:
         """
         grey = _grey(image)
         if self.config.backend is SiftBackend.OPENCV:
-            return self._extract_opencv(grey, mask)
-        return self._extract_pycolmap(grey, mask)
+            features = self._extract_opencv(grey, mask)
+        else:
+            features = self._extract_pycolmap(grey, mask)
+        budget = self.budget(grey.shape, mask)
+        if budget and len(features) > budget:
+            features = features.subset(np.sort(
+                np.argsort(-features.contrast, kind="stable")[:budget]))
+        return features
+
+    def budget(self, shape: tuple[int, ...], mask: np.ndarray | None) -> int:
+        """Most features ``SiftConfig.features_per_kpx`` keeps on an image (0: no limit)."""
+        if not self.config.features_per_kpx:
+            return 0
+        area = int(np.count_nonzero(mask)) if mask is not None else shape[0] * shape[1]
+        return max(1, round(self.config.features_per_kpx * area / 1000.0))
 
     def _extract_opencv(self, grey: np.ndarray, mask: np.ndarray | None) -> Features:
         cfg = self.config

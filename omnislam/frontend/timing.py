@@ -12,9 +12,8 @@ class StageClock:
     """Accumulates seconds per named stage; ``with clock("extract"): ...``.
 
     ``seconds`` holds wall-clock time and ``cpu_seconds`` the process's CPU time (every
-    thread's, OpenCV's workers included) spent inside the stage. Stages timed from two threads
-    at once overlap, so per-stage CPU is exact only when the stages run one after another
-    (``run_frontend(..., pipelined=False)``). Safe to use from several threads.
+    thread's, OpenCV's workers included) spent inside the stage, so stages timed from two
+    threads of one process at once would count each other's CPU. Thread-safe.
     """
 
     def __init__(self) -> None:

@@ -23,7 +23,8 @@ from omnislam.frontend.verification import ModelKind, RelativePose, verify_match
 
 DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 VMR = DATA / "omni_real" / "vmr_lab_ocamcalib_samples"
-#: minimum verified matches per image pair (measured: 57-251 over the nine pairs)
+#: minimum verified matches per image pair (measured: 57-251 over the nine pairs; 37-241 with a
+#: budget of 1.2 keypoints per 1000 px)
 MIN_VERIFIED = 50
 #: inlier threshold for an uncalibrated (approximate) model [rad]
 THRESHOLD_RAD = 0.01

@@ -57,6 +57,28 @@ def test_keypoints_stay_inside_the_shrunk_ring(omni_image):
     assert gap.min() >= MASK_MARGIN_PX - 1.5
 
 
+def test_the_budget_keeps_the_strongest_features_per_area(omni_image):
+    """``features_per_kpx`` keeps the strongest of the unbudgeted features, as many as the
+    density times the detection region's area (the mask's, else the image's)."""
+    image, rig = omni_image
+    mask = detection_mask(rig.camera.mask(), rig.camera.mask().shape)
+    every = SiftExtractor(dataclasses.replace(OMNI_THESIS, features_per_kpx=0.0)).extract(
+        image, mask)
+    density = 0.5
+    extractor = SiftExtractor(dataclasses.replace(OMNI_THESIS, features_per_kpx=density))
+    budget = round(density * np.count_nonzero(mask) / 1000)
+    assert 0 < budget < len(every)
+    kept = extractor.extract(image, mask)
+    assert len(kept) == budget == extractor.budget(image.shape, mask)
+    strongest = np.sort(every.contrast)[::-1][:budget]
+    np.testing.assert_allclose(np.sort(kept.contrast)[::-1], strongest)
+    # without a mask the whole image is the region: a larger budget
+    assert extractor.budget(image.shape, None) == round(density * image.shape[0]
+                                                        * image.shape[1] / 1000) > budget
+    with pytest.raises(ConfigError):
+        SiftConfig(features_per_kpx=-1.0)
+
+
 def test_the_omni_preset_rejects_more_edge_like_keypoints(omni_image):
     image, rig = omni_image
     mask = detection_mask(rig.camera.mask(), rig.camera.mask().shape)

@@ -94,6 +94,19 @@ class SyntheticFolder:
         calibration = self.path / "calibration.yaml"
         self.rig = load_rig(calibration) if calibration.exists() else None
         self.groundtruth = read_tum(self.path / "groundtruth.tum")
+        self._pixel_rays_r: np.ndarray | None = None  # (H, W, 3), computed on first use
+
+    def _rays_r_at(self, rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int]
+                   ) -> np.ndarray:
+        """Robot-frame rays of pixel centres: the camera is the same in every frame, so the
+        rays of every pixel are computed once (``ground_truth_maps`` of a whole run spent
+        two thirds of its time unprojecting the same pixels again)."""
+        assert self.rig is not None
+        if self._pixel_rays_r is None or self._pixel_rays_r.shape[:2] != shape:
+            r, c = np.indices(shape).reshape(2, -1)
+            pixels = np.column_stack([c, r]).astype(float)
+            self._pixel_rays_r = self.rig.rays_r(pixels).reshape(*shape, 3)
+        return self._pixel_rays_r[rows, cols]
 
     def surface_ids(self, index: int) -> np.ndarray:
         """(H, W) int32 surface ids of frame ``index``'s image."""
@@ -111,9 +124,8 @@ class SyntheticFolder:
         ids = self.surface_ids(index)
         height, width = ids.shape
         rows, cols = np.nonzero(ids >= 0)
-        pixels = np.column_stack([cols, rows]).astype(float)
         wTr = self.groundtruth.poses_w[index]
-        rays_w = self.rig.rays_r(pixels) @ wTr[:3, :3].T
+        rays_w = self._rays_r_at(rows, cols, (height, width)) @ wTr[:3, :3].T
         origin_w = wTr[:3, :3] @ self.rig.viewpoint_r + wTr[:3, 3]
         hit = ids[rows, cols].astype(np.int64)
         t = plane_distances(self.quads, origin_w, rays_w, hit)
