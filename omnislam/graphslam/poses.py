@@ -83,6 +83,7 @@ class PoseChain(abc.ABC):
         self._newest = self._initial_pose.copy()  # newest pose estimate [x, y, theta]
         self._newest_pose2 = fx.pose2(self._initial_pose)  # the same as a gtsam.Pose2
         self._guess = self._initial_pose.copy()  # initial guess of the frame being added
+        self._frame: FrameInput | None = None  # the frame being added
 
     @property
     def guess_w(self) -> np.ndarray:
@@ -96,6 +97,7 @@ class PoseChain(abc.ABC):
 
     def _next_guess(self, k: int, frame: FrameInput) -> tuple[Any, Any]:
         """Set the guess of frame k; returns (guess as gtsam.Pose2, odometry as Pose2 or None)."""
+        self._frame = frame
         if k == 0:
             self._guess = self._initial_pose.copy()
             return fx.pose2(self._guess), None
@@ -103,6 +105,15 @@ class PoseChain(abc.ABC):
         guess2 = self._newest_pose2.compose(odometry)
         self._guess = fx.planar_from_pose2(guess2)
         return guess2, odometry
+
+    def odometry_step(self) -> tuple[np.ndarray, np.ndarray]:
+        """(delta (3,), covariance (3, 3)) of the odometry factor of the frame being added.
+
+        The association propagates the newest pose's uncertainty to the frame's guess with it.
+        """
+        if self._frame is None:
+            raise EstimationError("no frame is being added")
+        return np.asarray(self._frame.odometry.delta), self._odometry_covariance(self._frame)
 
     def _odometry_covariance(self, frame: FrameInput) -> np.ndarray:
         """(3, 3) covariance of the frame's odometry delta (see the module docstring)."""

@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 
 from omnislam._optional import require
+from omnislam.core.compatibility import Pairings
+from omnislam.core.gating import chi_square_gate
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
 from omnislam.core.types import UNKNOWN_ID, RangeBearing
@@ -36,6 +38,7 @@ from omnislam.graphslam.association import (
 )
 from omnislam.graphslam.builder import LandmarkRegistry, SightingCounts
 from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.joint_state import joint_state
 from omnislam.graphslam.landmark_init import ConsistentInsertion
 from omnislam.graphslam.poses import PlanarPoses
 from omnislam.graphslam.session import ISAM2Session
@@ -69,12 +72,18 @@ class RangeBearingGraph:
         self._gates = Gates.from_probabilities(
             config.association_gate_probability, config.new_landmark_probability
         )
-        self._consistent = ConsistentInsertion(config.min_consistent_sightings, self._gates.match)
+        self._outlier_gate = chi_square_gate(config.outlier_gate_probability, 2)
+        self._consistent = ConsistentInsertion(
+            config.min_consistent_sightings,
+            self._gates.match,
+            release_disagreeing=not np.isfinite(self._outlier_gate),
+        )
         self._tentative = (
             TentativeLandmarks(config.association_min_sightings, config.association_window_frames)
             if config.association_min_sightings > 1
             else None
         )
+        self._rejected = 0
         self._registry = LandmarkRegistry()
         self._next_created_id = CREATED_ID_BASE
         self._created = self._associated = self._ambiguous = 0
@@ -94,6 +103,15 @@ class RangeBearingGraph:
             created = set(ids[unknown].tolist())
         unknown_row = np.cumsum(unknown) - 1  # row of each unlabelled sighting in points_w
         delay = self._config.min_consistent_sightings > 1
+        mapped = np.array(
+            [not u and lid in self._registry for u, lid in zip(unknown, ids.tolist(), strict=True)]
+        )
+        if mapped.any() and k > 0 and self._outlier_gate < np.inf:
+            ids[
+                np.flatnonzero(mapped)[
+                    ~self._gate_mapped(k, np.flatnonzero(mapped), sightings, guess_w)
+                ]
+            ] = UNKNOWN_ID
         for i, (lid, r, b, s_r, s_b) in enumerate(
             zip(
                 ids.tolist(),
@@ -125,6 +143,38 @@ class RangeBearingGraph:
             insertion = self._consistent.try_insert(lid)
             if insertion is not None:
                 self._insert(lid, insertion.point_w, insertion.factors, graph, values)
+
+    def _gate_mapped(
+        self, k: int, rows: np.ndarray, sightings: RangeBearing, guess_w: np.ndarray
+    ) -> np.ndarray:
+        """(len(rows),) True for the sightings ``rows`` of mapped landmarks inside the outlier gate.
+
+        The innovation of each sighting at frame k's guess and the landmark's current estimate,
+        with the covariance of both read from iSAM2 (``joint_state``):
+        ``S = H P H^T + R`` with H the Jacobian with respect to (pose k, landmark)
+        (``core.compatibility.Pairings.individual``). Sightings outside are counted as rejected.
+        """
+        lids = sightings.landmark_ids[rows].tolist()
+        state = joint_state(self._session, [], lids, (k, *self._poses.odometry_step()))
+        pose_col = state.pose_column[k]
+        K = len(rows)
+        nu = np.zeros((K, 1, 2))
+        H = np.zeros((K, 1, 2, state.dim))
+        R = np.zeros((K, 2, 2))
+        for i, (row, lid) in enumerate(zip(rows.tolist(), lids, strict=True)):
+            z_hat, H_r, H_l = _RANGE_BEARING.predict(state.pose(k), state.landmark(lid))
+            z = np.array([sightings.ranges_m[row], sightings.bearings_rad[row]])
+            nu[i, 0] = _RANGE_BEARING.residual(z, z_hat)
+            H[i, 0, :, pose_col : pose_col + 3] = H_r
+            col = state.landmark_column[lid]
+            H[i, 0, :, col : col + 2] = H_l
+            R[i] = np.diag(
+                [sightings.sigma_range_m[row] ** 2, sightings.sigma_bearing_rad[row] ** 2]
+            )
+        d2 = Pairings(nu, H, state.covariance, R).individual()[:, 0]
+        inside = d2 <= self._outlier_gate
+        self._rejected += int(np.sum(~inside))
+        return inside
 
     def _insert(self, lid: int, point_w: np.ndarray, factors: Any, graph: Any, values: Any) -> None:
         """A landmark enters the graph at ``point_w`` (2,) with its factors."""
@@ -239,5 +289,6 @@ class RangeBearingGraph:
             landmarks_created=self._created,
             sightings_associated=self._associated,
             sightings_ambiguous=self._ambiguous,
+            sightings_gated=self._rejected + self._consistent.rejected,
             tentative=self._tentative.stats() if self._tentative is not None else TentativeStats(),
         )
