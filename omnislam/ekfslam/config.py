@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+from omnislam.core.gating import OUTLIER_GATE_PROBABILITY
 from omnislam.core.motion import MotionNoise
 from omnislam.errors import ConfigError
 
@@ -39,9 +40,11 @@ class EKFSLAMConfig:
             sighting. 1: every unmatched sighting becomes a landmark at once.
         tentative_window_frames: a tentative landmark not re-observed within this many frames
             is dropped (a spurious detection).
-        known_gate_probability: an optional outlier gate for sightings *with* ids: an update
-            whose innovation lies outside the chi-square quantile of this probability is
-            skipped. 1.0 (default): ids are trusted and every sighting is used.
+        known_gate_probability: the outlier gate for sightings *with* ids: an update whose
+            innovation lies outside the chi-square quantile of this probability (2 dof, under
+            the filter's own S = H P H^T + R) is skipped. Default
+            ``core.gating.OUTLIER_GATE_PROBABILITY`` (0.999, the same as every Gaussian back
+            end); 1.0 trusts every id.
         ignore_ids: treat every sighting as of unknown id (nearest-neighbour association even
             when the data carry ids).
         initial_landmark_capacity: landmark slots preallocated in the state; the arrays double
@@ -54,7 +57,7 @@ class EKFSLAMConfig:
     new_landmark_gate_probability: float = 0.99999
     min_sightings: int = 2
     tentative_window_frames: int = 20
-    known_gate_probability: float = 1.0
+    known_gate_probability: float = OUTLIER_GATE_PROBABILITY
     ignore_ids: bool = False
     initial_landmark_capacity: int = 64
 
