@@ -456,6 +456,24 @@ def segment_lengths(total_travel_m: float, count: int = 8) -> tuple[float, ...]:
     return tuple(out[-count:])
 
 
+def translational_drift(
+    estimate: Trajectory, truth: Trajectory, segment_m: float = 10.0
+) -> tuple[float, float]:
+    """Drift as a fraction of the distance travelled: (fraction, segment length used [m]).
+
+    The mean translation error of the relative motion over every segment of ``segment_m`` of
+    true travel (half the route when it is shorter), divided by the segment length: KITTI's
+    translational error for one segment length, from ``rpe`` in metres. NaN when no segment fits.
+    """
+    travel = accumulated_distances(truth.positions_w)
+    total = float(travel[-1]) if travel.size else 0.0
+    segment = min(segment_m, total / 2.0)
+    if not segment > 0:
+        return float("nan"), segment
+    errors = rpe(estimate, truth, segment, DeltaUnit.METERS).trans_errors_m
+    return (float(np.mean(errors)) / segment if errors.size else float("nan")), segment
+
+
 # --------------------------------------------------------------------------------------------
 # Landmark map error
 # --------------------------------------------------------------------------------------------

@@ -1,14 +1,16 @@
-"""Comparative reports: ``report.md`` (+ PNGs next to it) and a self-contained ``index.html``.
+"""Comparative reports: ``report.md`` (+ SVGs next to it) and a self-contained ``index.html``.
 
 ``write_report(results_dir, out_dir)`` reads the results of ``omnislam compare`` (or a single
 RUN_DIR, or a folder of RUN_DIRs), and writes:
 
 * a headline table (datasets x estimators, ATE RMSE, each row naming its ground truth),
 * per dataset: every estimator side by side with dead reckoning as the baseline (ATE, drift,
-  RPE, landmark error, NEES, timing, memory; mean +- std over seeds), trajectories over the
-  ground truth, landmark maps with covariance ellipses where covariances exist, error over
-  distance, per-step timing, and -- where the data has laser scans (CARMEN) -- occupancy grids
-  built from the scans on the estimated poses (``compare.occupancy``),
+  RPE, landmark error, NEES, timing, memory; mean +- std over seeds), then figures that answer
+  one question each (``FIGURES``, drawn by ``compare.plots`` as SVG, inlined in the HTML): ATE
+  over seeds, accuracy against run time, each trajectory coloured by its position error over
+  the ground truth, error over distance, landmark maps, step-time percentiles and -- where the
+  data has laser scans (CARMEN) -- occupancy grids built from the scans on every estimated
+  trajectory (``compare.occupancy``),
 * exports per cell (``exports/CELL/``): trajectory as TUM and KITTI, the landmark map as PLY
   (open3d, the ``render`` extra) and the factor graph as g2o when the run has one.
 
@@ -18,6 +20,9 @@ within the seed spread) and ends with a provenance block (``compare.provenance``
 version and commit, date, command line, seeds, frames and path length of each dataset, each
 estimator's options, the machine). Every table is also written as ``tables/NAME.csv`` (full
 precision) and ``tables/NAME.tex`` (LaTeX ``booktabs``), linked under the table.
+
+Each estimator column has one colour (``compare.palette``) in every figure and, as a swatch
+before its name, in every HTML table.
 
 The folder is written under a hidden name and renamed into place when complete.
 """
@@ -38,9 +43,9 @@ from pathlib import Path
 import numpy as np
 
 from omnislam._files import check_output_location, output_error
-from omnislam.compare import provenance
+from omnislam.compare import palette, provenance
 from omnislam.compare.evaluation import GROUND_TRUTH_LABELS, evaluate_run
-from omnislam.compare.metrics import Alignment, ate
+from omnislam.compare.metrics import Alignment, AteResult, ate
 from omnislam.compare.run_metrics import RunMetrics, read_run_metrics
 from omnislam.compare.rundir import (
     CONFIG,
@@ -108,7 +113,6 @@ class ReportOptions:
         exports: write ``exports/CELL/`` (TUM, KITTI, PLY, g2o).
         occupancy: build occupancy grids where the data has laser scans.
         occupancy_resolution_m: grid cell size [m].
-        occupancy_columns: at most this many estimators get an occupancy grid per dataset.
         command: the command line recorded in the provenance block (default: ``sys.argv``).
     """
 
@@ -116,7 +120,6 @@ class ReportOptions:
     exports: bool = True
     occupancy: bool = True
     occupancy_resolution_m: float = 0.1
-    occupancy_columns: int = 3
     command: tuple[str, ...] | None = None
 
 
@@ -329,10 +332,26 @@ def _markdown_table(header: Sequence[str], rows: Sequence[Sequence[Cell]]) -> st
     return "\n".join(lines)
 
 
-def _html_table(header: Sequence[str], rows: Sequence[Sequence[Cell]]) -> str:
-    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+def _html_cell(value: Cell, colours: Mapping[str, str]) -> str:
+    """A cell's text, after a swatch of the estimator's colour when it names one."""
+    text = str(value)
+    colour = colours.get(text)
+    if not colour:
+        return html.escape(text)
+    swatch = f'<span class="swatch" style="background:{colour}" title="{colour}"></span>'
+    return f'<span class="estimator">{swatch}{html.escape(text)}</span>'
+
+
+def _html_table(
+    header: Sequence[str],
+    rows: Sequence[Sequence[Cell]],
+    colours: Mapping[str, str] | None = None,
+) -> str:
+    colours = colours or {}
+    head = "".join(f"<th>{_html_cell(h, colours)}</th>" for h in header)
     body = "".join(
-        "<tr>" + "".join(f"<td>{html.escape(str(v))}</td>" for v in row) + "</tr>" for row in rows
+        "<tr>" + "".join(f"<td>{_html_cell(v, colours)}</td>" for v in row) + "</tr>"
+        for row in rows
     )
     return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
@@ -559,15 +578,16 @@ def _first_runs(cells: Sequence[ReportCell]) -> list[tuple[ReportCell, RunRecord
     return out
 
 
-def _alignment(record: RunRecord) -> np.ndarray:
-    """gtTest of the SE(2) alignment used by the metrics (identity without ground truth)."""
+def _ate_of(record: RunRecord) -> AteResult | None:
+    """The SE(2) ATE the metrics use, with its per-pose errors (None without ground truth)."""
     truth = record.ground_truth.trajectory
     if truth is None:
-        return np.eye(4)
+        return None
     oriented = record.ground_truth.kind is not GroundTruthKind.GPS_PARTIAL
-    return ate(
-        record.estimate.trajectory, truth, Alignment.SE2, truth_has_orientation=oriented
-    ).gtTest
+    try:
+        return ate(record.estimate.trajectory, truth, Alignment.SE2, truth_has_orientation=oriented)
+    except DataError:  # too few poses with ground truth: drawn unaligned
+        return None
 
 
 def _aligned_se2(record: RunRecord, T: np.ndarray) -> np.ndarray:
@@ -576,57 +596,140 @@ def _aligned_se2(record: RunRecord, T: np.ndarray) -> np.ndarray:
     return np.column_stack([xy, xyt[:, 2] + math.atan2(T[1, 0], T[0, 0])])
 
 
+def _pose_errors(record: RunRecord, result: AteResult) -> np.ndarray:
+    """The position error at every estimate pose [m]: the ATE's errors where a pose has ground
+    truth, linearly interpolated over time in between (GPS gaps)."""
+    stamps = record.estimate.trajectory.stamps_s
+    if len(result.stamps_s) == len(stamps):
+        return result.errors_m
+    return np.interp(stamps, result.stamps_s, result.errors_m)
+
+
+#: (file stem, caption) of each figure of a dataset, in report order; each answers one question
+FIGURES: tuple[tuple[str, str], ...] = (
+    (
+        "trajectories",
+        "Where along the path does each estimator go wrong? Each estimator's "
+        "path (its lowest seed), SE(2)-aligned to the {gt} (dashed) and coloured by its position "
+        "error on one logarithmic scale for all panels; the dot marks the start.",
+    ),
+    (
+        "ate-seeds",
+        "How accurate is each estimator over seeds? ATE RMSE of every seed (dots) "
+        "and its median (bar) against the {gt}.",
+    ),
+    (
+        "accuracy-vs-time",
+        "What does accuracy cost? ATE RMSE against the total run time of "
+        "every run (log-log; ringed: the median over seeds). Wall-clock times of the machine in "
+        "the provenance block.",
+    ),
+    (
+        "error-over-distance",
+        "How does the error grow with the distance travelled? RPE RMSE "
+        "against segment length of ground-truth travel, translation and rotation (log-log; "
+        "lowest seed).",
+    ),
+    (
+        "landmarks",
+        "Where does each estimator put the landmarks? Each map (lowest seed) "
+        "aligned with its trajectory, over the true landmarks where the data has them; "
+        "{sigma:g}-sigma covariance ellipses on maps of at most {most} landmarks (more overlap "
+        "into a solid mass).",
+    ),
+    (
+        "step-time",
+        "How long does one step take, typically and at worst? Percentiles of the "
+        "wall time of each estimator step (lowest seed; the line spans the 5th percentile to the "
+        "maximum).",
+    ),
+    (
+        "occupancy",
+        "What map do the laser scans make on each trajectory? Occupancy grids "
+        "({resolution:g} m cells) built from the scans on the ground truth and on the poses of "
+        "every estimator with one pose per scan (any other is named under Notes).",
+    ),
+)
+
+
+def _caption(stem: str, gt_label: str, options: ReportOptions) -> str:
+    from omnislam.compare import plots
+
+    text = dict(FIGURES)[stem]
+    return text.format(
+        gt=gt_label,
+        sigma=plots.ELLIPSE_SIGMA,
+        most=plots.ELLIPSE_MAX_LANDMARKS,
+        resolution=options.occupancy_resolution_m,
+    )
+
+
 def _dataset_figures(
     dataset: str,
     cells: Sequence[ReportCell],
+    colours: Mapping[str, str],
     options: ReportOptions,
     notes: list[str],
-) -> list[tuple[str, str, bytes]]:
-    """(file name, caption, png) of one dataset's figures."""
+) -> list[tuple[str, str, str]]:
+    """(file name, caption, SVG) of one dataset's figures (``FIGURES``)."""
     from omnislam.compare import plots
 
     runs = _first_runs(cells)
     if not runs:
         return []
     gt_label = _gt_label(cells)
-    slug = "".join(ch if ch.isalnum() or ch in "-_" else "-" for ch in dataset)
-    figures = []
+    stem = "".join(ch if ch.isalnum() or ch in "-_" else "-" for ch in dataset)
+    figures: list[tuple[str, str, str]] = []
+
+    order = [kind for kind, _ in FIGURES]
+
+    def add(kind: str, make: Callable[[str], str]) -> None:
+        name = f"{stem}-{kind}"
+        figures.append((f"{name}.svg", _caption(kind, gt_label, options), make(name)))
+
+    over_seeds = []
+    for column in _columns(cells):
+        ok = [c for c in cells if c.column == column and c.ok and c.metrics is not None]
+        pairs = [
+            (c.metrics.ate.rmse_m, c.metrics.timing.total_s)  # type: ignore[union-attr]
+            for c in ok
+            if c.metrics.ate.rmse_m is not None  # type: ignore[union-attr]
+        ]
+        if pairs:
+            ate_m = np.array([a for a, _ in pairs], dtype=float)
+            total = np.array([t if t is not None else np.nan for _, t in pairs], dtype=float)
+            over_seeds.append(plots.RunPoints(column, ate_m, total))
+    if over_seeds:
+        add("ate-seeds", lambda n: plots.ate_over_seeds(n, dataset, over_seeds, colours))
+        if any(np.isfinite(p.total_s).any() for p in over_seeds):
+            add(
+                "accuracy-vs-time",
+                lambda n: plots.accuracy_vs_time(n, dataset, over_seeds, colours),
+            )
+
     reference = runs[0][1]
     truth = reference.ground_truth
     truth_xy = truth.trajectory.positions_w[:, :2] if truth.trajectory is not None else None
     truth_lm = truth.landmarks_w[:, :2] if len(truth.landmark_ids) else None
-    aligned = {cell.column: (_alignment(record), record) for cell, record in runs}
-    series = [
-        plots.Series(column, _aligned_se2(record, T)[:, :2])
-        for column, (T, record) in aligned.items()
-    ]
-    what = "SE(2)-aligned to the " + gt_label if truth_xy is not None else "no ground truth"
-    figures.append(
-        (
-            f"{slug}-trajectories.png",
-            f"{dataset}: trajectories ({what})",
-            plots.trajectories_png(f"{dataset} ({gt_label})", gt_label, truth_xy, series, truth_lm),
-        )
-    )
-    maps = []
-    for column, (T, record) in aligned.items():
-        estimate = record.estimate
-        if not len(estimate.landmark_ids):
-            continue
-        xy = estimate.landmarks_w[:, :2] @ T[:2, :2].T + T[:2, 3]
-        cov = None
-        if estimate.landmark_covariances is not None:
-            R = T[:2, :2]
-            cov = R @ estimate.landmark_covariances[:, :2, :2] @ R.T
-        maps.append(plots.LandmarkSeries(column, xy, cov))
-    if maps:
-        figures.append(
-            (
-                f"{slug}-landmarks.png",
-                f"{dataset}: landmark maps (aligned with the trajectory; {gt_label})",
-                plots.landmark_map_png(f"{dataset} landmarks", truth_lm, maps),
+    aligned: dict[str, tuple[np.ndarray, RunRecord]] = {}
+    paths = []
+    for cell, record in runs:
+        result = _ate_of(record)
+        T = result.gtTest if result is not None else np.eye(4)
+        aligned[cell.column] = (T, record)
+        paths.append(
+            plots.TrajectorySeries(
+                cell.column,
+                _aligned_se2(record, T)[:, :2],
+                _pose_errors(record, result) if result is not None else None,
+                result.rmse_m if result is not None else None,
             )
         )
+    add(
+        "trajectories",
+        lambda n: plots.trajectories(n, dataset, gt_label, truth_xy, paths, colours),
+    )
+
     translation, rotation = [], []
     for cell, _ in runs:
         curve = (cell.metrics.rpe.by_distance if cell.metrics is not None else None) or ()
@@ -640,39 +743,40 @@ def _dataset_figures(
                     plots.Series(cell.column, np.column_stack([lengths, np.array(rot, float)]))
                 )
     if translation:
-        figures.append(
-            (
-                f"{slug}-error-over-distance.png",
-                f"{dataset}: RPE over segment length ({gt_label})",
-                plots.error_over_distance_png(f"{dataset}", translation, rotation),
-            )
+        add(
+            "error-over-distance",
+            lambda n: plots.error_over_distance(n, dataset, translation, rotation, colours),
         )
+
+    maps = []
+    for column, (T, record) in aligned.items():
+        estimate = record.estimate
+        if not len(estimate.landmark_ids):
+            continue
+        xy = estimate.landmarks_w[:, :2] @ T[:2, :2].T + T[:2, 3]
+        cov = None
+        if estimate.landmark_covariances is not None:
+            R = T[:2, :2]
+            cov = R @ estimate.landmark_covariances[:, :2, :2] @ R.T
+        maps.append(plots.LandmarkSeries(column, xy, cov))
+    if maps:
+        add("landmarks", lambda n: plots.landmark_maps(n, dataset, truth_lm, maps, colours))
+
     steps = [
         plots.Series(
             cell.column,
             np.column_stack([np.arange(len(record.step_s)), 1e3 * np.asarray(record.step_s)]),
         )
         for cell, record in runs
+        if len(record.step_s)
     ]
-    figures.append(
-        (
-            f"{slug}-timing.png",
-            f"{dataset}: wall time of each estimator step",
-            plots.timing_png(f"{dataset}: per-step time", steps),
-        )
-    )
+    if steps:
+        add("step-time", lambda n: plots.step_times(n, dataset, steps, colours))
     if options.occupancy:
         grids = _occupancy(reference, aligned, gt_label, options, notes)
         if grids:
-            figures.append(
-                (
-                    f"{slug}-occupancy.png",
-                    f"{dataset}: occupancy grids from the laser scans on each trajectory "
-                    f"({options.occupancy_resolution_m:g} m cells)",
-                    plots.occupancy_png(f"{dataset}: occupancy (log-odds)", grids),
-                )
-            )
-    return figures
+            add("occupancy", lambda n: plots.occupancy(n, dataset, grids, colours))
+    return sorted(figures, key=lambda f: order.index(f[0][len(stem) + 1 : -len(".svg")]))
 
 
 def _occupancy(
@@ -712,7 +816,7 @@ def _occupancy(
     truth = sequence.ground_truth.trajectory
     if truth is not None and len(truth) == len(sequence):
         grids.append((gt_label.split(" (")[0], build(truth.se2)))
-    for column, (T, record) in list(aligned.items())[: options.occupancy_columns]:
+    for column, (T, record) in aligned.items():
         if len(record.estimate.trajectory) != len(sequence):
             notes.append(f"{config.dataset}: {column} has no pose per scan; no occupancy grid")
             continue
@@ -770,8 +874,12 @@ body{font-family:system-ui,sans-serif;max-width:1200px;margin:2em auto;padding:0
 table{border-collapse:collapse;margin:1em 0;font-size:.9em}
 th,td{border:1px solid #ccc;padding:.3em .6em;text-align:right}
 th:first-child,td:first-child{text-align:left}
-thead{background:#f0f0f0} img{max-width:100%} figure{margin:1em 0}
-figcaption{font-size:.85em;color:#555} .note{color:#844} .tables{font-size:.8em;margin-top:-.6em}
+thead{background:#f0f0f0} img{max-width:100%} figure{margin:1.5em 0}
+figure svg{display:block;max-width:100%;height:auto}
+figcaption{font-size:.9em;color:#444;max-width:60em}
+.note{color:#844} .tables{font-size:.8em;margin-top:-.6em} .estimator{white-space:nowrap}
+.swatch{display:inline-block;width:.8em;height:.8em;margin-right:.35em;vertical-align:-.05em;
+border:1px solid rgba(0,0,0,.25)}
 """
 
 
@@ -854,6 +962,7 @@ def _write_into(
 ) -> list[str]:
     datasets = list(dict.fromkeys(c.dataset for c in cells))
     columns = _columns(cells)
+    colours = palette.colours(columns)
     md: list[str] = [f"# {title}", ""]
     doc: list[str] = [f"<h1>{html.escape(title)}</h1>"]
     (out / TABLES).mkdir()
@@ -888,7 +997,7 @@ def _write_into(
                 ("tex", "application/x-tex", "LaTeX", tex_text),
             )
         )
-        doc.append(_html_table(t.header, t.rows))
+        doc.append(_html_table(t.header, t.rows, colours))
         doc.append(
             f'<p class="tables">Table as {links} (also {TABLES}/{html.escape(name)}.csv and '
             f".tex next to report.md)</p>"
@@ -951,19 +1060,7 @@ def _write_into(
     )
     segments = [c.metrics.rpe.segment_m for c in cells if c.ok and c.metrics is not None]
     segment = next((length for length in segments if length), None)
-    heading("Estimators")
-    ran = {c.estimator for c in cells}
-    table(
-        make_table(
-            "estimators",
-            "Estimators of omnislam and whether they are in this report",
-            ["estimator", "status", "in this report"],
-            [
-                [name, status, "yes" if name in ran else "no"]
-                for name, status in _estimator_availability()
-            ],
-        )
-    )
+    from omnislam.compare import plots
 
     figure_names: list[str] = []
     for dataset in datasets:
@@ -990,13 +1087,12 @@ def _write_into(
         for c in group:
             if not c.ok:
                 para(f"Failed: {c.cell_id}: {c.error}")
-        for name, caption, png in _dataset_figures(dataset, group, options, notes):
-            (out / name).write_bytes(png)
+        for name, caption, svg in _dataset_figures(dataset, group, colours, options, notes):
+            (out / name).write_text(svg)
             figure_names.append(name)
             md.extend([f"![{caption}]({name})", "", f"*{caption}*", ""])
-            data = base64.b64encode(png).decode("ascii")
             doc.append(
-                f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
+                f"<figure>{plots.inline_svg(svg, caption)}"
                 f"<figcaption>{html.escape(caption)}</figcaption></figure>"
             )
     if options.exports:
@@ -1012,6 +1108,19 @@ def _write_into(
             md.append(f"- {n}")
             doc.append(f'<p class="note">{html.escape(n)}</p>')
         md.append("")
+    heading("Estimators")
+    ran = {c.estimator for c in cells}
+    table(
+        make_table(
+            "estimators",
+            "Estimators of omnislam and whether they are in this report",
+            ["estimator", "status", "in this report"],
+            [
+                [name, status, "yes" if name in ran else "no"]
+                for name, status in _estimator_availability()
+            ],
+        )
+    )
     heading("Provenance")
     table(
         make_table(

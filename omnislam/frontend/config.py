@@ -266,6 +266,11 @@ class LaserLandmarkConfig:
 
     Attributes:
         enabled: extract landmarks when the sequence has scans.
+        merge_with_sightings: also extract them when the sequence brings range-bearing
+            sightings of its own (the synthetic presets' pole sightings, with true ids), and
+            merge the two. Off by default: the loader's sightings are the experiment (the
+            thesis's route-1/2 pole sightings), and id-less wall corners and door spikes beside
+            them change it; a laser-only log (CARMEN, a preset without poles) always gets them.
         spike_jump_m: a beam whose range is this much shorter than both neighbours' is a spike.
         spike_max_beams: runs of up to this many beams standing out count as one spike.
         max_valid_range_m: ranges beyond are invalid (SICK: 8.1 m); None = sensor maximum.
@@ -279,6 +284,7 @@ class LaserLandmarkConfig:
     """
 
     enabled: bool = True
+    merge_with_sightings: bool = False
     spike_jump_m: float = 0.5
     spike_max_beams: int = 6
     max_valid_range_m: float | None = 8.1

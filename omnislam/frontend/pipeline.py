@@ -75,6 +75,12 @@ def log_key(config: FrontendConfig, max_images: int | None = None) -> str:
     return key if max_images is None else f"{key}-first{max_images}"
 
 
+def _has_own_sightings(sequence: Any) -> bool:
+    """True when the loader gives range-bearing sightings in at least one frame."""
+    own = sequence.range_bearing
+    return own is not None and any(f is not None and len(f.landmark_ids) for f in own)
+
+
 def _merge_sightings(a: RangeBearing | None, b: RangeBearing | None) -> RangeBearing | None:
     if a is None or b is None:
         return a if b is None else b
@@ -169,7 +175,9 @@ def run_frontend(
         sightings = np.zeros(0, dtype=np.int64)
 
     laser_sightings: dict[int, RangeBearing] = {}
-    if sequence.laser is not None and config.laser.enabled:
+    if sequence.laser is not None and config.laser.enabled and (
+        config.laser.merge_with_sightings or not _has_own_sightings(sequence)
+    ):
         from omnislam.frontend.laser_landmarks import extract_laser_landmarks
 
         scans = sequence.laser

@@ -389,6 +389,40 @@ def _(tmp, fx):
     return run_args(folder, tmp), "laser.npz"
 
 
+def _edit_laser(folder: Path, **changes: object) -> None:
+    path = folder / "laser.npz"
+    with np.load(path) as data:
+        arrays = {key: data[key] for key in data.files}
+    for key, change in changes.items():
+        arrays[key] = change(arrays[key])
+    np.savez(path, **arrays)
+
+
+def _laser_case(name: str, **changes: object) -> None:
+    @case(f"synthetic-laser-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        folder = fx.synthetic(tmp)
+        _edit_laser(folder, **changes)
+        return run_args(folder, tmp), "laser.npz"
+
+
+def _with(value: float) -> object:
+    def change(ranges: np.ndarray) -> np.ndarray:
+        out = ranges.copy()
+        out[0, 3] = value
+        return out
+
+    return change
+
+
+_laser_case("range-nan", ranges_m=_with(float("nan")))
+_laser_case("range-beyond-max", ranges_m=_with(1e3))
+_laser_case("range-negative", ranges_m=_with(-0.5))
+_laser_case("fewer-scans-than-frames", ranges_m=lambda r: r[:-1])
+_laser_case("beam-count-mismatch", ranges_m=lambda r: r[:, :-1])
+_laser_case("angles-not-increasing", angles_rad=lambda a: a[::-1])
+
+
 @case("synthetic-groundtruth-cut-mid-line")
 def _(tmp, fx):
     folder = fx.synthetic(tmp)

@@ -1,10 +1,9 @@
-"""Reports: self-contained HTML whose images decode, Markdown with PNGs, exports, occupancy."""
+"""Reports: self-contained HTML whose figures parse, Markdown with SVGs, exports, occupancy."""
 
 from __future__ import annotations
 
-import base64
-import io
 import re
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -20,20 +19,20 @@ from omnislam.compare.rundir import read_run_dir, write_run_dir
 from omnislam.compare.runner import SerialExecutor, run_grid
 from omnislam.datasets.registry import load_dataset
 
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+SVG = "{http://www.w3.org/2000/svg}"
 
 
-def decode_images(page: str) -> list[bytes]:
-    uris = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', page)
-    return [base64.b64decode(u, validate=True) for u in uris]
+def inline_figures(page: str) -> list[str]:
+    return re.findall(r"<svg\b.*?</svg>", page, flags=re.S)
 
 
-def assert_png_readable(png: bytes) -> None:
-    import matplotlib.image
-
-    assert png.startswith(PNG_SIGNATURE)
-    pixels = matplotlib.image.imread(io.BytesIO(png), format="png")
-    assert pixels.ndim == 3 and pixels.shape[0] > 50 and pixels.shape[1] > 50
+def assert_svg_drawing(svg: str) -> None:
+    """A parsable SVG of a sensible size that draws something (paths) and says it (text)."""
+    root = ET.fromstring(svg)
+    assert root.tag == f"{SVG}svg"
+    width, height = (float(root.get(k).removesuffix("pt")) for k in ("width", "height"))
+    assert width > 100 and height > 50
+    assert list(root.iter(f"{SVG}path")) and list(root.iter(f"{SVG}text"))
 
 
 @pytest.fixture
@@ -51,17 +50,19 @@ def results(tmp_path) -> Path:
 def test_html_is_self_contained_and_its_images_decode(results, tmp_path):
     summary = write_report(results, tmp_path / "report")
     page = (tmp_path / "report" / "index.html").read_text()
-    images = decode_images(page)
-    assert len(images) == len(summary.figures) >= 4
-    for png in images:
-        assert_png_readable(png)
-    # nothing is fetched from elsewhere
-    assert not re.search(r'(src|href)="(?!data:)', page) and "<script" not in page
+    figures = inline_figures(page)
+    assert len(figures) == len(summary.figures) >= 4
+    for svg in figures:
+        assert_svg_drawing(svg)
+    # nothing is fetched from elsewhere (SVG ids are referenced within the page only)
+    assert not re.search(r'(src|href)="(?!data:|#)', page) and "<script" not in page
     assert "pseudo ground truth" in page and "room report" in page
     md = (tmp_path / "report" / "report.md").read_text()
-    for name in re.findall(r"\]\(([^)]+\.png)\)", md):
-        assert_png_readable((tmp_path / "report" / name).read_bytes())
-    assert "room-occupancy.png" in summary.figures
+    names = re.findall(r"\]\(([^)]+\.svg)\)", md)
+    assert names == list(summary.figures)
+    for name in names:
+        assert_svg_drawing((tmp_path / "report" / name).read_text())
+    assert "room-occupancy.svg" in summary.figures
     assert "| deadreckoning |" in md and "| estimator | status |" in md
     exports = tmp_path / "report" / "exports" / "room__deadreckoning__s0"
     assert (exports / "trajectory.tum").is_file() and (exports / "trajectory.kitti").is_file()
@@ -118,8 +119,10 @@ def test_covariances_round_trip_and_give_nees_and_ellipses(tmp_path, record_with
     assert 1.5 < nees.pose_mean < 4.5  # consistent by construction: about 3
     assert nees.landmark_dof == 2 and 0.5 < nees.landmark_mean < 5.0
     summary = write_report(tmp_path / "run", tmp_path / "report", ReportOptions(exports=True))
-    assert "fake-landmarks.png" in summary.figures
-    assert_png_readable((tmp_path / "report" / "fake-landmarks.png").read_bytes())
+    assert "fake-landmarks.svg" in summary.figures
+    landmarks = (tmp_path / "report" / "fake-landmarks.svg").read_text()
+    assert_svg_drawing(landmarks)
+    assert "ekfslam: 12 landmarks" in landmarks and "2-sigma ellipses" in landmarks
     ply = tmp_path / "report" / "exports" / "run" / "landmarks.ply"
     if ply.exists():  # open3d installed
         import open3d

@@ -118,12 +118,22 @@ def test_cache_is_reused_and_rebuilt_when_the_config_changes(demo_sequence, tmp_
     assert load_observation_log(path).config_hash == rebuilt.config_hash
 
 
-def test_laser_landmarks_ride_along_with_the_given_sightings(demo_sequence):
-    config = FrontendConfig(laser=LaserLandmarkConfig(enabled=True))
-    log = run_frontend(demo_sequence, config, max_images=1)
+def test_laser_landmarks_ride_along_with_the_given_sightings_only_when_asked(demo_sequence):
+    """The demo's pole sightings are the experiment: laser landmarks join them on request."""
     given = sum(len(r) for r in demo_sequence.range_bearing if r is not None)
-    total = sum(len(f.range_bearing) for f in log.frames if f.range_bearing is not None)
-    assert total > given
+    assert given > 0
+    for merge in (False, True):
+        config = FrontendConfig(laser=LaserLandmarkConfig(merge_with_sightings=merge))
+        log = run_frontend(demo_sequence, config, max_images=1)
+        total = sum(len(f.range_bearing) for f in log.frames if f.range_bearing is not None)
+        assert (total > given) if merge else (total == given)
+
+
+def test_a_laser_only_sequence_gets_laser_landmarks(demo_sequence):
+    laser_only = dataclasses.replace(
+        demo_sequence, range_bearing=tuple(None for _ in demo_sequence.range_bearing))
+    log = run_frontend(laser_only, FrontendConfig(), max_images=1)
+    assert sum(len(f.range_bearing) for f in log.frames if f.range_bearing is not None) > 0
 
 
 def test_the_log_does_not_depend_on_what_ran_before(demo_sequence, demo_log):

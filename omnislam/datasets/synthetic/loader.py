@@ -176,6 +176,37 @@ def read_ground_truth_maps(path: str | Path, index: int) -> GroundTruthMaps:
     return SyntheticFolder(path).ground_truth_maps(index)
 
 
+def _read_laser(path: Path, frames: int) -> LaserScans:
+    """``laser.npz`` checked against the folder: one scan per frame, ranges in [0, max]."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            angles = np.asarray(data["angles_rad"], dtype=float)
+            ranges = np.asarray(data["ranges_m"], dtype=float)
+            max_range = float(data["max_range_m"])
+    except NPZ_ERRORS as exc:
+        raise DataError(f"cannot read laser scans ({npz_reason(exc)})", path) from None
+    except (TypeError, ValueError) as exc:
+        raise DataError(f"laser scans are not numeric arrays ({exc})", path) from None
+    if angles.ndim != 1 or not np.all(np.isfinite(angles)) or np.any(np.diff(angles) <= 0):
+        raise DataError("angles_rad must be finite and increasing, one per beam", path)
+    if ranges.ndim != 2 or ranges.shape[1] != angles.size:
+        raise DataError(
+            f"ranges_m is {ranges.shape}, expected ({frames}, {angles.size}): "
+            "one row per frame, one column per beam", path)
+    if ranges.shape[0] != frames:
+        raise DataError(
+            f"{ranges.shape[0]} laser scans for {frames} frames (odometry.csv)", path)
+    if not (np.isfinite(max_range) and max_range > 0):
+        raise DataError(f"max_range_m must be positive, got {max_range}", path)
+    bad = ~np.isfinite(ranges) | (ranges < 0) | (ranges > max_range)
+    if bad.any():
+        frame, beam = (int(v) for v in np.argwhere(bad)[0])
+        raise DataError(
+            f"scan {frame}, beam {beam}: range {ranges[frame, beam]} outside "
+            f"[0, max_range_m = {max_range:g}] ({int(bad.sum())} such ranges)", path)
+    return LaserScans(angles, ranges, max_range)
+
+
 def load_synthetic(path: str | Path, association: Association = Association.KNOWN) -> Sequence:
     """Read a synthetic folder as a Sequence (images on demand, exact ground truth).
 
@@ -203,12 +234,7 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
         if association is Association.UNKNOWN:
             ids = np.full_like(ids, UNKNOWN_ID)
         sightings.append(RangeBearing(ids, rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5]))
-    laser_path = root / "laser.npz"
-    try:
-        with np.load(laser_path, allow_pickle=False) as data:
-            laser = LaserScans(data["angles_rad"], data["ranges_m"], float(data["max_range_m"]))
-    except NPZ_ERRORS as exc:
-        raise DataError(f"cannot read laser scans ({npz_reason(exc)})", laser_path) from None
+    laser = _read_laser(root / "laser.npz", n)
     landmarks = _read_csv(root / "landmarks.csv", 4)
     images = sorted(int(p.stem) for p in (root / "images").glob("*.png")) if (
         root / "images").is_dir() else []

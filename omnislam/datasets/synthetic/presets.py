@@ -26,7 +26,7 @@ from omnislam.camera.pinhole import PinholeCamera
 from omnislam.camera.rig import CameraRig
 from omnislam.core.motion import MotionNoise
 from omnislam.datasets.synthetic.laser import LaserConfig
-from omnislam.datasets.synthetic.routes import DriveLimits
+from omnislam.datasets.synthetic.routes import DriveLimits, OdometryBias
 from omnislam.datasets.synthetic.textures import TextureKind
 from omnislam.datasets.synthetic.world import SurfaceKind, World, WorldBuilder
 
@@ -58,6 +58,8 @@ class Preset:
         camera_height_m: height of the camera's viewpoint above the floor [m].
         laser: the laser (and pole sightings).
         motion_noise: alpha coefficients of the odometry noise (thesis eq. 4.40).
+        odometry_bias: systematic odometry errors (wheel scale, turn scale, curvature); the
+            same robot in every preset, dead reckoning drifting 1-3 % of the distance.
     """
 
     name: str
@@ -71,6 +73,7 @@ class Preset:
     camera_height_m: float = 0.85
     laser: LaserConfig = field(default_factory=LaserConfig)
     motion_noise: MotionNoise = field(default_factory=MotionNoise)
+    odometry_bias: OdometryBias = field(default_factory=OdometryBias)
 
     def rig(self) -> CameraRig | None:
         """The camera rig of the preset, or None without a camera."""

@@ -34,7 +34,7 @@ class Simulation:
         stamps_s: (N,) odometry / frame times [s] (10 Hz).
         poses_w: (N, 3) true poses.
         odometry_true_r: (N, 3) true robot-frame deltas (row 0 zero).
-        odometry_r: (N, 3) measured deltas (thesis alpha model).
+        odometry_r: (N, 3) measured deltas (systematic bias, then the thesis alpha model).
         image_frames: (K,) frame indices that get an image.
         laser_ranges_m: (N, B) noisy laser ranges.
         poles: per-frame pole sightings.
@@ -53,6 +53,37 @@ class Simulation:
     poles: tuple[RangeBearing, ...]
 
 
+@dataclass(frozen=True, slots=True)
+class Drive:
+    """A preset's whole route and its odometry (no world, no sensors).
+
+    Attributes:
+        stamps_s: (N,) frame times [s].
+        poses_w: (N, 3) true poses.
+        odometry_true_r: (N, 3) true robot-frame deltas (row 0 zero).
+        odometry_r: (N, 3) measured deltas (``routes.measured_odometry`` with the preset's
+            bias and alpha noise).
+    """
+
+    stamps_s: np.ndarray
+    poses_w: np.ndarray
+    odometry_true_r: np.ndarray
+    odometry_r: np.ndarray
+
+
+def drive(preset: Preset, seed: int) -> Drive:
+    """The route of ``preset`` and its measured odometry for ``seed``: the same numbers as
+    ``simulate(preset, seed)`` on every frame, without building the world or the sensors."""
+    _, odo_ss, _ = np.random.SeedSequence(seed).spawn(3)
+    path = drive_through(np.array(preset.waypoints_w), preset.drive)
+    true_odo = np.zeros_like(path.poses_w)
+    true_odo[1:] = path.odometry_true()[1:]
+    odometry = measured_odometry(
+        true_odo, preset.motion_noise, np.random.default_rng(odo_ss), preset.odometry_bias
+    )
+    return Drive(path.stamps_s, path.poses_w, true_odo, odometry)
+
+
 def simulate(
     preset: Preset,
     seed: int,
@@ -69,19 +100,18 @@ def simulate(
     """
     if max_images is not None and max_images < 1:
         raise ConfigError(f"--frames must be >= 1, got {max_images}")
-    world_ss, odo_ss, laser_ss = np.random.SeedSequence(seed).spawn(3)
+    world_ss, _, laser_ss = np.random.SeedSequence(seed).spawn(3)
     world = dataclasses.replace(preset.build_world(np.random.default_rng(world_ss)), seed=seed)
-    path = drive_through(np.array(preset.waypoints_w), preset.drive)
-    n = len(path)
+    route = drive(preset, seed)  # the odometry stream is drawn sequentially: truncating keeps it
+    n = route.poses_w.shape[0]
     image_frames = np.arange(0, n, preset.image_every_k, dtype=np.int64)
     if max_images is not None and max_images < image_frames.size:
         image_frames = image_frames[:max_images]
         n = int(image_frames[-1]) + 1
-    poses = path.poses_w[:n]
-    stamps = path.stamps_s[:n]
-    true_odo = np.zeros_like(poses)
-    true_odo[1:] = path.odometry_true()[1:n]
-    odometry = measured_odometry(true_odo, preset.motion_noise, np.random.default_rng(odo_ss))
+    poses = route.poses_w[:n]
+    stamps = route.stamps_s[:n]
+    true_odo = route.odometry_true_r[:n]
+    odometry = route.odometry_r[:n]
     caster = make_ray_caster(world.arrays(), backend)
     laser_rng = np.random.default_rng(laser_ss)
     table = pole_table(world)

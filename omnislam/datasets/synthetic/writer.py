@@ -8,7 +8,8 @@ byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
 
 ``meta.json``
     ``{"format": "omnislam-synthetic", "version": 1, "preset", "seed", "backend", "frames",
-    "images", "description", "source"}``.
+    "images", "description", "source", "odometry_bias", "motion_noise"}`` (the last two: the
+    simulated robot's systematic odometry errors and alpha coefficients, as dicts).
 ``world.json``
     The world: quads (surface id = index), texture specs, poles, vertical lines, 2-D walls.
 ``calibration.yaml``
@@ -18,8 +19,9 @@ byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
     True pose of every frame (10 Hz), TUM format ``stamp x y z qx qy qz qw``, z = 0.
 ``odometry.csv``
     ``stamp_s,dx_m,dy_m,dtheta_rad,true_dx_m,true_dy_m,true_dtheta_rad``: one row per frame;
-    the robot-frame motion since the previous frame, measured (thesis alpha model, eqs.
-    4.38-4.44) and true. Row 0 is zero.
+    the robot-frame motion since the previous frame, measured (the robot's systematic bias,
+    ``routes.OdometryBias``, then the thesis alpha model, eqs. 4.38-4.44) and true. Row 0 is
+    zero.
 ``images/NNNNNN.png``
     RGB images (8 bit) of the frames that have one; NNNNNN = frame index (zero-padded).
 ``gt/NNNNNN.npz``
@@ -41,6 +43,7 @@ byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import os
@@ -148,6 +151,8 @@ def write_synthetic(
             "images": int(sim.image_frames.size),
             "description": sim.preset.description,
             "source": sim.preset.source,
+            "odometry_bias": dataclasses.asdict(sim.preset.odometry_bias),
+            "motion_noise": dataclasses.asdict(sim.preset.motion_noise),
         }
         (tmp / "meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
         (tmp / "world.json").write_text(sim.world.to_json() + "\n")
