@@ -35,6 +35,7 @@ so a node costs O(a d n + a^2 d) instead of a new (a d) x (a d) inverse.
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -138,6 +139,9 @@ class JointAssociation:
         nodes: interpretation-tree nodes visited.
         complete: the search ran to the end (False: stopped at ``max_nodes``, the best
             hypothesis found so far is returned).
+        runner_up: (K,) the jointly compatible hypothesis with as many pairings and the next
+            smallest D2_H, or None when there is no other.
+        runner_up_d2: its D2_H (inf without one).
     """
 
     assignment: np.ndarray
@@ -145,6 +149,8 @@ class JointAssociation:
     individual_d2: np.ndarray
     nodes: int
     complete: bool
+    runner_up: np.ndarray | None = None
+    runner_up_d2: float = np.inf
 
     @property
     def pairings(self) -> int:
@@ -202,6 +208,8 @@ def jcbb(
     groups = pairings.groups
 
     best = {"assignment": assignment.copy(), "pairings": 0, "d2": 0.0}
+    # the second-best hypothesis with as many pairings (another assignment of the same count)
+    runner_up = {"assignment": None, "d2": np.inf}
     nodes = 0
     current = assignment.copy()
 
@@ -212,8 +220,15 @@ def jcbb(
         nonlocal nodes
         nodes += 1
         if k == k_count:
-            if paired > best["pairings"] or (paired == best["pairings"] and d2 < best["d2"]):
+            if paired > best["pairings"]:
+                runner_up.update(assignment=None, d2=np.inf)
                 best.update(assignment=current.copy(), pairings=paired, d2=d2)
+            elif paired == best["pairings"] and paired > 0:
+                if d2 < best["d2"]:
+                    runner_up.update(assignment=best["assignment"], d2=best["d2"])
+                    best.update(assignment=current.copy(), d2=d2)
+                elif d2 < runner_up["d2"]:
+                    runner_up.update(assignment=current.copy(), d2=d2)
             return
         for m in options[k]:
             if nodes >= max_nodes:
@@ -257,10 +272,75 @@ def jcbb(
     return JointAssociation(
         assignment=best["assignment"],
         d2=float(best["d2"]),
+        runner_up=runner_up["assignment"],
+        runner_up_d2=float(runner_up["d2"]),
         individual_d2=d2_ind,
         nodes=nodes,
         complete=nodes < max_nodes,
     )
+
+
+class Decision(enum.IntEnum):
+    """What becomes of one sighting of unknown landmark after the joint test.
+
+    PAIRED: it takes its candidate in the hypothesis.
+    NEW: it starts a new landmark -- every candidate it could still take (not paired with
+        another sighting of its frame) is beyond the new-landmark gate. A candidate paired
+        with another sighting of the same frame cannot be this sighting's landmark, so a
+        sighting that is near a landmark only because its neighbour in the frame took that
+        landmark is new: the frame proves the map has one landmark too few there (MR.CLAM's
+        landmarks stand in groups 0.18 m apart, seen together).
+    AMBIGUOUS: between the gates of some free candidate: neither that landmark nor surely new.
+    REJECTED: individually compatible with a free candidate, left out by the joint test.
+    """
+
+    PAIRED = 0
+    NEW = 1
+    AMBIGUOUS = 2
+    REJECTED = 3
+
+
+def decide(
+    result: JointAssociation,
+    groups: np.ndarray,
+    match_gate: float,
+    new_gate: float,
+    ambiguity_margin: float = 0.0,
+) -> np.ndarray:
+    """(K,) ``Decision`` of every sighting of a JCBB result.
+
+    Args:
+        result: the hypothesis (``jcbb``).
+        groups: (K,) the frame of each sighting (``Pairings.groups``).
+        match_gate: the individual gate on D2_km (chi-square quantile, d dof).
+        new_gate: the new-landmark gate on D2_km (a larger quantile).
+        ambiguity_margin: a pairing of the best hypothesis that the runner-up (as many
+            pairings) assigns differently is AMBIGUOUS unless the runner-up's D2_H exceeds
+            the best's by this much: the data do not tell the two apart (a margin of 2 ln 10 =
+            4.6 asks the best to be 10 times likelier). 0: the best is always taken.
+    """
+    k_count = len(result.assignment)
+    decisions = np.full(k_count, Decision.PAIRED, dtype=np.int64)
+    if result.runner_up is not None and result.runner_up_d2 - result.d2 < ambiguity_margin:
+        differ = (result.runner_up != result.assignment) & (result.assignment != UNPAIRED)
+        decisions[differ] = Decision.AMBIGUOUS
+    for k in range(k_count):
+        if result.assignment[k] != UNPAIRED:
+            continue
+        taken = {
+            int(result.assignment[j])
+            for j in range(k_count)
+            if j != k and groups[j] == groups[k] and result.assignment[j] != UNPAIRED
+        }
+        free = [m for m in range(result.individual_d2.shape[1]) if m not in taken]
+        nearest = float(result.individual_d2[k, free].min()) if free else np.inf
+        if nearest > new_gate:
+            decisions[k] = Decision.NEW
+        elif nearest > match_gate:
+            decisions[k] = Decision.AMBIGUOUS
+        else:
+            decisions[k] = Decision.REJECTED
+    return decisions
 
 
 @dataclass(frozen=True, slots=True)

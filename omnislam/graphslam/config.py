@@ -44,6 +44,19 @@ class Factorization(enum.Enum):
     QR = "qr"
 
 
+class AssociationTest(enum.Enum):
+    """How unlabelled sightings are associated (``association.py``).
+
+    JOINT: joint compatibility (JCBB, ``core.compatibility``) over the frame's sightings with
+        the covariance of the frame's pose guess and the candidate landmarks from iSAM2.
+    NEAREST: each sighting's nearest landmark inside an individual gate, with a fixed
+        landmark sigma (``association_landmark_sigma_m``), one landmark per sighting per frame.
+    """
+
+    JOINT = "joint"
+    NEAREST = "nearest"
+
+
 #: default thresholds on the whitened residual: 95% asymptotic efficiency on Gaussian noise
 #: (Huber 1.345, Cauchy 2.3849; Zhang, "Parameter estimation techniques", 1997)
 DEFAULT_ROBUST_THRESHOLD: dict[RobustKernel, float] = {
@@ -121,8 +134,20 @@ class GraphSLAMConfig:
             guess, with the covariance of the guess and the landmark read from iSAM2
             (``joint_state.py``), beyond the chi-square quantile drops the sighting. 1.0
             disables it.
+        association_test: JOINT (default) or NEAREST (see ``AssociationTest``).
         association_gate_probability: chi-square probability of the gate inside which an
-            unlabelled range-bearing sighting is matched to its nearest landmark (default 0.99).
+            unlabelled range-bearing sighting may take a landmark (individual compatibility;
+            with JOINT also the joint gate of the frame's hypothesis, d = 2 per pairing;
+            default 0.99).
+        association_lag_frames: with JOINT, the frames with unlabelled sightings that must
+            follow a frame before its unlabelled sightings are associated: JCBB runs over the
+            waiting frames together and keeps the oldest frame's decisions
+            (``window_association.py``); default 0: each frame on its own.
+        association_ambiguity_margin: with JOINT, a pairing that the second-best hypothesis
+            (as many pairings) makes differently is dropped as ambiguous unless that hypothesis'
+            joint D2 exceeds the best's by this margin (default 2 ln 10 = 4.6: the best must be
+            10 times likelier; ``core.compatibility.decide``). MR.CLAM's landmarks stand in
+            groups 0.18 m apart: a lone sighting after a stretch of odometry fits several.
         new_landmark_probability: chi-square probability beyond which an unmatched sighting
             starts a new landmark (default 0.9999); sightings between the two gates are
             ambiguous and dropped.
@@ -167,7 +192,10 @@ class GraphSLAMConfig:
     robust_kernel: RobustKernel = RobustKernel.NONE
     robust_threshold: float | None = None
     outlier_gate_probability: float = OUTLIER_GATE_PROBABILITY
+    association_test: AssociationTest = AssociationTest.JOINT
     association_gate_probability: float = 0.99
+    association_lag_frames: int = 0
+    association_ambiguity_margin: float = 4.6
     new_landmark_probability: float = 0.9999
     association_landmark_sigma_m: float = 0.3
     association_pose_covariance: bool = True

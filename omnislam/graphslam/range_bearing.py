@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from omnislam._optional import require
-from omnislam.core.compatibility import Pairings
+from omnislam.core.compatibility import Decision, Pairings
 from omnislam.core.gating import chi_square_gate
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
@@ -37,12 +37,13 @@ from omnislam.graphslam.association import (
     sighting_points,
 )
 from omnislam.graphslam.builder import LandmarkRegistry, SightingCounts
-from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.config import AssociationTest, GraphSLAMConfig
 from omnislam.graphslam.joint_state import joint_state
 from omnislam.graphslam.landmark_init import ConsistentInsertion
 from omnislam.graphslam.poses import PlanarPoses
 from omnislam.graphslam.session import ISAM2Session
 from omnislam.graphslam.tentative import TentativeLandmarks, TentativeStats
+from omnislam.graphslam.window_association import Decided, WindowAssociation
 
 gtsam = require("gtsam")
 
@@ -85,8 +86,13 @@ class RangeBearingGraph:
         )
         self._rejected = 0
         self._registry = LandmarkRegistry()
+        self._window = (
+            WindowAssociation(config, session, self._registry, self._tentative, self._pose_of)
+            if config.association_test is AssociationTest.JOINT
+            else None
+        )
         self._next_created_id = CREATED_ID_BASE
-        self._created = self._associated = self._ambiguous = 0
+        self._created = self._associated = self._ambiguous = self._jointly_rejected = 0
 
     def add(
         self, k: int, sightings: RangeBearing, guess_w: np.ndarray, graph: Any, values: Any
@@ -96,7 +102,13 @@ class RangeBearingGraph:
         unknown = ids == UNKNOWN_ID
         created: set[int] = set()
         points_w = covariances_w = np.zeros((0, 2))
-        if unknown.any():
+        if unknown.any() and self._window is not None:
+            rows = np.flatnonzero(unknown)
+            waiting = _subset(sightings, rows)
+            step = self._poses.odometry_step() if k > 0 else (np.zeros(3), np.eye(3))
+            for decided in self._window.push(k, waiting, guess_w, step):
+                self._add_decided(decided, k, guess_w, graph, values)
+        elif unknown.any():
             ids[unknown], points_w, covariances_w = self._associate(
                 k, np.flatnonzero(unknown), sightings, guess_w
             )
@@ -107,11 +119,8 @@ class RangeBearingGraph:
             [not u and lid in self._registry for u, lid in zip(unknown, ids.tolist(), strict=True)]
         )
         if mapped.any() and k > 0 and self._outlier_gate < np.inf:
-            ids[
-                np.flatnonzero(mapped)[
-                    ~self._gate_mapped(k, np.flatnonzero(mapped), sightings, guess_w)
-                ]
-            ] = UNKNOWN_ID
+            rows = np.flatnonzero(mapped)
+            ids[rows[~self._gate_mapped(k, rows, sightings, guess_w)]] = UNKNOWN_ID
         for i, (lid, r, b, s_r, s_b) in enumerate(
             zip(
                 ids.tolist(),
@@ -122,7 +131,7 @@ class RangeBearingGraph:
                 strict=True,
             )
         ):
-            if lid == UNKNOWN_ID:  # ambiguous
+            if lid == UNKNOWN_ID:  # rejected, ambiguous, or waiting in the association window
                 continue
             factor = fx.bearing_range_2d(k, lid, b, r, self._noise.diagonal(s_b, s_r))
             if lid in self._registry:
@@ -143,6 +152,76 @@ class RangeBearingGraph:
             insertion = self._consistent.try_insert(lid)
             if insertion is not None:
                 self._insert(lid, insertion.point_w, insertion.factors, graph, values)
+
+    def finish(self, graph: Any, values: Any) -> bool:
+        """Decide every sighting waiting in the association window (all poses in iSAM2).
+
+        Returns:
+            True when factors or variables were added to ``graph`` / ``values``.
+        """
+        if self._window is None or not len(self._window):
+            return False
+        for decided in self._window.flush():
+            self._add_decided(decided, None, None, graph, values)
+        return True
+
+    def _pose_of(self, k: int) -> np.ndarray:
+        """(3,) iSAM2's current estimate of frame k's pose."""
+        return fx.planar_from_pose2(self._session.pose2(fx.pose_key(k)))
+
+    def _add_decided(
+        self,
+        decided: Decided,
+        k_now: int | None,
+        guess_w: np.ndarray | None,
+        graph: Any,
+        values: Any,
+    ) -> None:
+        """Factors and landmarks of one frame's decided unlabelled sightings.
+
+        Args:
+            decided: the frame's decisions (``WindowAssociation``).
+            k_now, guess_w: the frame being added and its guess (its pose is not in iSAM2
+                yet), or None when every pose is.
+        """
+        k = decided.k
+        rb = decided.sightings
+        pose = guess_w if k == k_now else self._pose_of(k)
+        pose_cov = None
+        new_rows = np.flatnonzero(decided.decisions == Decision.NEW)
+        if self._tentative is not None and (len(new_rows) or np.any(decided.candidate_ids >= 0)):
+            self._tentative.expire(k)
+            if k != k_now:
+                pose_cov = self._poses.world_covariance(
+                    self._session.marginal_covariance(fx.pose_key(k)), pose[2]
+                )
+        points, covs = sighting_points(
+            pose, rb.ranges_m, rb.bearings_rad, rb.sigma_range_m, rb.sigma_bearing_rad, pose_cov
+        )
+        for i, decision in enumerate(decided.decisions.tolist()):
+            if decision == Decision.AMBIGUOUS:
+                self._ambiguous += 1
+                continue
+            if decision == Decision.REJECTED:
+                self._jointly_rejected += 1
+                continue
+            if decision == Decision.NEW:
+                lid = self._next_created_id
+                self._next_created_id += 1
+                self._created += 1
+            else:
+                lid = int(decided.candidate_ids[i])
+                self._associated += 1
+            noise = self._noise.diagonal(rb.sigma_bearing_rad[i], rb.sigma_range_m[i])
+            factor = fx.bearing_range_2d(k, lid, rb.bearings_rad[i], rb.ranges_m[i], noise)
+            if lid in self._registry:
+                graph.add(factor)
+            elif self._tentative is not None:
+                commitment = self._tentative.add(lid, k, points[i], covs[i], factor)
+                if commitment is not None:
+                    self._insert(lid, commitment.point_w, commitment.factors, graph, values)
+            else:
+                self._insert(lid, points[i], (factor,), graph, values)
 
     def _gate_mapped(
         self, k: int, rows: np.ndarray, sightings: RangeBearing, guess_w: np.ndarray
@@ -289,6 +368,17 @@ class RangeBearingGraph:
             landmarks_created=self._created,
             sightings_associated=self._associated,
             sightings_ambiguous=self._ambiguous,
-            sightings_gated=self._rejected + self._consistent.rejected,
+            sightings_gated=self._rejected + self._consistent.rejected + self._jointly_rejected,
             tentative=self._tentative.stats() if self._tentative is not None else TentativeStats(),
         )
+
+
+def _subset(sightings: RangeBearing, rows: np.ndarray) -> RangeBearing:
+    """The sightings ``rows`` of a frame."""
+    return RangeBearing(
+        sightings.landmark_ids[rows],
+        sightings.ranges_m[rows],
+        sightings.bearings_rad[rows],
+        sightings.sigma_range_m[rows],
+        sightings.sigma_bearing_rad[rows],
+    )

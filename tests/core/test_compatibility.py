@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-from omnislam.core.compatibility import UNPAIRED, Pairings, jcbb, joint_gates
+from omnislam.core.compatibility import UNPAIRED, Decision, Pairings, decide, jcbb, joint_gates
 from omnislam.core.gating import chi_square_gate
 
 #: D2 of the search and of the direct stacked solve agree to this (relative)
@@ -151,3 +151,40 @@ def test_empty_problems():
 def test_shapes_are_checked():
     with pytest.raises(ValueError, match="inconsistent shapes"):
         Pairings(np.zeros((2, 3, 2)), np.zeros((2, 3, 2, 4)), np.eye(5), np.zeros((2, 2, 2)))
+
+
+def test_decisions_new_by_exclusion_ambiguous_and_rejected():
+    gate, new_gate = chi_square_gate(0.99, 2), chi_square_gate(0.9999, 2)
+    # two sightings near the one landmark of the map, in one frame: one takes it, the other
+    # is new although it is inside the landmark's gate (the frame holds two landmarks there)
+    one_landmark = translation_pairings(
+        np.array([[0.0, 0.0], [0.15, 0.0]]), np.array([[0.05, 0.0]]), 0.05, 0.05
+    )
+    result = jcbb(one_landmark, 0.99)
+    decisions = decide(result, one_landmark.groups, gate, new_gate)
+    assert sorted(decisions.tolist()) == [Decision.PAIRED, Decision.NEW]
+    # one sighting between two landmarks it cannot tell apart: the best is taken without a
+    # margin, dropped as ambiguous with one
+    between = translation_pairings(
+        np.array([[0.1, 0.0]]), np.array([[0.0, 0.0], [0.21, 0.0]]), 0.1, 0.05
+    )
+    result = jcbb(between, 0.99)
+    assert result.runner_up is not None and result.runner_up_d2 - result.d2 < 1.0
+    assert decide(result, between.groups, gate, new_gate)[0] == Decision.PAIRED
+    assert decide(result, between.groups, gate, new_gate, 4.6)[0] == Decision.AMBIGUOUS
+    # a sighting between the gates of the only landmark
+    far = translation_pairings(np.array([[0.0, 0.0]]), np.array([[0.4, 0.0]]), 0.1, 0.05)
+    d2 = far.individual()[0, 0]
+    assert gate < d2 < new_gate
+    assert decide(jcbb(far, 0.99), far.groups, gate, new_gate)[0] == Decision.AMBIGUOUS
+
+
+def test_a_pairing_jcbb_leaves_out_is_rejected_not_new():
+    landmarks = np.array([[0.0, 0.0], [3.0, 0.0], [0.0, 3.0]])
+    sightings = np.array([landmarks[0] - [0.8, 0], landmarks[1] - [0.8, 0], [0.8, 3.0]])
+    pairings = translation_pairings(sightings, landmarks, pose_sigma_m=1.0, noise_sigma_m=0.05)
+    result = jcbb(pairings, 0.99)
+    decisions = decide(
+        result, pairings.groups, chi_square_gate(0.99, 2), chi_square_gate(0.9999, 2)
+    )
+    np.testing.assert_array_equal(decisions, [Decision.PAIRED, Decision.PAIRED, Decision.REJECTED])

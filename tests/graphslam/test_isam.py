@@ -174,7 +174,8 @@ def test_frames_before_the_first_sighting_are_dead_reckoning(planar):
     )
     assert estimator.info().factors == 20 and estimator.info().landmarks == 0
     estimator.step(planar.frames[20])
-    assert len(estimator.estimate().trajectory) == 21 and estimator.info().landmarks > 0
+    estimator.step(planar.frames[21])  # a landmark enters at its second agreeing sighting
+    assert len(estimator.estimate().trajectory) == 22 and estimator.info().landmarks > 0
 
 
 def test_wrong_associations_the_defaults_keep_ate_near_clean():
