@@ -2,6 +2,8 @@
 #   make demo   renders the embedded `demo` world and runs the pipeline end to end
 #   make test   runs ruff and the unit tests
 # Both create .venv and install what is needed first (system libraries too, when root on Debian).
+#   make suite  every estimator on every dataset (benchmarks/grids/suite.yaml): results in
+#               runs/suite (not committed), the report in reports/suite, the README's table
 
 PYTHON ?= python3
 VENV   := .venv
@@ -9,7 +11,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 SYSLIBS := libusb-1.0-0 libgl1 libegl1 libx11-6 libudev1 libgomp1
 
-.PHONY: test demo venv syslibs lint clean
+.PHONY: test demo suite venv syslibs lint clean
 
 venv: $(STAMP)
 
@@ -47,7 +49,31 @@ test: venv
 	$(BIN)/python -m pytest -q
 
 demo: venv
-	$(BIN)/omnislam demo
+	$(BIN)/omnislam demo --overwrite
+
+# SUITE_WORKERS=N: N local worker processes (default: one per core);
+# SCHEDULER=tcp://HOST:8786: a Dask cluster (README, "Running the suite on a cluster"), or
+# SCHEDULER=local for a LocalCluster. Finished cells, renders and front-end logs are reused.
+SUITE_RESULTS ?= runs/suite
+SUITE_REPORT  ?= reports/suite
+SUITE_WORKERS ?=
+SCHEDULER     ?=
+# the committed report must stay small
+SUITE_MAX_BYTES := 5242880
+
+suite: venv
+	$(BIN)/omnislam compare benchmarks/grids/suite.yaml --out $(SUITE_RESULTS) --resume \
+	  $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(if $(SUITE_WORKERS),--workers $(SUITE_WORKERS)); \
+	status=$$?; test $$status -le 1 || exit $$status; \
+	$(BIN)/omnislam report $(SUITE_RESULTS) --out $(SUITE_REPORT) --no-exports --no-figures \
+	  --overwrite \
+	  && $(BIN)/python benchmarks/suite_table.py --report $(SUITE_REPORT) --readme README.md \
+	  || exit $$?; \
+	size=$$(du -sb $(SUITE_REPORT) | cut -f1); \
+	if [ $$size -gt $(SUITE_MAX_BYTES) ]; then \
+	  echo "warning: $(SUITE_REPORT) is $$size bytes (> $(SUITE_MAX_BYTES)): too big to commit"; fi; \
+	test $$status -eq 0 || echo "some cells failed (named above and in the report)"; \
+	exit $$status
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache .hypothesis

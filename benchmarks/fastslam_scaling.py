@@ -1,8 +1,11 @@
 """FastSLAM speed and memory scaling (issue #7).
 
 1. Cost per particle-observation on a small 2-D world (8 landmarks, ~6 sightings per step) at
-   100 and 1000 particles, FastSLAM 1.0 and 2.0 (sequential and joint proposal, stepped
-   interleaved in the same run), tree store. Goal: <= 1 us.
+   100 and 1000 particles, FastSLAM 1.0 and 2.0 (sequential and joint proposal), tree store,
+   each with the numpy path (the reference) and with the compiled kernels
+   (``fastslam/kernels.py``, extra ``fast``; skipped without numba), all stepped interleaved in
+   the same run, with the kernels' CPU time relative to the numpy path's and the largest
+   difference of their trajectories. Goal: <= 1 us.
 2. Step time with 1k, 10k and 100k landmarks in the map and a fixed 6 sightings per step,
    resampling every step (the worst case for the dense store): tree vs dense. Goal for the
    tree: <= 1.5x growth from 1k to 100k.
@@ -33,6 +36,7 @@ from omnislam.core.types import FrameInput, Odometry, RangeBearing
 from omnislam.fastslam import (
     FastSLAM,
     FastSLAMConfig,
+    Kernels,
     LandmarkBlock,
     LandmarkStatus,
     ProposalUpdateMode,
@@ -40,6 +44,7 @@ from omnislam.fastslam import (
     Variant,
     make_fastslam,
 )
+from omnislam.fastslam.kernels import available as kernels_available
 
 NOISE = MotionNoise(a_vv=0.05, a_vw=0.02, a_wv=0.01, a_ww=0.05)
 SIGMA_R, SIGMA_B = 0.05, 0.01
@@ -79,51 +84,82 @@ def timed_step(slam: FastSLAM, frame: FrameInput) -> tuple[float, float]:
 
 
 def per_particle_observation(quick: bool) -> list[str]:
-    """FastSLAM 1.0, 2.0 with the sequential proposal and 2.0 with the joint one, stepped
-    interleaved frame by frame (each filter on its own rng) so that all see the same load of a
-    shared machine; the joint row also gives its median CPU time relative to sequential's."""
+    """FastSLAM 1.0, 2.0 with the sequential proposal and 2.0 with the joint one, each on the
+    numpy path and with the compiled kernels, stepped interleaved frame by frame (each filter on
+    its own rng, the same seed for both paths) so that all see the same load of a shared
+    machine. "CPU vs sequential" compares a joint row with the sequential row of the same
+    path; "CPU vs numpy" a kernel row with its numpy row; "max |diff|" is the largest
+    difference [m or rad] between the two paths' trajectories. "least" is the smallest CPU
+    time of any step: on a loaded machine every other step is inflated by preemption and
+    cache pollution, so it is the closest to the unloaded cost."""
     steps, warm = (60, 10) if quick else (200, 20)
     frames = small_world(steps)
     sightings = np.mean([len(f.range_bearing) for f in frames])
+    paths = [Kernels.NUMPY, *([Kernels.NUMBA] if kernels_available() else [])]
     rows = [
         f"## cost per particle-observation (8 landmarks, {sightings:.1f} sightings/step, "
-        f"tree store, median of {steps - warm} steps, the variants stepped interleaved)",
-        "| variant | proposal | particles | step ms | CPU ms | us / particle-observation "
-        "| CPU us / p-o | CPU vs sequential |",
-        "|---|---|---:|---:|---:|---:|---:|---:|",
+        f"tree store, median of {steps - warm} steps, all filters stepped interleaved)",
+        "| variant | proposal | path | particles | step ms | CPU ms | us / particle-observation "
+        "| CPU us / p-o | least CPU us / p-o | CPU vs sequential | CPU vs numpy | max diff |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
+    if len(paths) == 1:
+        rows.insert(1, "(numba not installed: numpy path only; pip install 'omnislam[fast]')")
     k = np.array([len(f.range_bearing) for f in frames[warm:]])
     kinds = [
-        (Variant.FASTSLAM1, ProposalUpdateMode.SEQUENTIAL),
-        (Variant.FASTSLAM2, ProposalUpdateMode.SEQUENTIAL),
-        (Variant.FASTSLAM2, ProposalUpdateMode.JOINT),
+        (variant, mode, path)
+        for variant, mode in (
+            (Variant.FASTSLAM1, ProposalUpdateMode.SEQUENTIAL),
+            (Variant.FASTSLAM2, ProposalUpdateMode.SEQUENTIAL),
+            (Variant.FASTSLAM2, ProposalUpdateMode.JOINT),
+        )
+        for path in paths
     ]
     for n in (100, 1000):
         filters = [
             make_fastslam(
                 FastSLAMConfig(
-                    variant=variant, n_particles=n, motion_noise=NOISE, proposal_update=mode
+                    variant=variant,
+                    n_particles=n,
+                    motion_noise=NOISE,
+                    proposal_update=mode,
+                    kernels=path,
                 ),
                 Modality.RANGE_BEARING_2D,
                 np.random.default_rng(1),
             )
-            for variant, mode in kinds
+            for variant, mode, path in kinds
         ]
+        if len(paths) > 1:  # compile outside the timed steps
+            warmup = make_fastslam(
+                FastSLAMConfig(variant=Variant.FASTSLAM2, n_particles=4, kernels=Kernels.NUMBA),
+                Modality.RANGE_BEARING_2D,
+                np.random.default_rng(0),
+            )
+            for frame in frames[:3]:
+                warmup.step(frame)
         times = np.array([[timed_step(slam, frame) for slam in filters] for frame in frames])
         times = times[warm:]  # (steps, filter, wall/CPU)
-        sequential_cpu = times[:, 1, 1]
-        for i, (variant, mode) in enumerate(kinds):
+        index = {kind: i for i, kind in enumerate(kinds)}
+        for i, (variant, mode, path) in enumerate(kinds):
             per = np.median(times[:, i] / (n * k)[:, None], axis=0) * 1e6
+            least = np.min(times[:, i, 1] / (n * k)) * 1e6
             ms = np.median(times[:, i], axis=0) * 1e3
             proposal = mode.value if variant is Variant.FASTSLAM2 else "-"
-            ratio = (
-                f"{np.median(times[:, i, 1] / sequential_cpu):.2f}x"
-                if variant is Variant.FASTSLAM2
-                else ""
-            )
+            ratio = numpy_ratio = diff = ""
+            if mode is ProposalUpdateMode.JOINT:
+                sequential = index[(variant, ProposalUpdateMode.SEQUENTIAL, path)]
+                ratio = f"{np.median(times[:, i, 1] / times[:, sequential, 1]):.2f}x"
+            if path is Kernels.NUMBA:
+                reference = index[(variant, mode, Kernels.NUMPY)]
+                numpy_ratio = f"{np.median(times[:, i, 1] / times[:, reference, 1]):.2f}x"
+                a = filters[i].estimate().trajectory.se2
+                b = filters[reference].estimate().trajectory.se2
+                diff = f"{np.abs(a - b).max():.1e}"
             rows.append(
-                f"| {variant.value} | {proposal} | {n} | {ms[0]:.2f} | {ms[1]:.2f} | "
-                f"{per[0]:.2f} | {per[1]:.2f} | {ratio} |"
+                f"| {variant.value} | {proposal} | {path.value} | {n} | {ms[0]:.2f} | "
+                f"{ms[1]:.2f} | {per[0]:.2f} | {per[1]:.2f} | {least:.2f} | {ratio} | "
+                f"{numpy_ratio} | {diff} |"
             )
     return rows
 

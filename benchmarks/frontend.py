@@ -2,16 +2,27 @@
 
 Usage (render the datasets first with ``omnislam dataset synth PRESET --out DIR``):
 
-    .venv/bin/python benchmarks/frontend.py --dataset /tmp/lab40 [--images N] \
-        [--corridor /tmp/corridor21] [--real] [--json results.json]
+    .venv/bin/python benchmarks/frontend.py --dataset runs/lab40 [--images N] \
+        [--repeat 3] [--variants] [--corridor DIR] [--real] [--json results.json]
 
-Reports, on the synthetic omni dataset:
-- images/s of the whole front end (extract, group, match, verify, track, map), with the
-  per-stage breakdown in ms per image, and SIFT alone on the same images for reference;
-- track precision (two sightings of one track see true points within 5 cm) with and without
-  geometric verification, side by side; median verified sightings per image; median track
-  length; the fraction of landmarks visible again after a return (>= 60 s) that keep their
-  original track id;
+Reports, on the synthetic omni dataset, with the default configuration (vertical edges on, as
+``omnislam frontend`` runs; no laser):
+
+- speed of the whole image loop (load, SIFT, groups, vertical edges, matching, verification,
+  tracks), pipelined as ``omnislam frontend`` runs it: images/s wall-clock and CPU ms per
+  image (all threads), medians of ``--repeat`` runs, with the machine's load average; then one
+  sequential run for wall and CPU ms per image of every stage; SIFT alone for reference;
+- quality: track precision (two sightings of one track see true points within 5 cm) with and
+  without geometric verification; tracks kept, median verified sightings per image, median
+  track length; re-association after a return (>= 60 s); the landmark error the bearings
+  allow (every consistent track of >= 3 sightings triangulated from the true poses: median,
+  90th percentile, RMS, and for tracks with >= 3 deg of parallax); the bearings' noise ratio
+  (``evaluation.noise_ratio``: RMS residual / logged sigma, 1 = calibrated);
+- ``--variants``: the same quality and CPU figures (per stage) for the scale-space choices of
+  ``SiftConfig.first_octave`` (doubled with OpenCV's default upscale, doubled with the exact
+  one, native, none), for native with 2 layers per octave or a budget of the 300 strongest
+  keypoints, and for the general 8-point RANSAC instead of the planar one,
+  sequentially, one run each (``--variant NAME`` picks some; ``--repeat 0`` runs only them);
 and optionally vertical-edge recall / bearing error on corridor21 and verified matches per
 image pair on the real OCamCalib VMR lab images.
 """
@@ -21,6 +32,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -30,6 +42,7 @@ import numpy as np
 from omnislam.datasets.synthetic.loader import SyntheticFolder, load_synthetic
 from omnislam.frontend import evaluation
 from omnislam.frontend.config import (
+    FirstOctave,
     FrontendConfig,
     LaserLandmarkConfig,
     VerificationConfig,
@@ -39,49 +52,105 @@ from omnislam.frontend.pipeline import run_frontend
 from omnislam.frontend.sift import SiftExtractor, detection_mask
 from omnislam.frontend.vertical_edges import extract_vertical_lines
 
-STAGES = ("extract", "group", "match", "verify", "track", "map")
+STAGES = ("load", "extract", "group", "vertical_edges", "match", "match_map", "verify", "track",
+          "map")
+#: parallax above which a triangulated landmark counts as constrained [rad]
+PARALLAX_RAD = np.deg2rad(3.0)
 
 
-def quality(log, folder: SyntheticFolder) -> dict[str, float]:
-    cache: dict[int, np.ndarray] = {}
-
-    def points_w_of(i: int) -> np.ndarray:
-        if i not in cache:
-            cache[i] = folder.ground_truth_maps(i).points_w
-        return cache[i]
-
-    s = evaluation.true_sightings(log, points_w_of)
-    precision, pairs = evaluation.track_precision(s)
-    rate, returns = evaluation.reassociation_rate(s)
+def variants(config: FrontendConfig) -> dict[str, FrontendConfig]:
+    """The scale-space choices measured side by side (``SiftConfig.first_octave``)."""
+    sift = config.sift
     return {
-        "track_precision": precision,
-        "pairs": pairs,
-        "sightings_per_image_median": float(np.median(evaluation.sightings_per_image(log))),
-        "track_length_median": float(np.median(evaluation.track_lengths(log))),
-        "tracks": int(evaluation.track_lengths(log).size),
-        "reassociated_after_return": rate,
-        "returns": returns,
+        "doubled, OpenCV's default upscale": dataclasses.replace(config, sift=dataclasses.replace(
+            sift, first_octave=FirstOctave.DOUBLED, precise_upscale=False)),
+        "doubled, exact upscale": dataclasses.replace(config, sift=dataclasses.replace(
+            sift, first_octave=FirstOctave.DOUBLED, precise_upscale=True)),
+        "native (default)": dataclasses.replace(config, sift=dataclasses.replace(
+            sift, first_octave=FirstOctave.NATIVE)),
+        "none": dataclasses.replace(config, sift=dataclasses.replace(
+            sift, first_octave=FirstOctave.NONE)),
+        "native, 2 layers per octave": dataclasses.replace(config, sift=dataclasses.replace(
+            sift, first_octave=FirstOctave.NATIVE, n_octave_layers=2)),
+        "native, the 300 strongest keypoints": dataclasses.replace(
+            config, sift=dataclasses.replace(sift, first_octave=FirstOctave.NATIVE,
+                                             max_features=300)),
+        "native, 8-point RANSAC": dataclasses.replace(config, verification=dataclasses.replace(
+            config.verification, planar_motion=False)),
     }
 
 
-def speed(log) -> dict[str, float]:
+class Truth:
+    """The renderer's world point of every pixel, per frame (cached)."""
+
+    def __init__(self, folder: SyntheticFolder) -> None:
+        self.folder = folder
+        self._cache: dict[int, np.ndarray] = {}
+
+    def __call__(self, i: int) -> np.ndarray:
+        if i not in self._cache:
+            self._cache[i] = self.folder.ground_truth_maps(i).points_w
+        return self._cache[i]
+
+
+def quality(log, sequence, truth: Truth) -> dict[str, float]:
+    s = evaluation.true_sightings(log, truth)
+    precision, pairs = evaluation.track_precision(s)
+    rate, returns = evaluation.reassociation_rate(s)
+    wTr = truth.folder.groundtruth.poses_w
+    viewpoint = sequence.calibration.viewpoint_r
+    tri = evaluation.triangulation_errors(log, s, wTr, viewpoint)
+    wide = tri.parallax_rad >= PARALLAX_RAD
+    res = evaluation.bearing_residuals(log, s, wTr, viewpoint)
+    return {
+        "track_precision": precision,
+        "pairs": pairs,
+        "tracks": int(evaluation.track_lengths(log).size),
+        "sightings_per_image_median": float(np.median(evaluation.sightings_per_image(log))),
+        "track_length_median": float(np.median(evaluation.track_lengths(log))),
+        "reassociated_after_return": rate,
+        "returns": returns,
+        "triangulated_tracks": int(tri.error_m.size),
+        "triangulation_error_median_cm": 100 * float(np.median(tri.error_m)),
+        "triangulation_error_p90_cm": 100 * float(np.percentile(tri.error_m, 90)),
+        "triangulation_error_rms_cm": 100 * float(np.sqrt(np.mean(tri.error_m**2))),
+        "triangulated_tracks_3deg": int(wide.sum()),
+        "triangulation_error_3deg_median_cm": 100 * float(np.median(tri.error_m[wide])),
+        "triangulation_error_3deg_p90_cm": 100 * float(np.percentile(tri.error_m[wide], 90)),
+        "bearing_noise_ratio": evaluation.noise_ratio(res),
+        "bearing_noise_ratio_median": evaluation.noise_ratio_median(res),
+    }
+
+
+def per_stage(log) -> dict[str, float]:
+    """Wall and CPU ms per image of every stage (CPU exact for a sequential run)."""
     images = max(log.stats["images_processed"], 1.0)
-    ms = {k: 1e3 * log.stats.get(f"seconds_{k}", 0.0) / images for k in STAGES}
-    total = sum(ms.values())
-    return {"ms_per_image": total, "images_per_s": 1e3 / total,
-            **{f"ms_{k}": v for k, v in ms.items()}}
+    out = {}
+    for k in STAGES:
+        out[f"ms_{k}"] = 1e3 * log.stats.get(f"seconds_{k}", 0.0) / images
+        out[f"cpu_ms_{k}"] = 1e3 * log.stats.get(f"cpu_seconds_{k}", 0.0) / images
+    return out
 
 
-def sift_alone(sequence, frames: np.ndarray, config: FrontendConfig) -> float:
+def totals(log) -> dict[str, float]:
+    images = max(log.stats["images_processed"], 1.0)
+    wall = log.stats["seconds_images_total"]
+    return {"images": int(images), "seconds_wall": wall,
+            "images_per_s_wall": images / wall,
+            "cpu_ms_per_image": 1e3 * log.stats["cpu_seconds_images_total"] / images}
+
+
+def sift_alone(sequence, frames: np.ndarray, config: FrontendConfig) -> dict[str, float]:
     """ms per image of SIFT alone on the same images (a load reference for this machine)."""
     camera = sequence.calibration.camera
     mask = detection_mask(camera.mask(), (camera.height, camera.width))
     extractor = SiftExtractor(config.sift)
     images = [sequence.image(int(i)) for i in frames]
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     for image in images:
         extractor.extract(image, mask)
-    return 1e3 * (time.perf_counter() - start) / len(images)
+    return {"ms_sift_alone": 1e3 * (time.perf_counter() - start) / len(images),
+            "cpu_ms_sift_alone": 1e3 * (time.process_time() - cpu) / len(images)}
 
 
 def vertical_edges(path: Path) -> dict[str, float]:
@@ -123,28 +192,55 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", required=True, type=Path, help="synthetic omni folder")
     parser.add_argument("--images", type=int, default=None, help="process the first N images")
+    parser.add_argument("--repeat", type=int, default=3,
+                        help="pipelined speed runs (median); 0: no speed or default-quality runs")
+    parser.add_argument("--variants", action="store_true", help="scale-space choices table")
+    parser.add_argument("--variant", action="append", default=None, metavar="NAME",
+                        help="with --variants: only these (repeatable); with --repeat 0 only "
+                             "the variants run")
     parser.add_argument("--corridor", type=Path, help="corridor21 folder (vertical edges)")
     parser.add_argument("--real", action="store_true", help="real VMR lab image pairs")
     parser.add_argument("--json", type=Path, help="write the results here")
     args = parser.parse_args()
 
     sequence = load_synthetic(args.dataset)
-    folder = SyntheticFolder(args.dataset)
+    truth = Truth(SyntheticFolder(args.dataset))
     config = FrontendConfig(laser=LaserLandmarkConfig(enabled=False))
-    results: dict[str, object] = {"dataset": str(args.dataset), "images": args.images}
-    log = run_frontend(sequence, config, max_images=args.images, progress=True)
-    results["speed"] = speed(log)
-    frames = log.image_frames
-    results["speed"]["ms_sift_alone"] = sift_alone(sequence, frames[: min(30, frames.size)],
-                                                   config)
-    results["verified"] = quality(log, folder)
-    unverified = dataclasses.replace(config, verification=VerificationConfig(enabled=False))
-    results["unverified"] = quality(run_frontend(sequence, unverified, max_images=args.images,
-                                                 progress=True), folder)
+    results: dict[str, object] = {"dataset": str(args.dataset), "images": args.images,
+                                  "cpus": os.cpu_count(), "load_average_before": os.getloadavg()}
+    if args.repeat > 0:
+        runs = []
+        for _ in range(args.repeat):
+            log = run_frontend(sequence, config, max_images=args.images, progress=True)
+            runs.append(totals(log))
+        results["pipelined"] = {k: float(np.median([r[k] for r in runs])) for k in runs[0]}
+        results["pipelined_runs"] = runs
+        sequential = run_frontend(sequence, config, max_images=args.images, progress=True,
+                                  pipelined=False)
+        results["sequential"] = totals(sequential) | per_stage(sequential)
+        frames = log.image_frames
+        results["sequential"] |= sift_alone(sequence, frames[: min(30, frames.size)], config)
+        results["load_average_after_speed"] = os.getloadavg()
+        results["verified"] = quality(log, sequence, truth)
+        unverified = dataclasses.replace(config, verification=VerificationConfig(enabled=False))
+        results["unverified"] = quality(run_frontend(sequence, unverified,
+                                                     max_images=args.images, progress=True),
+                                        sequence, truth)
+    if args.variants:
+        table = {}
+        for name, variant in variants(config).items():
+            if args.variant and name not in args.variant:
+                continue
+            run = run_frontend(sequence, variant, max_images=args.images, progress=True,
+                               pipelined=False)
+            cpu = {k: v for k, v in per_stage(run).items() if k.startswith("cpu_ms_")}
+            table[name] = totals(run) | cpu | quality(run, sequence, truth)
+        results["variants"] = table
     if args.corridor:
         results["vertical_edges"] = vertical_edges(args.corridor)
     if args.real:
         results["real_vmr_pairs"] = real_pairs()
+    results["load_average_after"] = os.getloadavg()
     text = json.dumps(results, indent=2)
     print(text)
     if args.json:

@@ -77,10 +77,10 @@ def main(argv: list[str] | None = None) -> int:
         engine = ["--scheduler", args.scheduler]
     if args.workers is not None:
         engine += ["--workers", str(args.workers)]
-    code = omnislam(["compare", str(filtered), "--out", str(results), *engine])
+    code = omnislam(["compare", str(filtered), "--out", str(results), "--resume", *engine])
     if code == 2:
         return code
-    report = omnislam(["report", str(results), "--out", args.out, "--no-exports"])
+    report = omnislam(["report", str(results), "--out", args.out, "--no-exports", "--overwrite"])
     return report or code
 
 

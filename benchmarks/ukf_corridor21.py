@@ -1,24 +1,34 @@
 """The vertical-line UKF on corridor21 (Barra & Costa's 21 m U corridor, pinhole camera).
 
-Renders corridor21 with odometry noise 4x the preset's (so that dead reckoning is clearly
-wrong), runs the shared front end (vertical lines), surveys the map's MC descriptors from the
-frames at their true poses (the paper's hand-made map), then localises and reports: mean
-position error of the UKF and of dead reckoning, ms per processed frame (steps 3-5 + update;
-steps 1-2 are the front end's vertical-edge time, printed separately), and association quality
-against the renderer's ground truth (lines labelled by their true projection within 4 px).
+Renders corridor21 (``--noise`` times the preset's alpha noise on top of its systematic
+odometry drift; 1, the default, is the preset's own odometry, dead reckoning 6-18 cm mean
+error over seeds 0-4), runs the shared front end (vertical lines), takes the folder's prior map
+(the world's line map with the MC descriptors surveyed while rendering, ``line_colours.csv``:
+the paper's hand-made map, and what ``omnislam run`` gives the UKF), then localises with the
+UKF's defaults (the noise of the data is not given to it) and reports: mean position error of
+the UKF and of dead reckoning, time per processed frame (steps 3-5 and the update, CPU and
+wall; steps 1-2 are the front end's vertical-edge time, printed separately), and association
+quality against the renderer's ground truth (lines labelled by their true projection within
+4 px).
 
-``--sweep`` runs the paper's d_it sweep (sec. 5: 10-90 cm) on the same render, front end and
-survey, one table row per value. ``--sck`` runs the Sc_k calibration of sec. 5 ("first Sc_k was
-calibrated, to minimise the number of incorrect associations"): the only free constant of Sc_k
-is the weight of F_shift (``association.shift_weight``, paper 100), swept with d_it at its
-default; and for the chosen weight, the Sc_k / F_shift / mean C'_ij of the step-4 sets that
-were entirely right against those holding a wrong pair.
+``--seeds`` gives one row per seed. ``--ablation`` compares the defaults with the paper's
+step 4 alone (no covariance gates, Sc_k alone), the covariance gates with Sc_k alone, and the
+defaults with core's (4x smaller) odometry noise. ``--sweep`` runs the paper's d_it sweep
+(sec. 5: 10-90 cm) on the same render, front end and map, one table row per value. ``--sck``
+runs the Sc_k calibration of sec. 5 ("first Sc_k was calibrated, to minimise the number of
+incorrect associations"): the only free constant of Sc_k is the weight of F_shift
+(``association.shift_weight``, paper 100), swept with d_it at its default; and for the chosen
+weight, the Sc_k / F_shift / mean C'_ij of the step-4 sets that were entirely right against
+those holding a wrong pair. ``--sck-min`` drops sets below an Sc_k threshold.
 
-    PYTHONPATH=. python benchmarks/ukf_corridor21.py [--out DIR] [--noise 4] [--set k=v ...]
-        [--sweep [CM ...]] [--sck [W ...]] [--sck-min [T ...]] [--image-every K]
+    PYTHONPATH=. python benchmarks/ukf_corridor21.py [--out DIR] [--noise 1] [--seed 0]
+        [--set k=v ...] [--seeds S ...] [--ablation] [--sweep [CM ...]] [--sck [W ...]]
+        [--sck-min [T ...]] [--image-every K]
 
 corridor21 renders one image every 12 odometry steps (about 36 cm of travel), so d_it below
-that processes every image: the sweep renders with ``--image-every 3`` (about 9 cm).
+that processes every image: the sweep renders with ``--image-every 3`` (about 9 cm). Renders and
+front-end logs are kept in ``--out`` (default /tmp/ukf_corridor21) and reused; a folder
+rendered before ``line_colours.csv`` existed is refused.
 """
 
 from __future__ import annotations
@@ -56,7 +66,7 @@ class Setup:
 
 
 def prepare(out: Path, noise_factor: float, seed: int, image_every: int | None = None) -> Setup:
-    """Render (once), front end (cached), survey of the MC descriptors at the true poses."""
+    """Render (once), front end (cached), the folder's prior map with its MC descriptors."""
     from omnislam.core.se import se2_from_se3, se2_integrate
     from omnislam.datasets.synthetic.loader import load_synthetic
     from omnislam.datasets.synthetic.presets import PRESETS
@@ -64,7 +74,6 @@ def prepare(out: Path, noise_factor: float, seed: int, image_every: int | None =
     from omnislam.datasets.synthetic.writer import write_synthetic
     from omnislam.frontend.pipeline import cached_frontend
     from omnislam.ukf.image_line import image_line_from_rig
-    from omnislam.ukf.survey import survey_descriptors
 
     preset = PRESETS["corridor21"]
     tag = "" if image_every in (None, preset.image_every_k) else f"-img{image_every}"
@@ -86,7 +95,9 @@ def prepare(out: Path, noise_factor: float, seed: int, image_every: int | None =
     log = cached_frontend(seq, out / (folder.name + ".log.npz"))
     truth = se2_from_se3(seq.ground_truth.trajectory.poses_w)
     line = image_line_from_rig(seq.calibration)
-    prior = survey_descriptors(seq.prior_map, log.frames, truth, line, tol_px=4.0)
+    prior = seq.prior_map  # MC descriptors surveyed while rendering (line_colours.csv)
+    if prior.means_left is None:
+        raise SystemExit(f"{folder} has no line_colours.csv (an older render): remove it")
     dr = se2_integrate(seq.odometry_r, seq.initial_pose_w)
     err_dr = np.hypot(*(dr[:, :2] - truth[:, :2]).T)
     return Setup(folder, seq, log, truth, line, prior, noise, err_dr)
@@ -108,12 +119,12 @@ def run_once(
     from omnislam.ukf.association import set_score
     from omnislam.ukf.survey import label_lines
 
-    config = apply_options(UKFConfig(motion_noise=setup.noise), options)
+    config = apply_options(UKFConfig(), options)
     sets: list[tuple[float, float, float, np.ndarray]] = []  # (Sc_k, F_shift, mean C', lines)
     original = localiser_module.associate_landmarks
 
-    def spy(u_lines, u_cands, scores, cfg):  # records the chosen set's terms
-        best = original(u_lines, u_cands, scores, cfg)
+    def spy(u_lines, u_cands, scores, cfg, consistency=None):  # records the chosen set's terms
+        best = original(u_lines, u_cands, scores, cfg, consistency)
         if min_score is not None and best.score < min_score:
             best = dataclasses.replace(best, lines=best.lines[:0], candidates=best.candidates[:0])
         if len(best):
@@ -128,22 +139,29 @@ def run_once(
     localiser_module.associate_landmarks = spy
     try:
         ukf = VerticalLineUKF(setup.prior, config, Modality.VERTICAL_LINES, setup.line)
-        processed_s = []
+        processed_s, processed_cpu_s = [], []
         for frame in setup.log.frames:
-            start = time.perf_counter()
+            start, start_cpu = time.perf_counter(), time.process_time()
             ukf.step(frame)
-            elapsed = time.perf_counter() - start
+            elapsed, cpu = time.perf_counter() - start, time.process_time() - start_cpu
             if ukf.associations and ukf.associations[-1].index == frame.index:
                 processed_s.append(elapsed)
+                processed_cpu_s.append(cpu)
     finally:
         localiser_module.associate_landmarks = original
-    poses = ukf.estimate().trajectory.se2
+    estimate = ukf.estimate()
+    poses = estimate.trajectory.se2
     err = np.hypot(*(poses[:, :2] - setup.truth[:, :2]).T)
+    d = poses - setup.truth
+    d[:, 2] = (d[:, 2] + np.pi) % (2 * np.pi) - np.pi
+    nees = np.einsum("ki,kij,kj->k", d, np.linalg.inv(estimate.pose_covariances), d)
     row = dict(
         mean_cm=err.mean() * 100,
         max_cm=err.max() * 100,
+        nees=float(nees.mean()),
         frames=len(ukf.associations),
         ms=float(np.median(processed_s)) * 1e3 if processed_s else float("nan"),
+        cpu_ms=float(np.median(processed_cpu_s)) * 1e3 if processed_cpu_s else float("nan"),
         pairs=0,
         wrong_pairs=0,
         used=0,
@@ -174,20 +192,18 @@ def run_once(
 
 def _print_single(setup: Setup, options: dict[str, str], r: dict) -> None:
     err, err_dr, k = r["err"], setup.err_dr, max(r["frames"], 1)
-    edges_s = (
-        setup.log.stats.get("seconds_vertical_edges", float("nan"))
-        if hasattr(setup.log, "stats")
-        else float("nan")
-    )
     print(f"data: {setup.folder}; options {options}")
     print(
         f"UKF mean position error {err.mean() * 100:.1f} cm (max {err.max() * 100:.1f});"
         f" dead reckoning {err_dr.mean() * 100:.1f} cm (max {err_dr.max() * 100:.1f});"
         f" ratio {err_dr.mean() / err.mean():.1f}x"
     )
+    extraction_ms = _extraction_cpu_ms(setup)
     print(
-        f"processed frames {r['frames']}; steps 3-5 + update median {r['ms']:.2f} ms;"
-        f" steps 1-2 (front end vertical edges) {edges_s / k * 1e3:.1f} ms per image"
+        f"processed frames {r['frames']}; steps 3-5 + update median {r['cpu_ms']:.2f} ms CPU"
+        f" ({r['ms']:.2f} ms wall); steps 1-2 (the front end's vertical lines and PMCs) median"
+        f" {extraction_ms:.2f} ms CPU per image; steps 1-5 {extraction_ms + r['cpu_ms']:.2f} ms"
+        f" CPU per processed frame"
     )
     print(
         f"per processed frame: candidates {r['visible'] / k:.1f}, lines labelled"
@@ -195,29 +211,136 @@ def _print_single(setup: Setup, options: dict[str, str], r: dict) -> None:
         f" {r['pairs']} wrong), used {r['used'] / k:.2f} ({r['wrong_used']} of {r['used']}"
         f" wrong = {r['wrong_used'] / max(r['used'], 1):.1%})"
     )
+    print(f"pose NEES mean {r['nees']:.2f} (3 when consistent)")
+    offset_px, passed = _map_quality(setup)
+    print(
+        f"the map against the extracted lines (true poses, lines labelled within 4 px):"
+        f" median |u_line - u_landmark| {offset_px:.2f} px; {passed:.0%} of the labelled lines"
+        f" pass the photometric gate (sec. 3.2) against their landmark's surveyed MC"
+    )
     print(r["ukf"].info())
 
 
+def _map_quality(setup: Setup) -> tuple[float, float]:
+    """Median image distance of labelled lines from their landmark's true projection [px], and
+    the fraction of them whose MC passes the photometric gate against the map's MC."""
+    from omnislam.core.measurement import Bearing2D
+    from omnislam.ukf.config import PhotometricConfig
+    from omnislam.ukf.photometric import colour_differences, mc_from_pmc, photometric_scores
+    from omnislam.ukf.survey import label_lines
+
+    prior = setup.prior
+    row = {int(i): k for k, i in enumerate(prior.landmark_ids)}
+    offsets, passed = [], []
+    for frame in setup.log.frames:
+        lines = frame.vertical_lines
+        if lines is None or not len(lines):
+            continue
+        wTr = setup.truth[frame.index]
+        labels = label_lines(wTr, lines.bearings_rad, prior, setup.line, 4.0)
+        left, right = mc_from_pmc(lines.profiles)
+        for i in np.flatnonzero(labels >= 0):
+            j = row[int(labels[i])]
+            b = Bearing2D().predict(wTr, prior.points_w[j : j + 1, :2], jacobians=False)[0][0]
+            offsets.append(abs(float(setup.line.u_px(lines.bearings_rad[i : i + 1])[0]
+                                     - setup.line.u_px(b)[0])))
+            band, mean = colour_differences(
+                left[i : i + 1], right[i : i + 1],
+                prior.means_left[j : j + 1], prior.means_right[j : j + 1],
+            )
+            passed.append(bool(np.isfinite(photometric_scores(band, mean, PhotometricConfig()))))
+    return float(np.median(offsets)), float(np.mean(passed))
+
+
+#: --ablation: the paper's step 4 alone, then each addition (ours) on top
+ABLATION = (
+    (
+        "the paper's step 4 alone (no covariance gates, Sc_k alone)",
+        {"association.gate_probability": "none", "association.largest_set_first": "false"},
+    ),
+    ("pre-gate and joint gate, Sc_k alone", {"association.largest_set_first": "false"}),
+    ("defaults (gates, largest consistent set, then Sc_k)", {}),
+    (
+        "defaults with core's odometry noise (4x smaller)",
+        {
+            "motion_noise.a_vv": "0.05",
+            "motion_noise.a_vw": "0.01",
+            "motion_noise.a_wv": "0.01",
+            "motion_noise.a_ww": "0.05",
+        },
+    ),
+)
+
+
+def _print_seeds(out: Path, noise: float, seeds: list[int], options: dict[str, str]) -> None:
+    print(f"corridor21, odometry noise x{noise:g} of the preset's alphas; options {options}")
+    print(
+        "| seed | UKF mean err [cm] | max [cm] | DR mean err [cm] | DR / UKF | validated pairs"
+        " used (wrong) | used per processed frame | step-4 pairs (wrong) | ms CPU / frame"
+        " | pose NEES |"
+    )
+    print("|---" * 10 + "|")
+    for seed in seeds:
+        setup = prepare(out, noise, seed)
+        r = run_once(setup, options)
+        dr = setup.err_dr.mean() * 100
+        print(
+            f"| {seed} | {r['mean_cm']:.2f} | {r['max_cm']:.1f} | {dr:.1f}"
+            f" | {dr / r['mean_cm']:.1f}"
+            f" | {r['used']} ({r['wrong_used']}) | {r['used'] / max(r['frames'], 1):.1f}"
+            f" | {r['pairs']} ({r['wrong_pairs']}) | {r['cpu_ms']:.2f} | {r['nees']:.2f} |",
+            flush=True,
+        )
+
+
+def _print_ablation(setup: Setup, options: dict[str, str]) -> None:
+    print(
+        f"data: {setup.folder}; dead reckoning mean {setup.err_dr.mean() * 100:.1f} cm;"
+        f" options {options}"
+    )
+    print(_HEADER.format(key="step 4"))
+    print("|---" * 10 + "|")
+    for label, changes in ABLATION:
+        print(_row(label, run_once(setup, {**options, **changes})), flush=True)
+
+
+def _extraction_cpu_ms(setup: Setup, images: int = 30) -> float:
+    """Median CPU time of steps 1-2 (``extract_vertical_lines``) over the first images [ms]."""
+    from omnislam.frontend.config import VerticalEdgeConfig
+    from omnislam.frontend.vertical_edges import extract_vertical_lines
+
+    config = VerticalEdgeConfig()
+    times = []
+    for index in setup.seq.image_frames[:images]:
+        image = setup.seq.image(int(index))
+        start = time.process_time()
+        extract_vertical_lines(image, setup.seq.calibration, config)
+        times.append(time.process_time() - start)
+    return float(np.median(times)) * 1e3
+
+
 _HEADER = (
-    "| {key} | mean err [cm] | max err [cm] | processed frames | updated | ms / processed frame"
-    " | step-4 pairs (wrong) | validated pairs used | wrong validated |"
+    "| {key} | mean err [cm] | max err [cm] | processed frames | updated | ms CPU / processed frame"
+    " | step-4 pairs (wrong) | validated pairs used | wrong validated | pose NEES |"
 )
 
 
 def _row(value: str, r: dict) -> str:
     return (
         f"| {value} | {r['mean_cm']:.1f} | {r['max_cm']:.1f} | {r['frames']} | {r['updated']}"
-        f" | {r['ms']:.2f} | {r['pairs']} ({r['wrong_pairs']}) | {r['used']}"
-        f" | {r['wrong_used']} ({r['wrong_used'] / max(r['used'], 1):.0%}) |"
+        f" | {r['cpu_ms']:.2f} | {r['pairs']} ({r['wrong_pairs']}) | {r['used']}"
+        f" | {r['wrong_used']} ({r['wrong_used'] / max(r['used'], 1):.1%}) | {r['nees']:.2f} |"
     )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("--out", default="/tmp/ukf_bench")
-    parser.add_argument("--noise", type=float, default=4.0, help="x the preset's alphas")
+    parser.add_argument("--out", default="/tmp/ukf_corridor21")
+    parser.add_argument("--noise", type=float, default=1.0, help="x the preset's alphas")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--set", nargs="*", default=["innovation_gate=0.999"])
+    parser.add_argument("--set", nargs="*", default=[])
+    parser.add_argument("--seeds", nargs="*", type=int, default=None, help="one row per seed")
+    parser.add_argument("--ablation", action="store_true", help="what each addition does")
     parser.add_argument(
         "--sweep",
         nargs="*",
@@ -251,8 +374,14 @@ def main() -> None:
         " sweep below that spacing needs a smaller K, e.g. 3)",
     )
     args = parser.parse_args()
-    setup = prepare(Path(args.out), args.noise, args.seed, args.image_every)
     options = dict(kv.split("=", 1) for kv in args.set)
+    if args.seeds is not None:
+        _print_seeds(Path(args.out), args.noise, args.seeds or [0, 1, 2, 3, 4], options)
+        return
+    setup = prepare(Path(args.out), args.noise, args.seed, args.image_every)
+    if args.ablation:
+        _print_ablation(setup, options)
+        return
     if args.sweep is None and args.sck is None and args.sck_min is None:
         _print_single(setup, options, run_once(setup, options))
         return
@@ -264,7 +393,7 @@ def main() -> None:
     if args.sweep is not None:
         print("\nd_it sweep (paper sec. 5)")
         print(_HEADER.format(key="d_it [cm]"))
-        print("|---" * 9 + "|")
+        print("|---" * 10 + "|")
         for cm in args.sweep or SWEEP_CM:
             r = run_once(setup, {**options, "d_it_m": str(cm / 100)})
             print(_row(f"{cm:g}", r), flush=True)
@@ -274,7 +403,7 @@ def main() -> None:
             " (paper w = 100)"
         )
         print(_HEADER.format(key="w"))
-        print("|---" * 9 + "|")
+        print("|---" * 10 + "|")
         chosen = None
         for w in args.sck or SCK_WEIGHTS:
             r = run_once(setup, {**options, "association.shift_weight": str(w)}, spy_sets=True)
@@ -286,7 +415,7 @@ def main() -> None:
     if args.sck_min is not None:
         print("\nSc_k calibration: sets of Sc_k below a threshold are dropped (w = 100)")
         print(_HEADER.format(key="min Sc_k"))
-        print("|---" * 9 + "|")
+        print("|---" * 10 + "|")
         for t in args.sck_min or SCK_THRESHOLDS:
             print(_row(f"{t:g}", run_once(setup, options, min_score=t)), flush=True)
 

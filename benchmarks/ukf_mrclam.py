@@ -29,6 +29,7 @@ def run(dataset: str, estimator: str, sets: list[str], out: Path) -> RunMetrics:
         estimator,
         "--out",
         str(out),
+        "--overwrite",
     ]
     for kv in sets:
         args += ["--set", kv]

@@ -1,5 +1,11 @@
 """File helpers: atomic writes (a failure never leaves a half-written file behind), safe names,
-output locations checked before any work starts, one-line YAML errors, the errors of a bad npz."""
+output locations checked before any work starts, the one overwrite rule, one-line YAML errors,
+the errors of a bad npz.
+
+Files and folders written through a temporary name get the permissions a plain ``open`` /
+``mkdir`` would give (0644 / 0755 under the usual umask 022), not the private 0600 / 0700 of
+``tempfile``: results, reports and caches are meant to be read by others.
+"""
 
 from __future__ import annotations
 
@@ -8,6 +14,7 @@ import re
 import tempfile
 import zipfile
 import zlib
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -60,6 +67,63 @@ def check_output_location(path: str | Path, what: str = "output") -> None:
         raise ConfigError(f"{path}: cannot write the {what} here: {parent} is read-only")
 
 
+def current_umask() -> int:
+    """The process's umask (read by setting it and putting it back)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
+
+
+def make_public(path: str | Path) -> None:
+    """Give a ``tempfile.mkstemp`` file (0600) or ``mkdtemp`` folder (0700) the permissions of
+    a plain ``open`` (0666 & ~umask) or ``mkdir`` (0777 & ~umask)."""
+    path = Path(path)
+    mode = 0o777 if path.is_dir() else 0o666
+    os.chmod(path, mode & ~current_umask())
+
+
+def check_overwrite(
+    path: str | Path,
+    overwrite: bool,
+    what: str,
+    ours: Callable[[Path], bool] | None = None,
+    hint: str = "pass --overwrite to replace it",
+) -> bool:
+    """The one overwrite rule of every command that writes, checked before any work starts.
+
+    An output that does not exist (or is an empty folder) is written. One that exists is
+    refused unless ``overwrite`` (``--overwrite``), and even then only when it is what the
+    command writes (``ours(path)``: a RUN_DIR, a report, ...): a folder of something else is
+    never replaced. The replacement itself is atomic (the old output stays until the new one
+    is complete).
+
+    Args:
+        path: the output (file or folder).
+        overwrite: ``--overwrite`` was given.
+        what: what the output is, for the message ("RUN_DIR", "report folder").
+        ours: True when ``path`` is an output of this command (default: any file, no folder).
+        hint: what to do about an existing output (the message's end).
+
+    Returns:
+        True when ``path`` exists and will be replaced.
+
+    Raises:
+        ConfigError: "<path>: the <what> exists; pass --overwrite to replace it", or
+            "<path>: exists and is not a <what>; refusing to overwrite it".
+    """
+    path = Path(path)
+    if not path.exists() and not path.is_symlink():
+        return False
+    if path.is_dir() and not path.is_symlink() and not any(path.iterdir()):
+        return False
+    is_ours = ours(path) if ours is not None else path.is_file()
+    if not is_ours:
+        raise ConfigError(f"{path}: exists and is not a {what}; refusing to overwrite it")
+    if not overwrite:
+        raise ConfigError(f"{path}: the {what} exists; {hint}")
+    return True
+
+
 def output_error(exc: OSError, path: str | Path, what: str = "output") -> ConfigError:
     """The one-line ConfigError of an OSError met while writing ``path``."""
     reason = exc.strerror or str(exc)
@@ -108,6 +172,7 @@ def atomic_write_text(path: str | Path, text: str) -> None:
     try:
         with os.fdopen(fd, "w") as handle:
             handle.write(text)
+        make_public(tmp)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

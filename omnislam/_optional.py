@@ -17,6 +17,8 @@ EXTRAS: dict[str, str] = {
     "distributed": "distributed",
     "matplotlib": "plots",
     "filterpy": "ukf",
+    "rerun": "view",
+    "numba": "fast",
 }
 
 

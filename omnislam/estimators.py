@@ -70,11 +70,18 @@ class EstimatorEntry:
         check: ``"module:function"`` validating the estimator's ``--set`` options without
             building it (``function(options)`` raises ConfigError); a grid checks every cell's
             options with it before any work starts.
+        summary: what the estimator is, in one line (``omnislam estimators``).
+        config: ``"module:attribute"`` of its configuration: a dataclass (its defaults) or a
+            mapping of named presets (``--set preset=NAME``); "" when it takes no options.
+        preset: the preset of ``config`` the estimator starts from when it is a mapping.
     """
 
     target: str
     modalities: frozenset[Modality]
     check: str = ""
+    summary: str = ""
+    config: str = ""
+    preset: str = ""
 
 
 _SLAM_2D_3D = frozenset({Modality.RANGE_BEARING_2D, Modality.BEARINGS_3D})
@@ -86,34 +93,55 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
         "omnislam.deadreckoning:make_estimator",
         frozenset(),
         "omnislam.deadreckoning:check_options",
+        summary="the odometry composed, sightings ignored: the baseline every SLAM back end "
+        "must beat",
     ),
     "graphslam": EstimatorEntry(
-        "omnislam.graphslam:make_estimator", _GRAPH, "omnislam.graphslam.factory:check_options"
+        "omnislam.graphslam:make_estimator",
+        _GRAPH,
+        "omnislam.graphslam.factory:check_options",
+        summary="factor graph solved incrementally by GTSAM's iSAM2 at every frame",
+        config="omnislam.graphslam.config:PRESETS",
+        preset="default",
     ),
     "graphslam-batch": EstimatorEntry(
         "omnislam.graphslam:make_batch_estimator",
         _GRAPH,
         "omnislam.graphslam.factory:check_options",
+        summary="iSAM2, then batch Levenberg-Marquardt on the whole graph warm-started from it",
+        config="omnislam.graphslam.config:PRESETS",
+        preset="default",
     ),
     "fastslam1": EstimatorEntry(
         "omnislam.fastslam:make_fastslam1",
         _SLAM_2D_3D,
         "omnislam.fastslam.factory:check_fastslam1_options",
+        summary="FastSLAM 1.0: particles drawn from the motion model, one EKF per landmark "
+        "(thesis sec. 4.4)",
+        config="omnislam.fastslam.config:PRESETS",
+        preset="fastslam1",
     ),
     "fastslam2": EstimatorEntry(
         "omnislam.fastslam:make_fastslam2",
         _SLAM_2D_3D,
         "omnislam.fastslam.factory:check_fastslam2_options",
+        summary="FastSLAM 2.0: the proposal refined by the matched sightings (Montemerlo 2003)",
+        config="omnislam.fastslam.config:PRESETS",
+        preset="fastslam2",
     ),
     "ukf": EstimatorEntry(
         "omnislam.ukf:make_estimator",
         frozenset({Modality.VERTICAL_LINES, Modality.RANGE_BEARING_2D}),
         "omnislam.ukf.factory:check_options",
+        summary="UKF localiser on vertical-line bearings in a known map (Barra & Costa)",
+        config="omnislam.ukf.config:UKFConfig",
     ),
     "ekfslam": EstimatorEntry(
         "omnislam.ekfslam:make_estimator",
         frozenset({Modality.RANGE_BEARING_2D}),
         "omnislam.ekfslam.factory:check_options",
+        summary="EKF-SLAM on range-bearing sightings, one joint Gaussian (SLAM for Dummies)",
+        config="omnislam.ekfslam.config:EKFSLAMConfig",
     ),
 }
 
@@ -133,6 +161,27 @@ def estimator_factory(name: str) -> EstimatorFactory:
     if factory is None:
         raise ConfigError(f"estimator {name!r} is not available yet ({target})")
     return factory
+
+
+def estimator_defaults(name: str) -> tuple[object | None, tuple[str, ...]]:
+    """(default configuration dataclass of estimator ``name`` or None, its preset names).
+
+    Imports only the configuration module (not the back end: gtsam is not needed to list
+    graphslam's options).
+
+    Raises:
+        ConfigError: unknown estimator.
+    """
+    if name not in ESTIMATORS:
+        raise ConfigError(f"unknown estimator {name!r}; known: {', '.join(ESTIMATORS)}")
+    entry = ESTIMATORS[name]
+    if not entry.config:
+        return None, ()
+    module_name, attribute = entry.config.split(":")
+    target = getattr(importlib.import_module(module_name), attribute)
+    if isinstance(target, Mapping):
+        return target[entry.preset], tuple(target)
+    return target(), ()
 
 
 def check_estimator_options(name: str, options: Mapping[str, str]) -> None:

@@ -105,3 +105,159 @@ def apply_options(config: C, options: Mapping[str, str], *, prefix: str = "") ->
         return dataclasses.replace(config, **direct)
     except (ValueError, TypeError) as exc:
         raise ConfigError(f"invalid options {', '.join(options)}: {exc}") from exc
+
+
+# --------------------------------------------------------------------------------------------
+# What the options are: for ``omnislam estimators`` (read from the dataclasses themselves)
+# --------------------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True, slots=True)
+class OptionDoc:
+    """One ``--set`` option of a configuration dataclass.
+
+    Attributes:
+        key: the option's key (dotted for nested configurations: ``motion_noise.a_vv``).
+        kind: what value it takes ("int", "float", "true|false", "a|b|c" for an enum,
+            "float,float,float" for a tuple; "|none" appended when it may be none).
+        default: the default as ``--set`` would write it.
+        meaning: the field's description from the dataclass's ``Attributes:`` docstring
+            section ("" when the docstring has none).
+    """
+
+    key: str
+    kind: str
+    default: str
+    meaning: str
+
+    @property
+    def summary(self) -> str:
+        """The first sentence of ``meaning``."""
+        return first_sentence(self.meaning)
+
+
+#: words whose full stop does not end a sentence
+_ABBREVIATIONS = ("al", "e.g", "i.e", "eq", "eqs", "sec", "fig", "cf", "vs", "approx")
+
+
+def first_sentence(text: str) -> str:
+    """The first sentence of ``text``: up to a full stop followed by a capital, a bracket or
+    the end ("eq. 4.41", "e.g. x" and "et al. Table" do not end one)."""
+    import re
+
+    flat = " ".join(text.split())
+    for match in re.finditer(r"\.(?=\s+[A-Z(\[]|\s*$)", flat):
+        word = flat[: match.start()].rsplit(" ", 1)[-1].lower()
+        if word not in _ABBREVIATIONS:
+            return flat[: match.end()]
+    return flat
+
+
+def attribute_docs(cls: type) -> dict[str, str]:
+    """Field name -> description, from the ``Attributes:`` section of ``cls``'s docstring
+    (Google style; an entry may name several fields: ``alpha, beta, kappa: ...``)."""
+    import inspect
+    import re
+
+    lines = (inspect.getdoc(cls) or "").splitlines()
+    out: dict[str, str] = {}
+    try:
+        start = next(i for i, line in enumerate(lines) if line.strip() == "Attributes:")
+    except StopIteration:
+        return out
+    base: int | None = None
+    names: list[str] = []
+    entry = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*(?:\s*,\s*[A-Za-z_][A-Za-z0-9_]*)*)\s*:\s?(.*)$")
+    for line in lines[start + 1 :]:
+        if not line.strip():
+            continue
+        indent = len(line) - len(line.lstrip())
+        if indent == 0:
+            break  # the next section
+        if base is None:
+            base = indent
+        match = entry.match(line.strip()) if indent == base else None
+        if match:
+            names = [n.strip() for n in match.group(1).split(",")]
+            for name in names:
+                out[name] = match.group(2).strip()
+        elif indent > base and names:
+            for name in names:
+                out[name] = f"{out[name]} {line.strip()}".strip()
+        elif indent <= base:
+            break
+    return out
+
+
+def _kind(hint: Any) -> tuple[str, bool]:
+    """(kind text, may be none) of a field's type hint."""
+    optional = False
+    origin = typing.get_origin(hint)
+    if origin in (types.UnionType, typing.Union):
+        args = [a for a in typing.get_args(hint) if a is not type(None)]
+        optional = len(args) < len(typing.get_args(hint))
+        hint = args[0]
+        origin = typing.get_origin(hint)
+    if hint is bool:
+        return "true|false", optional
+    if isinstance(hint, type) and issubclass(hint, enum.Enum):
+        return "|".join(str(m.value) for m in hint), optional
+    if origin is tuple:
+        args = typing.get_args(hint)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return f"{_kind(args[0])[0]},...", optional
+        return ",".join(_kind(a)[0] for a in args), optional
+    return getattr(hint, "__name__", str(hint)), optional
+
+
+def _text(value: Any) -> str:
+    """A value as ``--set`` would write it."""
+    if value is None:
+        return "none"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, enum.Enum):
+        return str(value.value)
+    if isinstance(value, tuple):
+        return ",".join(_text(v) for v in value)
+    if isinstance(value, float):
+        return repr(value)  # the shortest text that reads back as the same float
+    return str(value)
+
+
+def describe_options(config: Any, *, prefix: str = "") -> list[OptionDoc]:
+    """Every option ``apply_options`` accepts on ``config``, with its default and meaning.
+
+    Nested dataclasses are expanded into dotted keys; an optional nested configuration that is
+    None by default is listed once (``key = none``) and then by its fields' defaults.
+    """
+    if not dataclasses.is_dataclass(config) or isinstance(config, type):
+        raise TypeError("describe_options needs a dataclass instance")
+    hints = typing.get_type_hints(type(config))
+    docs = attribute_docs(type(config))
+    out: list[OptionDoc] = []
+    for f in dataclasses.fields(config):
+        if not f.init:
+            continue
+        value = getattr(config, f.name)
+        key = prefix + f.name
+        hint = hints[f.name]
+        nested_type = None
+        if dataclasses.is_dataclass(value):
+            nested_type = type(value)
+        else:
+            candidates = [a for a in typing.get_args(hint) if dataclasses.is_dataclass(a)]
+            nested_type = candidates[0] if candidates else None
+        if nested_type is not None:
+            if value is None:
+                out.append(OptionDoc(key, "none|fields below", "none", docs.get(f.name, "")))
+                value = nested_type()
+            out.extend(describe_options(value, prefix=key + "."))
+            continue
+        kind, optional = _kind(hint)
+        out.append(
+            OptionDoc(
+                key, kind + ("|none" if optional else ""), _text(value), docs.get(f.name, "")
+            )
+        )
+    return out

@@ -82,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     report = Path(args.report)
     if args.demo:
-        demo = [sys.executable, "-m", "omnislam", "demo", "--out", str(report)]
+        demo = [sys.executable, "-m", "omnislam", "demo", "--out", str(report), "--overwrite"]
         if subprocess.run(demo).returncode != 0:
             print(f"{sys.argv[0]}: omnislam demo failed", file=sys.stderr)
             return 2

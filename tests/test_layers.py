@@ -12,7 +12,7 @@ from pathlib import Path
 import omnislam
 
 ROOT = Path(omnislam.__file__).parent
-BASE = ("omnislam.errors", "omnislam._optional", "omnislam._files")
+BASE = ("omnislam.errors", "omnislam._optional", "omnislam._files", "omnislam._progress")
 ESTIMATOR_PACKAGES = (
     "omnislam.graphslam",
     "omnislam.fastslam",

@@ -5,7 +5,8 @@ from a points file (``--points FILE.mat|.csv``; the board then comes from the fi
 holds it). The chosen model is initialised and fitted jointly with every board pose
 (:mod:`omnislam.camera.calibration`). Writes, atomically, the camera YAML (with
 ``reprojection_rms_px``) and a report folder (``report.json``, ``report.md``,
-``residuals.png``); prints the per-image table and, last, ``rms_px: X``. An image whose board
+``residuals.png``); prints the per-image table and, last, ``rms_px: X``. Existing outputs are
+replaced only with ``--overwrite``. An image whose board
 is not found or whose points disagree with the board is named on stderr with the problem and
 left out; fewer than three usable images stop the command with exit code 2.
 """
@@ -62,6 +63,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--window", type=int, default=4, help="sub-pixel half-window [px] (4)")
     p.add_argument("--ocam-degree", type=int, default=4, help="OCamCalib pol degree (4)")
     p.add_argument("--save-points", default=None, metavar="CSV", help="write the corners used")
+    p.add_argument(
+        "--overwrite", action="store_true", help="replace an existing camera file and report"
+    )
     p.set_defaults(handler=run)
 
 
@@ -71,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
     from pathlib import Path
 
+    from omnislam._files import check_overwrite
     from omnislam.camera.calibration import (
         MIN_VIEWS,
         Board,
@@ -80,6 +85,15 @@ def run(args: argparse.Namespace) -> int:
         write_points_csv,
     )
     from omnislam.errors import ConfigError, DataError
+
+    out = Path(args.out)
+    report = Path(args.report) if args.report else out.with_name(out.stem + "_report")
+    check_overwrite(out, args.overwrite, "camera file")
+    check_overwrite(
+        report, args.overwrite, "calibration report", lambda p: (p / "report.json").is_file()
+    )
+    if args.save_points:
+        check_overwrite(args.save_points, args.overwrite, "points file")
 
     def say(line: str) -> None:
         print(f"omnislam calibrate: {line}", file=sys.stderr, flush=True)
@@ -126,8 +140,6 @@ def run(args: argparse.Namespace) -> int:
     calibration = calibrate(
         views, Model(args.model), size[0], size[1], ocam_degree=args.ocam_degree, progress=say
     )
-    out = Path(args.out)
-    report = Path(args.report) if args.report else out.with_name(out.stem + "_report")
     _write_outputs(calibration, out, report, args, skipped)
     print(_table(calibration))
     print(f"camera: {out}; report: {report}")
@@ -192,7 +204,7 @@ def _write_outputs(calibration, out, report, args, skipped) -> None:  # noqa: AN
     import os
     import tempfile
 
-    from omnislam._files import atomic_write_text
+    from omnislam._files import atomic_write_text, make_public
     from omnislam.camera.io import save_camera
 
     summary = _summary(calibration, args, skipped)
@@ -214,6 +226,7 @@ def _write_outputs(calibration, out, report, args, skipped) -> None:  # noqa: AN
     os.close(fd)
     try:
         save_camera(calibration.camera, tmp, metadata)
+        make_public(tmp)
         os.replace(tmp, out)
     except BaseException:
         os.unlink(tmp)

@@ -1,11 +1,14 @@
 """``omnislam compare GRID.yaml --out RESULTS_DIR [--workers N | --scheduler ADDRESS]``.
 
-Runs every cell of the grid (see ``omnislam.compare.grid``) that is not already finished in
-RESULTS_DIR, on a local process pool (``--workers``, default: one per core; 0 runs in this
-process) or on a Dask cluster (``--scheduler tcp://HOST:PORT``; ``--scheduler local`` starts a
-LocalCluster of ``--workers`` processes). Progress goes to stderr; a table of the results to
-stdout. Exit code 0 when every cell succeeded, 1 when some failed (each named on stderr), 2 on
-bad input (nothing written).
+Runs every cell of the grid (see ``omnislam.compare.grid``; ``--template`` prints a commented
+one) on a local process pool (``--workers``, default: one per core; 0 runs in this process) or
+on a Dask cluster (``--scheduler tcp://HOST:PORT``; ``--scheduler local`` starts a LocalCluster
+of ``--workers`` processes). An existing RESULTS_DIR is refused unless ``--resume`` (keep its
+finished cells, compute the others: the way to continue an interrupted grid) or
+``--overwrite`` (compute every cell again). Progress goes to stderr: cells finished, frames
+stepped by the running cells, rate and ETA; a table of the results to stdout. Exit code 0 when
+every cell succeeded, 1 when some failed (each named on stderr), 2 on bad input (nothing
+written).
 """
 
 from __future__ import annotations
@@ -14,10 +17,38 @@ import argparse
 import sys
 
 
+class _PrintTemplate(argparse.Action):
+    """``--template``: print ``compare.grid.grid_template()`` and exit (like ``--version``)."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs: object) -> None:
+        kwargs.pop("nargs", None)
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)  # type: ignore[arg-type]
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: object,
+        option_string: str | None = None,
+    ) -> None:
+        from omnislam.compare.grid import grid_template
+
+        sys.stdout.write(grid_template())
+        sys.stdout.flush()
+        parser.exit(0)
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("compare", help="run a grid of datasets x estimators x seeds")
+    p = sub.add_parser(
+        "compare", help="run a grid of datasets x estimators x seeds", description=__doc__
+    )
     p.add_argument("grid", metavar="GRID.yaml", help="grid file")
     p.add_argument("--out", required=True, metavar="RESULTS_DIR", help="results folder")
+    p.add_argument(
+        "--template",
+        action=_PrintTemplate,
+        help="print a commented grid file (every key, with its meaning) and exit",
+    )
     p.add_argument(
         "--workers",
         type=int,
@@ -33,17 +64,25 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--max-attempts", type=int, default=3, help="submissions per cell when a worker is lost"
     )
+    p.add_argument(
+        "--resume", action="store_true", help="continue RESULTS_DIR, keeping its finished cells"
+    )
+    p.add_argument(
+        "--overwrite", action="store_true", help="compute every cell of RESULTS_DIR again"
+    )
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    import logging
     import os
     from contextlib import ExitStack
 
-    from tqdm import tqdm
-
+    from omnislam._files import check_overwrite
     from omnislam.compare.grid import load_grid
+    from omnislam.compare.grid_progress import GridProgress
     from omnislam.compare.runner import (
+        GRID_COPY,
         CellStatus,
         check_results_dir,
         local_executor_factory,
@@ -51,6 +90,8 @@ def run(args: argparse.Namespace) -> int:
     )
     from omnislam.errors import ConfigError
 
+    if args.resume and args.overwrite:
+        raise ConfigError("--resume and --overwrite exclude each other")
     if args.max_attempts < 1:
         raise ConfigError(f"--max-attempts must be >= 1, got {args.max_attempts}")
     if args.scheduler not in (None, "local") and args.workers is not None:
@@ -59,6 +100,15 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--workers must be >= 0, got {args.workers}")
     grid = load_grid(args.grid)
     check_results_dir(args.out)
+    if not args.resume:  # (check_results_dir refused a folder that is not a results folder)
+        check_overwrite(
+            args.out,
+            args.overwrite,
+            "results folder",
+            lambda p: (p / GRID_COPY).is_file(),
+            "pass --resume to continue it (finished cells are kept) or --overwrite to compute "
+            "it again",
+        )
     with ExitStack() as stack:
         if args.scheduler is None:
             factory = local_executor_factory(
@@ -73,7 +123,11 @@ def run(args: argparse.Namespace) -> int:
                 n = args.workers or os.cpu_count() or 1
                 cluster = stack.enter_context(
                     distributed.LocalCluster(
-                        n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
+                        n_workers=n,
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=None,
+                        silence_logs=logging.ERROR,  # not its shutdown chatter
                     )
                 )
                 address = cluster.scheduler_address
@@ -85,15 +139,15 @@ def run(args: argparse.Namespace) -> int:
                 raise ConfigError(f"cannot reach the Dask scheduler {address!r} ({exc})") from None
             factory = client.get_executor
             engine = f"Dask at {address}"
-        bar = stack.enter_context(
-            tqdm(total=len(grid.cells), desc=f"compare ({engine})", unit="cell", file=sys.stderr)
-        )
+        bar = stack.enter_context(GridProgress(grid, f"compare ({engine})"))
         result = run_grid(
             grid,
             args.out,
             factory,
             max_attempts=args.max_attempts,
-            on_outcome=lambda _: bar.update(),
+            on_outcome=bar.on_outcome,
+            on_progress=bar.on_progress,
+            reuse=args.resume,
         )
     computed = result.count(CellStatus.COMPUTED)
     reused = result.count(CellStatus.REUSED)

@@ -3,7 +3,8 @@
 ``list`` prints every registered real dataset (source, sensors, ground truth, found or not and
 where it was looked for) and the synthetic presets. ``synth`` renders a synthetic world; it is
 implemented by the synthetic-world work as ``omnislam.datasets.synthetic.cli_synth(args)``
-(args: preset, out, seed, frames, backend).
+(args: preset, out, seed, frames, backend, overwrite), with its progress on stderr; an existing
+dataset folder is replaced only with ``--overwrite``.
 """
 
 from __future__ import annotations
@@ -33,7 +34,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="ray-casting backend (default: open3d when installed)",
     )
-    synth.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
+    synth.add_argument(
+        "--overwrite", action="store_true", help="replace an existing synthetic dataset folder"
+    )
     synth.set_defaults(handler=run_synth)
     # ---- end of synth ----
 
@@ -69,10 +72,12 @@ def _row_dict(row: object) -> dict[str, object]:
 
 
 def run_synth(args: argparse.Namespace) -> int:
+    from omnislam._files import check_overwrite
     from omnislam.errors import ConfigError
 
     try:
-        from omnislam.datasets.synthetic import cli_synth
+        from omnislam.datasets.synthetic import cli_synth, is_synthetic_folder
     except (ImportError, AttributeError) as exc:
         raise ConfigError(f"dataset synth cannot run in this installation ({exc})") from None
+    check_overwrite(args.out, args.overwrite, "synthetic dataset folder", is_synthetic_folder)
     return int(cli_synth(args) or 0)

@@ -1,7 +1,23 @@
-"""``omnislam evaluate RUN_DIR [--json]``: metrics against the run's ground truth.
+"""``omnislam evaluate RUN_DIR [--json]`` or ``omnislam evaluate --ref GT EST [--align A]``.
 
-Writes ``RUN_DIR/metrics.json`` (``compare.run_metrics``; null for what is not computed or has
-no ground truth) and prints a table, or the JSON with ``--json``.
+With a RUN_DIR: every metric against the run's ground truth; writes ``RUN_DIR/metrics.json``
+(``compare.run_metrics``; null for what is not computed or has no ground truth) and prints a
+table, or the JSON with ``--json``. Every value that is missing says why. A ``metrics.json``
+computed with other settings (``--rpe-segment``, ``--landmark-gate``) is replaced only with
+``--overwrite``.
+
+With ``--ref GT.tum EST.tum`` (TUM or KITTI, detected from the number of values per line, or
+``--format``): trajectories from anywhere, as ``evo_ape`` / ``evo_rpe`` compare them. The
+estimate is aligned to the reference by ``--align``: ``none``, ``origin`` (first pose
+anchored; evo's ``--align_origin``), ``se2`` (rotation about z and x-y translation; evo's ``-a``
+on planar runs), ``se3`` (evo's ``-a``) or ``sim3`` (evo's ``-as``); then ATE (position error
+statistics) and RPE (translation and rotation over segments of ``--rpe-segment`` metres of
+reference travel, all start poses: evo's ``--all_pairs --pairs_from_reference --delta M
+--delta_unit m``; and between consecutive poses: ``--delta 1 --delta_unit f``). Nothing is
+written unless ``--out``.
+
+The RPE segment defaults to 10 m, or to a quarter of the ground truth's travel (rounded down to
+1-2-5) when the run travels less than 40 m.
 """
 
 from __future__ import annotations
@@ -10,11 +26,39 @@ import argparse
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("evaluate", help="compute metrics of a run against ground truth")
-    p.add_argument("run_dir", metavar="RUN_DIR", help="folder written by `omnislam run`")
-    p.add_argument("--json", action="store_true", help="print metrics.json instead of a table")
+    p = sub.add_parser(
+        "evaluate",
+        help="metrics of a run against its ground truth, or of two trajectory files (--ref)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument(
-        "--rpe-segment", type=float, default=None, metavar="M", help="RPE segment length [m]"
+        "run_dir",
+        metavar="RUN_DIR | EST",
+        help="folder written by `omnislam run`; with --ref, the estimated trajectory file",
+    )
+    p.add_argument(
+        "--ref", default=None, metavar="GT", help="reference trajectory file (TUM or KITTI)"
+    )
+    p.add_argument(
+        "--format",
+        choices=("auto", "tum", "kitti"),
+        default="auto",
+        help="trajectory file format with --ref (default: detected)",
+    )
+    p.add_argument(
+        "--align",
+        choices=("none", "origin", "se2", "se3", "sim3"),
+        default="se2",
+        help="alignment of the estimate with --ref (default se2)",
+    )
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument(
+        "--rpe-segment",
+        type=float,
+        default=None,
+        metavar="M",
+        help="RPE segment length [m] (default: 10 m, shorter for runs under 40 m)",
     )
     p.add_argument(
         "--landmark-gate",
@@ -22,6 +66,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         metavar="M",
         help="landmark association gate for maps without true ids [m]",
+    )
+    p.add_argument(
+        "--out", default=None, metavar="FILE.json", help="with --ref: write the numbers as JSON"
+    )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace a metrics.json of other settings (or --out's file)",
     )
     p.set_defaults(handler=run)
 
@@ -35,17 +87,34 @@ def _fmt(value: object) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from omnislam.compare.evaluation import EvaluationOptions
+    from omnislam.errors import ConfigError
+
+    EvaluationOptions(rpe_segment_m=args.rpe_segment)  # the one check of its value
+    if args.ref is not None:
+        return run_ref(args)
+    for flag, given in (
+        ("--format", args.format != "auto"),
+        ("--align", args.align != "se2"),
+        ("--out", args.out is not None),
+    ):
+        if given:
+            raise ConfigError(f"{flag} applies to --ref GT EST; a RUN_DIR is SE(2)-aligned")
+    return run_run_dir(args)
+
+
+def run_run_dir(args: argparse.Namespace) -> int:
     import json
     from pathlib import Path
 
-    from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
-    from omnislam.compare.run_metrics import write_run_metrics
+    from omnislam.compare.evaluation import EvaluationOptions, evaluate_run, missing_reasons
+    from omnislam.compare.run_metrics import read_run_metrics, write_run_metrics
     from omnislam.compare.rundir import METRICS, read_run_dir
-    from omnislam.errors import DataError
+    from omnislam.errors import ConfigError, DataError
 
     defaults = EvaluationOptions()
     options = EvaluationOptions(
-        rpe_segment_m=defaults.rpe_segment_m if args.rpe_segment is None else args.rpe_segment,
+        rpe_segment_m=args.rpe_segment,
         landmark_gate_m=(
             defaults.landmark_gate_m if args.landmark_gate is None else args.landmark_gate
         ),
@@ -55,11 +124,23 @@ def run(args: argparse.Namespace) -> int:
         raise DataError("no such RUN_DIR", path)
     record = read_run_dir(path)
     metrics = evaluate_run(record, options)
+    if (path / METRICS).is_file() and not args.overwrite:
+        try:
+            old = read_run_metrics(path / METRICS)
+        except DataError:
+            old = None  # unreadable or of an older layout: nothing to keep
+        if old is not None and _settings(old) != _settings(metrics):
+            raise ConfigError(
+                f"{path / METRICS}: the metrics exist with other settings "
+                f"({_describe(_settings(old))}, now {_describe(_settings(metrics))}); pass "
+                "--overwrite to replace them"
+            )
     write_run_metrics(path / METRICS, metrics)
     if args.json:
         print(json.dumps(metrics.to_json(), indent=2))
         return 0
     config = record.config
+    why = missing_reasons(metrics)
     print(f"{config.estimator} on {config.dataset} ({config.frames} frames)")
     if metrics.ate.rmse_m is None:
         print(
@@ -71,35 +152,180 @@ def run(args: argparse.Namespace) -> int:
         # notes usually begin with their kind ("exact: the renderer's own poses ...")
         print(f"ground truth: {note if note.startswith(kind) else f'{kind}: {note}'}")
     ate, rpe, landmarks, timing = metrics.ate, metrics.rpe, metrics.landmarks, metrics.timing
-    rows = [
-        ("ATE RMSE, SE(2) aligned [m]", ate.rmse_m),
-        ("ATE max, SE(2) aligned [m]", ate.max_m),
-        ("ATE RMSE, origin aligned [m]", ate.origin_rmse_m),
-        ("ATE max, origin aligned [m]", ate.origin_max_m),
+    segment = "" if rpe.segment_m is None else f"{rpe.segment_m:g} m "
+    rows: list[tuple[str, object, str | None]] = [
+        ("ATE RMSE, SE(2) aligned [m]", ate.rmse_m, "ate"),
+        ("ATE max, SE(2) aligned [m]", ate.max_m, "ate"),
+        ("ATE RMSE, origin aligned [m]", ate.origin_rmse_m, "ate"),
+        ("ATE max, origin aligned [m]", ate.origin_max_m, "ate"),
         (
             "poses compared / coverage",
             None
             if ate.matched is None or ate.coverage is None
             else f"{ate.matched} / {ate.coverage:.1%}",
+            "ate",
         ),
-        (f"RPE {options.rpe_segment_m:g} m trans RMSE [m]", rpe.trans_rmse_m),
-        (f"RPE {options.rpe_segment_m:g} m rot RMSE [deg]", rpe.rot_rmse_deg),
-        ("landmark RMSE [m]", landmarks.rmse_m),
+        (f"RPE {segment}trans RMSE [m]", rpe.trans_rmse_m, "rpe"),
+        (
+            f"RPE {segment}rot RMSE [deg]",
+            rpe.rot_rmse_deg,
+            "rpe_rot" if "rpe_rot" in why else "rpe",
+        ),
+        ("landmark RMSE [m]", landmarks.rmse_m, "landmarks"),
         (
             "landmarks estimated / matched / true",
             f"{landmarks.estimated} / {_fmt(landmarks.matched)} / {_fmt(landmarks.truth)}",
+            None,
         ),
-        ("pose NEES mean (dof 3 when consistent)", metrics.nees.pose_mean),
-        ("landmark NEES mean", metrics.nees.landmark_mean),
+        ("pose NEES mean (dof 3 when consistent)", metrics.nees.pose_mean, "pose_nees"),
+        ("landmark NEES mean", metrics.nees.landmark_mean, "landmark_nees"),
         (
             "step median / p95 [ms]",
             f"{_fmt(timing.step_median_ms)} / {_fmt(timing.step_p95_ms)}",
+            None,
         ),
-        ("total [s]", timing.total_s),
-        ("peak RSS [MB]", timing.peak_rss_mb),
+        ("total [s]", timing.total_s, None),
+        ("peak RSS [MB]", timing.peak_rss_mb, None),
     ]
-    width = max(len(name) for name, _ in rows)
-    for name, value in rows:
-        print(f"  {name.ljust(width)}  {_fmt(value)}")
+    width = max(len(name) for name, _, _ in rows)
+    for name, value, reason in rows:
+        text = _fmt(value)
+        if value is None and reason in why:
+            text += f"  ({why[reason]})"
+        print(f"  {name.ljust(width)}  {text}")
+    if rpe.segment_m is not None and args.rpe_segment is None and rpe.travel_m is not None:
+        print(
+            f"  (RPE segment {rpe.segment_m:g} m chosen for a run of {rpe.travel_m:.3g} m; "
+            "set it with --rpe-segment)"
+        )
     print(f"-> {path / METRICS}")
+    return 0
+
+
+def _settings(metrics: object) -> tuple[float | None, float | None]:
+    """The evaluation settings a RunMetrics was computed with (RPE segment, landmark gate)."""
+    return metrics.rpe.segment_m, metrics.landmarks.gate_m  # type: ignore[attr-defined]
+
+
+def _describe(settings: tuple[float | None, float | None]) -> str:
+    segment, gate = settings
+    return f"RPE segment {_fmt(segment)} m, landmark gate {_fmt(gate)} m"
+
+
+def run_ref(args: argparse.Namespace) -> int:
+    """``evaluate --ref GT EST``: ATE and RPE of two trajectory files, as evo computes them."""
+    import json
+    import math
+    from pathlib import Path
+
+    from omnislam._files import atomic_write_text, check_output_location, check_overwrite
+    from omnislam.compare.evaluation import compare_trajectories
+    from omnislam.compare.metrics import Alignment
+    from omnislam.datasets.trajectory_io import detect_trajectory_format, read_trajectory
+    from omnislam.errors import ConfigError
+
+    if args.landmark_gate is not None:
+        raise ConfigError("--landmark-gate applies to a RUN_DIR (trajectory files have no map)")
+    reference_path, estimate_path = Path(args.ref), Path(args.run_dir)
+    if args.out is not None:
+        check_overwrite(args.out, args.overwrite, "metrics file")
+        check_output_location(args.out, "metrics file")
+    formats = []
+    for path in (reference_path, estimate_path):
+        formats.append(detect_trajectory_format(path) if args.format == "auto" else args.format)
+    if formats[0] != formats[1]:
+        raise ConfigError(
+            f"{estimate_path}: a {formats[1]} file against a {formats[0]} reference "
+            f"({reference_path}); give both in one format (KITTI files have no stamps)"
+        )
+    reference = read_trajectory(reference_path, formats[0])
+    estimate = read_trajectory(estimate_path, formats[1])
+    alignment = Alignment(args.align)
+    result = compare_trajectories(reference, estimate, alignment, args.rpe_segment)
+    ate, rpe, frame = result.ate, result.rpe, result.rpe_frame
+
+    def stats(values: object) -> dict[str, float | None]:
+        import numpy as np
+
+        x = np.asarray(values, dtype=float)
+        if not x.size:
+            return dict.fromkeys(("rmse", "mean", "median", "std", "min", "max"))
+        return {
+            "rmse": float(np.sqrt(np.mean(x**2))),
+            "mean": float(np.mean(x)),
+            "median": float(np.median(x)),
+            "std": float(np.std(x)),
+            "min": float(np.min(x)),
+            "max": float(np.max(x)),
+        }
+
+    def degrees(values: object) -> object:
+        import numpy as np
+
+        return None if values is None else np.degrees(np.asarray(values, dtype=float))
+
+    numbers = {
+        "reference": str(reference_path),
+        "estimate": str(estimate_path),
+        "format": formats[0],
+        "alignment": alignment.value,
+        "scale": ate.scale,
+        "poses_matched": ate.matched,
+        "coverage": ate.coverage,
+        "ate_m": stats(ate.errors_m),
+        "rpe_segment_m": rpe.delta,
+        "rpe_pairs": rpe.count,
+        "rpe_trans_m": stats(rpe.trans_errors_m),
+        "rpe_rot_deg": stats(degrees(rpe.rot_errors_rad) if rpe.rot_errors_rad is not None else []),
+        "rpe_frame_pairs": frame.count,
+        "rpe_frame_trans_m": stats(frame.trans_errors_m),
+        "rpe_frame_rot_deg": stats(
+            degrees(frame.rot_errors_rad) if frame.rot_errors_rad is not None else []
+        ),
+        "travel_m": result.travel_m,
+        "planar": rpe.planar,
+        "missing": result.why,
+    }
+    if args.out is not None:
+        atomic_write_text(args.out, json.dumps(numbers, indent=2) + "\n")
+    if args.json:
+        print(json.dumps(numbers, indent=2))
+        return 0
+    print(
+        f"{estimate_path} against {reference_path} ({formats[0]}): {ate.matched} poses "
+        f"matched ({ate.coverage:.1%} of the estimate), aligned {alignment.value}"
+        + (f", scale {ate.scale:.6g}" if alignment is Alignment.SIM3 else "")
+    )
+    width = 34
+
+    def row(name: str, values: dict[str, float | None], why: str | None = None) -> None:
+        if values["rmse"] is None:
+            print(f"  {name.ljust(width)}  -" + (f"  ({why})" if why else ""))
+            return
+        text = "  ".join(
+            f"{key} {value:.6g}" for key, value in values.items() if value is not None
+        )
+        print(f"  {name.ljust(width)}  {text}")
+
+    row("ATE [m]", numbers["ate_m"])  # type: ignore[arg-type]
+    segment = f"{rpe.delta:g} m"
+    row(
+        f"RPE {segment} trans [m] ({rpe.count} pairs)",
+        numbers["rpe_trans_m"],  # type: ignore[arg-type]
+        result.why.get("rpe"),
+    )
+    row(
+        f"RPE {segment} rot [deg]",
+        numbers["rpe_rot_deg"],  # type: ignore[arg-type]
+        result.why.get("rpe"),
+    )
+    row(f"RPE 1 frame trans [m] ({frame.count} pairs)", numbers["rpe_frame_trans_m"])  # type: ignore[arg-type]
+    row("RPE 1 frame rot [deg]", numbers["rpe_frame_rot_deg"])  # type: ignore[arg-type]
+    if args.rpe_segment is None and math.isfinite(result.travel_m):
+        print(
+            f"  (RPE segment {rpe.delta:g} m chosen for a reference of {result.travel_m:.3g} m; "
+            "set it with --rpe-segment)"
+        )
+    if args.out is not None:
+        print(f"-> {args.out}")
     return 0

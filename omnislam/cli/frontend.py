@@ -1,7 +1,9 @@
 """``omnislam frontend DATASET --out LOG [--config YAML] [--frames N] [--seed N]``.
 
-Runs the shared front end once over a dataset and writes its ObservationLog (compressed npz).
-An existing LOG built from the same dataset and configuration is reused (``--force`` rebuilds).
+Runs the shared front end once over a dataset and writes its ObservationLog (compressed npz),
+to replay with ``omnislam run DATASET --log LOG``. Progress (images done, rate, ETA) goes to
+stderr. An existing LOG is refused unless ``--overwrite`` (rebuild it) or ``--resume`` (keep it
+when it was built from the same dataset and configuration, else rebuild it).
 """
 
 from __future__ import annotations
@@ -21,7 +23,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--config", help="YAML file of front-end overrides (see frontend.config)")
     p.add_argument("--frames", type=int, default=None, help="process at most N images")
     p.add_argument("--seed", type=int, default=0, help="seed of the RANSAC generator")
-    p.add_argument("--force", action="store_true", help="rebuild even if LOG is up to date")
+    p.add_argument("--overwrite", action="store_true", help="rebuild an existing LOG")
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep an existing LOG built from the same dataset and configuration",
+    )
     p.set_defaults(handler=run)
 
 
@@ -30,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from omnislam._files import check_output_location, read_yaml
+    from omnislam._files import check_output_location, check_overwrite, read_yaml
     from omnislam.datasets.registry import load_dataset
     from omnislam.errors import ConfigError
     from omnislam.frontend.config import frontend_config_from_dict
@@ -53,10 +60,18 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.is_dir():
         raise ConfigError(f"{out}: is a folder; --out is the log file to write")
+    if args.overwrite and args.resume:
+        raise ConfigError("--overwrite and --resume exclude each other")
+    check_overwrite(
+        out,
+        args.overwrite or args.resume,
+        "observation log",
+        hint="pass --resume to keep it when it is up to date or --overwrite to rebuild it",
+    )
     check_output_location(out, "observation log")
     sequence = load_dataset(args.dataset)
     key_hash = log_key(config, args.frames)
-    if out.exists() and not args.force:
+    if out.exists() and args.resume:
         try:
             load_observation_log(
                 out, dataset_id=dataset_fingerprint(sequence), config_hash=key_hash

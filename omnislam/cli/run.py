@@ -1,8 +1,10 @@
 """``omnislam run DATASET --estimator NAME --out RUN_DIR [--seed N] [--set K=V ...] [--log LOG]``.
 
 Loads the dataset (registered name or path), builds the estimator, feeds it every frame, times
-each step, and writes RUN_DIR atomically (see ``omnislam.compare.rundir``). A dataset with
-images replays the shared front end's log: ``--log LOG``, or the log computed once and cached
+each step, and writes RUN_DIR atomically (see ``omnislam.compare.rundir``); an existing
+RUN_DIR is replaced only with ``--overwrite``. Progress (frames done, rate, ETA) goes to
+stderr. A dataset with images replays the shared front end's log: ``--log LOG`` (written by
+``omnislam frontend``), or the log computed once and cached
 (``omnislam.compare.execute.frontend_log_for``). ``--set`` keys that the dataset's loader
 accepts (e.g. ``robot=3``) go to the loader; ``modality``, ``prior_map`` and
 ``wrong_id_fraction`` to the harness; the others to the estimator.
@@ -14,12 +16,13 @@ import argparse
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("run", help="run one estimator on one dataset")
+    p = sub.add_parser("run", help="run one estimator on one dataset", description=__doc__)
     p.add_argument("dataset", metavar="DATASET", help="registered name or a file/folder")
     p.add_argument(
         "--estimator",
         required=True,
-        help="deadreckoning, graphslam, graphslam-batch, fastslam1, fastslam2, ekfslam or ukf",
+        help="deadreckoning, graphslam, graphslam-batch, fastslam1, fastslam2, ekfslam or ukf "
+        "(`omnislam estimators` lists them with their options)",
     )
     p.add_argument("--out", required=True, metavar="RUN_DIR", help="output folder")
     p.add_argument("--seed", type=int, default=None, help="random seed")
@@ -30,15 +33,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=[],
         metavar="KEY=VALUE",
         help="loader, harness (modality=NAME, prior_map=RUN_DIR, wrong_id_fraction=F) or "
-        "estimator option (repeatable)",
+        "estimator option (repeatable; `omnislam estimators` lists them)",
     )
     p.add_argument(
         "--log",
         default=None,
         metavar="LOG",
-        help="front-end ObservationLog to replay (default for a dataset with images or laser "
-        "scans: the shared front end's log, computed once and cached)",
+        help="front-end ObservationLog to replay, written by `omnislam frontend` (default for "
+        "a dataset with images or laser scans: the shared front end's log, computed once and "
+        "cached)",
     )
+    p.add_argument("--overwrite", action="store_true", help="replace an existing RUN_DIR")
     p.set_defaults(handler=run)
 
 
@@ -69,15 +74,14 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from omnislam._files import check_output_location
-    from omnislam.compare.execute import RunSpec, check_estimator, execute_run
+    from omnislam._files import check_output_location, check_overwrite
+    from omnislam._progress import Stages
+    from omnislam.compare.execute import RunSpec, check_estimator, check_spec, execute_run
     from omnislam.compare.rundir import CONFIG, write_run_dir
-    from omnislam.errors import ConfigError
 
     check_estimator(args.estimator)
     out = Path(args.out)
-    if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not (out / CONFIG).exists())):
-        raise ConfigError(f"{out}: exists and is not a RUN_DIR; refusing to overwrite it")
+    check_overwrite(out, args.overwrite, "RUN_DIR", lambda p: (p / CONFIG).is_file())
     check_output_location(out, "RUN_DIR")  # before the work, not after it
 
     spec = RunSpec(
@@ -87,7 +91,9 @@ def run(args: argparse.Namespace) -> int:
         options=parse_set(args.options),
         log=args.log,
     )
-    record = execute_run(spec, progress=True)
+    check_spec(spec)  # every option, before any work
+    with Stages(f"run {args.estimator} on {Path(args.dataset).name}") as stages:
+        record = execute_run(spec, progress=True, on_step=stages)
     write_run_dir(out, record)
     config = record.config
     print(

@@ -22,7 +22,13 @@ from pathlib import Path
 
 from omnislam.compare.grid import Grid, parse_grid
 from omnislam.compare.report import ReportOptions, ReportSummary, write_report
-from omnislam.compare.runner import CellOutcome, GridResult, local_executor_factory, run_grid
+from omnislam.compare.runner import (
+    CellOutcome,
+    CellProgress,
+    GridResult,
+    local_executor_factory,
+    run_grid,
+)
 
 #: the estimators the demo compares, in report order (unavailable ones are skipped)
 #: (each consumes the stream the one modality rule picks: the omni bearings of the front end for
@@ -100,6 +106,9 @@ def run_demo(
     seed: int = 0,
     workers: int | None = None,
     on_outcome: Callable[[CellOutcome], None] | None = None,
+    on_progress: Callable[[CellProgress], None] | None = None,
+    on_grid: Callable[[Grid], None] | None = None,
+    report_step: Callable[[str, int, int], None] | None = None,
 ) -> DemoResult:
     """Render, run the front end, every estimator, evaluate and report (see module docstring).
 
@@ -109,14 +118,23 @@ def run_demo(
         seed: world and noise seed of the rendering and of the estimators.
         workers: processes for the estimators (default: the number of cores).
         on_outcome: called as each estimator finishes (progress).
+        on_progress: called with what the running estimators are doing (frames stepped).
+        on_grid: called with the demo's grid before it runs (to set up a progress line).
+        report_step: progress of the report (``ReportOptions.on_step``).
     """
     work.mkdir(parents=True, exist_ok=True)
     dataset = render_demo(work / f"demo-seed{seed}", seed)
     estimators, skipped = available_estimators()
     grid = demo_grid(dataset, estimators, seed)
+    if on_grid is not None:
+        on_grid(grid)
     factory = local_executor_factory(workers if workers is not None else os.cpu_count() or 1)
-    results = run_grid(grid, work / "results", factory, on_outcome=on_outcome)
+    results = run_grid(
+        grid, work / "results", factory, on_outcome=on_outcome, on_progress=on_progress
+    )
     report = write_report(
-        work / "results", out, ReportOptions(title="omnislam demo: synthetic omni world")
+        work / "results",
+        out,
+        ReportOptions(title="omnislam demo: synthetic omni world", on_step=report_step),
     )
     return DemoResult(dataset, results, report, tuple(skipped))

@@ -7,7 +7,9 @@ is a reference solution computed by omnislam, ``GroundTruthInfo.reference`` name
 * ATE (``RunMetrics.ate``): SE(2)-aligned position errors (``ground_truth.alignment``), and
   with the first pose anchored instead (``origin_*``: drift shows fully).
 * RPE (``rpe``): segments of ``segment_m`` metres of ground-truth travel (all start poses,
-  evo's pair rule), SE(2) errors for planar runs; ``frame_*``: consecutive frames (delta 1);
+  evo's pair rule), SE(2) errors for planar runs; by default 10 m, shorter for a run that
+  travels less than 40 m (``metrics.auto_rpe_segment_m``: a quarter of its travel, rounded down
+  to 1-2-5); ``frame_*``: consecutive frames (delta 1);
   ``by_distance``: the error-over-distance curve (KITTI-like segment lengths).
 * Landmarks (``landmarks``): the estimate's map moved with the SE(2) trajectory alignment
   (or aligned on the landmarks themselves when there is no ground-truth trajectory), then
@@ -22,12 +24,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from omnislam.compare.metrics import (
     DEFAULT_LANDMARK_GATE_M,
-    DEFAULT_RPE_SEGMENT_M,
     Alignment,
     AteResult,
     DeltaUnit,
@@ -36,6 +38,7 @@ from omnislam.compare.metrics import (
     accumulated_distances,
     associate,
     ate,
+    auto_rpe_segment_m,
     landmark_error,
     landmark_nees,
     pose_nees,
@@ -75,18 +78,28 @@ class EvaluationOptions:
     """Settings of ``evaluate_run`` (stored in metrics.json with the numbers).
 
     Attributes:
-        rpe_segment_m: segment length of ``RpeMetrics.trans_rmse_m`` [m].
+        rpe_segment_m: segment length of ``RpeMetrics.trans_rmse_m`` [m]; None (the default):
+            10 m, or a quarter of the ground truth's travel rounded down to 1-2-5 when the run
+            travels less than 40 m (``metrics.auto_rpe_segment_m``).
         landmark_gate_m: association gate for maps without true ids [m].
         curve_lengths: number of segment lengths in ``RpeMetrics.by_distance``.
     """
 
-    rpe_segment_m: float = DEFAULT_RPE_SEGMENT_M
+    rpe_segment_m: float | None = None
     landmark_gate_m: float = DEFAULT_LANDMARK_GATE_M
     curve_lengths: int = 8
 
     def __post_init__(self) -> None:
-        if not self.rpe_segment_m > 0 or not self.landmark_gate_m > 0:
-            raise ConfigError("rpe_segment_m and landmark_gate_m must be positive")
+        if self.rpe_segment_m is not None and not self.rpe_segment_m > 0:
+            raise ConfigError("rpe_segment_m must be positive (or null: chosen from the travel)")
+        if not self.landmark_gate_m > 0:
+            raise ConfigError("landmark_gate_m must be positive")
+
+    def segment_for(self, travel_m: float) -> float:
+        """The RPE segment length used on a run that travels ``travel_m`` metres [m]."""
+        if self.rpe_segment_m is not None:
+            return float(self.rpe_segment_m)
+        return auto_rpe_segment_m(travel_m)
 
 
 def _finite(value: float | None) -> float | None:
@@ -188,10 +201,9 @@ def _rpe_metrics(record: RunRecord, options: EvaluationOptions, oriented: bool) 
     estimate, truth = record.estimate.trajectory, record.ground_truth.trajectory
     assert truth is not None
     _, i_gt = associate(estimate.stamps_s, truth.stamps_s)
-    travel = float(accumulated_distances(truth.positions_w[i_gt])[-1])
-    main = rpe(
-        estimate, truth, options.rpe_segment_m, DeltaUnit.METERS, truth_has_orientation=oriented
-    )
+    travel = float(accumulated_distances(truth.positions_w[i_gt])[-1]) if len(i_gt) else 0.0
+    segment = options.segment_for(travel)
+    main = rpe(estimate, truth, segment, DeltaUnit.METERS, truth_has_orientation=oriented)
     frame = rpe(estimate, truth, 1, DeltaUnit.FRAMES, truth_has_orientation=oriented)
     curve = []
     for length in segment_lengths(travel, options.curve_lengths):
@@ -206,7 +218,7 @@ def _rpe_metrics(record: RunRecord, options: EvaluationOptions, oriented: bool) 
                 )
             )
     return RpeMetrics(
-        segment_m=options.rpe_segment_m,
+        segment_m=segment,
         trans_rmse_m=_finite(main.trans_rmse_m),
         rot_rmse_deg=_finite(math.degrees(main.rot_rmse_rad)),
         pairs=main.count,
@@ -279,3 +291,114 @@ def _landmark_metrics(
             result.planar,
         )
     return metrics, nees
+
+
+def missing_reasons(metrics: RunMetrics) -> dict[str, str]:
+    """Why a metric of ``metrics`` is None, for each that is: ``"ate"``, ``"rpe"``,
+    ``"rpe_rot"``, ``"landmarks"``, ``"pose_nees"``, ``"landmark_nees"`` -> one short clause."""
+    why: dict[str, str] = {}
+    kind = metrics.ground_truth.kind
+    if metrics.ate.rmse_m is None:
+        why["ate"] = f"no ground-truth trajectory ({GROUND_TRUTH_LABELS[kind]})"
+    rpe = metrics.rpe
+    if rpe.trans_rmse_m is None:
+        if metrics.ate.rmse_m is None:
+            why["rpe"] = why["ate"]
+        elif not rpe.pairs:
+            travel = "?" if rpe.travel_m is None else f"{rpe.travel_m:.3g}"
+            why["rpe"] = (
+                f"no pose pair {rpe.segment_m:g} m of ground-truth travel apart (the run "
+                f"travels {travel} m); choose a shorter --rpe-segment"
+            )
+    if rpe.rot_rmse_deg is None and rpe.trans_rmse_m is not None:
+        why["rpe_rot"] = "the ground truth has no orientation (positions only)"
+    marks = metrics.landmarks
+    if marks.rmse_m is None:
+        if marks.truth is None:
+            why["landmarks"] = "the data has no ground-truth landmarks"
+        elif marks.estimated == 0:
+            why["landmarks"] = f"{metrics.run.estimator} keeps no landmark map"
+        elif marks.matched == 0:
+            gate = "" if marks.gate_m is None else f" within {marks.gate_m:g} m"
+            why["landmarks"] = f"no estimated landmark matched a true one{gate}"
+        else:
+            why["landmarks"] = "nothing relates the estimated map to the true one"
+    nees = metrics.nees
+    if nees.pose_mean is None:
+        why["pose_nees"] = (
+            f"{metrics.run.estimator} gives no pose covariances"
+            if not nees.has_pose_covariances
+            else why.get("ate", "no usable pose covariance")
+        )
+    if nees.landmark_mean is None:
+        why["landmark_nees"] = (
+            f"{metrics.run.estimator} gives no landmark covariances"
+            if not nees.has_landmark_covariances
+            else why.get("landmarks", "no matched landmark with a usable covariance")
+        )
+    return why
+
+
+@dataclass(frozen=True, slots=True)
+class TrajectoryComparison:
+    """An estimate against a reference trajectory (``omnislam evaluate --ref``).
+
+    The numbers are evo's: ATE is ``evo_ape`` with the matching alignment flags (none, ``-a``,
+    ``-as``, ``--align_origin``; SE(2) equals ``-a`` on planar runs), RPE is ``evo_rpe
+    --all_pairs --pairs_from_reference`` with ``--delta SEGMENT --delta_unit m`` (and
+    ``--delta 1 --delta_unit f``), of the estimate after the same alignment (only SIM3's scale
+    changes an RPE).
+
+    Attributes:
+        ate: the ATE result (statistics and per-pose errors).
+        rpe: RPE over segments of ``rpe.delta`` metres of reference travel.
+        rpe_frame: RPE between consecutive associated poses.
+        travel_m: the reference's travel over the associated poses [m].
+        why: why a value is missing (``"rpe"`` -> reason), as ``missing_reasons``.
+    """
+
+    ate: AteResult
+    rpe: Any
+    rpe_frame: Any
+    travel_m: float
+    why: dict[str, str]
+
+
+def compare_trajectories(
+    reference: Any,
+    estimate: Any,
+    alignment: Alignment = Alignment.SE2,
+    rpe_segment_m: float | None = None,
+) -> TrajectoryComparison:
+    """ATE and RPE of ``estimate`` against ``reference`` (two ``core.types.Trajectory``).
+
+    Args:
+        reference: the ground truth.
+        estimate: the estimate (poses associated to the reference's by stamp).
+        alignment: how the estimate is aligned before ATE (and RPE).
+        rpe_segment_m: RPE segment [m]; None: ``auto_rpe_segment_m`` of the reference's travel.
+
+    Raises:
+        DataError: fewer than 2 associated poses.
+    """
+    from omnislam.core.types import Trajectory
+
+    result = ate(estimate, reference, alignment)
+    _, i_gt = associate(estimate.stamps_s, reference.stamps_s)
+    travel = float(accumulated_distances(reference.positions_w[i_gt])[-1])
+    segment = rpe_segment_m if rpe_segment_m is not None else auto_rpe_segment_m(travel)
+    T = result.gtTest
+    rotation = T[:3, :3] / result.scale
+    poses = estimate.poses_w.copy()
+    poses[:, :3, :3] = rotation @ poses[:, :3, :3]
+    poses[:, :3, 3] = poses[:, :3, 3] @ T[:3, :3].T + T[:3, 3]
+    aligned = Trajectory(estimate.stamps_s, poses)
+    main = rpe(aligned, reference, segment, DeltaUnit.METERS)
+    frame = rpe(aligned, reference, 1, DeltaUnit.FRAMES)
+    why = {}
+    if not main.count:
+        why["rpe"] = (
+            f"no pose pair {segment:g} m of reference travel apart (the reference travels "
+            f"{travel:.3g} m); choose a shorter --rpe-segment"
+        )
+    return TrajectoryComparison(result, main, frame, travel, why)

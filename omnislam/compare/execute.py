@@ -24,14 +24,15 @@ import os
 import sys
 import tempfile
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from contextlib import nullcontext
 from dataclasses import asdict, dataclass, field, is_dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from omnislam._files import NPZ_ERRORS, safe_name
+from omnislam._files import NPZ_ERRORS, make_public, safe_name
 from omnislam.compare.cache import LOGS, cache_dir
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction, reassign_ids
 from omnislam.compare.prior import PRIOR_MAP_OPTION, prior_map_from_run_dir
@@ -101,12 +102,18 @@ def check_estimator(name: str) -> None:
     estimator_factory(name)
 
 
-def check_spec(spec: RunSpec) -> None:
+def check_spec(spec: RunSpec, *, rendered: bool = True) -> None:
     """Validate a run without doing it: estimator, dataset, every option (loader, harness and
     estimator, the latter against its configuration dataclass), nothing loaded or computed.
 
     A grid calls it for every cell before any work starts, so a bad value fails the grid up
     front instead of when its cell's turn comes (after the front end, with a results folder).
+
+    Args:
+        spec: the run.
+        rendered: False for a synthetic render the grid runner has yet to make
+            (``compare.renders``): ``spec.dataset`` need not exist, its options are checked
+            against the synthetic format.
 
     Raises:
         ConfigError: unknown estimator or option, a value that does not parse, a prior map
@@ -114,32 +121,42 @@ def check_spec(spec: RunSpec) -> None:
         DataError: a dataset that cannot be resolved.
     """
     from omnislam.compare.rundir import CONFIG
-    from omnislam.datasets.registry import parse_options, resolve
+    from omnislam.datasets.registry import FORMATS, DatasetFormat, parse_options, resolve
     from omnislam.estimators import check_estimator_options
 
     check_estimator(spec.estimator)
-    resolved = resolve(spec.dataset)
-    loader_keys = resolved.option_names()
+    if rendered:
+        resolved = resolve(spec.dataset)
+        fmt, fixed, loader_keys = resolved.format, resolved.options, resolved.option_names()
+    else:
+        fmt, fixed = DatasetFormat.SYNTHETIC, {}
+        loader_keys = frozenset(FORMATS[fmt].options)
     options = dict(spec.options)
     parse_fraction(options.pop(WRONG_ID_OPTION, "0"))
     prior_run = options.pop(PRIOR_MAP_OPTION, None)
     if prior_run is not None and not (Path(prior_run) / CONFIG).is_file():
         raise ConfigError(f"{PRIOR_MAP_OPTION}={prior_run}: not a RUN_DIR folder")
-    parse_options(
-        resolved.format,
-        {**resolved.options, **{k: v for k, v in options.items() if k in loader_keys}},
-    )
+    parse_options(fmt, {**fixed, **{k: v for k, v in options.items() if k in loader_keys}})
     check_estimator_options(
         spec.estimator, {k: v for k, v in options.items() if k not in loader_keys}
     )
 
 
-def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
+#: ``on_step(stage, done, total)``: what a run is doing ("loading", "front end", "running",
+#: "final estimate") and how many of its ``total`` frames it has stepped (0 of 0: not counted)
+StepCallback = Callable[[str, int, int], None]
+
+
+def execute_run(
+    spec: RunSpec, *, progress: bool = False, on_step: StepCallback | None = None
+) -> RunRecord:
     """Run ``spec.estimator`` on ``spec.dataset`` and return what a RUN_DIR holds.
 
     Args:
         spec: the run.
-        progress: say on stderr what takes time (running the front end, with a progress bar).
+        progress: say on stderr what takes time (running the front end, with a progress line).
+        on_step: called at every stage and after every frame (``StepCallback``; the callee
+            throttles what it shows).
 
     Returns:
         RunRecord with the final estimate, per-step wall times [s] and the sequence's ground
@@ -159,8 +176,10 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
         resolve_estimator_modality,
     )
 
+    say: StepCallback = on_step if on_step is not None else _silent
     reset_peak_rss()
     check_estimator(spec.estimator)
+    say("loading", 0, 0)
     resolved = resolve(spec.dataset)
     loader_keys = resolved.option_names()
     options = dict(spec.options)
@@ -174,6 +193,7 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
     ground_truth, reference = reference_for(resolved.format, resolved.path, sequence)
     log = spec.log
     if log is None and ESTIMATORS[spec.estimator].modalities:  # dead reckoning sees nothing
+        say("front end", 0, 0)
         computed = frontend_log_for(sequence, spec.dataset, cache_dir() / LOGS, progress)
         log = None if computed is None else str(computed)
     if reference or log is not None:  # computing them (when not cached) is not the run's memory
@@ -212,16 +232,21 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
     track_truth = False
     if replay is not None and modality is Modality.BEARINGS_3D:
         # the landmarks are the front end's tracks: score them against the tracks' true points
-        ground_truth, track_truth = _with_track_truth(sequence, replay, Path(log))
+        say("true points of the tracks", 0, 0)
+        ground_truth, track_truth = _with_track_truth(sequence, replay, Path(log), progress)
     rng = np.random.default_rng(spec.seed)
     estimator = make_estimator(spec.estimator, info, estimator_options, rng)
 
     step_s = np.zeros(len(sequence))
     clock = time.perf_counter
-    for frame in frames:
+    total = len(frames)
+    say("running", 0, total)
+    for done, frame in enumerate(frames, start=1):
         start = clock()
         estimator.step(frame)
         step_s[frame.index] = clock() - start
+        say("running", done, total)
+    say("final estimate", total, total)
     start = clock()
     estimate = estimator.estimate()
     final_s = clock() - start
@@ -251,6 +276,10 @@ def execute_run(spec: RunSpec, *, progress: bool = False) -> RunRecord:
         prior_map=prior_run,
     )
     return RunRecord(config, estimate, step_s, ground_truth, attachments)
+
+
+def _silent(stage: str, done: int, total: int) -> None:
+    """The ``on_step`` of a run nobody watches."""
 
 
 def log_file_name(dataset: str) -> str:
@@ -320,7 +349,24 @@ def _load_log(sequence: object, log: str) -> Any:
     return replay
 
 
-def _with_track_truth(sequence: Any, replay: Any, log: Path) -> tuple[GroundTruth, bool]:
+def cache_track_truth(sequence: Any, log: str | Path, progress: bool = False) -> None:
+    """Compute the true points of a log's tracks into the cache next to it, once.
+
+    The grid runner calls it in its own process before the cells start, so that workers running
+    cells of the same log read the cache instead of each computing it (``_with_track_truth``).
+    Nothing to do for a sequence without per-pixel ground truth.
+    """
+    if sequence.point_map_loader is None:
+        return
+    from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
+
+    replay = load_observation_log(Path(log), dataset_id=dataset_fingerprint(sequence))
+    _with_track_truth(sequence, replay, Path(log), progress=progress)
+
+
+def _with_track_truth(
+    sequence: Any, replay: Any, log: Path, progress: bool = False
+) -> tuple[GroundTruth, bool]:
     """Ground truth whose landmarks are the true points of the front end's tracks.
 
     With per-pixel ground truth (``Sequence.point_map_loader``: synthetic renders) every track
@@ -344,11 +390,26 @@ def _with_track_truth(sequence: Any, replay: Any, log: Path) -> tuple[GroundTrut
     except NPZ_ERRORS:  # no cache entry, or a truncated one: recompute
         pass
     if ids is None:
+        from omnislam._progress import Progress
         from omnislam.frontend.evaluation import track_truth, true_sightings
 
-        ids, points = track_truth(true_sightings(replay, sequence.point_map_loader))
+        images = sum(
+            f.bearings is not None and px is not None and len(f.bearings) > 0
+            for f, px in zip(replay.frames, replay.pixels, strict=True)
+        )
+        label = f"true points of the tracks of {log.name}"
+        with Progress(label, images, "img") if progress else nullcontext() as bar:
+
+            def points_w_of(index: int) -> np.ndarray:
+                points = sequence.point_map_loader(index)
+                if bar is not None:
+                    bar.advance()
+                return points
+
+            ids, points = track_truth(true_sightings(replay, points_w_of))
         with tempfile.NamedTemporaryFile(dir=log.parent, suffix=".npz", delete=False) as tmp:
             np.savez_compressed(tmp, key=np.array(key), ids=ids, points_w=points)
+        make_public(tmp.name)
         os.replace(tmp.name, cache)
     truth = replace(
         sequence.ground_truth,

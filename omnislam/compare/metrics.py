@@ -206,8 +206,12 @@ def ate(
 # Relative pose error (RPE)
 # --------------------------------------------------------------------------------------------
 
-#: default RPE segment length for ``rpe_trans_rmse_m`` [m]
+#: default RPE segment length for ``rpe_trans_rmse_m`` [m] (of runs long enough for it)
 DEFAULT_RPE_SEGMENT_M = 10.0
+#: a run is long enough for the default segment when it travels this many segments
+SHORT_RUN_SEGMENTS = 4.0
+#: the shortest segment chosen automatically [m]
+MIN_AUTO_SEGMENT_M = 0.01
 #: a pair i, j is accepted when its ground-truth travel is within this fraction of the segment
 #: length (evo's ``rel_delta_tol``)
 DEFAULT_RPE_REL_TOL = 0.1
@@ -439,6 +443,26 @@ def se2_from_se3_array(poses_w: np.ndarray) -> np.ndarray:
     return np.column_stack(
         [poses_w[:, 0, 3], poses_w[:, 1, 3], np.arctan2(poses_w[:, 1, 0], poses_w[:, 0, 0])]
     )
+
+
+def auto_rpe_segment_m(travel_m: float) -> float:
+    """The RPE segment length of a run that travels ``travel_m`` metres of ground truth.
+
+    DEFAULT_RPE_SEGMENT_M (10 m) when the run travels at least SHORT_RUN_SEGMENTS (4) times
+    that; a shorter run gets the longest 1-2-5 x 10^k length up to a quarter of its travel
+    (a 12 m room tour: 2 m), so that three quarters of its poses start a segment instead of
+    none; at least MIN_AUTO_SEGMENT_M.
+    """
+    if not math.isfinite(travel_m) or travel_m >= SHORT_RUN_SEGMENTS * DEFAULT_RPE_SEGMENT_M:
+        return DEFAULT_RPE_SEGMENT_M
+    limit = travel_m / SHORT_RUN_SEGMENTS
+    best = MIN_AUTO_SEGMENT_M
+    for exponent in range(-2, 2):
+        for mantissa in (1.0, 2.0, 5.0):
+            length = mantissa * 10.0**exponent
+            if length <= limit * (1 + 1e-12):
+                best = max(best, length)
+    return best
 
 
 def segment_lengths(total_travel_m: float, count: int = 8) -> tuple[float, ...]:

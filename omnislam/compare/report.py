@@ -111,16 +111,22 @@ class ReportOptions:
     Attributes:
         title: the report's title (default: the grid's name).
         exports: write ``exports/CELL/`` (TUM, KITTI, PLY, g2o).
+        figures: draw each dataset's figures (False: verdicts and tables only -- a report of
+            many datasets small enough to commit, e.g. the suite's).
         occupancy: build occupancy grids where the data has laser scans.
         occupancy_resolution_m: grid cell size [m].
         command: the command line recorded in the provenance block (default: ``sys.argv``).
+        on_step: progress: called with (stage, done, total) as the report is written
+            ("figures": datasets done of total, "exports": runs done of total).
     """
 
     title: str | None = None
     exports: bool = True
+    figures: bool = True
     occupancy: bool = True
     occupancy_resolution_m: float = 0.1
     command: tuple[str, ...] | None = None
+    on_step: Callable[[str, int, int], None] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -1058,12 +1064,12 @@ def _write_into(
             headline,
         )
     )
-    segments = [c.metrics.rpe.segment_m for c in cells if c.ok and c.metrics is not None]
-    segment = next((length for length in segments if length), None)
     from omnislam.compare import plots
 
     figure_names: list[str] = []
-    for dataset in datasets:
+    say = options.on_step or (lambda stage, done, total: None)
+    for index, dataset in enumerate(datasets):
+        say(f"figures of {dataset}", index, len(datasets))
         group = [c for c in cells if c.dataset == dataset]
         gt_label = _gt_label(group)
         heading(f"{dataset} — {gt_label}")
@@ -1073,6 +1079,9 @@ def _write_into(
         if note:
             para(f"Ground truth: {note}")
         header, rows = _detail_rows(group)
+        # each dataset's own segment (a short run's is shorter: evaluation.segment_for)
+        lengths = [c.metrics.rpe.segment_m for c in group if c.ok and c.metrics is not None]
+        segment = next((length for length in lengths if length), None)
         if segment:
             header = [h.replace("RPE trans", f"RPE {segment:g} m trans") for h in header]
             header = [h.replace("RPE rot", f"RPE {segment:g} m rot") for h in header]
@@ -1087,7 +1096,8 @@ def _write_into(
         for c in group:
             if not c.ok:
                 para(f"Failed: {c.cell_id}: {c.error}")
-        for name, caption, svg in _dataset_figures(dataset, group, colours, options, notes):
+        drawn = _dataset_figures(dataset, group, colours, options, notes) if options.figures else []
+        for name, caption, svg in drawn:
             (out / name).write_text(svg)
             figure_names.append(name)
             md.extend([f"![{caption}]({name})", "", f"*{caption}*", ""])
@@ -1095,7 +1105,14 @@ def _write_into(
                 f"<figure>{plots.inline_svg(svg, caption)}"
                 f"<figcaption>{html.escape(caption)}</figcaption></figure>"
             )
+    say("figures", len(datasets), len(datasets))
+    if not options.figures:
+        para(
+            "Figures: not drawn for this report (omnislam report --no-figures); "
+            "omnislam report RESULTS_DIR --out DIR draws them from the same results."
+        )
     if options.exports:
+        say("exports", 0, 0)
         _exports(out, cells, notes)
         para(
             "Exports: exports/CELL/trajectory.tum and trajectory.kitti for every run, "

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from omnislam._files import check_output_location, output_error, read_yaml
+from omnislam._files import check_output_location, make_public, output_error, read_yaml
 from omnislam.core.types import Estimate
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind
 from omnislam.datasets.trajectory_io import read_tum, write_tum
@@ -227,9 +227,7 @@ def _read_timing(path: Path) -> np.ndarray:
 
 def make_shareable(folder: Path) -> None:
     """Give a ``tempfile.mkdtemp`` folder (mode 0700) the permissions of a plain ``mkdir``."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(folder, 0o777 & ~umask)
+    make_public(folder)
 
 
 def write_run_dir(path: Path, record: RunRecord) -> None:

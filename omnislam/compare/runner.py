@@ -2,20 +2,30 @@
 
 The runner is written against ``concurrent.futures.Executor`` only: ``ProcessPoolExecutor`` by
 default, ``distributed.Client(address).get_executor()`` for a Dask cluster, ``SerialExecutor``
-in-process. Workers run ``execute_run(cell.spec)`` and return the RunRecord; this process writes
-each cell and evaluates it, so the results folder needs no shared file system and every cell is
-written atomically by one writer:
+in-process. Two kinds of task run on the workers:
+
+1. ``prepare_dataset``, once per dataset: render a synthetic preset that is not in the cache
+   (``compare.renders``) and run the shared front end unless its log is current;
+2. ``run_cell``, once per cell as soon as its dataset is ready (a cell that reads another
+   cell's map, ``Cell.prior_from``, once that cell is stored): ``execute_run(cell.spec)``,
+   returning the RunRecord and what it cost.
+
+This process writes each cell and evaluates it, so every cell is written atomically by one
+writer; the workers read the data, the cache (renders) and the front-end logs in
+RESULTS_DIR/logs, so on a cluster those must be on a shared file system at the same paths:
 
     RESULTS_DIR/
       grid.yaml            the grid as given (marks the folder as a results folder)
+      logs/                the shared front end's log of each dataset with images or scans
       cells/CELL_ID/       one RUN_DIR per cell, with metrics.json (``omnislam evaluate`` output)
-      results.json         one row per cell: labels, status, error, metrics (rewritten after
-      results.csv          every cell, atomically)
+                           and cell_time.json (wall and CPU time on its worker)
+      results.json         one row per cell: labels, status, error, metrics, cell time
+      results.csv          (rewritten after every cell, atomically)
 
 A cell folder appears only complete (written under a hidden name, evaluated, then renamed), so
-after an interruption a re-run reuses every finished cell and computes only the others. A cell
+after an interruption a re-run reuses every finished cell and computes only the others. A task
 whose worker died (process killed, pool broken, Dask ``KilledWorker``) is resubmitted up to
-``max_attempts`` times -- on a fresh executor when the old one is broken; a cell that fails with
+``max_attempts`` times -- on a fresh executor when the old one is broken; a task that fails with
 an omnislam error (bad option, diverged estimator) is deterministic and is not retried.
 
 Numbers do not depend on the executor: the same cell gives the same metrics.json everywhere
@@ -35,15 +45,19 @@ import sys
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from omnislam._files import atomic_write_text, check_output_location, output_error
 from omnislam.compare.cache import LOGS
+from omnislam.compare.channel import ProgressChannel, StepReporter
 from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
-from omnislam.compare.execute import execute_run, frontend_log_for
+from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.compare.grid import Cell, Grid, column_label
 from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction
+from omnislam.compare.prior import PRIOR_MAP_OPTION
+from omnislam.compare.renders import RenderSpec
 from omnislam.compare.run_metrics import (
     CSV_FIELDS,
     RunMetrics,
@@ -64,8 +78,12 @@ GRID_COPY = "grid.yaml"
 CELLS = "cells"
 RESULTS_JSON = "results.json"
 RESULTS_CSV = "results.csv"
+#: a cell folder's cost on its worker (``CellTime``)
+CELL_TIME = "cell_time.json"
 #: a cell whose worker was lost is submitted at most this many times in all
 DEFAULT_MAX_ATTEMPTS = 3
+#: seconds the runner waits for a task before it passes on the workers' progress
+PROGRESS_POLL_S = 0.25
 
 #: columns of results.csv before the metrics (``CSV_FIELDS`` of ``compare.run_metrics``)
 CSV_LABELS = ("cell", "dataset", "estimator", "override", "seed", "status")
@@ -89,6 +107,8 @@ class CellOutcome:
         metrics: its metrics (None when failed).
         error: one line saying why it failed (None otherwise).
         attempts: submissions this invocation (0 when reused).
+        time: what the cell cost on its worker (``CellTime``; for a reused cell, when it was
+            computed), None when failed or not recorded.
     """
 
     cell: Cell
@@ -96,6 +116,25 @@ class CellOutcome:
     metrics: RunMetrics | None = None
     error: str | None = None
     attempts: int = 0
+    time: CellTime | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class CellProgress:
+    """What a running cell is doing (``execute.StepCallback``, sent by its worker).
+
+    Attributes:
+        cell: the cell.
+        stage: "loading", "front end", "running", "final estimate" (in the worker), then
+            "storing" (this process writes and evaluates it).
+        done: frames stepped so far.
+        total: frames of the run (0 while loading).
+    """
+
+    cell: Cell
+    stage: str
+    done: int
+    total: int
 
 
 @dataclass(frozen=True, slots=True)
@@ -204,6 +243,8 @@ def _matches(cell_dir: Path, cell: Cell) -> bool:
         wrong_fraction = parse_fraction(wanted.pop(WRONG_ID_OPTION, "0"))
     except ConfigError:
         return False
+    if config.prior_map != wanted.pop(PRIOR_MAP_OPTION, None):
+        return False
     if spec.log is not None:
         from omnislam.frontend.observation_log import read_log_key
 
@@ -222,15 +263,22 @@ def _matches(cell_dir: Path, cell: Cell) -> bool:
 
 def _evaluation_matches(metrics: RunMetrics, options: EvaluationOptions) -> bool:
     segment, gate = metrics.rpe.segment_m, metrics.landmarks.gate_m
-    return (segment is None or segment == options.rpe_segment_m) and (
+    travel = metrics.rpe.travel_m
+    wanted = options.segment_for(travel) if travel is not None else options.rpe_segment_m
+    return (segment is None or segment == wanted) and (
         gate is None or gate == options.landmark_gate_m
     )
 
 
 def store_cell(
-    cells_dir: Path, cell: Cell, record: RunRecord, options: EvaluationOptions
+    cells_dir: Path,
+    cell: Cell,
+    record: RunRecord,
+    options: EvaluationOptions,
+    time_taken: CellTime | None = None,
 ) -> RunMetrics:
-    """Write one cell atomically: RUN_DIR + metrics.json under a hidden name, then rename.
+    """Write one cell atomically: RUN_DIR + metrics.json (+ ``cell_time.json``) under a hidden
+    name, then rename.
 
     The metrics are computed from the files as written (``read_run_dir``), exactly as
     ``omnislam evaluate`` would compute them.
@@ -242,6 +290,8 @@ def store_cell(
         write_run_dir(staging, record)
         metrics = evaluate_run(read_run_dir(staging), options)
         write_run_metrics(staging / METRICS, metrics)
+        if time_taken is not None:
+            (staging / CELL_TIME).write_text(json.dumps(time_taken.to_json()) + "\n")
         if final.exists():
             trash = cells_dir / f".{cell.cell_id}.old-{os.getpid()}"
             os.replace(final, trash)
@@ -267,6 +317,7 @@ def _row(outcome: CellOutcome) -> dict[str, object]:
         "status": outcome.status.value,
         "error": outcome.error,
         "metrics": outcome.metrics.to_json() if outcome.metrics is not None else None,
+        "cell_time": outcome.time.to_json() if outcome.time is not None else None,
     }
 
 
@@ -285,34 +336,137 @@ def write_summary(result: GridResult) -> None:
     atomic_write_text(result.out_dir / RESULTS_CSV, buffer.getvalue())
 
 
-def prepare_frontend_logs(grid: Grid, out_dir: Path) -> Grid:
-    """Run the shared front end once per dataset with images or laser scans; every cell
-    replays its log.
+@dataclass(frozen=True, slots=True)
+class Prepared:
+    """What the preparation of one dataset did (``prepare_dataset``).
 
-    For each dataset of the grid whose sequence has images (synthetic omni runs, image folders)
-    or laser scans (CARMEN) and whose cells name no log of their own,
-    ``execute.frontend_log_for`` writes (or reuses, when dataset and configuration are
-    unchanged) ``out_dir/logs/<dataset>.npz`` in this process, and every cell of that dataset
-    gets it as ``RunSpec.log``: all estimators replay the same observations, so a comparison
-    measures estimators, not front ends (``omnislam run`` without ``--log`` replays the same log
-    from the cache). Other datasets keep their own sightings.
-
-    Returns:
-        The grid with the log paths filled in.
+    Attributes:
+        dataset: the dataset argument.
+        log: the shared front end's log every cell of the dataset replays (None: the
+            dataset's own sightings).
+        rendered: the synthetic render was made now (False: it was in the cache).
+        frontend_computed: the front end ran now (False: its log was cached).
+        truth_computed: the true points of the log's tracks were computed now (False: cached,
+            or not needed).
+        wall_s, cpu_s: wall-clock and CPU time of the preparation [s].
     """
-    from omnislam.datasets.registry import load_dataset
 
-    logs: dict[str, str | None] = {}
-    for cell in grid.cells:
-        dataset = cell.spec.dataset
-        if cell.spec.log is not None or dataset in logs:
-            continue
-        path = frontend_log_for(load_dataset(dataset), dataset, out_dir / LOGS, progress=True)
-        logs[dataset] = None if path is None else str(path)
+    dataset: str
+    log: str | None
+    rendered: bool = False
+    frontend_computed: bool = False
+    truth_computed: bool = False
+    wall_s: float = 0.0
+    cpu_s: float = 0.0
+
+
+def prepare_dataset(
+    dataset: str, render: RenderSpec | None, logs_dir: str, track_truth: bool = False
+) -> Prepared:
+    """Make what every cell of a dataset needs, once; runs on a worker.
+
+    Renders a synthetic dataset that is not in the cache yet (``compare.renders``), then runs
+    the shared front end on a dataset with images or laser scans unless its log in
+    ``logs_dir`` is current (``execute.frontend_log_for``), so all estimators replay the same
+    observations and a comparison measures estimators, not front ends (``omnislam run``
+    without ``--log`` replays the same log from the cache). Other datasets keep their own
+    sightings. A dataset scored against a reference solution (``compare.reference``) gets it
+    computed into the cache here, once, not by each of its cells; so do the true points of the
+    log's tracks (``execute.cache_track_truth``) when ``track_truth`` (some cell of the dataset
+    consumes bearings-3d), so the workers running its cells read them from the cache.
+    """
+    import time
+
+    from omnislam.compare.execute import cache_track_truth, frontend_log_for, log_file_name
+    from omnislam.compare.reference import reference_for
+    from omnislam.compare.renders import ensure_render
+    from omnislam.datasets.registry import load_dataset, resolve
+
+    log_path = Path(logs_dir) / log_file_name(dataset)
+
+    def stamp(path: Path) -> int | None:
+        try:
+            return path.stat().st_mtime_ns
+        except OSError:
+            return None
+
+    truth_path = log_path.with_name(log_path.name + ".truth.npz")
+    wall, cpu = time.perf_counter(), time.process_time()
+    rendered = ensure_render(render, dataset) if render is not None else False
+    resolved = resolve(dataset)
+    sequence = load_dataset(resolved)
+    reference_for(resolved.format, resolved.path, sequence)
+    before, truth_before = stamp(log_path), stamp(truth_path)
+    log = frontend_log_for(sequence, dataset, Path(logs_dir))
+    truth_computed = False
+    if log is not None and track_truth:
+        cache_track_truth(sequence, log)
+        truth_computed = stamp(truth_path) != truth_before  # unchanged: cached or no truth
+    computed = log is not None and stamp(log_path) != before
+    return Prepared(
+        dataset,
+        None if log is None else str(log),
+        rendered,
+        computed,
+        truth_computed,
+        time.perf_counter() - wall,
+        time.process_time() - cpu,
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class CellTime:
+    """What one cell cost on its worker, loading and replay included (``cell_time.json``).
+
+    Attributes:
+        wall_s: wall-clock time of ``execute_run`` [s].
+        cpu_s: CPU time of the worker process during it [s] (the honest measure on a loaded
+            machine).
+        host: the worker's host name.
+    """
+
+    wall_s: float
+    cpu_s: float
+    host: str = ""
+
+    def to_json(self) -> dict[str, object]:
+        return {"wall_s": self.wall_s, "cpu_s": self.cpu_s, "host": self.host}
+
+
+def run_cell(spec: RunSpec, reporter: StepReporter | None = None) -> tuple[RunRecord, CellTime]:
+    """``execute_run(spec)`` and what it cost; runs on a worker, its progress sent to
+    ``reporter`` (``compare.channel``)."""
+    import socket
+    import time
+
+    wall, cpu = time.perf_counter(), time.process_time()
+    record = execute_run(spec, on_step=reporter)
+    return record, CellTime(
+        time.perf_counter() - wall, time.process_time() - cpu, socket.gethostname()
+    )
+
+
+def read_cell_time(cell_dir: Path) -> CellTime | None:
+    """The ``cell_time.json`` of a cell folder (None when absent or unreadable)."""
+    try:
+        raw = json.loads((cell_dir / CELL_TIME).read_text())
+        return CellTime(float(raw["wall_s"]), float(raw["cpu_s"]), str(raw.get("host", "")))
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _with_prior_maps(grid: Grid, cells_dir: Path) -> Grid:
+    """Fill ``prior_map`` of every cell that reads another cell's map with that cell's folder."""
     cells = tuple(
         cell
-        if cell.spec.log is not None or logs.get(cell.spec.dataset) is None
-        else replace(cell, spec=replace(cell.spec, log=logs[cell.spec.dataset]))
+        if cell.prior_from is None
+        else replace(
+            cell,
+            spec=replace(
+                cell.spec,
+                options={**cell.spec.options, PRIOR_MAP_OPTION: str(cells_dir / cell.prior_from)},
+            ),
+        )
         for cell in grid.cells
     )
     return replace(grid, cells=cells)
@@ -325,16 +479,31 @@ def run_grid(
     *,
     max_attempts: int = DEFAULT_MAX_ATTEMPTS,
     on_outcome: Callable[[CellOutcome], None] | None = None,
+    on_progress: Callable[[CellProgress], None] | None = None,
+    reuse: bool = True,
 ) -> GridResult:
     """Run every cell of ``grid`` not already finished in ``out_dir``.
 
+    First every dataset is prepared on the executor (``prepare_dataset``: renders, front-end
+    logs in ``out_dir/logs``, the true points of the logs' tracks where a cell consumes
+    bearings-3d); as each is ready its finished cells are reused and the others submitted -- a
+    cell reading another cell's map (``Cell.prior_from``) once that cell is stored, and
+    computed again whenever it is.
+
     Args:
         grid: a validated grid.
-        out_dir: RESULTS_DIR (created; an existing results folder is resumed).
+        out_dir: RESULTS_DIR (created; an existing results folder is resumed). Workers read
+            the logs and prior maps in it, so on a cluster it must be shared.
         executor_factory: makes the executor (called again when one breaks); default a
             process pool of ``os.cpu_count()`` workers.
-        max_attempts: submissions per cell when its worker is lost.
+        max_attempts: submissions per task when its worker is lost.
         on_outcome: called with every cell's outcome as it is known (progress bars).
+        on_progress: called in this process with what running cells are doing, frames
+            stepped included, as their workers report it (``channel``; workers on another
+            machine report nothing until their cell is done).
+        reuse: keep the cells ``out_dir`` already holds for this grid (resume); False computes
+            every cell again (each replaces its old folder atomically when done) and removes
+            the cell folders of cells the grid no longer has.
 
     Returns:
         GridResult with every cell's outcome.
@@ -342,7 +511,7 @@ def run_grid(
     Raises:
         ConfigError: ``out_dir`` is a non-empty folder that is not a results folder.
     """
-    out_dir = Path(out_dir)
+    out_dir = Path(out_dir).absolute()
     check_results_dir(out_dir)
     if executor_factory is None:
         executor_factory = local_executor_factory(os.cpu_count() or 1)
@@ -354,25 +523,9 @@ def run_grid(
         atomic_write_text(out_dir / GRID_COPY, grid.text)
     except OSError as exc:
         raise output_error(exc, out_dir, "results folder") from None
-    grid = prepare_frontend_logs(grid, out_dir)
+    grid = _with_prior_maps(grid, cells_dir)
 
     outcomes: dict[str, CellOutcome] = {}
-    pending: list[Cell] = []
-    for cell in grid.cells:
-        cell_dir = cells_dir / cell.cell_id
-        if _matches(cell_dir, cell):
-            try:
-                metrics: RunMetrics | None = read_run_metrics(cell_dir / METRICS)
-            except DataError:  # unreadable or of another layout: evaluate the run again
-                metrics = None
-            if metrics is None or not _evaluation_matches(metrics, grid.evaluation):
-                metrics = evaluate_run(read_run_dir(cell_dir), grid.evaluation)
-                write_run_metrics(cell_dir / METRICS, metrics)
-            outcomes[cell.cell_id] = CellOutcome(cell, CellStatus.REUSED, metrics)
-            if on_outcome is not None:
-                on_outcome(outcomes[cell.cell_id])
-        else:
-            pending.append(cell)
 
     def summary() -> GridResult:
         ordered = tuple(outcomes[c.cell_id] for c in grid.cells if c.cell_id in outcomes)
@@ -380,76 +533,266 @@ def run_grid(
 
     def finish(outcome: CellOutcome) -> None:
         outcomes[outcome.cell.cell_id] = outcome
-        write_summary(summary())
+        if outcome.status is not CellStatus.REUSED:
+            write_summary(summary())
         if on_outcome is not None:
             on_outcome(outcome)
 
-    if pending:
-        _execute(pending, grid, cells_dir, executor_factory, max_attempts, finish)
+    _GridRun(grid, out_dir, executor_factory, max_attempts, finish, on_progress, reuse=reuse).run()
+    if not reuse:
+        wanted = {cell.cell_id for cell in grid.cells}
+        for old in cells_dir.iterdir():
+            if old.is_dir() and not old.name.startswith(".") and old.name not in wanted:
+                shutil.rmtree(old, ignore_errors=True)
     result = summary()
     write_summary(result)
     return result
 
 
-def _execute(
-    pending: list[Cell],
-    grid: Grid,
-    cells_dir: Path,
-    executor_factory: Callable[[], Executor],
-    max_attempts: int,
-    finish: Callable[[CellOutcome], None],
-) -> None:
-    """Submit the pending cells, store results as they arrive, resubmit lost ones."""
-    attempts = {cell.cell_id: 0 for cell in pending}
-    executor = executor_factory()
-    running: dict[Future, Cell] = {}
-
-    def submit(cell: Cell) -> None:
-        nonlocal executor
-        attempts[cell.cell_id] += 1
-        try:
-            future = executor.submit(execute_run, cell.spec)
-        except (BrokenProcessPool, RuntimeError):  # a broken or shut down pool: renew it
-            executor.shutdown(wait=False, cancel_futures=True)
-            executor = executor_factory()
-            future = executor.submit(execute_run, cell.spec)
-        running[future] = cell
-
+def _reuse(cell: Cell, cell_dir: Path, options: EvaluationOptions) -> CellOutcome | None:
+    """The outcome of a finished cell that can be reused as it is (None: compute it)."""
+    if not _matches(cell_dir, cell):
+        return None
     try:
-        for cell in pending:
-            submit(cell)
-        while running:
-            done, _ = wait(list(running), return_when=FIRST_COMPLETED)
-            for future in done:
-                cell = running.pop(future)
-                try:
-                    record = future.result()
-                except OmnislamError as exc:  # deterministic: bad option, estimator failure
-                    finish(CellOutcome(cell, CellStatus.FAILED, error=str(exc), attempts=1))
-                    continue
-                except BaseException as exc:  # worker lost (killed, pool broken, cancelled)
-                    if isinstance(exc, KeyboardInterrupt):
-                        raise
-                    if attempts[cell.cell_id] < max_attempts:
-                        submit(cell)
-                    else:
-                        error = f"{type(exc).__name__}: {exc}".strip()
-                        finish(
-                            CellOutcome(
-                                cell,
-                                CellStatus.FAILED,
-                                error=f"gave up after {attempts[cell.cell_id]} attempts ({error})",
-                                attempts=attempts[cell.cell_id],
-                            )
-                        )
-                    continue
-                metrics = store_cell(cells_dir, cell, record, grid.evaluation)
-                finish(
-                    CellOutcome(cell, CellStatus.COMPUTED, metrics, attempts=attempts[cell.cell_id])
+        metrics: RunMetrics | None = read_run_metrics(cell_dir / METRICS)
+    except DataError:  # unreadable or of another layout: evaluate the run again
+        metrics = None
+    if metrics is None or not _evaluation_matches(metrics, options):
+        metrics = evaluate_run(read_run_dir(cell_dir), options)
+        write_run_metrics(cell_dir / METRICS, metrics)
+    return CellOutcome(cell, CellStatus.REUSED, metrics, time=read_cell_time(cell_dir))
+
+
+class _GridRun:
+    """The tasks of one invocation: prepare every dataset, then its cells, in dependency order.
+
+    A task whose worker was lost is resubmitted up to ``max_attempts`` times (on a fresh
+    executor when the old one is broken); one that fails with an omnislam error is
+    deterministic and fails at once, with every cell that depends on it. With ``on_progress``
+    every cell gets a ``StepReporter`` of a ``ProgressChannel`` and the wait for tasks polls
+    every PROGRESS_POLL_S to relay what the workers report; without ``reuse`` no finished cell
+    is reused.
+    """
+
+    def __init__(
+        self,
+        grid: Grid,
+        out_dir: Path,
+        executor_factory: Callable[[], Executor],
+        max_attempts: int,
+        finish: Callable[[CellOutcome], None],
+        on_progress: Callable[[CellProgress], None] | None = None,
+        *,
+        reuse: bool = True,
+    ) -> None:
+        self.grid = grid
+        self.cells_dir = out_dir / CELLS
+        self.logs_dir = out_dir / LOGS
+        self.factory = executor_factory
+        self.max_attempts = max_attempts
+        self.finish = finish
+        self.executor: Executor | None = None
+        self.running: dict[Future, tuple[str, str]] = {}  # future -> (kind, key)
+        self.attempts: dict[tuple[str, str], int] = {}
+        self.by_id = {c.cell_id: c for c in grid.cells}
+        self.status: dict[str, CellStatus] = {}
+        self.waiting: dict[str, list[Cell]] = {}  # cell id -> cells reading its map
+        self.logs: dict[str, str | None] = {}
+        self.on_progress = on_progress
+        self.reuse = reuse
+        self.channel: ProgressChannel | None = None
+
+    # -- submission ----------------------------------------------------------------------
+    def _submit(self, kind: str, key: str, fn: Callable[..., object], *args: object) -> None:
+        self.attempts[(kind, key)] = self.attempts.get((kind, key), 0) + 1
+        if self.executor is None:
+            self.executor = self.factory()
+        try:
+            future = self.executor.submit(fn, *args)
+        except (BrokenProcessPool, RuntimeError):  # a broken or shut down pool: renew it
+            self.executor.shutdown(wait=False, cancel_futures=True)
+            self.executor = self.factory()
+            future = self.executor.submit(fn, *args)
+        self.running[future] = (kind, key)
+
+    def _submit_prepare(self, dataset: str) -> None:
+        from omnislam.core.modality import Modality
+        from omnislam.estimators import ESTIMATORS
+
+        cells = [c for c in self.grid.cells if c.spec.dataset == dataset]
+        track_truth = any(
+            Modality.BEARINGS_3D in ESTIMATORS[c.spec.estimator].modalities for c in cells
+        )
+        self._submit(
+            "prepare",
+            dataset,
+            prepare_dataset,
+            dataset,
+            cells[0].render,
+            str(self.logs_dir),
+            track_truth,
+        )
+
+    def _submit_cell(self, cell: Cell) -> None:
+        reporter = self.channel.reporter(cell.cell_id) if self.channel is not None else None
+        self._submit("cell", cell.cell_id, run_cell, self._spec(cell), reporter)
+
+    def _relay(self) -> None:
+        """Pass on what the workers reported of their running cells."""
+        if self.channel is None or self.on_progress is None:
+            return
+        for message in self.channel.drain():
+            cell = self.by_id.get(message.key)
+            if cell is not None:
+                self.on_progress(CellProgress(cell, message.stage, message.done, message.total))
+
+    def _spec(self, cell: Cell) -> RunSpec:
+        log = self.logs.get(cell.spec.dataset)
+        if cell.spec.log is not None or log is None:
+            return cell.spec
+        return replace(cell.spec, log=log)
+
+    # -- outcomes ------------------------------------------------------------------------
+    def _done(self, cell: Cell, outcome: CellOutcome) -> None:
+        self.status[cell.cell_id] = outcome.status
+        self.finish(outcome)
+        for dependent in self.waiting.pop(cell.cell_id, []):
+            if outcome.status is CellStatus.FAILED:
+                self._done(
+                    dependent,
+                    CellOutcome(
+                        dependent,
+                        CellStatus.FAILED,
+                        error=f"its prior map, cell {cell.cell_id}, failed",
+                    ),
                 )
-    except BaseException:  # interrupted: keep finished cells, do not wait for running ones
-        for future in running:
-            future.cancel()
-        executor.shutdown(wait=False, cancel_futures=True)
-        raise
-    executor.shutdown(wait=True)
+            else:
+                self._submit_cell(dependent)
+
+    def _ready(self, dataset: str, log: str | None) -> None:
+        """The dataset is prepared: reuse its finished cells, submit the others."""
+        self.logs[dataset] = log
+        cells = [
+            replace(c, spec=self._spec(c)) for c in self.grid.cells if c.spec.dataset == dataset
+        ]
+        for cell in sorted(cells, key=lambda c: c.prior_from is not None):  # map sources first
+            source = cell.prior_from
+            if source is not None and self.status.get(source) is not CellStatus.REUSED:
+                if self.status.get(source) is CellStatus.FAILED:
+                    self._done(
+                        cell,
+                        CellOutcome(
+                            cell, CellStatus.FAILED, error=f"its prior map, cell {source}, failed"
+                        ),
+                    )
+                else:  # computed in this invocation: wait for it, then compute this one too
+                    self.waiting.setdefault(source, []).append(cell)
+                continue
+            reused = (
+                _reuse(cell, self.cells_dir / cell.cell_id, self.grid.evaluation)
+                if self.reuse
+                else None
+            )
+            if reused is not None:
+                self._done(cell, reused)
+            else:
+                self.status[cell.cell_id] = CellStatus.COMPUTED  # on its way
+                self._submit_cell(cell)
+
+    def _failed(self, kind: str, key: str, error: str, attempts: int) -> None:
+        if kind == "cell":
+            cell = self.by_id[key]
+            self._done(cell, CellOutcome(cell, CellStatus.FAILED, error=error, attempts=attempts))
+            return
+        for cell in self.grid.cells:
+            if cell.spec.dataset == key and cell.cell_id not in self.status:
+                self._done(
+                    cell,
+                    CellOutcome(
+                        cell, CellStatus.FAILED, error=f"preparing {key}: {error}", attempts=0
+                    ),
+                )
+
+    def _collect(self, future: Future) -> None:
+        kind, key = self.running.pop(future)
+        attempts = self.attempts[(kind, key)]
+        try:
+            result = future.result()
+        except OmnislamError as exc:  # deterministic: bad option, estimator failure
+            self._failed(kind, key, str(exc), 1)
+            return
+        except BaseException as exc:  # worker lost (killed, pool broken, cancelled)
+            if isinstance(exc, KeyboardInterrupt):
+                raise
+            if attempts < self.max_attempts:
+                if kind == "cell":
+                    self._submit_cell(self.by_id[key])
+                else:
+                    self._submit_prepare(key)
+            else:
+                error = f"{type(exc).__name__}: {exc}".strip()
+                self._failed(kind, key, f"gave up after {attempts} attempts ({error})", attempts)
+            return
+        if kind == "prepare":
+            prepared: Prepared = result  # type: ignore[assignment]
+            _say_prepared(prepared)
+            self._ready(key, prepared.log)
+            return
+        record, time_taken = result  # type: ignore[misc]
+        cell = self.by_id[key]
+        if self.on_progress is not None:
+            self._relay()  # its last frames before it is stored
+            frames = record.config.frames
+            self.on_progress(CellProgress(cell, "storing", frames, frames))
+        metrics = store_cell(self.cells_dir, cell, record, self.grid.evaluation, time_taken)
+        self._done(
+            cell,
+            CellOutcome(cell, CellStatus.COMPUTED, metrics, attempts=attempts, time=time_taken),
+        )
+
+    def run(self) -> None:
+        with ExitStack() as stack:
+            if self.on_progress is not None:
+                self.channel = stack.enter_context(ProgressChannel())
+            try:
+                for dataset in dict.fromkeys(c.spec.dataset for c in self.grid.cells):
+                    self._submit_prepare(dataset)
+                while self.running:
+                    done, _ = wait(
+                        list(self.running),
+                        timeout=PROGRESS_POLL_S if self.channel is not None else None,
+                        return_when=FIRST_COMPLETED,
+                    )
+                    self._relay()
+                    # futures finished together are stored in submission order (``done`` is a
+                    # set): the same grid reports its cells in the same order on every run
+                    for future in [f for f in self.running if f in done]:
+                        self._collect(future)
+            except BaseException:  # interrupted: keep finished cells, do not wait for running
+                for future in self.running:
+                    future.cancel()
+                if self.executor is not None:
+                    self.executor.shutdown(wait=False, cancel_futures=True)
+                raise
+            if self.executor is not None:
+                self.executor.shutdown(wait=True)
+
+
+def _say_prepared(prepared: Prepared) -> None:
+    """One line on stderr when a dataset's render or front end was computed now."""
+    done = [
+        what
+        for what, flag in (
+            ("rendered", prepared.rendered),
+            ("ran the shared front end", prepared.frontend_computed),
+            ("computed the true points of its tracks", prepared.truth_computed),
+        )
+        if flag
+    ]
+    if done:
+        print(
+            f"omnislam compare: {prepared.dataset}: {' and '.join(done)} "
+            f"({prepared.wall_s:.0f} s wall, {prepared.cpu_s:.0f} s CPU)",
+            file=sys.stderr,
+            flush=True,
+        )

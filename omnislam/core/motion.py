@@ -21,7 +21,7 @@ from typing import Protocol
 
 import numpy as np
 
-from omnislam.core.se import wrap_angle, wrap_angle_inplace
+from omnislam.core.se import se2_compose, se2_compose_jacobians, wrap_angle, wrap_angle_inplace
 
 #: translations below this are treated as pure rotations (rot1 is then undefined) [m]
 MIN_TRANSLATION_M = 1e-9
@@ -276,3 +276,29 @@ def _component_sigmas_one(
 def _maximum(value: float, floor: float) -> float:
     """``np.maximum`` of two floats (a NaN ``value`` propagates)."""
     return value if value != value or value >= floor else floor
+
+
+def compose_odometry(
+    delta_ab: np.ndarray, cov_ab: np.ndarray, delta_bc: np.ndarray, cov_bc: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Two consecutive odometry deltas composed into one, with the first-order covariance.
+
+    ``aTc = aTb * bTc`` (``se.se2_compose``); with independent errors on the two deltas (each
+    additive on [dx, dy, dtheta] in its own start frame, as ``OdometryMotionModel.covariance``
+    gives them) the covariance of ``aTc`` in frame a is ``J_a C_ab J_a^T + J_b C_bc J_b^T``
+    (``se.se2_compose_jacobians``): the prediction step of thesis eq. 4.45 / ``predict`` with
+    the pose taken relative to frame a. Folding the odometry of the frames between two images
+    this way gives the one between-factor that replaces their chain (``graphslam.poses``).
+
+    Args:
+        delta_ab: (3,) robot-frame delta from a to b [m, m, rad].
+        cov_ab: (3, 3) its covariance.
+        delta_bc: (3,) delta from b to c, in frame b.
+        cov_bc: (3, 3) its covariance.
+
+    Returns:
+        (delta_ac (3,), cov_ac (3, 3)), the covariance symmetric.
+    """
+    J_a, J_b = se2_compose_jacobians(delta_ab, delta_bc)
+    cov = J_a @ cov_ab @ J_a.T + J_b @ cov_bc @ J_b.T
+    return se2_compose(delta_ab, delta_bc), 0.5 * (cov + cov.T)

@@ -115,3 +115,48 @@ def write_kitti(path: str | Path, trajectory: Trajectory) -> None:
     atomic_write_text(
         Path(path), "".join(" ".join(_FORMAT % v for v in row) + "\n" for row in rows)
     )
+
+
+#: trajectory file formats ``read_trajectory`` knows, by their number of values per line
+TRAJECTORY_FORMATS = {"tum": 8, "kitti": 12}
+
+
+def detect_trajectory_format(path: str | Path) -> str:
+    """``"tum"`` (8 values a line) or ``"kitti"`` (12), from the file's first pose line.
+
+    Raises:
+        DataError: unreadable, empty, or a first line with another number of values.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise DataError(f"cannot read file ({exc.strerror})", path) from exc
+    for number, line in enumerate(text.splitlines(), start=1):
+        stripped = line.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        count = len(stripped.replace(",", " ").split())
+        for name, columns in TRAJECTORY_FORMATS.items():
+            if count == columns:
+                return name
+        raise DataError(
+            f"line {number}: {count} values; a TUM line has 8 (stamp x y z qx qy qz qw), "
+            "a KITTI line 12 (the 3x4 pose, row-major)",
+            path,
+        )
+    raise DataError("no poses in file", path)
+
+
+def read_trajectory(path: str | Path, fmt: str | None = None) -> Trajectory:
+    """Read a TUM or KITTI file (``fmt`` None: ``detect_trajectory_format``).
+
+    Raises:
+        DataError: as ``read_tum`` / ``read_kitti``, or an unknown format.
+    """
+    fmt = detect_trajectory_format(path) if fmt is None else fmt
+    if fmt == "tum":
+        return read_tum(path)
+    if fmt == "kitti":
+        return read_kitti(path)
+    raise DataError(f"unknown trajectory format {fmt!r}; known: tum, kitti", Path(path))

@@ -8,11 +8,23 @@ route 1) and a fast setting for large range-bearing logs.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from enum import Enum
 
 from omnislam.core.motion import MotionNoise
 from omnislam.errors import ConfigError
+
+#: FastSLAM's default odometry noise: twice the alpha coefficients of the thesis's simulator
+#: (``MotionNoise()``, thesis eqs. 4.40-4.41). Those alphas describe white noise per step only;
+#: real odometry also drifts systematically (wheel scale, turn scale, curvature: 1-3 % per 10 m
+#: on the synthetic presets, ``benchmarks/odometry_drift.py``; MR.CLAM's commanded velocities
+#: are off by far more, ``benchmarks/fastslam_mrclam.py``), and a particle filter whose motion
+#: model leaves that out proposes poses around the biased odometry: its maps bend with the
+#: drift. Doubled, on loop150 (5 seeds) fastslam2@10 / fastslam2@50 / fastslam1@50 went from
+#: 1.07 / 0.54 / 0.90 m median ATE (worse than dead reckoning's 0.77 m) to 0.46 / 0.23 / 0.46 m,
+#: and on MR.CLAM (robots 1-5, seeds 0-2) fastslam2 / fastslam1 from 0.343 / 0.494 m to
+#: 0.290 / 0.414 m; tripled was worse on both (README, FastSLAM section).
+DEFAULT_MOTION_NOISE = MotionNoise(a_vv=0.1, a_vw=0.02, a_wv=0.02, a_ww=0.1)
 
 
 class Variant(Enum):
@@ -80,6 +92,19 @@ class TriangulationMethod(Enum):
     MIDPOINT = "midpoint"
 
 
+class Kernels(Enum):
+    """Which implementation runs the per-pair loops (``omnislam.fastslam.kernels``).
+
+    AUTO: the compiled kernels when numba is installed (the extra ``fast``), else numpy.
+    NUMPY: the vectorised numpy path, the reference and test oracle.
+    NUMBA: the compiled kernels; an error naming the extra when numba is missing.
+    """
+
+    AUTO = "auto"
+    NUMPY = "numpy"
+    NUMBA = "numba"
+
+
 class TrajectoryMode(Enum):
     """Which trajectory ``estimate()`` reports.
 
@@ -142,7 +167,8 @@ class FastSLAMConfig:
         variant: FastSLAM 1.0 or 2.0; also the estimator's ``name``.
         n_particles: number of particles P.
         motion_noise: alpha coefficients of thesis eqs. 4.40-4.41, from which the factories
-            (``make_fastslam``) build the ``OdometryMotionModel``.
+            (``make_fastslam``) build the ``OdometryMotionModel`` (default
+            ``DEFAULT_MOTION_NOISE``: twice the simulator's, to cover systematic drift).
         resample_ess_fraction: resample when ESS (thesis eq. 4.51) < fraction * P; 1.0 resamples
             every step with observations, 0.0 never.
         resampling: the resampling algorithm (low-variance systematic by default, Thrun et al.
@@ -187,11 +213,14 @@ class FastSLAMConfig:
         initial_pose_sigma: std of the initial pose (x, y, theta) [m, m, rad]; zero: all
             particles start at the given pose (the map frame is anchored at the first pose).
         initial_landmark_capacity: landmark slots allocated up front (the stores grow).
+        kernels: compiled kernels or the numpy reference for the landmark tree, the 2-D
+            landmark EKF and FastSLAM 2.0's sequential 2-D proposal (``Kernels``; same numbers
+            to rounding, ``kernels.py``).
     """
 
     variant: Variant = Variant.FASTSLAM1
     n_particles: int = 100
-    motion_noise: MotionNoise = field(default_factory=MotionNoise)
+    motion_noise: MotionNoise = DEFAULT_MOTION_NOISE
     resample_ess_fraction: float = 0.5
     resampling: ResamplingScheme = ResamplingScheme.SYSTEMATIC
     store: StoreKind = StoreKind.TREE
@@ -210,6 +239,7 @@ class FastSLAMConfig:
     trajectory: TrajectoryMode = TrajectoryMode.WEIGHTED_MEAN
     initial_pose_sigma: tuple[float, float, float] = (0.0, 0.0, 0.0)
     initial_landmark_capacity: int = 64
+    kernels: Kernels = Kernels.AUTO
 
     def __post_init__(self) -> None:
         if self.n_particles < 1:

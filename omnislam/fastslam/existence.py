@@ -91,7 +91,7 @@ class ExistenceIndex:
             return
         p = len(poses)
         who = np.repeat(np.arange(p), candidates.size)
-        slots = np.tile(candidates, p)
+        slots = np.broadcast_to(candidates, (p, candidates.size)).ravel()
         m = max(registry.n_slots, 1)
         unseen = ~np.isin(who * m + slots, pairs.particle * m + pairs.slot)
         who, slots = who[unseen], slots[unseen]

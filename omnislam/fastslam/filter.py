@@ -44,8 +44,10 @@ from omnislam.fastslam.config import (
     Variant,
 )
 from omnislam.fastslam.dense_store import DenseLandmarkStore
+from omnislam.fastslam.diversity import DiversityLog
 from omnislam.fastslam.existence import ExistenceIndex
-from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkStore
+from omnislam.fastslam.kernels import resolve as resolve_kernels
+from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkBlock, LandmarkStore
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.mapper import make_mapper
 from omnislam.fastslam.particles import ParticleSet, PathHistory
@@ -66,13 +68,19 @@ _RESAMPLERS = {
 
 
 def make_store(
-    kind: StoreKind, n_particles: int, dim: int, ray_dim: int, capacity: int
+    kind: StoreKind,
+    n_particles: int,
+    dim: int,
+    ray_dim: int,
+    capacity: int,
+    kernels: object | None = None,
 ) -> LandmarkStore:
-    """The landmark store of the given kind (tree, leaf-only tree or dense arrays)."""
+    """The landmark store of the given kind (tree, leaf-only tree or dense arrays); the trees
+    walk with the compiled ``kernels`` when given."""
     if kind is StoreKind.DENSE:
         return DenseLandmarkStore(n_particles, dim, ray_dim, capacity)
     layout = TreeLayout.ALL_NODES if kind is StoreKind.TREE else TreeLayout.LEAF_ONLY
-    return LandmarkTree(n_particles, dim, ray_dim, 4 * capacity, layout)
+    return LandmarkTree(n_particles, dim, ray_dim, 4 * capacity, layout, kernels)
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,6 +108,12 @@ class FastSLAMInfo:
             FastSLAM 2.0 proposal (3-D).
         triangulation_fallbacks: triangulated updates of established landmarks replaced by
             the direct bearing update for lack of parallax (3-D, ``BearingUpdate.TRIANGULATED``).
+        distinct_ancestors_min: fewest distinct particles of the previous step any step's set
+            descended from (``diversity.py``; 1: the set collapsed onto one particle).
+        distinct_ancestors_median: median distinct ancestors over the resampling steps.
+        single_ancestor_steps: steps with sightings whose set descended from one particle.
+        single_ancestor_longest_run: longest run of consecutive such steps.
+        ess_min: smallest effective sample size before resampling.
     """
 
     variant: Variant
@@ -116,6 +130,11 @@ class FastSLAMInfo:
     sightings_gated: int
     proposal_sightings_gated: int
     triangulation_fallbacks: int
+    distinct_ancestors_min: int
+    distinct_ancestors_median: float
+    single_ancestor_steps: int
+    single_ancestor_longest_run: int
+    ess_min: float
 
 
 class FastSLAM:
@@ -146,7 +165,8 @@ class FastSLAM:
         self.name = config.name
         self._rng = rng
         self._motion = motion
-        self._mapper = make_mapper(modality, config)
+        kernels = resolve_kernels(config.kernels)
+        self._mapper = make_mapper(modality, config, kernels)
         pose = np.zeros(3) if initial_pose is None else np.asarray(initial_pose, dtype=float)
         if pose.shape != (3,) or not np.all(np.isfinite(pose)):
             raise ConfigError(f"initial_pose must be a finite (3,) array, got {pose!r}")
@@ -157,7 +177,7 @@ class FastSLAM:
             poses = poses + sigma * rng.standard_normal((p, 3))
         self._particles = ParticleSet(poses)
         self._history = PathHistory(
-            keep_particles=config.trajectory is TrajectoryMode.BEST_ANCESTRY
+            keep_particles=config.trajectory is TrajectoryMode.BEST_ANCESTRY, kernels=kernels
         )
         self._store = make_store(
             config.store,
@@ -165,6 +185,7 @@ class FastSLAM:
             self._mapper.landmark_dim,
             self._mapper.ray_dim,
             config.initial_landmark_capacity,
+            kernels,
         )
         self._slots = SlotRegistry(self._store)
         self._association = SightingAssociation(
@@ -173,7 +194,7 @@ class FastSLAM:
             config.association_margin_m,
             config.new_landmark_log_likelihood,
         )
-        self._proposal = ProposalSampler(self._mapper, config.proposal_update, motion, rng)
+        self._proposal = ProposalSampler(self._mapper, config.proposal_update, motion, rng, kernels)
         self._existence = (
             None
             if config.existence is None
@@ -181,6 +202,7 @@ class FastSLAM:
                 config.existence, config.association_margin_m, config.sensor_height_m
             )
         )
+        self._diversity = DiversityLog(p)
         #: number of resamplings so far
         self.resample_count = 0
         #: effective sample size after the last update
@@ -206,6 +228,11 @@ class FastSLAM:
         """The observation stream the filter reads."""
         return self._mapper.modality
 
+    @property
+    def diversity(self) -> DiversityLog:
+        """Distinct ancestors and ESS of every step with sightings (``diversity.py``)."""
+        return self._diversity
+
     # -- the Estimator protocol -----------------------------------------------------------------
 
     def step(self, frame: FrameInput) -> None:
@@ -225,14 +252,15 @@ class FastSLAM:
             poses = self._motion.sample(previous, delta, self._rng)
             pairs = self._association.pairs(sightings, poses, None, particles.weights)
             log_factors = np.zeros(len(particles))
+            gathered = None
         else:
-            mean, cov = self._motion.predict(previous, None, delta)
+            mean, cov = self._proposal.predict(previous, delta)
             pairs = self._association.pairs(sightings, mean, cov, particles.weights)
             draw = self._proposal.sample(previous, delta, mean, cov, sightings, pairs, self._store)
-            poses, log_factors = draw.poses, draw.log_factors
+            poses, log_factors, gathered = draw.poses, draw.log_factors, draw.block
             self._proposal_gated += draw.gated
         particles.poses = poses
-        log_factors += self._update_landmarks(poses, sightings, pairs)
+        log_factors += self._update_landmarks(poses, sightings, pairs, gathered)
         if self._existence is not None:
             self._existence.apply(self._store, self._slots, poses, particles.weights, pairs)
         particles.reweight(log_factors)
@@ -240,8 +268,10 @@ class FastSLAM:
         self.last_ess = particles.effective_sample_size()
         fraction = self.config.resample_ess_fraction
         # fraction 1 means "every step": ESS of equal weights is P only up to rounding
+        ancestors = None
         if fraction >= 1.0 or self.last_ess < fraction * len(particles):
-            self._resample()
+            ancestors = self._resample()
+        self._diversity.record(self.last_ess, ancestors)
 
     def estimate(self) -> Estimate:
         """The trajectory chosen by ``config.trajectory`` and the best particle's map.
@@ -275,6 +305,7 @@ class FastSLAM:
         status = self._store.particle_map(self._particles.best()).status
         mapper = self._mapper
         bearing = mapper if isinstance(mapper, BearingMapper) else None
+        diversity = self._diversity.summary()
         return FastSLAMInfo(
             variant=self.config.variant,
             modality=self.modality,
@@ -290,6 +321,11 @@ class FastSLAM:
             sightings_gated=0 if bearing is None else bearing.sightings_gated,
             proposal_sightings_gated=self._proposal_gated,
             triangulation_fallbacks=0 if bearing is None else bearing.triangulation_fallbacks,
+            distinct_ancestors_min=diversity.distinct_min,
+            distinct_ancestors_median=diversity.distinct_median_at_resampling,
+            single_ancestor_steps=diversity.single_ancestor_steps,
+            single_ancestor_longest_run=diversity.single_ancestor_longest_run,
+            ess_min=diversity.ess_min,
         )
 
     def add_known_landmarks(self, ids: np.ndarray) -> np.ndarray:
@@ -302,10 +338,17 @@ class FastSLAM:
     # -- mapping -------------------------------------------------------------------------------
 
     def _update_landmarks(
-        self, poses: np.ndarray, sightings: Sightings, pairs: Pairs
+        self,
+        poses: np.ndarray,
+        sightings: Sightings,
+        pairs: Pairs,
+        gathered: LandmarkBlock | None = None,
     ) -> np.ndarray:
         """Update every addressed landmark EKF with the sampled poses, in rounds (a landmark
         seen twice in a frame is updated twice, ``Pairs.rounds``).
+
+        ``gathered``: the landmarks of all ``pairs`` as gathered for the FastSLAM 2.0 proposal
+        (unchanged since), reused when one round updates them all.
 
         Returns:
             (P,) log weight factors: the EKF innovation likelihoods for FastSLAM 1.0 (thesis
@@ -321,14 +364,20 @@ class FastSLAM:
             )
         known = sightings.ids[sightings.ids >= 0]
         if known.size == sightings.ids.size and np.unique(known).size == known.size:
-            rank = np.zeros(pairs.particle.size, dtype=np.int64)  # one round: all distinct
+            rank = None  # one round: all (particle, slot) pairs distinct
+            rounds = 1
         else:
             rank = pairs.rounds(self._slots.n_slots)
+            rounds = int(rank.max(initial=0)) + 1
         weigh = self.config.variant is Variant.FASTSLAM1
-        for r in range(int(rank.max(initial=0)) + 1):
-            rows = np.flatnonzero(rank == r)
-            who, slots, obs = pairs.particle[rows], pairs.slot[rows], pairs.obs[rows]
-            block = self._store.gather(who, slots)
+        for r in range(rounds):
+            if rounds == 1:
+                who, slots, obs = pairs.particle, pairs.slot, pairs.obs
+                block = gathered if gathered is not None else self._store.gather(who, slots)
+            else:
+                rows = np.flatnonzero(rank == r)
+                who, slots, obs = pairs.particle[rows], pairs.slot[rows], pairs.obs[rows]
+                block = self._store.gather(who, slots)
             log_likelihood = self._mapper.update(block, poses[who], sightings, obs)
             if weigh:
                 np.add.at(log_factors, who, log_likelihood)
@@ -340,10 +389,12 @@ class FastSLAM:
 
     # -- resampling ---------------------------------------------------------------------------
 
-    def _resample(self) -> None:
-        """Low-variance resampling (thesis 4.49, Thrun et al. Table 4.4) of poses and maps."""
+    def _resample(self) -> np.ndarray:
+        """Low-variance resampling (thesis 4.49, Thrun et al. Table 4.4) of poses and maps;
+        returns the ancestors."""
         ancestors = _RESAMPLERS[self.config.resampling](self._particles.weights, self._rng)
         self._history.record_resampling(ancestors)
         self._particles.resample(ancestors)
         self._store.resample(ancestors)
         self.resample_count += 1
+        return ancestors

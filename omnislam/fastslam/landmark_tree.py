@@ -108,6 +108,7 @@ class LandmarkTree:
         ray_dim: int = 0,
         initial_capacity: int = 64,
         layout: TreeLayout = TreeLayout.ALL_NODES,
+        kernels: object | None = None,
     ) -> None:
         """Args:
         n_particles: P.
@@ -116,7 +117,10 @@ class LandmarkTree:
         initial_capacity: node rows allocated up front (grown by doubling; the payload table
             starts at a quarter of it).
         layout: the thesis's all-nodes tree or Montemerlo's leaf-only tree.
+        kernels: the compiled kernels (``kernels.compiled()``) to walk and copy paths with, or
+            None for the vectorised numpy walks (the reference): the same maps either way.
         """
+        self._kernels = kernels
         self._p = int(n_particles)
         self._dim = int(dim)
         self._ray_dim = int(ray_dim)
@@ -237,6 +241,16 @@ class LandmarkTree:
         """Walk all N paths level by level with vectorised child lookups (absent slots end on
         the null node, whose payload row is all zeros)."""
         particles = np.asarray(particles, dtype=np.int64)
+        if self._kernels is not None:
+            rows, visits = self._kernels.tree_rows(
+                self._links,
+                self._roots,
+                particles,
+                np.asarray(slots, dtype=np.int64),
+                self._leaf_height(),
+            )
+            self.node_visits += int(visits)
+            return self._payload.take(rows)
         key, depth = self._paths(slots)
         self.node_visits += int((depth + 1).sum())
         nodes = self._walk(self._roots[particles], self._prefixes(key, depth))
@@ -256,6 +270,9 @@ class LandmarkTree:
         particles = np.asarray(particles, dtype=np.int64)
         n = particles.shape[0]
         if n == 0:
+            return
+        if self._kernels is not None:
+            self._scatter_compiled(particles, np.asarray(slots, dtype=np.int64), block)
             return
         key, depth = self._paths(slots)
         self.node_visits += int((depth + 1).sum())
@@ -293,6 +310,44 @@ class LandmarkTree:
         self._payload.put(rows, block)
         target = nodes[depth, run_end[depth, np.arange(n)]]
         self._links[target, _PAYLOAD] = rows[order]
+
+    def _leaf_height(self) -> int:
+        """The leaf-only tree's height, -1 for the all-nodes tree (the kernels' layout flag)."""
+        return self._height if self._layout is TreeLayout.LEAF_ONLY else -1
+
+    def _scatter_compiled(
+        self, particles: np.ndarray, slots: np.ndarray, block: LandmarkBlock
+    ) -> None:
+        """``scatter`` by ``kernels.tree_scatter``: one walk per pair, copying the nodes the
+        particle does not own. Room is reserved for one new node per level of every pair, but
+        never more than a whole tree of that height per writing particle."""
+        n = particles.shape[0]
+        if self._layout is TreeLayout.ALL_NODES:
+            levels = int(int(slots.max()) + 1).bit_length()
+        else:
+            levels = self._height + 1
+        writers = int(np.count_nonzero(np.bincount(particles)))
+        self._reserve(min(n * levels, writers * ((1 << levels) - 1)), n)
+        nodes, payloads = self._node_rows, self._payload_rows
+        rows, node_taken, node_used, payload_taken, payload_used, copies, visits = (
+            self._kernels.tree_scatter(
+                self._links,
+                self._roots,
+                self._tokens,
+                particles,
+                slots,
+                self._leaf_height(),
+                nodes.free,
+                nodes.used,
+                payloads.free,
+                payloads.used,
+            )
+        )
+        nodes.free, nodes.used = nodes.free[node_taken:], int(node_used)
+        payloads.free, payloads.used = payloads.free[payload_taken:], int(payload_used)
+        self.nodes_allocated += int(copies)
+        self.node_visits += int(visits)
+        self._payload.put(rows, block)
 
     def resample(self, ancestors: np.ndarray) -> None:
         """O(P): particle i takes old particle ancestors[i]'s root; see the module docstring

@@ -67,14 +67,17 @@ class LandmarkMapper(Protocol):
         ...
 
 
-def make_mapper(modality: Modality, config: FastSLAMConfig) -> LandmarkMapper:
-    """The mapper of ``modality``.
+def make_mapper(
+    modality: Modality, config: FastSLAMConfig, kernels: object | None = None
+) -> LandmarkMapper:
+    """The mapper of ``modality`` (the 2-D one updates with the compiled ``kernels`` when
+    given).
 
     Raises:
         ConfigError: no modality, or one FastSLAM does not consume (naming those it does).
     """
     if modality is Modality.RANGE_BEARING_2D:
-        return RangeBearingMapper()
+        return RangeBearingMapper(kernels)
     if modality is Modality.BEARINGS_3D:
         return BearingMapper(config)
     allowed = " or ".join(m.value for m in MODALITIES)

@@ -83,8 +83,14 @@ class PathHistory:
     particle can be traced back (FastSLAM's path posterior sample).
     """
 
-    def __init__(self, keep_particles: bool) -> None:
+    def __init__(self, keep_particles: bool, kernels: object | None = None) -> None:
+        """Args:
+        keep_particles: keep every particle's pose and the ancestry (BEST_ANCESTRY).
+        kernels: the compiled kernels (``kernels.compiled()``) for the weighted moments, or
+            None for ``ParticleSet.mean_pose`` / ``pose_covariance`` (the reference).
+        """
         self._keep = keep_particles
+        self._kernels = kernels
         self._stamps: list[float] = []
         self._means: list[np.ndarray] = []
         self._covs: list[np.ndarray] = []
@@ -96,10 +102,15 @@ class PathHistory:
 
     def record(self, stamp_s: float, particles: ParticleSet) -> None:
         """Record the particle set of one step (before any resampling)."""
-        mean = particles.mean_pose()
+        if self._kernels is not None:
+            mean, cov = np.empty(3), np.empty((3, 3))
+            self._kernels.weighted_moments(particles.weights, particles.poses, mean, cov)
+        else:
+            mean = particles.mean_pose()
+            cov = particles.pose_covariance(mean)
         self._stamps.append(float(stamp_s))
         self._means.append(mean)
-        self._covs.append(particles.pose_covariance(mean))
+        self._covs.append(cov)
         if self._keep:
             self._poses.append(particles.poses.copy())
             self._ancestors.append(None)

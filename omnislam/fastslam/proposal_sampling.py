@@ -14,15 +14,18 @@ converged landmarks, capped) and with which model and gate.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from omnislam.core.motion import MotionModel
+from omnislam.core.gaussian import log_likelihood_from_mahalanobis
+from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.motion import MotionModel, OdometryMotionModel
 from omnislam.fastslam.config import ProposalUpdateMode
-from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkStore
+from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkBlock, LandmarkStore
 from omnislam.fastslam.mapper import LandmarkMapper
-from omnislam.fastslam.proposal import joint_proposal, refine_proposal, sample_poses
+from omnislam.fastslam.proposal import _JITTER, joint_proposal, refine_proposal, sample_poses
 from omnislam.fastslam.sightings import Pairs, Sightings
 
 
@@ -35,11 +38,14 @@ class ProposalDraw:
         log_factors: (P,) log importance factors (0 for particles sampled from the motion
             model).
         gated: (particle, sighting) pairs the validation gate kept out of the proposal.
+        block: the landmarks of all the pairs as gathered for the proposal (not modified), for
+            the landmark update to reuse.
     """
 
     poses: np.ndarray
     log_factors: np.ndarray
     gated: int
+    block: LandmarkBlock
 
 
 class ProposalSampler:
@@ -58,11 +64,37 @@ class ProposalSampler:
         mode: ProposalUpdateMode,
         motion: MotionModel,
         rng: np.random.Generator,
+        kernels: object | None = None,
     ) -> None:
         self._mapper = mapper
         self._mode = mode
         self._motion = motion
         self._rng = rng
+        # the compiled sequential proposal covers 2-D range-bearing sightings without a gate
+        compiled = (
+            kernels is not None
+            and mode is ProposalUpdateMode.SEQUENTIAL
+            and isinstance(mapper.proposal_model, RangeBearing2D)
+            and not math.isfinite(mapper.proposal_gate)
+        )
+        self._kernels = kernels if compiled else None
+        self._draw_kernels = kernels
+        self._odometry = motion if isinstance(motion, OdometryMotionModel) else None
+
+    def predict(self, previous: np.ndarray, delta_r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The motion prediction N(mu0, P) from the exactly known previous poses (thesis 4.41,
+        4.44; ``MotionModel.predict(previous, None, delta_r)``), compiled for the odometry
+        model when the kernels are on."""
+        if self._draw_kernels is None or self._odometry is None:
+            return self._motion.predict(previous, None, delta_r)
+        rot1, trans, rot2 = self._odometry.decompose(delta_r).tolist()
+        variances = self._odometry.component_sigmas(np.array([rot1, trans, rot2])) ** 2
+        p = previous.shape[0]
+        mean, cov = np.empty((p, 3)), np.empty((p, 3, 3))
+        self._draw_kernels.odometry_prediction(
+            np.ascontiguousarray(previous, dtype=float), rot1, trans, rot2, variances, mean, cov
+        )
+        return mean, cov
 
     def sample(
         self,
@@ -108,6 +140,11 @@ class ProposalSampler:
             mean, cov, log_factors = joint.mean, joint.cov, joint.log_likelihood
             refined[pairs.particle[rows]] = True
             gated = int(joint.accepted.size - np.count_nonzero(joint.accepted))
+        elif self._kernels is not None:
+            mean, cov, log_factors = self._refine_compiled(
+                mean, cov, sightings, pairs, block, usable
+            )
+            refined[pairs.particle[usable]] = True
         else:
             log_factors = np.zeros(p)
             mean = mean.copy()
@@ -132,8 +169,50 @@ class ProposalSampler:
                 refined[who] = True
                 gated += int(update.accepted.size - np.count_nonzero(update.accepted))
         poses = np.empty_like(previous)
-        poses[refined] = sample_poses(mean[refined], cov[refined], self._rng)
+        if self._draw_kernels is not None and mean.shape[-1] == 3:
+            chosen = mean[refined]
+            normals = self._rng.standard_normal(chosen.shape)  # as sample_poses draws them
+            drawn = np.empty_like(chosen)
+            self._draw_kernels.cholesky_draws(chosen, cov[refined], normals, _JITTER, drawn)
+            poses[refined] = drawn
+        else:
+            poses[refined] = sample_poses(mean[refined], cov[refined], self._rng)
         plain = ~refined
         if plain.any():
             poses[plain] = self._motion.sample(previous[plain], delta_r, self._rng)
-        return ProposalDraw(poses, log_factors, gated)
+        return ProposalDraw(poses, log_factors, gated, block)
+
+    def _refine_compiled(
+        self,
+        mean: np.ndarray,
+        cov: np.ndarray,
+        sightings: Sightings,
+        pairs: Pairs,
+        block: LandmarkBlock,
+        usable: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The sequential refinement by ``kernels.refine_range_bearing``: the usable pairs in
+        ascending sighting order (the reference's loop order, per particle), the predictive
+        log-likelihoods summed per particle in that order."""
+        rows = np.flatnonzero(usable)
+        rows = rows[np.argsort(pairs.obs[rows], kind="stable")]
+        who, obs = pairs.particle[rows], pairs.obs[rows]
+        mean = np.array(mean, dtype=float)  # contiguous copies, refined in place
+        cov = np.array(cov, dtype=float)
+        n = rows.size
+        mahalanobis, det = np.empty(n), np.empty(n)
+        self._kernels.refine_range_bearing(
+            mean,
+            cov,
+            who,
+            sightings.z[obs],
+            sightings.R[obs],
+            block.mean[rows],
+            block.cov[rows],
+            mahalanobis,
+            det,
+        )
+        log_likelihood = log_likelihood_from_mahalanobis(mahalanobis, np.log(det), 2)
+        log_factors = np.bincount(who, weights=log_likelihood, minlength=len(mean))
+        log_factors = log_factors.astype(float, copy=False)  # int64 when there are no pairs
+        return mean, cov, log_factors

@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from omnislam.core.gaussian import log_likelihood_from_mahalanobis
 from omnislam.core.kalman import ekf_update, initialize_from_inverse
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
@@ -30,9 +31,12 @@ class RangeBearingMapper:
     ray_dim = 0
     proposal_gate = math.inf
 
-    def __init__(self) -> None:
+    def __init__(self, kernels: object | None = None) -> None:
+        """Args: kernels: the compiled kernels (``kernels.compiled()``) for the EKF update, or
+        None for ``core.kalman.ekf_update`` (the reference)."""
         self._model = RangeBearing2D()
         self.proposal_model = self._model
+        self._kernels = kernels
 
     def read(self, frame: FrameInput) -> Sightings | None:
         """``frame.range_bearing`` as z = (range, bearing) with R = diag(sigma_r^2, sigma_b^2)."""
@@ -56,14 +60,23 @@ class RangeBearingMapper:
         z, R = sightings.z[obs], sightings.R[obs]
         est = block.status == ESTIMATED
         if est.all():  # the common case: no boolean-mask copies
+            if self._kernels is not None:
+                return self._compiled_update(wTr, block.mean, block.cov, z, R)
             update = ekf_update(wTr, block.mean, block.cov, z, R, model)
             block.mean, block.cov = update.mean, update.cov
             return update.log_likelihood
         if est.any():
-            update = ekf_update(wTr[est], block.mean[est], block.cov[est], z[est], R[est], model)
-            block.mean[est] = update.mean
-            block.cov[est] = update.cov
-            log_likelihood[est] = update.log_likelihood
+            if self._kernels is not None:
+                mean, cov = block.mean[est], block.cov[est]
+                log_likelihood[est] = self._compiled_update(wTr[est], mean, cov, z[est], R[est])
+            else:
+                update = ekf_update(
+                    wTr[est], block.mean[est], block.cov[est], z[est], R[est], model
+                )
+                mean, cov = update.mean, update.cov
+                log_likelihood[est] = update.log_likelihood
+            block.mean[est] = mean
+            block.cov[est] = cov
         new = ~est
         if new.any():
             mean, cov = initialize_from_inverse(wTr[new], z[new], R[new], model.inverse)
@@ -72,6 +85,18 @@ class RangeBearingMapper:
             block.status[new] = ESTIMATED
             block.existence[new] = 0
         return log_likelihood
+
+    def _compiled_update(
+        self, wTr: np.ndarray, mean: np.ndarray, cov: np.ndarray, z: np.ndarray, R: np.ndarray
+    ) -> np.ndarray:
+        """``kernels.ekf_range_bearing`` in place on ``mean`` / ``cov``; returns the innovation
+        log-likelihoods (the log of det S taken by numpy, as ``ekf_update`` does)."""
+        n = mean.shape[0]
+        mahalanobis, det = np.empty(n), np.empty(n)
+        self._kernels.ekf_range_bearing(
+            np.ascontiguousarray(wTr), mean, cov, z, R, mean, cov, mahalanobis, det
+        )
+        return log_likelihood_from_mahalanobis(mahalanobis, np.log(det), 2)
 
     def proposal_landmarks(
         self, block: LandmarkBlock, pairs: Pairs, usable: np.ndarray

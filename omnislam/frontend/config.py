@@ -26,6 +26,20 @@ class SiftBackend(enum.Enum):
     PYCOLMAP = "pycolmap"  # COLMAP's SIFT through pycolmap.FeatureExtractor (~5x slower)
 
 
+class FirstOctave(enum.Enum):
+    """How SIFT samples its finest scales, sigma / 2 .. sigma (thesis 4.1.1; Lowe 2004 sec. 3.3).
+
+    Lowe doubles the image so that the first octave (-1) samples them at half pixels; the
+    thesis keeps the doubling optional. ``NATIVE`` samples them at the image's own pixels, at
+    a third of the cost (``omnislam.frontend.scale_space``); ``NONE`` leaves them out (VLFeat's
+    and COLMAP's ``first_octave = 0``).
+    """
+
+    DOUBLED = "doubled"  # Lowe 2004, OpenCV's detector
+    NATIVE = "native"  # octave -1 at the image's resolution
+    NONE = "none"  # no octave -1
+
+
 class ScheduleMode(enum.Enum):
     """Which images the asynchronous front end processes (thesis 4.5; Barra & Costa 3)."""
 
@@ -44,10 +58,13 @@ class SiftConfig:
         edge_threshold: maximum ratio R of principal curvatures (thesis eq. 4.15). Lowe: 10;
             the thesis keeps the same rejection rate on omni images with R ~ 2.
         n_octave_layers: scales per octave N (k = 2^(1/N), thesis 4.1.1).
-        sigma: blur of the first octave's base image [px].
+        sigma: Lowe's sigma: blur of octave 0's base image [px] (octave -1 starts at half).
         max_features: keep at most this many strongest features (0 = all).
-        upsample_first_octave: double the image for the first octave (Lowe 2004 sec. 3.3).
-        backend: OpenCV or pycolmap.
+        first_octave: how octave -1 (the scales sigma / 2 .. sigma) is sampled.
+        precise_upscale: with ``first_octave`` DOUBLED, OpenCV doubles the image by mapping
+            pixel x to 2x exactly (``enable_precise_upscale``) instead of its default resize,
+            which shifts keypoints (measured in the README's front-end section).
+        backend: OpenCV or pycolmap (pycolmap: DOUBLED or NONE only).
     """
 
     contrast_threshold: float = 0.03
@@ -55,7 +72,8 @@ class SiftConfig:
     n_octave_layers: int = 3
     sigma: float = 1.6
     max_features: int = 0
-    upsample_first_octave: bool = True
+    first_octave: FirstOctave = FirstOctave.DOUBLED
+    precise_upscale: bool = True
     backend: SiftBackend = SiftBackend.OPENCV
 
     def __post_init__(self) -> None:
@@ -63,14 +81,19 @@ class SiftConfig:
             raise ConfigError("SiftConfig: contrast_threshold >= 0 and edge_threshold > 1")
         if self.n_octave_layers < 1 or self.sigma <= 0 or self.max_features < 0:
             raise ConfigError("SiftConfig: n_octave_layers >= 1, sigma > 0, max_features >= 0")
+        if self.backend is SiftBackend.PYCOLMAP and self.first_octave is FirstOctave.NATIVE:
+            raise ConfigError("SiftConfig: the pycolmap backend has no native first octave "
+                              "(first_octave: doubled or none)")
 
 
 #: Lowe (2004): C = 0.03, R = 10.
 LOWE = SiftConfig()
 #: Thesis 4.1.2: on omnidirectional images keep Lowe's rejection rate with R ~ 2. The contrast
 #: threshold is lowered to 0.02 so that the ring (a third of the pixels of a perspective image
-#: of the same size, blurred by the mirror) still yields several hundred features.
-OMNI_THESIS = SiftConfig(contrast_threshold=0.02, edge_threshold=2.0)
+#: of the same size, blurred by the mirror) still yields several hundred features. The finest
+#: octave is sampled at the image's pixels (the thesis leaves doubling optional, 4.1.1).
+OMNI_THESIS = SiftConfig(contrast_threshold=0.02, edge_threshold=2.0,
+                         first_octave=FirstOctave.NATIVE)
 SIFT_PRESETS: dict[str, SiftConfig] = {"lowe": LOWE, "omni-thesis": OMNI_THESIS}
 
 
@@ -144,6 +167,9 @@ class VerificationConfig:
             the pure-rotation model ``f1 = R f2`` is verified instead.
         prior_rotation_tol_rad: a model whose rotation differs from the odometry prior's by
             more than this is rejected (the prior seeds and guards the search).
+        planar_motion: the viewpoints move on a horizontal plane and turn about the vertical
+            (a camera on a wheeled robot), so hypotheses come from 3 matches instead of 8
+            (``verification.planar_essential_from_bearings``); False for a hand-held camera.
         enabled: False skips verification (every ratio-test match is accepted).
     """
 
@@ -153,6 +179,7 @@ class VerificationConfig:
     min_inliers: int = 10
     min_baseline_m: float = 0.02
     prior_rotation_tol_rad: float = 0.35
+    planar_motion: bool = True
     enabled: bool = True
 
     def __post_init__(self) -> None:
@@ -184,7 +211,12 @@ class TrackConfig:
         min_track_length: tracks with fewer sightings are dropped from the log at the end;
             3 because a bearing-only landmark needs 3 sightings to be initialised (DESIGN.md,
             "Landmark insertion").
-        sigma_px: pixel noise turned into each bearing's angular sigma [px].
+        sigma_px: keypoint localisation std at size 0 [px] ...
+        sigma_px_per_size: ... plus this times the keypoint's SIFT diameter (2 sigma): the
+            pixel noise turned into each bearing's angular sigma through the camera model's
+            Jacobian (``bearing_noise``). Fitted to the RMS residuals of the tracks of the
+            ``lab40`` and ``demo`` renders against their true points
+            (``benchmarks/bearing_noise.py``); a real camera adds its calibration's residual.
     """
 
     window_images: int = 3
@@ -196,7 +228,8 @@ class TrackConfig:
     max_reference_images: int = 8
     prune_after_failures: int = 5
     min_track_length: int = 3
-    sigma_px: float = 1.0
+    sigma_px: float = 0.09
+    sigma_px_per_size: float = 0.027
 
     def __post_init__(self) -> None:
         if self.map_min_sightings < 1 or self.map_rebuild_every < 1:
@@ -205,8 +238,9 @@ class TrackConfig:
             raise ConfigError("TrackConfig: max_reference_images, prune_after_failures >= 1")
         if self.window_images < 1:
             raise ConfigError("TrackConfig.window_images must be >= 1")
-        if self.min_track_length < 1 or self.sigma_px <= 0:
-            raise ConfigError("TrackConfig: min_track_length >= 1 and sigma_px > 0")
+        if self.min_track_length < 1 or self.sigma_px <= 0 or self.sigma_px_per_size < 0:
+            raise ConfigError("TrackConfig: min_track_length >= 1, sigma_px > 0 and "
+                              "sigma_px_per_size >= 0")
 
 
 @dataclass(frozen=True, slots=True)

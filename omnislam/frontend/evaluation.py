@@ -6,6 +6,8 @@ is the fraction of sighting pairs within one track whose true points lie within 
 each other. **Re-association after a return**: a sighting whose true point was last seen
 ``min_gap_s`` or more before, and first seen ``min_age_s`` or more before, is a landmark
 "visible again"; it is re-associated when its track id is one of the ids that point had.
+**Bearing noise**: the angle between each logged bearing of a consistent track and the
+direction, from the true viewpoint, to the track's true point, against the bearing's sigma.
 """
 
 from __future__ import annotations
@@ -191,14 +193,14 @@ def reassociation_rate(
     return (good / returns if returns else 0.0), returns
 
 
-def visible_line_bearings(
+def visible_lines(
     lines_w: np.ndarray,
     wTr: np.ndarray,
     rig: object,
     points_w: np.ndarray,
     tol_m: float = 0.12,
-) -> np.ndarray:
-    """True robot-frame bearings of the vertical-line landmarks visible in one image.
+) -> tuple[np.ndarray, np.ndarray]:
+    """The vertical-line landmarks visible in one image and their true robot-frame bearings.
 
     A line (x, y) is visible when its point at the camera's height projects into the usable
     image and the renderer's world point at that pixel (or up to 3 px aside) lies within
@@ -209,11 +211,14 @@ def visible_line_bearings(
         wTr: (4, 4) true robot pose.
         rig: the camera rig.
         points_w: (H, W, 3) the renderer's world point of every pixel.
+
+    Returns:
+        (indices into ``lines_w`` (V,), bearings (V,) [rad]).
     """
     R, t = wTr[:3, :3], wTr[:3, 3]
     viewpoint_r = rig.viewpoint_r  # type: ignore[attr-defined]
-    out = []
-    for x, y in np.asarray(lines_w, dtype=float).reshape(-1, 2):
+    index, out = [], []
+    for k, (x, y) in enumerate(np.asarray(lines_w, dtype=float).reshape(-1, 2)):
         p_w = np.array([x, y, (R @ viewpoint_r + t)[2]])
         p_r = (p_w - t) @ R
         pixels, valid = rig.project_r(p_r[None])  # type: ignore[attr-defined]
@@ -225,8 +230,21 @@ def visible_line_bearings(
         near = np.hypot(seen[:, 0] - x, seen[:, 1] - y) < tol_m
         if np.any(near):
             d_r = p_r - viewpoint_r
+            index.append(k)
             out.append(np.arctan2(d_r[1], d_r[0]))
-    return np.array(out)
+    return np.array(index, dtype=np.int64), np.array(out)
+
+
+def visible_line_bearings(
+    lines_w: np.ndarray,
+    wTr: np.ndarray,
+    rig: object,
+    points_w: np.ndarray,
+    tol_m: float = 0.12,
+) -> np.ndarray:
+    """True robot-frame bearings of the vertical-line landmarks visible in one image
+    (``visible_lines`` without the indices)."""
+    return visible_lines(lines_w, wTr, rig, points_w, tol_m)[1]
 
 
 def bearing_errors(detected_rad: np.ndarray, true_rad: np.ndarray) -> np.ndarray:
@@ -235,3 +253,163 @@ def bearing_errors(detected_rad: np.ndarray, true_rad: np.ndarray) -> np.ndarray
         return np.full(np.asarray(true_rad).shape, np.inf)
     d = np.asarray(detected_rad)[None, :] - np.asarray(true_rad)[:, None]
     return np.abs((d + np.pi) % (2 * np.pi) - np.pi).min(axis=1)
+
+
+@dataclass(frozen=True, slots=True)
+class BearingResiduals:
+    """Logged bearings of consistent tracks against their tracks' true points.
+
+    Attributes:
+        angle_rad: (K,) angle between the logged bearing and the true direction [rad].
+        sigma_rad: (K,) the bearing's logged angular std [rad].
+        dof: (K,) ``n / (n - 1)`` for a track of n sightings: the true point is the mean of
+            the track's own sightings, which shrinks their residuals by ``(n - 1) / n`` on
+            average; multiplying squared residuals by this undoes it.
+        track: (K,) track id.
+    """
+
+    angle_rad: np.ndarray
+    sigma_rad: np.ndarray
+    dof: np.ndarray
+    track: np.ndarray
+
+
+def bearing_residuals(
+    log: ObservationLog, s: Sightings, wTr: np.ndarray, viewpoint_r: np.ndarray,
+    tol_m: float = SAME_POINT_M,
+) -> BearingResiduals:
+    """Residuals of the bearings of consistent tracks (``track_truth``) [rad].
+
+    A track's true point is the mean of its sightings' true points (every one within
+    ``tol_m`` of their median); a bearing's residual is its angle to the direction from the
+    true viewpoint to that point.
+
+    Args:
+        log: the log whose sightings ``s`` are (``true_sightings(log, ...)``, same order).
+        s: its sightings with true points.
+        wTr: (N, 4, 4) true robot poses of every frame.
+        viewpoint_r: (3,) the camera's viewpoint in the robot frame [m].
+    """
+    rays, sigmas = [], []
+    for frame, px in zip(log.frames, log.pixels, strict=True):
+        if frame.bearings is None or px is None or len(frame.bearings) == 0:
+            continue
+        rays.append(frame.bearings.unit_vectors_r)
+        sigmas.append(frame.bearings.sigmas_rad)
+    if not rays:
+        empty = np.zeros(0)
+        return BearingResiduals(empty, empty, empty, np.zeros(0, dtype=np.int64))
+    rays_r, sigma = np.concatenate(rays), np.concatenate(sigmas)
+    known = np.flatnonzero(np.all(np.isfinite(s.points_w), axis=1))
+    order = known[np.argsort(s.track[known], kind="stable")]
+    bounds = np.flatnonzero(np.diff(s.track[order])) + 1
+    keep, centres, dof = [], [], []
+    for rows in np.split(order, bounds):
+        if rows.size < 2:
+            continue
+        p = s.points_w[rows]
+        if np.any(np.linalg.norm(p - np.median(p, axis=0), axis=1) > tol_m):
+            continue  # the track wandered between surfaces: no single true point
+        keep.append(rows)
+        centres.append(np.repeat(p.mean(axis=0)[None], rows.size, axis=0))
+        dof.append(np.full(rows.size, rows.size / (rows.size - 1.0)))
+    if not keep:
+        empty = np.zeros(0)
+        return BearingResiduals(empty, empty, empty, np.zeros(0, dtype=np.int64))
+    rows, centre, dof_k = np.concatenate(keep), np.concatenate(centres), np.concatenate(dof)
+    pose = np.asarray(wTr)[s.frame[rows]]
+    R, t = pose[:, :3, :3], pose[:, :3, 3]
+    origin_w = np.einsum("nij,j->ni", R, np.asarray(viewpoint_r, dtype=float)) + t
+    to_point_r = np.einsum("nji,nj->ni", R, centre - origin_w)
+    to_point_r /= np.linalg.norm(to_point_r, axis=1, keepdims=True)
+    cos = np.clip(np.sum(to_point_r * rays_r[rows], axis=1), -1.0, 1.0)
+    return BearingResiduals(np.arccos(cos), sigma[rows], dof_k, s.track[rows])
+
+
+#: a bearing error is 2-D (on the tangent plane): E[(angle / sigma)^2] = 2 when calibrated
+_TANGENT_DOF = 2.0
+
+
+def noise_ratio(res: BearingResiduals, trim: float = 0.01) -> float:
+    """Per-axis RMS of the residuals in units of their logged sigma (1: calibrated).
+
+    ``sqrt(mean(dof * (angle / sigma)^2) / 2)`` over all but the ``trim`` largest normalised
+    residuals (gross errors, left to the estimators' gates and robust kernels), corrected for
+    the trimming as if the residuals were Gaussian (the mean of the chi-square(2) below its
+    ``1 - trim`` quantile). Below 1 the logged sigmas are too large, above 1 too small.
+    """
+    if res.angle_rad.size == 0:
+        return float("nan")
+    z2 = np.sort(res.dof * (res.angle_rad / res.sigma_rad) ** 2)
+    z2 = z2[: max(1, int(np.ceil((1.0 - trim) * z2.size)))]
+    quantile = -_TANGENT_DOF * np.log(trim) if trim > 0 else np.inf
+    kept_mean = _TANGENT_DOF - (quantile * trim / (1.0 - trim) if trim > 0 else 0.0)
+    return float(np.sqrt(np.mean(z2) / kept_mean))
+
+
+def noise_ratio_median(res: BearingResiduals) -> float:
+    """The same from the median: ``median(angle / sigma) / sqrt(2 ln 2)`` (1: calibrated)."""
+    if res.angle_rad.size == 0:
+        return float("nan")
+    z = np.sqrt(res.dof) * res.angle_rad / res.sigma_rad
+    return float(np.median(z) / np.sqrt(2.0 * np.log(2.0)))
+
+
+@dataclass(frozen=True, slots=True)
+class TriangulationErrors:
+    """Landmark error the front end alone allows: its tracks triangulated from the true poses.
+
+    Attributes:
+        track: (T,) ids of the consistent tracks with at least ``min_sightings`` sightings.
+        error_m: (T,) distance of the least-squares intersection of a track's rays (from the
+            true viewpoints) to its true point [m].
+        parallax_rad: (T,) the largest angle between two of its rays [rad].
+    """
+
+    track: np.ndarray
+    error_m: np.ndarray
+    parallax_rad: np.ndarray
+
+
+def triangulation_errors(
+    log: ObservationLog, s: Sightings, wTr: np.ndarray, viewpoint_r: np.ndarray,
+    min_sightings: int = 3, tol_m: float = SAME_POINT_M,
+) -> TriangulationErrors:
+    """Triangulate every consistent track from the true poses (``core.triangulation``'s least
+    squares, vectorised over tracks) and compare with its true point (``track_truth``).
+
+    No back end can place a landmark much better than this from the same sightings, so it
+    measures what the front end's bearings allow, independently of the estimators.
+    """
+    rays = [f.bearings.unit_vectors_r for f, px in zip(log.frames, log.pixels, strict=True)
+            if f.bearings is not None and px is not None and len(f.bearings)]
+    ids, truth = track_truth(s, tol_m)
+    if not rays or ids.size == 0:
+        empty = np.zeros(0)
+        return TriangulationErrors(np.zeros(0, dtype=np.int64), empty, empty)
+    rays_r = np.concatenate(rays)
+    pos = np.minimum(np.searchsorted(ids, s.track), ids.size - 1)
+    rows = np.flatnonzero(ids[pos] == s.track)
+    slot = pos[rows]
+    pose = np.asarray(wTr)[s.frame[rows]]
+    R, t = pose[:, :3, :3], pose[:, :3, 3]
+    origin = np.einsum("nij,j->ni", R, np.asarray(viewpoint_r, dtype=float)) + t
+    d = np.einsum("nij,nj->ni", R, rays_r[rows])
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    projector = np.eye(3)[None] - d[:, :, None] * d[:, None, :]
+    A = np.zeros((ids.size, 3, 3))
+    b = np.zeros((ids.size, 3))
+    np.add.at(A, slot, projector)
+    np.add.at(b, slot, np.einsum("nij,nj->ni", projector, origin))
+    count = np.bincount(slot, minlength=ids.size)
+    # parallax: the largest angle from the track's mean direction, twice (close to the
+    # largest pairwise angle for the small spreads of a track)
+    mean = np.zeros((ids.size, 3))
+    np.add.at(mean, slot, d)
+    mean /= np.maximum(np.linalg.norm(mean, axis=1, keepdims=True), 1e-12)
+    spread = np.zeros(ids.size)
+    np.maximum.at(spread, slot, np.arccos(np.clip(np.sum(d * mean[slot], axis=1), -1, 1)))
+    keep = (count >= min_sightings) & (np.linalg.cond(A) < 1e12)
+    point = np.linalg.solve(A[keep], b[keep][..., None])[..., 0]
+    return TriangulationErrors(ids[keep], np.linalg.norm(point - truth[keep], axis=1),
+                               2.0 * spread[keep])

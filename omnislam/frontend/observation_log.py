@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from omnislam._files import NPZ_ERRORS, npz_reason, output_error
+from omnislam._files import NPZ_ERRORS, make_public, npz_reason, output_error
 from omnislam.core.types import Bearings, FrameInput, Odometry, RangeBearing, VerticalLines
 from omnislam.errors import DataError
 
@@ -166,6 +166,7 @@ def save_observation_log(log: ObservationLog, path: str | Path) -> None:
     try:
         with os.fdopen(fd, "wb") as handle:
             np.savez_compressed(handle, **arrays)
+        make_public(tmp)
         os.replace(tmp, path)
     except OSError as exc:
         Path(tmp).unlink(missing_ok=True)

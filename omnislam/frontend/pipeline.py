@@ -14,8 +14,12 @@ log: no estimator can use them.
 
 from __future__ import annotations
 
-import sys
+import collections
+import itertools
 import time
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +28,7 @@ import numpy as np
 from omnislam.core.se import se2_integrate
 from omnislam.core.types import Bearings, FrameInput, RangeBearing
 from omnislam.errors import DataError
+from omnislam.frontend.bearing_noise import bearing_sigmas
 from omnislam.frontend.config import FrontendConfig, ScheduleConfig, ScheduleMode, config_hash
 from omnislam.frontend.config import config_to_dict as _config_to_dict
 from omnislam.frontend.groups import group_features
@@ -93,6 +98,84 @@ def _merge_sightings(a: RangeBearing | None, b: RangeBearing | None) -> RangeBea
     )
 
 
+#: threads preparing images when pipelined, and images prepared ahead of the one being tracked
+WORKERS = 2
+LOOKAHEAD = 3
+
+
+@dataclass(frozen=True, slots=True)
+class PreparedImage:
+    """What tracking needs of one image, computed independently of every other image.
+
+    Attributes:
+        features: its SIFT features.
+        groups: (N,) feature-group labels (``groups.NO_GROUP``: unused).
+        rays_r: (N, 3) unit bearings of the features in the robot frame (NaN: none).
+        sigmas_rad: (N,) angular std of each bearing (``sigma_model``).
+        lines: its vertical lines, or None when they are not extracted.
+    """
+
+    features: Any
+    groups: np.ndarray
+    rays_r: np.ndarray
+    sigmas_rad: np.ndarray
+    lines: Any
+
+
+class _ImagePreparer:
+    """Load, SIFT, groups, rays and vertical edges of one image (no state between images)."""
+
+    def __init__(self, sequence: Any, config: FrontendConfig, clock: StageClock) -> None:
+        rig = sequence.calibration
+        camera = rig.camera
+        self.sequence, self.config, self.clock, self.rig = sequence, config, clock, rig
+        self.mask = detection_mask(camera.mask(), (camera.height, camera.width))
+        self.extractor = SiftExtractor(config.sift)
+        self.vertical = None
+        if config.vertical_edges.enabled:
+            from omnislam.frontend.vertical_edges import VerticalLineExtractor
+
+            self.vertical = VerticalLineExtractor(rig, config.vertical_edges)
+
+    def __call__(self, i: int) -> PreparedImage:
+        clock, config = self.clock, self.config
+        with clock("load"):
+            image = self.sequence.image(i)
+        with clock("extract"):
+            features = self.extractor.extract(image, self.mask)
+        with clock("group"):
+            groups = group_features(features.pixels, features.sizes_px, features.contrast,
+                                    config.groups)
+            rays_r = self.rig.rays_r(features.pixels)
+            sigmas = bearing_sigmas(self.rig.camera, features, config.tracks)
+        lines = None
+        if self.vertical is not None:
+            with clock("vertical_edges"):
+                lines = self.vertical.extract(image)
+        return PreparedImage(features, groups, rays_r, sigmas, lines)
+
+
+def _prepared(prepare: _ImagePreparer, frames: list[int], pipelined: bool
+              ) -> Iterator[tuple[int, PreparedImage]]:
+    """``(frame, prepared image)`` in order; pipelined: up to ``LOOKAHEAD`` images ahead in
+    ``WORKERS`` threads (OpenCV and most of numpy release the GIL), so that SIFT of the next
+    images runs on the other core while this thread tracks."""
+    if not pipelined:
+        for i in frames:
+            yield i, prepare(i)
+        return
+    with ThreadPoolExecutor(max_workers=WORKERS, thread_name_prefix="frontend") as pool:
+        pending: collections.deque = collections.deque()
+        queue = iter(frames)
+        for i in itertools.islice(queue, LOOKAHEAD):
+            pending.append((i, pool.submit(prepare, i)))
+        while pending:
+            i, future = pending.popleft()
+            for j in itertools.islice(queue, 1):
+                pending.append((j, pool.submit(prepare, j)))
+            yield i, future.result()
+
+
 def run_frontend(
     sequence: Any,
     config: FrontendConfig | None = None,
@@ -100,6 +183,7 @@ def run_frontend(
     rng: np.random.Generator | None = None,
     max_images: int | None = None,
     progress: bool = False,
+    pipelined: bool = True,
 ) -> ObservationLog:
     """Run the front end over a Sequence.
 
@@ -109,10 +193,14 @@ def run_frontend(
         config: the configuration (default ``FrontendConfig()``: OMNI_THESIS SIFT).
         rng: generator for RANSAC (default: seeded with ``DEFAULT_SEED``).
         max_images: process at most this many images (the log still has every frame).
-        progress: show a tqdm bar on stderr.
+        progress: show the images done, rate and ETA on stderr (``omnislam._progress``).
+        pipelined: prepare the next images (load, SIFT, groups, rays, vertical edges) in
+            worker threads while image k is tracked; the log is the same either way (a test).
 
     Returns:
-        The ObservationLog; ``stats`` holds counts and seconds per stage.
+        The ObservationLog; ``stats`` holds counts, and wall-clock (``seconds_<stage>``) and
+        CPU (``cpu_seconds_<stage>``, exact only when not pipelined) seconds per stage, and
+        both for the whole image loop (``*_images_total``).
     """
     config = config if config is not None else FrontendConfig()
     rng = rng if rng is not None else np.random.default_rng(DEFAULT_SEED)
@@ -126,53 +214,45 @@ def run_frontend(
     if processed.size and rig is None:
         raise DataError(f"{sequence.name}: images without a camera calibration")
 
-    clock = StageClock()
+    clock = StageClock()  # preparing images (the worker thread when pipelined)
+    track_clock = StageClock()  # tracking them (this thread)
     raw: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
     lines: dict[int, Any] = {}
+    wall_start, cpu_start = time.perf_counter(), time.process_time()
     if processed.size:
-        camera = rig.camera
-        mask = detection_mask(camera.mask(), (camera.height, camera.width))
-        extractor = SiftExtractor(config.sift)
-        tracker = LandmarkTracker(rig.viewpoint_r, config, rng, clock)
+        tracker = LandmarkTracker(rig.viewpoint_r, config, rng, track_clock)
         poses_dr = se2_integrate(sequence.odometry_r)
-        todo = set(processed.tolist())
+        prepare = _ImagePreparer(sequence, config, clock)
         bar = None
         if progress:
-            from tqdm import tqdm
+            from omnislam._progress import Progress
 
-            bar = tqdm(total=int(processed.size), desc="frontend", unit="img", file=sys.stderr)
-        for i in range(n):
-            if i not in todo:
-                continue
-            with clock("load"):
-                image = sequence.image(i)
-            with clock("extract"):
-                features = extractor.extract(image, mask)
-            with clock("group"):
-                groups = group_features(features.pixels, features.sizes_px, features.contrast,
-                                        config.groups)
-                rays_r = rig.rays_r(features.pixels)
-            before = dict(clock.seconds)
-            start = time.perf_counter()
-            tracked = tracker.process(features.descriptors, groups, rays_r, poses_dr[i])
-            inner = sum(clock.seconds.get(k, 0.0) - before.get(k, 0.0) for k in clock.seconds)
-            clock.add("track", time.perf_counter() - start - inner)
+            bar = Progress(f"frontend {sequence.name}", int(processed.size), "img")
+        for i, image in _prepared(prepare, processed.tolist(), pipelined):
+            before = sum(track_clock.seconds.values()), sum(track_clock.cpu_seconds.values())
+            start, cpu = time.perf_counter(), time.process_time()
+            tracked = tracker.process(image.features.descriptors, image.groups, image.rays_r,
+                                      poses_dr[i])
+            # "track": what process() spent outside its own match / verify / map stages
+            inner = (sum(track_clock.seconds.values()) - before[0],
+                     sum(track_clock.cpu_seconds.values()) - before[1])
+            track_clock.add("track", time.perf_counter() - start - inner[0],
+                            time.process_time() - cpu - inner[1])
             idx = tracked.feature_index
-            raw[i] = (tracked.track_ids, rays_r[idx], features.pixels[idx],
-                      camera.angular_sigma(features.pixels[idx], config.tracks.sigma_px))
-            if config.vertical_edges.enabled:
-                from omnislam.frontend.vertical_edges import extract_vertical_lines
-
-                with clock("vertical_edges"):
-                    lines[i] = extract_vertical_lines(image, rig, config.vertical_edges)
+            raw[i] = (tracked.track_ids, image.rays_r[idx], image.features.pixels[idx],
+                      image.sigmas_rad[idx])
+            if image.lines is not None:
+                lines[i] = image.lines
             if bar is not None:
-                bar.update(1)
+                bar.advance()
         if bar is not None:
             bar.close()
         sightings = tracker.sightings
         raw = {i: (tracker.canonical_ids(ids), *rest) for i, (ids, *rest) in raw.items()}
     else:
         sightings = np.zeros(0, dtype=np.int64)
+    images_wall_s = time.perf_counter() - wall_start
+    images_cpu_s = time.process_time() - cpu_start
 
     laser_sightings: dict[int, RangeBearing] = {}
     if sequence.laser is not None and config.laser.enabled and (
@@ -213,8 +293,13 @@ def run_frontend(
             vertical_lines=lines.get(i),
         ))
         pixels.append(px)
-    stats: dict[str, float] = {f"seconds_{k}": v for k, v in clock.seconds.items()}
+    stats: dict[str, float] = {}
+    for c in (clock, track_clock):
+        stats |= {f"seconds_{k}": v for k, v in c.seconds.items()}
+        stats |= {f"cpu_seconds_{k}": v for k, v in c.cpu_seconds.items()}
     stats |= {
+        "seconds_images_total": images_wall_s,
+        "cpu_seconds_images_total": images_cpu_s,
         "images_processed": float(len(raw)),
         "tracks_total": float(sightings.shape[0]),
         "tracks_kept": float(keep_track.sum()),

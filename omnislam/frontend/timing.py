@@ -1,28 +1,39 @@
-"""Wall-clock time per front-end stage (extract, group, match, verify, track, ...)."""
+"""Time per front-end stage (extract, group, match, verify, track, ...): wall-clock and CPU."""
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
 
 class StageClock:
-    """Accumulates seconds per named stage; ``with clock("extract"): ...``."""
+    """Accumulates seconds per named stage; ``with clock("extract"): ...``.
+
+    ``seconds`` holds wall-clock time and ``cpu_seconds`` the process's CPU time (every
+    thread's, OpenCV's workers included) spent inside the stage. Stages timed from two threads
+    at once overlap, so per-stage CPU is exact only when the stages run one after another
+    (``run_frontend(..., pipelined=False)``). Safe to use from several threads.
+    """
 
     def __init__(self) -> None:
         self.seconds: dict[str, float] = {}
+        self.cpu_seconds: dict[str, float] = {}
+        self._lock = threading.Lock()
 
     @contextmanager
     def __call__(self, stage: str) -> Iterator[None]:
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         try:
             yield
         finally:
-            self.add(stage, time.perf_counter() - start)
+            self.add(stage, time.perf_counter() - start, time.process_time() - cpu)
 
-    def add(self, stage: str, seconds: float) -> None:
-        self.seconds[stage] = self.seconds.get(stage, 0.0) + seconds
+    def add(self, stage: str, seconds: float, cpu_seconds: float = 0.0) -> None:
+        with self._lock:
+            self.seconds[stage] = self.seconds.get(stage, 0.0) + seconds
+            self.cpu_seconds[stage] = self.cpu_seconds.get(stage, 0.0) + cpu_seconds
 
     def total(self) -> float:
         return sum(self.seconds.values())

@@ -89,7 +89,8 @@ class LandmarkTracker:
         viewpoint_r: (3,) camera viewpoint in the robot frame [m] (for the odometry prior).
         config: the front-end configuration (matching, verification, tracks, groups).
         rng: random generator for RANSAC.
-        clock: accumulates the time spent matching (``match``) and verifying (``verify``).
+        clock: accumulates the time spent matching frame to frame (``match``) and against
+            the map (``match_map``), verifying (``verify``) and indexing the map (``map``).
     """
 
     def __init__(
@@ -240,7 +241,7 @@ class LandmarkTracker:
         young = (assigned >= 0) & (
             self._first.data[np.maximum(assigned, 0)] >= frame - cfg.tracks.young_images)
         queried = np.flatnonzero((assigned < 0) | young)
-        with self.clock("match"):
+        with self.clock("match_map"):
             q, labels, dist = self._map.query(desc[queried])
         if q.shape[0] == 0:
             return

@@ -34,6 +34,8 @@ from omnislam.frontend.config import VerificationConfig
 
 #: minimum sample of the linear essential-matrix solver
 SAMPLE_ESSENTIAL = 8
+#: minimum sample of the linear planar-motion essential-matrix solver
+SAMPLE_PLANAR = 3
 #: minimum sample of the rotation solver
 SAMPLE_ROTATION = 2
 #: hypotheses drawn and scored together
@@ -174,6 +176,74 @@ def essential_from_bearings(f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
     return E[0] if single else E
 
 
+def planar_essential_from_bearings(f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """Linear essential matrices of planar motion from bearing pairs (batched).
+
+    When both viewpoints move on a horizontal plane and turn about the vertical (a camera on a
+    wheeled robot: ``t = (tx, ty, 0)``, ``R = Rz(theta)``), ``E = [t]_x R`` has the form
+    ``[[0, 0, a], [0, 0, b], [c, d, 0]]`` with ``(a, b) = (ty, -tx)`` and
+    ``|(c, d)| = |(a, b)|``: 2 degrees of freedom up to scale, so 3 bearing pairs give a linear
+    solution (``f1^T E f2 = a f1x f2z + b f1y f2z + c f1z f2x + d f1z f2y = 0``) where the
+    general case needs 8. The least-squares ``(a, b, c, d)`` is projected onto the manifold by
+    giving both halves their mean norm (the nearest such matrix).
+
+    Args:
+        f1: (N, 3) or (M, N, 3) bearings in frame 1, N >= 3.
+        f2: same shape, frame 2.
+
+    Returns:
+        (3, 3) or (M, 3, 3) essential matrices.
+    """
+    single = f1.ndim == 2
+    a = f1[None] if single else f1
+    b = f2[None] if single else f2
+    A = np.stack([a[..., 0] * b[..., 2], a[..., 1] * b[..., 2], a[..., 2] * b[..., 0],
+                  a[..., 2] * b[..., 1]], axis=-1)
+    if A.shape[1] > 4:
+        _, vecs = np.linalg.eigh(np.swapaxes(A, 1, 2) @ A)
+        e = vecs[:, :, 0]
+    else:
+        _, _, Vt = np.linalg.svd(A, full_matrices=True)
+        e = Vt[:, -1, :]
+    n1 = np.linalg.norm(e[:, :2], axis=1, keepdims=True)
+    n2 = np.linalg.norm(e[:, 2:], axis=1, keepdims=True)
+    mean = 0.5 * (n1 + n2)
+    e = np.concatenate([e[:, :2] * mean / np.maximum(n1, 1e-300),
+                        e[:, 2:] * mean / np.maximum(n2, 1e-300)], axis=1)
+    E = np.zeros((e.shape[0], 3, 3))
+    E[:, 0, 2], E[:, 1, 2], E[:, 2, 0], E[:, 2, 1] = e.T
+    return E[0] if single else E
+
+
+def planar_rotation_angle(E: np.ndarray) -> float:
+    """The turn ``theta`` of a planar-motion essential matrix (the sign of E does not matter).
+
+    From ``(c, d) = -[[a, b], [b, -a]] (cos theta, sin theta)`` with ``(a, b, c, d)`` as in
+    ``planar_essential_from_bearings``.
+    """
+    a, b, c, d = E[0, 2], E[1, 2], E[2, 0], E[2, 1]
+    return float(math.atan2(a * d - b * c, -(a * c + b * d)))
+
+
+def decompose_planar_essential(E: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> RelativePose:
+    """The planar (R, t) of a planar-motion essential matrix, t's sign by cheirality.
+
+    Args:
+        E: (3, 3) from ``planar_essential_from_bearings``.
+        f1, f2: (N, 3) inlier bearings used for the cheirality test.
+
+    Returns:
+        The relative pose with unit ``t`` (horizontal) and ``R = Rz(theta)``.
+    """
+    theta = planar_rotation_angle(E)
+    c, s = math.cos(theta), math.sin(theta)
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    t = np.array([-E[1, 2], E[0, 2], 0.0])
+    t /= max(float(np.linalg.norm(t)), 1e-300)
+    front = [int(np.sum(np.all(_depths(R, sign * t, f1, f2) > 0, axis=1))) for sign in (1, -1)]
+    return RelativePose(R, t if front[0] >= front[1] else -t)
+
+
 def _depths(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
     """(N, 2) depths ``(lambda1, lambda2)`` solving ``lambda1 f1 - lambda2 R f2 = t`` (LSQ)."""
     g = f2 @ R.T
@@ -283,7 +353,8 @@ def verify_matches(
     if not config.enabled:
         return VerificationResult(np.ones(n, dtype=bool), ModelKind.NONE, None, 0)
     rotation_only = prior is not None and prior.baseline_m < config.min_baseline_m
-    sample = SAMPLE_ROTATION if rotation_only else SAMPLE_ESSENTIAL
+    planar = config.planar_motion and not rotation_only
+    sample = SAMPLE_ROTATION if rotation_only else SAMPLE_PLANAR if planar else SAMPLE_ESSENTIAL
     if n < max(config.min_inliers, sample):
         return none
     if rotation_only:
@@ -293,7 +364,8 @@ def verify_matches(
         seed = prior.R
     else:
         threshold = config.threshold_rad
-        solve, errors = essential_from_bearings, epipolar_errors
+        solve = planar_essential_from_bearings if planar else essential_from_bearings
+        errors = epipolar_errors
         seed = prior.essential() if prior is not None else None
 
     pool = np.arange(n)
@@ -302,13 +374,18 @@ def verify_matches(
         seed_err = errors(seed, f1, f2)
         best_model, best_inliers = seed, seed_err < threshold
         agreeing = np.flatnonzero(seed_err < max(PRIOR_GATE_RAD, threshold))
-        if guided and agreeing.shape[0] >= 2 * sample:
+        # sample near the prior only if enough matches agree with it to be accepted at all:
+        # otherwise the prior is wrong and the few that agree are chance
+        if guided and agreeing.shape[0] >= max(2 * sample, config.min_inliers):
             pool = agreeing
 
     def acceptable(model: np.ndarray, inliers: np.ndarray) -> bool:
         """Guard: the rotation of the model agrees with the odometry prior."""
         if prior is None:
             return True
+        if planar:  # both turns are about the vertical
+            turn = planar_rotation_angle(model) - math.atan2(prior.R[1, 0], prior.R[0, 0])
+            return abs(math.remainder(turn, 2 * math.pi)) <= config.prior_rotation_tol_rad
         if rotation_only:
             R = model
         else:
@@ -346,6 +423,7 @@ def verify_matches(
         pose = RelativePose(best_model, np.zeros(3))
         kind = ModelKind.ROTATION
     else:
-        pose = decompose_essential(best_model, f1[best_inliers], f2[best_inliers])
+        decompose = decompose_planar_essential if planar else decompose_essential
+        pose = decompose(best_model, f1[best_inliers], f2[best_inliers])
         kind = ModelKind.ESSENTIAL
     return VerificationResult(best_inliers, kind, pose, iterations)

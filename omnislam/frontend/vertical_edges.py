@@ -93,9 +93,117 @@ def _lines(bearings: np.ndarray, profiles: np.ndarray, config: VerticalEdgeConfi
     )
 
 
+class VerticalLineExtractor:
+    """Extracts vertical lines from the images of one camera rig (see the module docstring).
+
+    What depends only on the camera (the usable ring's pixels, their radius and azimuth about
+    the image of the mirror axis, their azimuth bin) is computed once here.
+
+    Args:
+        rig: the ``omnislam.camera.CameraRig``; a pinhole camera is treated as perspective,
+            any other model as omnidirectional with a vertical axis.
+        config: thresholds and profile size.
+    """
+
+    def __init__(self, rig: object, config: VerticalEdgeConfig) -> None:
+        from omnislam.camera.pinhole import PinholeCamera
+
+        self.rig = rig
+        self.config = config
+        camera = rig.camera  # type: ignore[attr-defined]
+        self.perspective = isinstance(camera, PinholeCamera)
+        if self.perspective:
+            return
+        viewpoint = rig.viewpoint_r  # type: ignore[attr-defined]
+        centre, _ = rig.project_r(viewpoint[None, :] + [[0.0, 0.0, -1.0]])  # type: ignore[attr-defined]
+        self.cu, self.cv = (float(x) for x in centre[0])
+        self.mask = camera.mask()
+        rows, cols = np.nonzero(self.mask)
+        self.flat = rows * self.mask.shape[1] + cols  # ring pixels, row-major
+        du, dv = cols - self.cu, rows - self.cv
+        radius = np.hypot(du, dv)
+        safe = np.maximum(radius, 1e-9)
+        # radial unit vector of each pixel (float32 like the gradients)
+        self.unit_u, self.unit_v = (du / safe).astype(np.float32), (dv / safe).astype(np.float32)
+        self.azimuth = np.arctan2(dv, du)
+        bins = config.azimuth_bins
+        self.bin = np.floor((self.azimuth + np.pi) / (2 * np.pi) * bins).astype(int) % bins
+        self.r_in, self.r_out = float(radius.min()), float(radius.max())
+        self.r_index = np.round(radius - self.r_in).astype(int)
+        self.n_radii = int(self.r_index.max()) + 1
+
+    def extract(self, image: np.ndarray) -> VerticalLines:
+        """Vertical lines of one image, with bearings in the robot frame and colour profiles.
+
+        Args:
+            image: (H, W, 3) RGB uint8.
+        """
+        if self.perspective:
+            return _perspective(image, self.rig, self.config)
+        return self._omni(image)
+
+    def _omni(self, image: np.ndarray) -> VerticalLines:
+        config, rig = self.config, self.rig
+        gx, gy = _gradients(image)
+        g_u, g_v = gx.ravel()[self.flat], gy.ravel()[self.flat]
+        radial2 = np.square(g_u * self.unit_u + g_v * self.unit_v)
+        tangential2 = np.square(g_v * self.unit_u - g_u * self.unit_v)
+        # |g| >= min_gradient and |g_radial| <= tan(max error) |g_tangential|, squared
+        edge = np.flatnonzero((radial2 + tangential2 >= config.min_gradient**2) & (
+            radial2 <= np.tan(config.max_direction_error_rad) ** 2 * tangential2))
+        magnitude = np.zeros(g_u.shape[0])
+        magnitude[edge] = np.sqrt(radial2[edge] + tangential2[edge])
+        bins = config.azimuth_bins
+        # support: fraction of the ring's integer radii holding an edge pixel within +-1 bin
+        occupied = np.zeros((bins, self.n_radii), dtype=bool)
+        edge_bin = self.bin[edge]
+        occupied[edge_bin, self.r_index[edge]] = True
+        spread = occupied | np.roll(occupied, 1, axis=0) | np.roll(occupied, -1, axis=0)
+        score = spread.sum(axis=1) / self.n_radii
+        peaks = _peaks(score, config.min_support, circular=True)
+        if peaks.size == 0:
+            return _lines(np.zeros(0), np.zeros((0, 3, 2 * config.profile_half_width + 1)),
+                          config)
+        # azimuth: gradient-weighted mean of the edge pixels within +-1.5 bins of the peak
+        # (all in the peak's bin or the two on either side)
+        width = 2 * np.pi / bins
+        order = np.argsort(edge_bin, kind="stable")
+        starts = np.searchsorted(edge_bin[order], np.arange(bins + 1))
+        phi = np.empty(peaks.shape[0])
+        for n, peak in enumerate(peaks.tolist()):
+            near = edge[np.concatenate([order[starts[b % bins]: starts[b % bins + 1]]
+                                        for b in range(peak - 2, peak + 3)])]
+            centre = (peak + 0.5) * width - np.pi
+            offset = (self.azimuth[near] - centre + np.pi) % (2 * np.pi) - np.pi
+            w = np.where(np.abs(offset) <= 1.5 * width, magnitude[near], 0.0)
+            phi[n] = centre + float(np.sum(w * offset)) / max(float(np.sum(w)), 1e-12)
+        cu, cv, r_in, r_out = self.cu, self.cv, self.r_in, self.r_out
+        r_mid = 0.5 * (r_in + r_out)
+        pixels = np.column_stack([cu + r_mid * np.cos(phi), cv + r_mid * np.sin(phi)])
+        bearings = _bearing(rig.rays_r(pixels))  # type: ignore[attr-defined]
+        # profile samples at azimuths phi + k step, over the supported radii
+        n = config.profile_half_width
+        k = np.arange(-n, n + 1)
+        probe = rig.rays_r(np.column_stack([cu + r_mid * np.cos(phi + 1e-3),  # type: ignore[attr-defined]
+                                            cv + r_mid * np.sin(phi + 1e-3)]))
+        turn = np.sign(np.sin(_bearing(probe) - bearings))  # +1: image azimuth grows leftwards
+        radii = np.linspace(r_in, r_out, 24)
+        ang = phi[:, None] - turn[:, None] * k[None, :] * config.profile_step_rad  # left -> right
+        u = cu + radii[None, None, :] * np.cos(ang)[:, :, None]
+        v = cv + radii[None, None, :] * np.sin(ang)[:, :, None]
+        colours = _sample_colours(image, u, v)
+        mask = self.mask
+        inside = mask[np.clip(np.round(v).astype(int), 0, mask.shape[0] - 1),
+                      np.clip(np.round(u).astype(int), 0, mask.shape[1] - 1)]
+        colours[~inside] = np.nan
+        profiles = _nanmean(colours, axis=2).transpose(0, 2, 1)
+        return _lines(bearings, profiles, config)
+
+
 def extract_vertical_lines(image: np.ndarray, rig: object, config: VerticalEdgeConfig,
                            ) -> VerticalLines:
-    """Vertical lines of one image, with bearings in the robot frame and colour profiles.
+    """Vertical lines of one image (builds a ``VerticalLineExtractor`` for it; build one
+    extractor for many images of the same rig).
 
     Args:
         image: (H, W, 3) RGB uint8.
@@ -103,12 +211,7 @@ def extract_vertical_lines(image: np.ndarray, rig: object, config: VerticalEdgeC
             any other model as omnidirectional with a vertical axis.
         config: thresholds and profile size.
     """
-    from omnislam.camera.pinhole import PinholeCamera
-
-    camera = rig.camera  # type: ignore[attr-defined]
-    if isinstance(camera, PinholeCamera):
-        return _perspective(image, rig, config)
-    return _omni(image, rig, config)
+    return VerticalLineExtractor(rig, config).extract(image)
 
 
 def _bearing(rays_r: np.ndarray) -> np.ndarray:
@@ -117,11 +220,13 @@ def _bearing(rays_r: np.ndarray) -> np.ndarray:
 
 def _perspective(image: np.ndarray, rig: object, config: VerticalEdgeConfig) -> VerticalLines:
     gx, gy = _gradients(image)
-    magnitude = np.hypot(gx, gy)
-    direction_ok = np.abs(gy) <= np.tan(config.max_direction_error_rad) * np.abs(gx)
-    edge = (magnitude >= config.min_gradient) & direction_ok
+    abs_gx = np.abs(gx)
+    direction_ok = np.abs(gy) <= np.tan(config.max_direction_error_rad) * abs_gx
+    # |g| >= min as |g|^2 >= min^2: the same pixels (gradients are quarter integers, their
+    # squares exact in float32), without a square root per pixel
+    edge = (gx * gx + gy * gy >= np.float32(config.min_gradient) ** 2) & direction_ok
     votes = edge.sum(axis=0).astype(float)
-    strength = np.where(edge, np.abs(gx), 0.0).sum(axis=0)
+    strength = (abs_gx * edge).sum(axis=0, dtype=float)
     height = gx.shape[0]
     score = votes / height
     peaks = _peaks(score, config.min_support, circular=False)
@@ -131,71 +236,17 @@ def _perspective(image: np.ndarray, rig: object, config: VerticalEdgeConfig) -> 
         return _lines(np.zeros(0), np.zeros((0, 3, 2 * config.profile_half_width + 1)), config)
     rays = rig.rays_r(np.column_stack([columns, np.full(columns.shape, cv_mid)]))  # type: ignore[attr-defined]
     bearings = _bearing(rays)
-    # profile: columns u - n .. u + n (left to right in the image = decreasing bearing)
+    # profile: columns u - n .. u + n (left to right in the image = decreasing bearing); a
+    # line's samples are whole image columns (nearest pixel), so the profile is the mean
+    # colour of those columns (NaN outside the image)
     n = config.profile_half_width
     k = np.arange(-n, n + 1)
-    rows = np.arange(height)
-    u = columns[:, None, None] + k[None, :, None] + 0 * rows[None, None, :]
-    v = np.broadcast_to(rows[None, None, :].astype(float), u.shape)
-    colours = _sample_colours(image, u, v)  # (L, W, H, 3)
-    profiles = _nanmean(colours, axis=2).transpose(0, 2, 1)
-    return _lines(bearings, profiles, config)
-
-
-def _omni(image: np.ndarray, rig: object, config: VerticalEdgeConfig) -> VerticalLines:
-    camera = rig.camera  # type: ignore[attr-defined]
-    viewpoint = rig.viewpoint_r  # type: ignore[attr-defined]
-    centre, _ = rig.project_r(viewpoint[None, :] + [[0.0, 0.0, -1.0]])  # type: ignore[attr-defined]
-    cu, cv = centre[0]
-    mask = camera.mask()
-    gx, gy = _gradients(image)
-    rows, cols = np.nonzero(mask)
-    du, dv = cols - cu, rows - cv
-    radius = np.hypot(du, dv)
-    azimuth = np.arctan2(dv, du)
-    g_u, g_v = gx[rows, cols], gy[rows, cols]
-    g_radial = np.abs(g_u * du + g_v * dv) / np.maximum(radius, 1e-9)
-    g_tangential = np.abs(-g_u * dv + g_v * du) / np.maximum(radius, 1e-9)
-    edge = (np.hypot(g_u, g_v) >= config.min_gradient) & (
-        g_radial <= np.tan(config.max_direction_error_rad) * g_tangential)
-    bins = config.azimuth_bins
-    index = np.floor((azimuth + np.pi) / (2 * np.pi) * bins).astype(int) % bins
-    # support: fraction of the ring's integer radii holding an edge pixel within +-1 bin
-    r_in, r_out = float(radius.min()), float(radius.max())
-    r_index = np.round(radius - r_in).astype(int)
-    n_radii = int(r_index.max()) + 1
-    occupied = np.zeros((bins, n_radii), dtype=bool)
-    occupied[index[edge], r_index[edge]] = True
-    spread = occupied | np.roll(occupied, 1, axis=0) | np.roll(occupied, -1, axis=0)
-    score = spread.sum(axis=1) / n_radii
-    peaks = _peaks(score, config.min_support, circular=True)
-    if peaks.size == 0:
-        return _lines(np.zeros(0), np.zeros((0, 3, 2 * config.profile_half_width + 1)), config)
-    # azimuth: gradient-weighted mean of the edge pixels within +-1.5 bins of the peak
-    width = 2 * np.pi / bins
-    peak_phi = (peaks + 0.5) * width - np.pi
-    e_phi = azimuth[edge]
-    e_w = np.hypot(g_u, g_v)[edge]
-    offset = (e_phi[None, :] - peak_phi[:, None] + np.pi) % (2 * np.pi) - np.pi
-    near = np.abs(offset) <= 1.5 * width
-    weights = np.where(near, e_w[None, :], 0.0)
-    phi = peak_phi + (weights * offset).sum(axis=1) / np.maximum(weights.sum(axis=1), 1e-12)
-    r_mid = 0.5 * (r_in + r_out)
-    pixels = np.column_stack([cu + r_mid * np.cos(phi), cv + r_mid * np.sin(phi)])
-    bearings = _bearing(rig.rays_r(pixels))  # type: ignore[attr-defined]
-    # profile samples at azimuths phi + k step, over the supported radii
-    n = config.profile_half_width
-    k = np.arange(-n, n + 1)
-    probe = rig.rays_r(np.column_stack([cu + r_mid * np.cos(phi + 1e-3),  # type: ignore[attr-defined]
-                                        cv + r_mid * np.sin(phi + 1e-3)]))
-    turn = np.sign(np.sin(_bearing(probe) - bearings))  # +1: image azimuth grows leftwards
-    radii = np.linspace(r_in, r_out, 24)
-    ang = phi[:, None] - turn[:, None] * k[None, :] * config.profile_step_rad  # left -> right
-    u = cu + radii[None, None, :] * np.cos(ang)[:, :, None]
-    v = cv + radii[None, None, :] * np.sin(ang)[:, :, None]
-    colours = _sample_colours(image, u, v)
-    inside = mask[np.clip(np.round(v).astype(int), 0, mask.shape[0] - 1),
-                  np.clip(np.round(u).astype(int), 0, mask.shape[1] - 1)]
-    colours[~inside] = np.nan
-    profiles = _nanmean(colours, axis=2).transpose(0, 2, 1)
+    cols = np.round(columns[:, None] + k[None, :]).astype(int)  # (L, W)
+    inside = (cols >= 0) & (cols < image.shape[1])
+    used = np.unique(cols[inside])
+    column_means = np.zeros((image.shape[1], 3))
+    column_means[used] = image[:, used, :3].mean(axis=0, dtype=float)
+    colours = np.full((*cols.shape, 3), np.nan)
+    colours[inside] = column_means[cols[inside]]
+    profiles = colours.transpose(0, 2, 1)  # (L, 3, W)
     return _lines(bearings, profiles, config)

@@ -7,6 +7,16 @@ in the graph yet is held back until it can be triangulated (``builder.DelayedLan
 insertion") and enters as a ``Point3`` with its held-back factors and the weak prior. Bearings
 without a track id are ignored (counted).
 
+Per-image landmark budget (``GraphSLAMConfig.landmarks_per_image``, ``TrackBudget``): an omni
+image carries ~200 bearings of tracks that mostly see the same few walls; each landmark adds 3
+variables and a bearing factor per sighting, and on a route that revisits its landmarks the
+Bayes tree's cliques grow with them. With a budget B, a track enters the graph only once it is
+*admitted*: bearings of admitted tracks are always used; while an image shows fewer than B
+admitted tracks, tracks seen in it are admitted, the most-sighted so far first, taking turns
+over ``AZIMUTH_SECTORS`` azimuth sectors (the least covered first), so that the landmarks
+surround the robot (a pose is determined by bearings spread in azimuth). An admitted track's
+earlier sightings, kept aside while it waited, are held back with it for the delayed insertion.
+
 Outlier gate: a bearing of a mapped landmark that points away from it -- the angle between the
 measured ray and the direction from the guessed viewpoint to the landmark's insertion point
 beyond max(5 sigma, 20 deg) -- is not added (counted as gated). A wrong front-end association
@@ -31,10 +41,77 @@ from omnislam.graphslam.poses import ViewpointPoses
 
 gtsam = require("gtsam")
 
+#: azimuth sectors over which the landmark budget spreads the admitted tracks
+AZIMUTH_SECTORS = 8
+
 #: smallest angle between a measured bearing and its mapped landmark that counts as an outlier
 BEARING_GATE_RAD = np.radians(20.0)
 #: ... or this many of the bearing's angular sigmas, when larger
 BEARING_GATE_SIGMAS = 5.0
+
+
+class TrackBudget:
+    """Which tracks the graph admits under a per-image budget (see the module docstring).
+
+    Args:
+        per_image: the budget B (> 0).
+        sectors: azimuth sectors the admissions take turns over.
+    """
+
+    def __init__(self, per_image: int, sectors: int = AZIMUTH_SECTORS) -> None:
+        if per_image < 1 or sectors < 1:
+            raise ValueError("need per_image >= 1 and sectors >= 1")
+        self._per_image = per_image
+        self._sectors = sectors
+        self._admitted: set[int] = set()
+        self._sightings: dict[int, int] = {}  # sightings so far of every track
+
+    def __contains__(self, track_id: object) -> bool:
+        return track_id in self._admitted
+
+    def admit(self, ids: np.ndarray, rays_r: np.ndarray) -> np.ndarray:
+        """Count one image's sightings, admit tracks up to the budget, return the admitted mask.
+
+        Args:
+            ids: (K,) track ids of the image's bearings (no UNKNOWN_ID).
+            rays_r: (K, 3) their unit vectors in the robot frame.
+
+        Returns:
+            (K,) bool: the bearings of admitted tracks (including those admitted now).
+        """
+        counts = self._sightings
+        id_list = ids.tolist()
+        for lid in id_list:
+            counts[lid] = counts.get(lid, 0) + 1
+        admitted = np.fromiter((lid in self._admitted for lid in id_list), bool, len(id_list))
+        room = self._per_image - int(admitted.sum())
+        if room <= 0:
+            return admitted
+        azimuth = np.arctan2(rays_r[:, 1], rays_r[:, 0])
+        sector = np.floor((azimuth + np.pi) / (2 * np.pi) * self._sectors).astype(np.int64)
+        sector %= self._sectors
+        load = np.bincount(sector[admitted], minlength=self._sectors)
+        candidates = np.flatnonzero(~admitted)
+        # most-sighted first (stable: the front end's order breaks ties)
+        order = candidates[
+            np.argsort([-counts[id_list[i]] for i in candidates.tolist()], kind="stable")
+        ]
+        queues = [order[sector[order] == q].tolist() for q in range(self._sectors)]
+        heads = [0] * self._sectors
+        while room > 0:
+            open_sectors = [q for q in range(self._sectors) if heads[q] < len(queues[q])]
+            if not open_sectors:
+                break
+            q = min(open_sectors, key=lambda q: load[q])
+            row = queues[q][heads[q]]
+            heads[q] += 1
+            if id_list[row] in self._admitted:  # a track seen twice in one image
+                continue
+            self._admitted.add(id_list[row])
+            admitted[row] = True
+            load[q] += 1
+            room -= 1
+        return admitted | np.fromiter((lid in self._admitted for lid in id_list), bool)
 
 
 class Bearings3DGraph:
@@ -53,21 +130,40 @@ class Bearings3DGraph:
         self._landmarks = DelayedLandmarks(config, poses, dim=3)
         self._ignored = 0
         self._gated = 0
+        self._over_budget = 0
+        self._budget = (
+            TrackBudget(config.landmarks_per_image) if config.landmarks_per_image > 0 else None
+        )
+        # sightings (frame, ray, sigma) of tracks not admitted (yet) by the budget
+        self._waiting: dict[int, list[tuple[int, np.ndarray, float]]] = {}
 
     def add(
         self, k: int, sightings: Bearings, guess_w: np.ndarray, graph: Any, values: Any
     ) -> None:
         """Add frame k's bearings (see the module docstring)."""
+        ids = sightings.landmark_ids
+        known = ids != UNKNOWN_ID
+        self._ignored += int((~known).sum())
+        rows = np.flatnonzero(known)
+        rays = sightings.unit_vectors_r
+        sigmas = sightings.sigmas_rad
         touched: list[int] = []
+        if self._budget is not None:
+            admitted = self._budget.admit(ids[rows], rays[rows])
+            for row in rows[~admitted].tolist():
+                self._waiting.setdefault(int(ids[row]), []).append(
+                    (k, rays[row], float(sigmas[row]))
+                )
+            self._over_budget += int((~admitted).sum())
+            rows = rows[admitted]
+            for lid in ids[rows].tolist():  # admitted now: what it waited with goes first
+                for frame, ray, sigma in self._waiting.pop(lid, ()):
+                    factor = fx.bearing_3d(frame, lid, ray, self._noise.isotropic(2, sigma))
+                    self._landmarks.hold(lid, frame, ray, factor, sigma)
+                    self._over_budget -= 1
         for lid, ray, sigma in zip(
-            sightings.landmark_ids.tolist(),
-            sightings.unit_vectors_r,
-            sightings.sigmas_rad.tolist(),
-            strict=True,
+            ids[rows].tolist(), rays[rows], sigmas[rows].tolist(), strict=True
         ):
-            if lid == UNKNOWN_ID:
-                self._ignored += 1
-                continue
             factor = fx.bearing_3d(k, lid, ray, self._noise.isotropic(2, sigma))
             if lid in self._landmarks:
                 if self._is_outlier(lid, ray, sigma, guess_w):
@@ -106,4 +202,5 @@ class Bearings3DGraph:
             insertion=self._landmarks.stats(),
             sightings_ignored=self._ignored,
             sightings_gated=self._gated,
+            sightings_over_budget=self._over_budget,
         )

@@ -42,6 +42,7 @@ class SightingCounts:
         sightings_ambiguous: unlabelled sightings dropped between the two gates.
         sightings_ignored: sightings the builder cannot use (bearings without a track id).
         sightings_gated: bearings of mapped landmarks rejected by the outlier gate.
+        sightings_over_budget: bearings of tracks left out by the per-image landmark budget.
         tentative: the tentative stage of the association.
     """
 
@@ -52,6 +53,7 @@ class SightingCounts:
     sightings_ambiguous: int = 0
     sightings_ignored: int = 0
     sightings_gated: int = 0
+    sightings_over_budget: int = 0
     tentative: TentativeStats = field(default_factory=TentativeStats)
 
 

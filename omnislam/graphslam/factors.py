@@ -172,18 +172,42 @@ def condition_odometry_covariance(cov_r: np.ndarray, min_sigma_m: float) -> np.n
     return out
 
 
-def between_pose2(i: int, j: int, delta_r: np.ndarray, cov_r: np.ndarray) -> Any:
-    """Odometry factor from pose i to pose j: ``iTj = delta_r`` with covariance ``cov_r``."""
+def between_covariance(delta_r: np.ndarray, cov_r: np.ndarray) -> np.ndarray:
+    """Covariance of a between-factor's error from that of its delta [dx, dy, dtheta].
+
+    GTSAM's ``BetweenFactor`` error is ``Local(z, iTj) = Log(z^-1 iTj)``, a tangent vector at
+    the *end* of the measured motion: a translation error ``e_t`` expressed in the start frame
+    (how ``OdometryMotionModel.covariance`` and ``core.motion.compose_odometry`` state it)
+    appears rotated by ``R(dtheta)^T``, to first order, the rotation error unchanged. For one
+    odometry step dtheta is small; for the composed odometry between two images it is not.
+
+    Args:
+        delta_r: (3,) the measured delta [m, m, rad].
+        cov_r: (3, 3) its covariance, additive in the start frame.
+
+    Returns:
+        (3, 3) covariance of the factor's [x, y, theta] error.
+    """
+    c, s = np.cos(delta_r[2]), np.sin(delta_r[2])
+    A = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    cov = A @ cov_r @ A.T
+    return 0.5 * (cov + cov.T)
+
+
+def between_pose2(i: int, j: int, delta_r: np.ndarray, cov: np.ndarray) -> Any:
+    """Odometry factor from pose i to pose j: ``iTj = delta_r`` with error covariance ``cov``
+    (``between_covariance`` of the delta's)."""
     return gtsam.BetweenFactorPose2(
-        pose_key(i), pose_key(j), pose2(delta_r), gtsam.noiseModel.Gaussian.Covariance(cov_r)
+        pose_key(i), pose_key(j), pose2(delta_r), gtsam.noiseModel.Gaussian.Covariance(cov)
     )
 
 
 def between_pose3(
-    i: int, j: int, delta_r: np.ndarray, cov_r: np.ndarray, sigma_m: float, sigma_rad: float
+    i: int, j: int, delta_r: np.ndarray, cov: np.ndarray, sigma_m: float, sigma_rad: float
 ) -> Any:
-    """Odometry factor between two Pose3 viewpoints from a planar delta (see module doc)."""
-    cov6 = lift_planar_covariance(cov_r, sigma_m, sigma_rad)
+    """Odometry factor between two Pose3 viewpoints from a planar delta (see module doc);
+    ``cov`` is the (3, 3) error covariance of the planar part (``between_covariance``)."""
+    cov6 = lift_planar_covariance(cov, sigma_m, sigma_rad)
     return gtsam.BetweenFactorPose3(
         pose_key(i), pose_key(j), pose3_planar(delta_r), gtsam.noiseModel.Gaussian.Covariance(cov6)
     )

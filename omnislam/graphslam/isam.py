@@ -1,12 +1,16 @@
-"""The incremental GTSAM back end: one iSAM2 update per frame (estimator ``graphslam``).
+"""The incremental GTSAM back end: one iSAM2 update per key frame (estimator ``graphslam``).
 
 ``GraphSLAM`` is built for one ``Modality`` (resolved once by the registry, ``core.modality``)
 and reads only that stream of each frame; sightings of the other streams are counted as
-ignored. Each ``step``:
+ignored. A frame is a *key frame* -- it gets a pose variable -- when it has sightings of that
+stream (``GraphSLAMConfig.pose_variables``), for omni bearings only once the robot has moved
+``keyframe_spacing_m`` since the newest key frame; any other frame only folds its odometry into
+the next key frame's between-factor (``poses.py``) and costs no update. Each key frame's
+``step``:
 
-1. adds the frame's pose with the initial guess ``wTr_{k-1} (+) delta_k`` and its odometry
-   factor (``poses.py``: ``Pose2`` robot poses, or for omni bearings ``Pose3`` sensor
-   viewpoints with the planar prior);
+1. adds the frame's pose with the initial guess ``wTr_key (+) delta`` and its odometry
+   factor from the previous key frame (``poses.py``: ``Pose2`` robot poses, or for omni
+   bearings ``Pose3`` sensor viewpoints with the planar prior);
 2. turns the frame's sightings into factors and new landmarks (the modality's graph builder:
    ``bearings_3d.py``, ``range_bearing.py``, ``vertical_lines.py``);
 3. runs one iSAM2 update (``session.py``; Cholesky, rebuilt with QR if it fails) and reads back
@@ -33,7 +37,7 @@ from omnislam.errors import ConfigError, EstimationError
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam.bearings_3d import Bearings3DGraph
 from omnislam.graphslam.builder import GraphBuilder
-from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.config import GraphSLAMConfig, PoseVariables
 from omnislam.graphslam.export import G2O_ATTACHMENT, format_g2o
 from omnislam.graphslam.poses import PlanarPoses, PoseChain, ViewpointPoses
 from omnislam.graphslam.range_bearing import CREATED_ID_BASE, RangeBearingGraph
@@ -66,6 +70,11 @@ class GraphSLAMInfo:
             every sighting of the other modalities.
         sightings_gated: bearings of mapped landmarks pointing away from them (outliers of
             the front end's association), not added to the graph.
+        sightings_between_key_frames: sightings of frames that got no pose variable (omni
+            images closer than ``keyframe_spacing_m`` to the newest key frame).
+        key_frames: frames with a pose variable (``GraphSLAMConfig.pose_variables``).
+        sightings_over_budget: bearings of tracks left out by the per-image landmark budget
+            (``GraphSLAMConfig.landmarks_per_image``).
         factorization_fallbacks: Cholesky failures recovered by rebuilding with QR (AUTO).
         batch_reorders: updates in which iSAM2 re-ordered and re-eliminated the whole Bayes
             tree (when most variables were affected, or by ``adaptive_reorder_threshold``).
@@ -92,6 +101,9 @@ class GraphSLAMInfo:
     sightings_ambiguous: int
     sightings_ignored: int
     sightings_gated: int = 0
+    sightings_between_key_frames: int = 0
+    key_frames: int = 0
+    sightings_over_budget: int = 0
     factorization_fallbacks: int = 0
     batch_reorders: int = 0
     tree_nonzeros: int = 0
@@ -152,25 +164,47 @@ class GraphSLAM:
         self._stamps: list[float] = []
         self._frames = 0
         self._other_streams_ignored = 0
+        self._between_keys = 0  # sightings of frames that got no pose variable
 
     # ------------------------------------------------------------------ protocol
 
     def step(self, frame: FrameInput) -> None:
         """Add one frame: its pose and odometry factor, its sightings, one iSAM2 update."""
         k = self._frames
-        graph = gtsam.NonlinearFactorGraph()
-        values = gtsam.Values()
-        guess_w = self._poses.add(k, frame, graph, values)
         used = self._modality.stream(frame)
         for other in (frame.bearings, frame.range_bearing, frame.vertical_lines):
             if other is not None and other is not used:
                 self._other_streams_ignored += len(other)
-        if used is not None and len(used):
+        seen = used is not None and len(used) > 0
+        guess_w = self._poses.fold(k, frame)
+        key = (
+            k == 0
+            or self.config.pose_variables is PoseVariables.FRAMES
+            or (seen and self._far_enough())
+        )
+        self._stamps.append(frame.stamp_s)
+        self._frames += 1
+        if not key:  # its odometry waits for the next key frame's between-factor
+            self._poses.add(k, None, None, key=False)
+            if seen:
+                self._between_keys += len(used)
+            return
+        graph = gtsam.NonlinearFactorGraph()
+        values = gtsam.Values()
+        self._poses.add(k, graph, values, key=True)
+        if seen:
             self._graph.add(k, used, guess_w, graph, values)
         self._session.update(graph, values, frame.index)
         self._poses.read_newest(k)
-        self._stamps.append(frame.stamp_s)
-        self._frames += 1
+
+    def _far_enough(self) -> bool:
+        """Omni bearings: a frame with sightings becomes a key frame once the robot has moved
+        ``keyframe_spacing_m`` since the newest one (``GraphSLAMConfig``); other streams:
+        always."""
+        spacing = self.config.keyframe_spacing_m
+        if self._modality is not Modality.BEARINGS_3D or spacing <= 0:
+            return True
+        return bool(np.hypot(*self._poses.since_key[:2]) >= spacing)
 
     def finish(self) -> None:
         """Decide the sightings the graph builder still holds back (the association window of
@@ -222,6 +256,9 @@ class GraphSLAM:
             sightings_associated=counts.sightings_associated,
             sightings_ambiguous=counts.sightings_ambiguous,
             sightings_ignored=counts.sightings_ignored + self._other_streams_ignored,
+            sightings_between_key_frames=self._between_keys,
+            key_frames=len(self._poses.key_frames),
+            sightings_over_budget=counts.sightings_over_budget,
             sightings_gated=counts.sightings_gated,
             factorization_fallbacks=self._session.fallbacks,
             batch_reorders=self._session.batch_reorders,
@@ -243,8 +280,9 @@ class GraphSLAM:
         return self._session.estimate()
 
     def newest_pose(self) -> np.ndarray:
-        """(3,) newest pose estimate [x, y, theta] of the robot frame (read every step)."""
-        return self._poses.newest_w.copy()
+        """(3,) newest pose estimate [x, y, theta] of the robot frame: the newest key frame's
+        iSAM2 estimate composed with the odometry since (read every step)."""
+        return self._poses.guess_w.copy()
 
     def attachments(self) -> Mapping[str, bytes]:
         """``{"graph.g2o": ...}``: the factor graph at ``values()`` in g2o text (``export.py``)."""
@@ -264,12 +302,14 @@ class GraphSLAM:
             raise EstimationError("estimate does not hold one value per pose and landmark")
         pose_covs = landmark_covs = None
         if marginal_covariance is not None:
-            pose_covs = np.array(
+            keys = self._poses.key_frames
+            key_covs = np.array(
                 [
                     self._poses.world_covariance(marginal_covariance(fx.pose_key(i)), planar[i, 2])
-                    for i in range(n)
+                    for i in keys
                 ]
-            ).reshape(n, 3, 3)
+            ).reshape(len(keys), 3, 3)
+            pose_covs = self._poses.frame_covariances(key_covs, planar)
             landmark_covs = np.zeros((len(ids), 3, 3))
             for row, lid in enumerate(ids.tolist()):
                 cov = marginal_covariance(fx.landmark_key(lid))

@@ -8,10 +8,11 @@ those variables only (``ISAM2Session.joint_marginal_covariance``), in world coor
 * a ``Pose2`` marginal is in the pose's body-frame tangent space; to first order the world
   [x, y, theta] perturbation is ``A d`` with ``A = blkdiag(R(theta), 1)``, so every pose block
   row and column is rotated by its ``A`` (``PlanarPoses.world_covariance`` for one pose);
-* the frame being added is not in iSAM2 yet: its guess ``x_k = x_{k-1} (+) delta`` (the
-  newest estimate composed with the odometry) gets, to first order,
-  ``P_kk = J_a P_{k-1} J_a^T + J_b Q J_b^T`` and ``P_k,y = J_a P_{k-1},y`` for every other
-  variable y (``core.se.se2_compose_jacobians``, Q the odometry factor's covariance).
+* the frame being added is not in iSAM2 yet: its guess ``x_k = x_a (+) delta`` (the newest
+  key frame a's estimate composed with the odometry since, ``poses.PoseChain.odometry_step``)
+  gets, to first order, ``P_kk = J_a P_a J_a^T + J_b Q J_b^T`` and ``P_k,y = J_a P_a,y`` for
+  every other variable y (``core.se.se2_compose_jacobians``, Q the composed odometry's
+  covariance).
 """
 
 from __future__ import annotations
@@ -70,7 +71,7 @@ def joint_state(
     session: ISAM2Session,
     frames: Sequence[int],
     landmark_ids: Sequence[int],
-    newest: tuple[int, np.ndarray, np.ndarray] | None = None,
+    newest: tuple[int, int, np.ndarray, np.ndarray] | None = None,
 ) -> JointState:
     """The joint Gaussian of the poses of ``frames``, the landmarks, and the frame being added.
 
@@ -78,8 +79,8 @@ def joint_state(
         session: the iSAM2 session (every pose of ``frames`` and every landmark in the graph).
         frames: frames whose poses are in iSAM2.
         landmark_ids: landmarks in iSAM2.
-        newest: (k, delta (3,), Q (3, 3)) of the frame being added (not in iSAM2 yet): its pose
-            is frame k-1's composed with ``delta``; None: no such frame.
+        newest: (k, a, delta (3,), Q (3, 3)) of the frame k being added (not in iSAM2 yet): its
+            pose is key frame a's composed with ``delta``; None: no such frame.
 
     Returns:
         The state: the poses of ``frames``, the landmarks, then frame k's pose.
@@ -87,8 +88,8 @@ def joint_state(
     frames = list(dict.fromkeys(int(f) for f in frames))
     landmark_ids = list(dict.fromkeys(int(i) for i in landmark_ids))
     read = list(frames)
-    if newest is not None and newest[0] - 1 not in read:
-        read.append(newest[0] - 1)  # read only to propagate from
+    if newest is not None and newest[1] not in read:
+        read.append(newest[1])  # read only to propagate from
     keys = [fx.pose_key(f) for f in read] + [fx.landmark_key(i) for i in landmark_ids]
     n = POSE_DIM * len(read) + POINT_DIM * len(landmark_ids)
     covariance = session.joint_marginal_covariance(keys) if keys else np.zeros((0, 0))
@@ -103,8 +104,8 @@ def joint_state(
     covariance = rotation @ covariance @ rotation.T
     blocks = [("pose", f) for f in read] + [("landmark", i) for i in landmark_ids]
     if newest is not None:
-        k, delta, Q = newest
-        c = POSE_DIM * read.index(k - 1)
+        k, a, delta, Q = newest
+        c = POSE_DIM * read.index(a)
         previous = mean[c : c + POSE_DIM]
         delta = np.asarray(delta, dtype=float)
         J_a, J_b = se2_compose_jacobians(previous, delta)
@@ -113,10 +114,10 @@ def joint_state(
         covariance = np.block([[covariance, cross.T], [cross, P_kk]])
         mean = np.concatenate([mean, se2_compose(previous, delta)])
         blocks.append(("pose", k))
-        if k - 1 not in frames:
+        if a not in frames:
             keep = np.r_[0:c, c + POSE_DIM : mean.shape[0]]
             covariance, mean = covariance[np.ix_(keep, keep)], mean[keep]
-            blocks.remove(("pose", k - 1))
+            blocks.remove(("pose", a))
     pose_column: dict[int, int] = {}
     landmark_column: dict[int, int] = {}
     column = 0

@@ -9,11 +9,20 @@ Two kinds of pose variable, chosen by the modality (``GraphSLAM``):
   the robot frames serves the viewpoints); every pose also gets the planar prior holding z,
   roll and pitch.
 
-Each frame's initial guess is the newest iSAM2 estimate composed with the odometry,
-``wTr_{k-1} (+) delta_k``; the odometry covariance is the dataset's fixed sigmas
+Pose variables only at *key frames* (``GraphSLAMConfig.pose_variables``): by default the
+frames whose observation stream is not empty (every image of an omni log, ~1 frame in 5 on
+lab40; every frame of MR.CLAM) and frame 0. The odometry of the frames in between is composed
+with its covariance (``core.motion.compose_odometry``) into one between-factor from the
+previous key frame, so the graph and the number of iSAM2 updates shrink without losing any
+measurement; a frame without a variable is reported at its key frame's estimate composed with
+the odometry since (``trajectory``), and its covariance propagated the same way.
+
+Each key frame's initial guess is the newest iSAM2 estimate composed with the odometry since,
+``wTr_key (+) delta``; the odometry covariance of one step is the dataset's fixed sigmas
 (``GraphSLAMConfig.odometry_sigmas``), else the frame's own (``Odometry.covariance``), else the
-motion model's (``OdometryMotionModel.covariance``, thesis eq. 4.41), raised to the
-``odometry_min_sigma_m`` floor (``factors.condition_odometry_covariance``).
+motion model's (``OdometryMotionModel.covariance``, thesis eq. 4.41); the composed covariance
+is turned into the between-factor's error convention (``factors.between_covariance``) and
+raised to the ``odometry_min_sigma_m`` floor (``factors.condition_odometry_covariance``).
 """
 
 from __future__ import annotations
@@ -25,8 +34,14 @@ from typing import Any
 import numpy as np
 
 from omnislam._optional import require
-from omnislam.core.motion import OdometryMotionModel
-from omnislam.core.se import se2_from_se3, se3_from_se2
+from omnislam.core.motion import OdometryMotionModel, compose_odometry
+from omnislam.core.se import (
+    se2_between,
+    se2_compose_jacobians,
+    se2_from_se3,
+    se3_from_se2,
+    wrap_angle,
+)
 from omnislam.core.types import FrameInput
 from omnislam.errors import EstimationError
 from omnislam.graphslam import factors as fx
@@ -80,10 +95,21 @@ class PoseChain(abc.ABC):
                 np.diag(np.square(config.odometry_sigmas)), config.odometry_min_sigma_m
             )
         )
-        self._newest = self._initial_pose.copy()  # newest pose estimate [x, y, theta]
+        self._newest = self._initial_pose.copy()  # newest key frame's estimate [x, y, theta]
         self._newest_pose2 = fx.pose2(self._initial_pose)  # the same as a gtsam.Pose2
         self._guess = self._initial_pose.copy()  # initial guess of the frame being added
-        self._frame: FrameInput | None = None  # the frame being added
+        self._guess2 = fx.pose2(self._guess)  # the same as a gtsam.Pose2
+        self._key_frames: list[int] = []  # frames with a pose variable, ascending
+        self._newest_key = 0  # the key frame newest_w was read from
+        # odometry since the newest key frame: delta [x, y, theta] and its covariance
+        self._since_key = np.zeros(3)
+        self._since_key_cov = np.zeros((3, 3))
+        self._steps_since_key = 0
+        self._key_delta: list[np.ndarray] = []  # per key frame: odometry from the previous
+        self._key_delta_cov: list[np.ndarray] = []  # ... and its covariance
+        self._frame_key: list[int] = []  # per frame: row of its key frame in _key_frames
+        self._frame_offset: list[np.ndarray] = []  # per frame: delta from its key frame
+        self._frame_offset_cov: list[np.ndarray] = []  # ... and its covariance
 
     @property
     def guess_w(self) -> np.ndarray:
@@ -95,37 +121,148 @@ class PoseChain(abc.ABC):
         """(3,) newest pose estimate [x, y, theta] of the robot frame (do not modify)."""
         return self._newest
 
-    def _next_guess(self, k: int, frame: FrameInput) -> tuple[Any, Any]:
-        """Set the guess of frame k; returns (guess as gtsam.Pose2, odometry as Pose2 or None)."""
-        self._frame = frame
+    @property
+    def newest_key(self) -> int:
+        """Frame index of the newest key frame read back from iSAM2 (``newest_w``'s)."""
+        return self._newest_key
+
+    @property
+    def key_frames(self) -> list[int]:
+        """Frame indices with a pose variable, ascending (do not modify)."""
+        return self._key_frames
+
+    @property
+    def since_key(self) -> np.ndarray:
+        """(3,) the odometry folded in since the newest key frame [x, y, theta] (do not modify)."""
+        return self._since_key
+
+    def odometry_step(self) -> tuple[int, np.ndarray, np.ndarray]:
+        """(newest key frame, delta (3,), covariance (3, 3)) of the odometry since it.
+
+        The frame being added is the newest key frame's estimate composed with ``delta``
+        (``guess_w``); the association propagates that key frame's uncertainty to the guess with
+        the composed odometry's covariance (``core.motion.compose_odometry``, raised to the
+        ``odometry_min_sigma_m`` floor). Call after ``fold`` and before ``read_newest``.
+        """
+        return (
+            self._newest_key,
+            self._since_key.copy(),
+            fx.condition_odometry_covariance(
+                self._since_key_cov, self._config.odometry_min_sigma_m
+            ),
+        )
+
+    def fold(self, k: int, frame: FrameInput) -> np.ndarray:
+        """Fold frame k's odometry into the odometry since the newest key frame; set its guess.
+
+        Call once per frame, before ``add``.
+
+        Returns:
+            (3,) the frame's guess [x, y, theta]: the newest key frame's estimate composed with
+            the odometry since (also ``guess_w``).
+        """
         if k == 0:
             self._guess = self._initial_pose.copy()
-            return fx.pose2(self._guess), None
-        odometry = fx.pose2(frame.odometry.delta)
-        guess2 = self._newest_pose2.compose(odometry)
-        self._guess = fx.planar_from_pose2(guess2)
-        return guess2, odometry
-
-    def odometry_step(self) -> tuple[np.ndarray, np.ndarray]:
-        """(delta (3,), covariance (3, 3)) of the odometry factor of the frame being added.
-
-        The association propagates the newest pose's uncertainty to the frame's guess with it.
-        """
-        if self._frame is None:
-            raise EstimationError("no frame is being added")
-        return np.asarray(self._frame.odometry.delta), self._odometry_covariance(self._frame)
-
-    def _odometry_covariance(self, frame: FrameInput) -> np.ndarray:
-        """(3, 3) covariance of the frame's odometry delta (see the module docstring)."""
-        if self._fixed_odometry_cov is not None:
-            cov = self._fixed_odometry_cov
-        elif frame.odometry.covariance is not None:  # the data states its own noise
-            cov = frame.odometry.covariance
+            self._since_key = np.zeros(3)
+            self._since_key_cov = np.zeros((3, 3))
+            self._guess2 = fx.pose2(self._guess)
+            return self._guess
+        delta = np.asarray(frame.odometry.delta, dtype=float)
+        if self._key_frames[-1] == k - 1:  # the first step since the key frame
+            self._since_key, self._since_key_cov = delta, self._step_covariance(frame)
+            self._steps_since_key = 1
         else:
-            cov = self._motion.covariance(frame.odometry.delta)
+            self._steps_since_key += 1
+            self._since_key, self._since_key_cov = compose_odometry(
+                self._since_key, self._since_key_cov, delta, self._step_covariance(frame)
+            )
+        self._guess2 = self._newest_pose2.compose(fx.pose2(self._since_key))
+        self._guess = fx.planar_from_pose2(self._guess2)
+        return self._guess
+
+    def _record(self, k: int, key: bool) -> None:
+        """Remember frame k's key frame and offset (a key frame is its own, at zero offset)."""
+        if key:
+            self._key_frames.append(k)
+            # the odometry from the previous key frame (what the between-factor measures)
+            self._key_delta.append(self._since_key.copy() if k else np.zeros(3))
+            self._key_delta_cov.append(self._since_key_cov.copy() if k else np.zeros((3, 3)))
+            self._frame_offset.append(np.zeros(3))
+            self._frame_offset_cov.append(np.zeros((3, 3)))
+        else:
+            self._frame_offset.append(self._since_key.copy())
+            self._frame_offset_cov.append(self._since_key_cov.copy())
+        self._frame_key.append(len(self._key_frames) - 1)
+
+    def _step_covariance(self, frame: FrameInput) -> np.ndarray:
+        """(3, 3) covariance of one frame's odometry delta (see the module docstring)."""
+        if self._fixed_odometry_cov is not None:
+            return self._fixed_odometry_cov
+        if frame.odometry.covariance is not None:  # the data states its own noise
+            return frame.odometry.covariance
+        return self._motion.covariance(frame.odometry.delta)
+
+    def _odometry_covariance(self) -> np.ndarray:
+        """(3, 3) between-factor covariance of the odometry since the previous key frame.
+
+        A composed delta's covariance is turned into the factor's error convention
+        (``factors.between_covariance``); one step keeps the step's covariance as the factor's,
+        as the graph always did: converting it too changed MR.CLAM dataset 6's ATE from
+        0.113 / 0.115 / 0.605 / 0.124 / 0.460 m (robots 1-5) to 0.128 / 0.104 / 0.815 / 0.124 /
+        0.648 m -- the alpha model is not calibrated for MR.CLAM, so the exact convention is
+        not the better one there.
+        """
+        cov = self._since_key_cov
+        if self._steps_since_key > 1:
+            cov = fx.between_covariance(self._since_key, cov)
         # a factor far more precise than the poses' absolute uncertainty makes iSAM2's
         # Cholesky reject the clique (see GraphSLAMConfig.odometry_min_sigma_m)
         return fx.condition_odometry_covariance(cov, self._config.odometry_min_sigma_m)
+
+    def frame_poses(self, key_poses_w: np.ndarray) -> np.ndarray:
+        """(N, 4, 4) every frame's pose from the key frames' (K, 4, 4) and the odometry.
+
+        A key frame keeps its own pose. Frame j between key frames a and b is ``wTa * aTj``
+        with ``aTj`` the odometry composed since a, *conditioned on the estimated* ``aTb``: to
+        first order the composed odometry ``D_ab = D_aj (+) D_jb`` has ``Cov(D_aj, D_ab) =
+        C_aj J^T`` (J the composition's Jacobian in ``D_aj``), so given the residual
+        ``r = between(wTa, wTb) - D_ab`` the mean of ``aTj`` is ``D_aj + C_aj J^T C_ab^-1 r``
+        -- what a pose variable per frame, with no sighting between a and b, would give (the
+        odometry chain smoothed between its ends). After the newest key frame: ``D_aj``.
+        """
+        if len(key_poses_w) != len(self._key_frames):
+            raise EstimationError("estimate does not hold one value per pose and landmark")
+        rows = np.asarray(self._frame_key, dtype=np.int64)
+        offsets = np.asarray(self._frame_offset, dtype=float).reshape(-1, 3).copy()
+        inside = np.flatnonzero(rows + 1 < len(self._key_frames))  # a later key frame exists
+        inside = inside[np.asarray(self._key_frames)[rows[inside]] != inside]  # not keys
+        if len(inside):
+            planar = se2_from_se3(key_poses_w)
+            nxt = rows[inside] + 1
+            d_ab = np.asarray(self._key_delta)[nxt]
+            c_ab = np.asarray(self._key_delta_cov)[nxt]
+            residual = se2_between(planar[rows[inside]], planar[nxt]) - d_ab
+            residual[:, 2] = wrap_angle(residual[:, 2])
+            d_aj = offsets[inside]
+            c_aj = np.asarray(self._frame_offset_cov)[inside]
+            J, _ = se2_compose_jacobians(d_aj, se2_between(d_aj, d_ab))
+            gain = c_aj @ np.swapaxes(J, 1, 2) @ np.linalg.inv(c_ab)
+            offsets[inside] = d_aj + np.einsum("nij,nj->ni", gain, residual)
+        return key_poses_w[rows] @ se3_from_se2(offsets)
+
+    def frame_covariances(self, key_covariances_w: np.ndarray, planar_w: np.ndarray) -> np.ndarray:
+        """(N, 3, 3) world [x, y, yaw] covariance of every frame from its key frame's (K, 3, 3).
+
+        ``J_a P_a J_a^T + J_b C J_b^T`` with the composition's Jacobians at (key pose, offset)
+        and C the offset's odometry covariance (zero for a key frame: its own marginal).
+        """
+        rows = np.asarray(self._frame_key, dtype=np.int64)
+        keys_w = planar_w[np.asarray(self._key_frames, dtype=np.int64)][rows]
+        offsets = np.asarray(self._frame_offset).reshape(-1, 3)
+        J_a, J_b = se2_compose_jacobians(keys_w, offsets)
+        P = key_covariances_w[rows]
+        C = np.asarray(self._frame_offset_cov).reshape(-1, 3, 3)
+        return J_a @ P @ np.swapaxes(J_a, 1, 2) + J_b @ C @ np.swapaxes(J_b, 1, 2)
 
     def viewpoint_callback(self, k: int) -> Viewpoint:
         """Sensor viewpoints for triangulation: the guess for frame k, iSAM2's before it."""
@@ -147,17 +284,37 @@ class PoseChain(abc.ABC):
     def _estimated_viewpoint(self, frame: int) -> tuple[np.ndarray, np.ndarray]:
         """(origin_w, wRs) of an earlier frame's sensor, from iSAM2."""
 
+    def add(self, k: int, graph: Any, values: Any, key: bool) -> None:
+        """Add frame k (after ``fold``): a pose variable and its factors if ``key``, else only
+        its offset from the newest key frame."""
+        previous = self._key_frames[-1] if self._key_frames else None
+        self._record(k, key)
+        if key:
+            self._add_variable(k, previous, graph, values)
+
     @abc.abstractmethod
-    def add(self, k: int, frame: FrameInput, graph: Any, values: Any) -> np.ndarray:
-        """Add frame k's pose variable and its factors; returns its guess [x, y, theta]."""
+    def _add_variable(self, k: int, previous: int | None, graph: Any, values: Any) -> None:
+        """Key frame k's variable with its prior (k = 0) or odometry factor from ``previous``."""
 
     @abc.abstractmethod
     def read_newest(self, k: int) -> None:
-        """Read frame k's pose back from iSAM2 after the update."""
+        """Read key frame k's pose back from iSAM2 after the update."""
 
     @abc.abstractmethod
+    def key_poses(self, values: Any) -> np.ndarray:
+        """(K, 4, 4) robot poses ``wTr`` of the key frames' variables in ``values``."""
+
     def trajectory(self, values: Any, frames: int) -> tuple[np.ndarray, np.ndarray]:
-        """The robot poses in ``values``: planar (N, 3) [x, y, theta], SE(3) (N, 4, 4)."""
+        """Every frame's robot pose from ``values``: planar (N, 3) [x, y, theta], SE(3) (N, 4, 4).
+
+        Raises:
+            EstimationError: ``values`` does not hold one pose per key frame, or ``frames`` is
+                not the number of frames added.
+        """
+        if frames != len(self._frame_key):
+            raise EstimationError("estimate does not hold one value per pose and landmark")
+        poses_w = self.frame_poses(self.key_poses(values))
+        return se2_from_se3(poses_w), poses_w
 
     @abc.abstractmethod
     def world_covariance(self, cov: np.ndarray, yaw: float) -> np.ndarray:
@@ -186,42 +343,35 @@ class PlanarPoses(PoseChain):
         """0: planar sensors measure in the robot frame's plane."""
         return 0.0
 
-    def add(self, k: int, frame: FrameInput, graph: Any, values: Any) -> np.ndarray:
-        """Add frame k's pose variable with its prior (k = 0) or odometry factor.
-
-        Returns:
-            (3,) the pose's initial guess [x, y, theta] (also ``guess_w``).
-        """
-        guess2, odometry = self._next_guess(k, frame)
-        if k == 0:
+    def _add_variable(self, k: int, previous: int | None, graph: Any, values: Any) -> None:
+        """Key frame k's Pose2 with its prior (k = 0) or odometry factor from ``previous``."""
+        guess2 = self._guess2
+        if previous is None:
             graph.add(gtsam.PriorFactorPose2(fx.pose_key(0), guess2, self._prior_noise))
-        elif self._odometry_noise is not None:
+        elif self._odometry_noise is not None and previous == k - 1:
+            odometry = fx.pose2(self._since_key)
             graph.add(
                 gtsam.BetweenFactorPose2(
-                    fx.pose_key(k - 1), fx.pose_key(k), odometry, self._odometry_noise
+                    fx.pose_key(previous), fx.pose_key(k), odometry, self._odometry_noise
                 )
             )
         else:
-            cov = self._odometry_covariance(frame)
-            graph.add(fx.between_pose2(k - 1, k, frame.odometry.delta, cov))
+            graph.add(fx.between_pose2(previous, k, self._since_key, self._odometry_covariance()))
         values.insert(fx.pose_key(k), guess2)
-        return self._guess
 
     def read_newest(self, k: int) -> None:
         """Read frame k's pose back from iSAM2 after the update."""
         self._newest_pose2 = self._session.pose2(fx.pose_key(k))
         self._newest = fx.planar_from_pose2(self._newest_pose2)
+        self._newest_key = k
 
     def _estimated_viewpoint(self, frame: int) -> tuple[np.ndarray, np.ndarray]:
         wTr = fx.planar_from_pose2(self._session.pose2(fx.pose_key(frame)))
         return _planar_viewpoint(wTr, 0.0)
 
-    def trajectory(self, values: Any, frames: int) -> tuple[np.ndarray, np.ndarray]:
-        """The poses in ``values``: planar (N, 3) [x, y, theta] and SE(3) (N, 4, 4) ``wTr``."""
-        planar = gtsam.utilities.extractPose2(values).reshape(-1, 3)
-        if len(planar) != frames:
-            raise EstimationError("estimate does not hold one value per pose and landmark")
-        return planar, se3_from_se2(planar)
+    def key_poses(self, values: Any) -> np.ndarray:
+        """(K, 4, 4) the key frames' Pose2 variables in ``values`` as SE(3) ``wTr``."""
+        return se3_from_se2(gtsam.utilities.extractPose2(values).reshape(-1, 3))
 
     def world_covariance(self, cov: np.ndarray, yaw: float) -> np.ndarray:
         """A Pose2 marginal (body frame [x, y, theta]) -> covariance of world [x, y, yaw].
@@ -260,58 +410,50 @@ class ViewpointPoses(PoseChain):
         """The omni viewpoint's height above the robot frame (``GraphSLAMConfig``) [m]."""
         return self._config.sensor_height_m
 
-    def add(self, k: int, frame: FrameInput, graph: Any, values: Any) -> np.ndarray:
-        """Add frame k's viewpoint with its priors (k = 0) or odometry and planar prior.
-
-        Returns:
-            (3,) the robot pose's initial guess [x, y, theta] (also ``guess_w``).
-        """
-        self._next_guess(k, frame)
+    def _add_variable(self, k: int, previous: int | None, graph: Any, values: Any) -> None:
+        """Key frame k's viewpoint with its priors (k = 0) or odometry from ``previous`` and
+        the planar prior."""
         height = self._config.sensor_height_m
         viewpoint = fx.pose3_planar(self._guess, height)
-        if k == 0:
+        if previous is None:
             graph.add(gtsam.PriorFactorPose3(fx.pose_key(0), viewpoint, self._first_prior_noise))
         else:
             config = self._config
-            cov = self._odometry_covariance(frame)
             graph.add(
                 fx.between_pose3(
-                    k - 1,
+                    previous,
                     k,
-                    frame.odometry.delta,
-                    cov,
+                    self._since_key,
+                    self._odometry_covariance(),
                     config.planar_sigma_m,
                     config.planar_sigma_rad,
                 )
             )
             graph.add(gtsam.PriorFactorPose3(fx.pose_key(k), viewpoint, self._planar_prior_noise))
         values.insert(fx.pose_key(k), fx.pose3_planar(self._guess, height))
-        return self._guess
 
     def read_newest(self, k: int) -> None:
         """Read frame k's viewpoint back from iSAM2 after the update."""
         self._newest = fx.planar_from_pose3(self._session.pose3(fx.pose_key(k)))
         self._newest_pose2 = fx.pose2(self._newest)
+        self._newest_key = k
 
     def _estimated_viewpoint(self, frame: int) -> tuple[np.ndarray, np.ndarray]:
         wTs = self._session.pose3(fx.pose_key(frame))
         return np.asarray(wTs.translation()), wTs.rotation().matrix()
 
-    def trajectory(self, values: Any, frames: int) -> tuple[np.ndarray, np.ndarray]:
-        """The robot poses of the viewpoints in ``values``: planar (N, 3), SE(3) (N, 4, 4).
+    def key_poses(self, values: Any) -> np.ndarray:
+        """(K, 4, 4) robot poses of the key frames' viewpoints in ``values``.
 
         The variables are the sensor viewpoints ``wTs``; the robot frame is ``sTr = (I, -h e_z)``.
         """
         rows = gtsam.utilities.extractPose3(values)
-        if len(rows) != frames:
-            raise EstimationError("estimate does not hold one value per pose and landmark")
-        wTs = np.tile(np.eye(4), (frames, 1, 1))
-        wTs[:, :3, :3] = rows[:, :9].reshape(frames, 3, 3)
+        wTs = np.tile(np.eye(4), (len(rows), 1, 1))
+        wTs[:, :3, :3] = rows[:, :9].reshape(-1, 3, 3)
         wTs[:, :3, 3] = rows[:, 9:]
         sTr = np.eye(4)
         sTr[2, 3] = -self._config.sensor_height_m
-        poses_w = wTs @ sTr
-        return se2_from_se3(poses_w), poses_w
+        return wTs @ sTr
 
     def world_covariance(self, cov: np.ndarray, yaw: float) -> np.ndarray:
         """A Pose3 marginal ([rx, ry, rz, tx, ty, tz], body frame) -> world [x, y, yaw]."""

@@ -105,7 +105,7 @@ class RangeBearingGraph:
         if unknown.any() and self._window is not None:
             rows = np.flatnonzero(unknown)
             waiting = _subset(sightings, rows)
-            step = self._poses.odometry_step() if k > 0 else (np.zeros(3), np.eye(3))
+            step = self._poses.odometry_step() if k > 0 else (0, np.zeros(3), np.eye(3))
             for decided in self._window.push(k, waiting, guess_w, step):
                 self._add_decided(decided, k, guess_w, graph, values)
         elif unknown.any():
@@ -277,8 +277,9 @@ class RangeBearingGraph:
         config = self._config
         pose_cov = None
         if config.association_pose_covariance and k > 0:
-            # the newest estimated pose (frame k-1) is in the root clique: a cheap marginal
-            previous = self._session.marginal_covariance(fx.pose_key(k - 1))
+            # the newest estimated pose (the previous key frame) is in the root clique: a
+            # cheap marginal
+            previous = self._session.marginal_covariance(fx.pose_key(self._poses.newest_key))
             pose_cov = self._poses.world_covariance(previous, self._poses.newest_w[2])
         points, covs = sighting_points(
             guess_w,

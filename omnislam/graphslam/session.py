@@ -43,6 +43,7 @@ class ISAM2Session:
         self._all_factors = gtsam.NonlinearFactorGraph()  # every factor so far (for a rebuild)
         self._fallbacks = 0
         self._reorders = 0
+        self._pose3_cache: dict[int, Any] = {}  # Pose3 estimates read since the last update
 
     def _new_isam(self, factorization: Factorization) -> Any:
         """A fresh ``gtsam.ISAM2`` factorising with ``factorization`` (AUTO starts Cholesky)."""
@@ -72,6 +73,7 @@ class ISAM2Session:
         Raises:
             EstimationError: iSAM2 failed (and, with AUTO factorisation, also the QR rebuild).
         """
+        self._pose3_cache.clear()
         try:
             result = self._isam.update(graph, values)
         except RuntimeError as exc:
@@ -109,8 +111,12 @@ class ISAM2Session:
         return self._isam.calculateEstimatePose2(key)
 
     def pose3(self, key: int) -> Any:
-        """The current estimate of one Pose3 variable."""
-        return self._isam.calculateEstimatePose3(key)
+        """The current estimate of one Pose3 variable (read once per update: the delayed
+        insertion asks for the viewpoints of every sighting of every pending track)."""
+        pose = self._pose3_cache.get(key)
+        if pose is None:
+            pose = self._pose3_cache[key] = self._isam.calculateEstimatePose3(key)
+        return pose
 
     def point2(self, key: int) -> np.ndarray:
         """The current estimate of one Point2 variable, (2,) [m]."""

@@ -105,7 +105,7 @@ class WindowAssociation:
         k: int,
         sightings: RangeBearing,
         guess_w: np.ndarray,
-        odometry_step: tuple[np.ndarray, np.ndarray],
+        odometry_step: tuple[int, np.ndarray, np.ndarray],
     ) -> list[Decided]:
         """Queue frame k's unlabelled sightings; returns the frames decided now (oldest first).
 
@@ -113,7 +113,8 @@ class WindowAssociation:
             k: the frame being added (its pose is not in iSAM2 yet).
             sightings: its unlabelled sightings (non-empty).
             guess_w: (3,) its pose guess.
-            odometry_step: (delta, Q) of its odometry factor (``PoseChain.odometry_step``).
+            odometry_step: (newest key frame, delta, Q): the guess is that key frame's
+                estimate composed with delta (``PoseChain.odometry_step``).
         """
         self._waiting.append(_Waiting(k, sightings))
         decided = []
@@ -129,7 +130,7 @@ class WindowAssociation:
         return decided
 
     def _decide_oldest(
-        self, newest: tuple[int, np.ndarray, np.ndarray, np.ndarray] | None
+        self, newest: tuple[int, np.ndarray, int, np.ndarray, np.ndarray] | None
     ) -> Decided:
         """JCBB over every waiting frame; returns (and forgets) the oldest frame's decisions."""
         waiting = self._waiting
@@ -148,14 +149,15 @@ class WindowAssociation:
         R = np.zeros((len(z), 2, 2))
         R[:, 0, 0] = np.concatenate([w.sightings.sigma_range_m for w in waiting]) ** 2
         R[:, 1, 1] = np.concatenate([w.sightings.sigma_bearing_rad for w in waiting]) ** 2
-        mapped, tentative = self._candidates(waiting, poses, z, R, k_new)
+        key_from = None if newest is None else newest[2]
+        mapped, tentative = self._candidates(waiting, poses, z, R, k_new, key_from)
         n_old = len(oldest.sightings)
         if not mapped and not tentative:
             decisions = np.full(n_old, Decision.NEW, dtype=np.int64)
             waiting.pop(0)
             return Decided(oldest.k, oldest.sightings, np.full(n_old, -1), decisions)
         frames_in_graph = [w.k for w in waiting if w.k != k_new]
-        step = None if newest is None else (newest[0], newest[2], newest[3])
+        step = None if newest is None else (newest[0], newest[2], newest[3], newest[4])
         state = joint_state(self._session, frames_in_graph, mapped, step)
         n0 = state.dim
         P = np.zeros((n0 + 2 * len(tentative), n0 + 2 * len(tentative)))
@@ -209,6 +211,7 @@ class WindowAssociation:
         z: np.ndarray,
         R: np.ndarray,
         k_new: int | None,
+        key_from: int | None,
     ) -> tuple[list[int], list[int]]:
         """Mapped and tentative landmarks some waiting sighting could match (loose test).
 
@@ -220,7 +223,7 @@ class WindowAssociation:
         config = self._config
         newest_in_graph = max((w.k for w in waiting if w.k != k_new), default=None)
         if newest_in_graph is None and k_new is not None and k_new > 0:
-            newest_in_graph = k_new - 1
+            newest_in_graph = key_from  # the key frame the guess was composed from
         pose_cov = None
         if newest_in_graph is not None and self._session.exists(fx.pose_key(newest_in_graph)):
             marginal = self._session.marginal_covariance(fx.pose_key(newest_in_graph))

@@ -3,7 +3,7 @@
 Modules: ``config`` (UKFConfig), ``image_line`` (the 1-D image, pixel thresholds as angles),
 ``photometric`` (PMC/MC, gate, C'_ij), ``candidates`` (landmarks in view), ``tracking``
 (step 3), ``association`` (steps 4-5), ``filter`` (the pose UKF on filterpy), ``localiser``
-(the Estimator), ``survey`` (MC descriptors of a map from frames with known poses).
+(the Estimator), ``survey`` (the association's ground truth for benchmarks).
 """
 
 from omnislam.ukf.config import AssociationConfig, PhotometricConfig, PhotometricMode, UKFConfig

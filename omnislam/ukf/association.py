@@ -27,6 +27,31 @@ go to the set of smaller |mean(u_shift)|.
 
 Step 5. A pair (i, j) is used only if the previous processed frame associated the same landmark
 j with the projection that step 3 (``tracking``) matched to i: the same physical line, twice.
+
+What the paper does not do and we add (``AssociationConfig.gate_probability``, default 0.999;
+``largest_set_first``, default on). The paper's step 4 uses the predicted pose only for the
+expected projections, never its uncertainty: the windows allow any common shift and up to
+24 px of spread. A line near a candidate's projection in the same frame twice (a poster edge
+at the end of a corridor, the next door frame after a turn) then passes step 5, which is why
+many validated pairs on corridor21 were wrong (README). With the UKF's predicted covariance P:
+
+* the pre-gate: the sigma points of (x, P) give each candidate's predicted bearing and the
+  (C, C) covariance of all of them (``filter.PoseUKF.predict_bearings``, the Pzz of the
+  update); a pair enters step 4 only if (b_i - b_hat_j)^2 / (sigma_i^2 + Pzz_jj) passes the
+  1-dof chi-square gate. This also runs before the photometric stage, which then only scores
+  the pre-gated pairs (the speed of step 4 in large maps).
+* the joint gate: each window's matching is cut to its largest subset (greedily) that is
+  consistent with one pose: its innovation vector passes the n-dof gate with S = Pzz + R,
+  and each pair passes the 1-dof gate given the others. The pairs of one frame share one
+  pose error: a common shift that P explains (a heading error) is allowed, shifts that no
+  pose explains are not, which the windows' spread cannot tell apart.
+* the choice: sets are compared by their number of pairs first and by Sc_k among sets of
+  the same size. Eq. 1's |mean| d_max / 7 term makes a large correct set with the common
+  shift of a heading error lose to a two-pair set of small shift (after a turn on
+  corridor21: 4.6 deg, 34 px); with the joint gate such a shift is no evidence against a
+  set. With ``largest_set_first=False`` Sc_k alone decides, as printed.
+
+Measured on corridor21 with ``benchmarks/ukf_corridor21.py`` (numbers in the README).
 """
 
 from __future__ import annotations
@@ -34,13 +59,18 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
+from omnislam.core.gating import chi_square_gate
 from omnislam.ukf.config import AssociationConfig
+from omnislam.ukf.filter import BearingPrediction
 
 #: weight that makes the number of pairs dominate C'_ij in the window matchings
 _CARDINALITY = 1000.0
+#: weight of the u_shift closeness that breaks ties of C'_ij in the window matchings
+_TIE_BREAK = 1e-3
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,19 +93,26 @@ class LandmarkAssociation:
         return int(self.lines.shape[0])
 
 
-def _largest_matching(lines: np.ndarray, cands: np.ndarray, scores: np.ndarray) -> np.ndarray:
-    """Indices (into the window) of a maximum matching of largest total score."""
-    if np.unique(lines).size == lines.size and np.unique(cands).size == cands.size:
-        return np.arange(lines.size)
+def _largest_matching(
+    lines: np.ndarray, cands: np.ndarray, scores: np.ndarray, shift: np.ndarray
+) -> np.ndarray:
+    """Indices (into the window) of a maximum matching of largest total score; among those
+    (e.g. without colour, every C'_ij = 0) the one whose u_shifts lie closest to the window's
+    median (ours: the paper leaves the choice open; this is its least-variance criterion)."""
+    n = lines.size
+    if len(set(lines.tolist())) == n and len(set(cands.tolist())) == n:
+        return np.arange(n)
     from scipy.optimize import linear_sum_assignment
 
     rows, row_of = np.unique(lines, return_inverse=True)
     cols, col_of = np.unique(cands, return_inverse=True)
+    median = 0.5 * (shift[(n - 1) // 2] + shift[n // 2])  # a window's shifts are sorted
+    deviation = np.abs(shift - median)
+    closeness = _TIE_BREAK * (1.0 - deviation / max(float(deviation.max()), 1e-12))
     weight = np.zeros((rows.size, cols.size))
+    weight[row_of, col_of] = _CARDINALITY + scores + closeness
     best = np.full((rows.size, cols.size), -1, dtype=np.int64)
-    for k in np.argsort(scores):  # increasing: the last write is the largest score
-        weight[row_of[k], col_of[k]] = _CARDINALITY + scores[k]
-        best[row_of[k], col_of[k]] = k
+    best[row_of, col_of] = np.arange(lines.size)  # a (line, candidate) pair occurs once
     r, c = linear_sum_assignment(weight, maximize=True)
     chosen = best[r, c]
     return np.sort(chosen[chosen >= 0])
@@ -93,18 +130,83 @@ def set_score(
     return float(scores.mean()) + config.shift_weight * f_shift, f_shift
 
 
+@dataclass(frozen=True, slots=True)
+class PoseConsistency:
+    """What the predicted pose and its covariance say about pairs (ours, on top of sec. 3.2).
+
+    Attributes:
+        innovations_rad: (K, C) wrapped bearing of projection i minus predicted bearing of
+            candidate j.
+        line_variance: (K,) variance of each extracted bearing [rad^2].
+        prediction: the unscented prediction of the C candidates' bearings (its covariance
+            couples them: they share the pose error).
+        probability: of the chi-square gates.
+    """
+
+    innovations_rad: np.ndarray
+    line_variance: np.ndarray
+    prediction: BearingPrediction
+    probability: float
+
+    def pair_distances(self) -> np.ndarray:
+        """(K, C) squared Mahalanobis distance of each pair's innovation alone."""
+        s = self.line_variance[:, None] + self.prediction.variance[None, :]
+        return self.innovations_rad**2 / s
+
+    def pregate(self) -> np.ndarray:
+        """(K, C) True where a pair's innovation lies inside the 1-dof gate."""
+        return self.pair_distances() <= chi_square_gate(self.probability, 1)
+
+    def joint_distance(self, lines: np.ndarray, candidates: np.ndarray) -> float:
+        """Squared Mahalanobis distance of a set's innovation vector, y^T S^-1 y."""
+        y = self.innovations_rad[lines, candidates]
+        S = self.prediction.covariance(candidates) + np.diag(self.line_variance[lines])
+        return float(y @ np.linalg.solve(S, y))
+
+    def consistent_subset(self, lines: np.ndarray, candidates: np.ndarray) -> np.ndarray:
+        """Indices of the largest subset, found greedily, that is consistent with the predicted
+        pose: its innovation vector passes the n-dof joint gate and each pair passes the 1-dof
+        gate given the others (with a = S^-1 y, a_k^2 / (S^-1)_kk is pair k's squared distance
+        from what the other pairs predict for it, and removing k lowers y^T S^-1 y by just
+        that). While the set fails, the pair of largest such distance is dropped."""
+        keep = np.arange(lines.size)
+        one = _gate(self.probability, 1)
+        while keep.size:
+            y = self.innovations_rad[lines[keep], candidates[keep]]
+            S = self.prediction.covariance(candidates[keep]) + np.diag(
+                self.line_variance[lines[keep]]
+            )
+            S_inv = np.linalg.inv(S)
+            a = S_inv @ y
+            given_others = a * a / np.diag(S_inv)
+            worst = int(np.argmax(given_others))
+            if float(y @ a) <= _gate(self.probability, keep.size) and given_others[worst] <= one:
+                return keep
+            keep = np.delete(keep, worst)
+        return keep
+
+
+@lru_cache(maxsize=256)
+def _gate(probability: float, dof: int) -> float:
+    return chi_square_gate(probability, dof)
+
+
 def associate_landmarks(
     u_lines_px: np.ndarray,
     u_candidates_px: np.ndarray,
     scores: np.ndarray,
     config: AssociationConfig,
+    consistency: PoseConsistency | None = None,
 ) -> LandmarkAssociation:
     """Step 4: the set of (projection, candidate) pairs of largest Sc_k.
 
     Args:
         u_lines_px: (K,) extracted projections on the 1-D image [px].
         u_candidates_px: (C,) expected projections of the candidates [px].
-        scores: (K, C) C'_ij, NaN where the photometric gate rejects the pair.
+        scores: (K, C) C'_ij, NaN where the photometric gate (or the pre-gate) rejects the
+            pair.
+        consistency: when given, each window's set is cut to its largest subset consistent
+            with the predicted pose (``PoseConsistency.consistent_subset``) before it is scored.
 
     Returns:
         The chosen set (empty when no pair passes).
@@ -121,7 +223,8 @@ def associate_landmarks(
     order = np.argsort(shift, kind="stable")
     li, ci, shift, c = li[order], ci[order], shift[order], scores[li[order], ci[order]]
     seen: set[tuple[int, int]] = set()
-    best = (-1, -math.inf, math.inf)  # (n_k >= min_set_pairs, Sc_k, |mean u_shift|)
+    cut: dict[tuple[int, ...], np.ndarray] = {}
+    best = (-1, -math.inf, math.inf)  # (n_k or n_k >= min_set_pairs, Sc_k, |mean u_shift|)
     best_set = np.zeros(0, dtype=np.int64)
     for spread in config.windows_px:
         ends = np.searchsorted(shift, shift + spread, side="right")
@@ -130,9 +233,18 @@ def associate_landmarks(
                 continue
             seen.add((start, end))
             window = slice(start, end)
-            pick = start + _largest_matching(li[window], ci[window], c[window])
+            pick = start + _largest_matching(li[window], ci[window], c[window], shift[window])
+            if consistency is not None:
+                key_pick = tuple(pick.tolist())
+                if key_pick in cut:
+                    continue  # the same matching from another window: already scored
+                pick = pick[consistency.consistent_subset(li[pick], ci[pick])]
+                cut[key_pick] = pick
+                if not pick.size:
+                    continue
             sc, _ = set_score(shift[pick], u_lines_px[li[pick]], c[pick], config)
-            key = (int(pick.size >= config.min_set_pairs), sc, abs(float(shift[pick].mean())))
+            size = pick.size if config.largest_set_first else int(pick.size >= config.min_set_pairs)
+            key = (size, sc, abs(float(shift[pick].mean())))
             if key[:2] > best[:2] or (key[:2] == best[:2] and key[2] < best[2]):
                 best, best_set = key, pick
     return LandmarkAssociation(li[best_set], ci[best_set], best[1], len(seen))

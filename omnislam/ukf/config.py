@@ -14,6 +14,9 @@ from enum import Enum
 from omnislam.core.motion import MotionNoise
 from omnislam.errors import ConfigError
 
+#: the UKF's odometry noise: 4x core's default alphas (see ``UKFConfig.motion_noise``)
+UKF_MOTION_NOISE = MotionNoise(a_vv=0.2, a_vw=0.05, a_wv=0.05, a_ww=0.2)
+
 
 class PhotometricMode(Enum):
     """Whether step 4 uses the photometric gate and score C'_ij (sec. 3.2).
@@ -70,6 +73,17 @@ class AssociationConfig:
             Off by default: ground-truth ids never reach the association unless asked for.
         validate: step 5, use a pair only when the previous frame associated the same landmark
             with the same physical line (paper: on).
+        gate_probability: chi-square probability of the two gates step 4 gets from the UKF's
+            predicted covariance (ours; None: the paper's step 4 alone): a pair enters step 4
+            only if its bearing innovation passes the 1-dof gate (the pre-gate, before the
+            photometric stage), and each window's set is cut to its largest subset whose
+            innovation vector passes the n-dof joint gate (the pairs share one pose error).
+        largest_set_first: compare the windows' sets by their number of pairs first and by Sc_k
+            among sets of equal size (ours; False: by Sc_k alone, the paper's, with the
+            ``min_set_pairs`` rule). Eq. 1's |mean(u_shift)| d_max / 7 term makes a large
+            correct set with the common shift of a heading error lose to a two-pair set of
+            small shift; with the joint gate a common shift that the covariance explains is
+            no evidence against a set.
     """
 
     max_range_m: float = 50.0
@@ -85,6 +99,8 @@ class AssociationConfig:
     max_depth_m: float = 50.0
     use_ids: bool = False
     validate: bool = True
+    gate_probability: float | None = 0.999
+    largest_set_first: bool = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -98,7 +114,14 @@ class UKFConfig:
             images arrive at discrete places; without it an image spacing just under d_it
             would process every second image).
         motion_noise: alpha coefficients of the shared odometry model (core.motion), used when
-            the odometry states no covariance.
+            the odometry states no covariance. Ours: 4x core's defaults (``UKF_MOTION_NOISE``),
+            because a localiser that trusts odometry more than it deserves gates out the
+            correct lines after a stretch without landmarks. Real odometry drifts
+            systematically (wheel scale, turn scale, curvature: the synthetic presets' 1-3 %
+            per 10 m), which the zero-mean alpha model does not describe: with core's alphas
+            the UKF's pose NEES on corridor21 (seed 0) was 5.9 at the preset's odometry and 2742
+            at 4x its alpha noise, mean error 2.7 and 26.3 cm; with these 0.21 and 1.20
+            (conservative), 1.1 and 2.0 cm (``benchmarks/ukf_corridor21.py --ablation``).
         initial_sigma_xy_m, initial_sigma_theta_rad: std of the start pose (the map's
             ``initial_pose_w``).
         sigma_bearing_rad: bearing std when the sightings state none; None: theirs.
@@ -106,25 +129,28 @@ class UKFConfig:
             default is corridor21's focal length.
         fov_rad: full field of view of sightings without a camera (before widening) [rad].
         alpha, beta, kappa: the scaled sigma points (van der Merwe 2004; filterpy's
-            MerweScaledSigmaPoints).
+            MerweScaledSigmaPoints). alpha = 1, kappa = 0 (lambda = 0) keeps every weight
+            non-negative (the centre point's Wc is 2): with alpha = 0.5 its Wc of -0.25 made
+            the covariance indefinite on MR.CLAM robot 4 after a 2 m error.
         innovation_gate: chi-square probability above which a validated bearing is dropped
-            before the update (ours; None, the default: the paper's validation alone). On
-            corridor21 one wrong validated pair at a corridor's end moved the pose by 1 m
-            without it (use 0.999 there); on MR.CLAM, whose odometry is worse than the motion
-            model says (NEES ~ 100), it rejected 90 of 124 correct sightings.
+            before the update (ours; None, the default). Step 4's gates
+            (``association.gate_probability``) already hold the associated pairs to the
+            predicted covariance; this one also applies to ``association.use_ids``. On
+            MR.CLAM, whose odometry is worse than the motion model says (NEES ~ 100), it
+            rejected 90 of 124 correct sightings.
         photometric: PhotometricMode.
         association, colour: see their classes.
     """
 
     d_it_m: float = 0.375
     d_it_tolerance: float = 0.1
-    motion_noise: MotionNoise = field(default_factory=MotionNoise)
+    motion_noise: MotionNoise = field(default_factory=lambda: UKF_MOTION_NOISE)
     initial_sigma_xy_m: float = 0.02
     initial_sigma_theta_rad: float = 0.01
     sigma_bearing_rad: float | None = None
     pixels_per_rad: float = 400.0
     fov_rad: float = 2.0 * math.pi
-    alpha: float = 0.5
+    alpha: float = 1.0
     beta: float = 2.0
     kappa: float = 0.0
     innovation_gate: float | None = None
@@ -148,6 +174,8 @@ class UKFConfig:
             raise ConfigError("UKFConfig: windows_px > 0 and fov_widening >= 1")
         if a.variance_floor_px2 <= 0 or a.max_range_m <= 0:
             raise ConfigError("UKFConfig: variance_floor_px2 > 0 and max_range_m > 0")
+        if a.gate_probability is not None and not 0 < a.gate_probability < 1:
+            raise ConfigError("UKFConfig: association.gate_probability is a probability in (0, 1)")
 
     def with_(self, **changes: object) -> UKFConfig:
         """A copy with fields replaced."""

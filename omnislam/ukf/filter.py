@@ -20,6 +20,7 @@ Observation: the bearing of each validated line from the pose, ``core.measuremen
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -55,6 +56,19 @@ def bearing_mean(sigmas: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return np.arctan2(weights @ np.sin(sigmas), weights @ np.cos(sigmas))
 
 
+def positive_definite(P: np.ndarray, floor: float = 1e-12) -> np.ndarray:
+    """P symmetrised, with eigenvalues below ``floor`` raised to it when it is not positive
+    definite (the unscented update P - K S K^T can lose definiteness in rounding when a bearing
+    is far more certain than the pose; the next sigma points need a Cholesky factor)."""
+    P = 0.5 * (P + P.T)
+    try:
+        np.linalg.cholesky(P)
+        return P
+    except np.linalg.LinAlgError:
+        values, vectors = np.linalg.eigh(P)
+        return (vectors * np.maximum(values, floor)) @ vectors.T
+
+
 def _move(pose: np.ndarray, dt: float, components: np.ndarray) -> np.ndarray:
     del dt
     return OdometryMotionModel.apply(pose, components)
@@ -62,6 +76,35 @@ def _move(pose: np.ndarray, dt: float, components: np.ndarray) -> np.ndarray:
 
 def _bearings(pose: np.ndarray, landmarks_w: np.ndarray) -> np.ndarray:
     return _BEARING.predict(pose, landmarks_w, jacobians=False)[0][:, 0]
+
+
+@dataclass(frozen=True, slots=True)
+class BearingPrediction:
+    """The unscented prediction of the bearings of C landmarks from the current (x, P).
+
+    The sigma points of (x, P) are moved through the bearing model: ``mean`` is their circular
+    weighted mean and the (C, C) covariance of the predicted bearings is
+    ``deviations.T @ diag(weights) @ deviations``, the Pzz of the filter's update without R.
+
+    Attributes:
+        mean: (C,) predicted bearings [rad].
+        deviations: (S, C) sigma-point bearings minus the mean, wrapped [rad].
+        weights: (S,) the covariance weights Wc.
+    """
+
+    mean: np.ndarray
+    deviations: np.ndarray
+    weights: np.ndarray
+
+    @property
+    def variance(self) -> np.ndarray:
+        """(C,) variance of each predicted bearing [rad^2]."""
+        return self.weights @ (self.deviations**2)
+
+    def covariance(self, columns: np.ndarray) -> np.ndarray:
+        """(n, n) covariance of the predicted bearings of ``columns`` [rad^2]."""
+        d = self.deviations[:, columns]
+        return (d * self.weights[:, None]).T @ d
 
 
 class PoseUKF:
@@ -79,7 +122,7 @@ class PoseUKF:
         wTr: np.ndarray,
         P: np.ndarray,
         motion: OdometryMotionModel,
-        alpha: float = 0.5,
+        alpha: float = 1.0,
         beta: float = 2.0,
         kappa: float = 0.0,
     ) -> None:
@@ -127,7 +170,7 @@ class PoseUKF:
         # keep Q positive definite when the robot stands still (V M V^T is then rank 1)
         self._ukf.Q = Q + np.diag([1e-12, 1e-12, 1e-12])
         self._ukf.predict(components=components)
-        self._ukf.P = 0.5 * (self._ukf.P + self._ukf.P.T)
+        self._ukf.P = positive_definite(self._ukf.P)
 
     def innovations(
         self, bearings_rad: np.ndarray, landmarks_w: np.ndarray, sigmas_rad: np.ndarray
@@ -139,6 +182,16 @@ class PoseUKF:
         h = H[:, 0, :]
         s = np.einsum("ki,ij,kj->k", h, self._ukf.P, h) + np.asarray(sigmas_rad) ** 2
         return y * y / s
+
+    def predict_bearings(self, landmarks_w: np.ndarray) -> BearingPrediction:
+        """The unscented prediction of the bearings of landmarks (C, 2) [m] from (x, P): the same
+        sigma points and weights as ``update``, before any measurement is chosen."""
+        ukf = self._ukf
+        sigmas = ukf.points_fn.sigma_points(ukf.x, ukf.P)
+        landmarks = np.asarray(landmarks_w, dtype=float).reshape(-1, 2)
+        z = _BEARING.predict(sigmas[:, None, :], landmarks[None], jacobians=False)[0][..., 0]
+        mean = bearing_mean(z, ukf.Wm)
+        return BearingPrediction(mean, wrap_angle(z - mean[None, :]), np.asarray(ukf.Wc))
 
     def update(
         self, bearings_rad: np.ndarray, landmarks_w: np.ndarray, sigmas_rad: np.ndarray
@@ -152,4 +205,4 @@ class PoseUKF:
         self._ukf.sigmas_f = self._ukf.points_fn.sigma_points(self._ukf.x, self._ukf.P)
         self._ukf.update(bearings, R=R, landmarks_w=np.asarray(landmarks_w, dtype=float))
         self._ukf.x[2] = wrap_angle(self._ukf.x[2])
-        self._ukf.P = 0.5 * (self._ukf.P + self._ukf.P.T)
+        self._ukf.P = positive_definite(self._ukf.P)

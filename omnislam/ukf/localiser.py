@@ -25,10 +25,10 @@ import numpy as np
 from omnislam.core.gating import chi_square_gate
 from omnislam.core.modality import Modality
 from omnislam.core.motion import OdometryMotionModel
-from omnislam.core.se import se2_between
+from omnislam.core.se import se2_between, wrap_angle
 from omnislam.core.types import UNKNOWN_ID, Estimate, FrameInput, PriorMap, Trajectory
 from omnislam.errors import ConfigError
-from omnislam.ukf.association import associate_landmarks, validate
+from omnislam.ukf.association import PoseConsistency, associate_landmarks, validate
 from omnislam.ukf.candidates import select_candidates
 from omnislam.ukf.config import PhotometricMode, UKFConfig
 from omnislam.ukf.filter import PoseUKF
@@ -64,6 +64,8 @@ class FrameAssociation:
         candidates: landmark ids expected in view.
         pairs: (n, 2) step 4's [projection, landmark id].
         used: (m, 2) the validated pairs that updated the filter.
+        prior_pose, prior_cov: the predicted pose (3,) and its covariance (3, 3) the frame was
+            associated with (before its update).
     """
 
     index: int
@@ -71,6 +73,8 @@ class FrameAssociation:
     candidates: np.ndarray
     pairs: np.ndarray
     used: np.ndarray
+    prior_pose: np.ndarray
+    prior_cov: np.ndarray
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,6 +89,7 @@ class UKFInfo:
     frames_updated: int
     sightings_processed: int
     candidates_total: int
+    pairs_pregated: int
     pairs_step4: int
     pairs_validated: int
     pairs_gated_out: int
@@ -169,6 +174,7 @@ class VerticalLineUKF:
                 "frames_updated",
                 "sightings_processed",
                 "candidates_total",
+                "pairs_pregated",
                 "pairs_step4",
                 "pairs_validated",
                 "pairs_gated_out",
@@ -233,6 +239,7 @@ class VerticalLineUKF:
         counts["frames_processed"] += 1
         counts["sightings_processed"] += len(seen.bearings_rad)
         wTr = self._ukf.x
+        prior_cov = self._ukf.P
         cfg = self.config.association
         if cfg.use_ids:
             rows = np.array([self._row_of.get(int(i), -1) for i in seen.landmark_ids])
@@ -252,15 +259,32 @@ class VerticalLineUKF:
             counts["candidates_total"] += len(cands)
             candidate_ids = self._ids[cands.index]
             u_lines = self.image_line.u_px(seen.bearings_rad)
-            if self._photometric and seen.profiles is not None:
-                left, right = mc_from_pmc(seen.profiles)
-                band, mean = colour_differences(
-                    left, right, self._mc_left[cands.index], self._mc_right[cands.index]
+            consistency = None
+            allowed = np.ones((len(seen.bearings_rad), len(cands)), dtype=bool)
+            if cfg.gate_probability is not None and len(cands):
+                prediction = self._ukf.predict_bearings(self._points[cands.index])
+                consistency = PoseConsistency(
+                    wrap_angle(seen.bearings_rad[:, None] - prediction.mean[None, :]),
+                    np.asarray(seen.sigmas_rad, dtype=float) ** 2,
+                    prediction,
+                    cfg.gate_probability,
                 )
-                scores = photometric_scores(band, mean, self.config.colour)
+                allowed = consistency.pregate()
+            counts["pairs_pregated"] += int(allowed.sum())
+            scores = np.full(allowed.shape, np.nan)
+            columns = np.flatnonzero(allowed.any(axis=0))
+            if self._photometric and seen.profiles is not None and columns.size:
+                # the photometric gate and C'_ij of the pre-gated pairs only
+                left, right = mc_from_pmc(seen.profiles)
+                rows = cands.index[columns]
+                band, mean = colour_differences(
+                    left, right, self._mc_left[rows], self._mc_right[rows]
+                )
+                scores[:, columns] = photometric_scores(band, mean, self.config.colour)
             else:
-                scores = np.zeros((len(seen.bearings_rad), len(cands)))
-            best = associate_landmarks(u_lines, cands.u_px, scores, cfg)
+                scores[:, columns] = 0.0
+            scores[~allowed] = np.nan
+            best = associate_landmarks(u_lines, cands.u_px, scores, cfg, consistency)
             counts["sets_scored"] += best.sets
             pairs = {
                 int(i): int(candidate_ids[c])
@@ -306,6 +330,8 @@ class VerticalLineUKF:
                 candidates=np.asarray(candidate_ids, dtype=np.int64),
                 pairs=_pair_array(pairs),
                 used=_pair_array({i: used[i] for i in lines_used.tolist()}),
+                prior_pose=wTr,
+                prior_cov=prior_cov,
             )
         )
 

@@ -861,6 +861,55 @@ def _(tmp, fx):
     return ["dataset", "synth", "demo", "--out", str(tmp / "demo"), "--frames", "1"], "demo"
 
 
+# -- the one overwrite rule, evaluate --ref, view
+
+
+@case("run-out-exists-without-overwrite")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    return [*run_args(mrclam(tmp), tmp)[:-1], str(run)], "--overwrite"
+
+
+@case("compare-out-exists-without-resume")
+def _(tmp, fx):
+    path = grid(tmp, GRID_OK)
+    (tmp / "results").mkdir()
+    (tmp / "results" / "grid.yaml").write_text(GRID_OK)
+    return ["compare", str(path), "--out", str(tmp / "results")], "--resume"
+
+
+@case("evaluate-ref-missing")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    return ["evaluate", str(run / "trajectory.tum"), "--ref", str(tmp / "none.tum")], "none.tum"
+
+
+@case("evaluate-ref-five-columns")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    (tmp / "gt.txt").write_text("0 1 2 3 4\n")
+    return ["evaluate", str(run / "trajectory.tum"), "--ref", str(tmp / "gt.txt")], "gt.txt"
+
+
+@case("evaluate-ref-out-exists")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    (tmp / "m.json").write_text("{}")
+    argv = ["evaluate", str(run / "trajectory.tum"), "--ref", str(run / "ground_truth.tum")]
+    return [*argv, "--out", str(tmp / "m.json")], "m.json"
+
+
+@case("view-not-a-run-dir")
+def _(tmp, fx):
+    (tmp / "empty").mkdir()
+    return ["view", str(tmp / "empty")], "empty"
+
+
+@case("view-out-not-rrd")
+def _(tmp, fx):
+    return ["view", str(fx.run_dir(tmp)), "--out", str(tmp / "run.txt")], "run.txt"
+
+
 # ---- the test --------------------------------------------------------------------------------
 
 

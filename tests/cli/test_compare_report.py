@@ -46,7 +46,9 @@ def test_compare_then_report_then_rerun_reuses(tmp_path, capsys):
     out = tmp_path / "results"
     assert main(["compare", str(grid), "--out", str(out), "--workers", "0"]) == 0
     assert "2 computed" in capsys.readouterr().out
-    assert main(["compare", str(grid), "--out", str(out), "--workers", "2"]) == 0
+    assert main(["compare", str(grid), "--out", str(out), "--workers", "2"]) == 2
+    one_line_error(capsys, "results", "--resume", "--overwrite")  # the one overwrite rule
+    assert main(["compare", str(grid), "--out", str(out), "--workers", "2", "--resume"]) == 0
     assert "2 reused" in capsys.readouterr().out
     report = tmp_path / "reports" / "room"
     assert main(["report", str(out), "--out", str(report)]) == 0

@@ -63,8 +63,13 @@ def write_raw_carmen(path: Path, stamps=(1.0, 2.0, 3.0)) -> Path:
 def test_run_on_a_path_and_rerun_replaces_the_run_dir(tmp_path, capsys):
     log = write_raw_carmen(tmp_path / "mine.log")
     out = tmp_path / "run"
-    assert main(["run", str(log), "--estimator", "deadreckoning", "--out", str(out)]) == 0
-    assert main(["run", str(log), "--estimator", "deadreckoning", "--out", str(out)]) == 0
+    argv = ["run", str(log), "--estimator", "deadreckoning", "--out", str(out)]
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert main(argv) == 2  # the one overwrite rule: an existing RUN_DIR needs --overwrite
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--overwrite" in err and str(out) in err
+    assert main([*argv, "--overwrite"]) == 0
     record = read_run_dir(out)
     assert np.allclose(record.estimate.trajectory.se2[-1], [1.0, 0.0, 0.2], atol=0.06)
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []

@@ -69,6 +69,6 @@ def test_workers_die_with_a_killed_compare_and_a_rerun_resumes(tmp_path):
 
     finished = len(list((out / CELLS).iterdir())) if (out / CELLS).is_dir() else 0
     assert finished < 6  # killed mid-grid
-    subprocess.run([*command, "--workers", "2"], check=True, capture_output=True)
+    subprocess.run([*command, "--workers", "2", "--resume"], check=True, capture_output=True)
     run_grid(load_grid(grid_file), tmp_path / "uninterrupted", SerialExecutor)
     assert numbers(out) == numbers(tmp_path / "uninterrupted")

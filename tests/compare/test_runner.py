@@ -17,7 +17,7 @@ from room_log import write_room_log
 from omnislam.compare.grid import load_grid
 from omnislam.compare.run_metrics import MEASURED_KEYS, read_run_metrics
 from omnislam.compare.rundir import METRICS
-from omnislam.compare.runner import CELLS, CellStatus, SerialExecutor, run_grid
+from omnislam.compare.runner import CELLS, CellStatus, SerialExecutor, run_cell, run_grid
 from omnislam.errors import ConfigError
 
 GRID = """
@@ -48,11 +48,17 @@ def numbers(results: Path) -> dict[str, dict[str, object]]:
 
 
 class CountingExecutor(SerialExecutor):
+    """Counts the cells submitted (``submitted``) beside the datasets' preparations."""
+
     def __init__(self):
         self.submitted = 0
+        self.prepared = 0
 
     def submit(self, fn, /, *args, **kwargs):
-        self.submitted += 1
+        if fn is run_cell:
+            self.submitted += 1
+        else:
+            self.prepared += 1
         return super().submit(fn, *args, **kwargs)
 
 
@@ -140,6 +146,8 @@ def test_lost_workers_are_retried_a_bounded_number_of_times(tmp_path):
             self.failures = failures
 
         def submit(self, fn, /, *args, **kwargs):
+            if fn is not run_cell:  # the datasets' preparations: see the test below
+                return SerialExecutor.submit(self, fn, *args, **kwargs)
             self.submitted += 1
             if self.failures > 0:
                 self.failures -= 1
@@ -244,3 +252,26 @@ def test_dask_worker_killed_mid_grid_still_gives_a_complete_identical_result(tmp
     assert killed, "no worker was busy: nothing was killed"
     assert result.count(CellStatus.COMPUTED) == 4
     assert numbers(tmp_path / "dask") == numbers(tmp_path / "serial")
+
+
+def test_without_reuse_every_cell_is_computed_again_and_stale_cells_go(tmp_path):
+    path = make_grid(tmp_path)
+    out = tmp_path / "out"
+    run_grid(load_grid(path), out, SerialExecutor)
+    before = numbers(out)
+    # the grid loses room_b: its two cells are no longer the grid's
+    path.write_text(path.read_text().replace(", {dataset: data/room_b.log, label: b}", ""))
+    counting = CountingExecutor()
+    seen = []
+    result = run_grid(load_grid(path), out, lambda: counting, on_progress=seen.append, reuse=False)
+    assert counting.submitted == 2 and result.count(CellStatus.COMPUTED) == 2
+    assert sorted(p.name for p in (out / CELLS).iterdir()) == [
+        "room_a__deadreckoning__s0",
+        "room_a__deadreckoning__s1",
+    ]
+    assert numbers(out) == {k: v for k, v in before.items() if k.startswith("room_a")}
+    storing = [(p.cell.cell_id, p.done, p.total) for p in seen if p.stage == "storing"]
+    assert storing == [
+        ("room_a__deadreckoning__s0", 60, 60),
+        ("room_a__deadreckoning__s1", 60, 60),
+    ]

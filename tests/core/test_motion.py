@@ -3,7 +3,7 @@ import pytest
 from tolerances import JACOBIAN_RTOL, MOMENT_RTOL
 
 from omnislam.core.jacobian import numerical_jacobian
-from omnislam.core.motion import MotionNoise, OdometryMotionModel
+from omnislam.core.motion import MotionNoise, OdometryMotionModel, compose_odometry
 from omnislam.core.se import se2_between, se2_compose, wrap_angle
 
 MODEL = OdometryMotionModel(MotionNoise(a_vv=0.08, a_vw=0.02, a_wv=0.01, a_ww=0.06))
@@ -126,3 +126,37 @@ def test_known_pose_prediction_moments_match_sampling(rng):
 def test_negative_coefficients_rejected():
     with pytest.raises(ValueError):
         MotionNoise(a_vv=-0.1)
+
+
+def test_composed_odometry_covariance_matches_sampled_composition(rng):
+    """Five noisy steps drawn from the motion model and composed: the chain of
+    ``compose_odometry`` gives their mean and covariance (first order, small noise)."""
+    steps = np.array(
+        [
+            [0.05, 0.0, 0.02],
+            [0.06, 0.005, 0.1],
+            [0.04, -0.002, 0.15],
+            [0.05, 0.0, 0.08],
+            [0.07, 0.01, -0.05],
+        ]
+    )
+    delta, cov = steps[0], MODEL.covariance(steps[0])
+    for step in steps[1:]:
+        delta, cov = compose_odometry(delta, cov, step, MODEL.covariance(step))
+    draws = MODEL.sample_delta(steps[0], rng, size=100_000)
+    for step in steps[1:]:
+        draws = se2_compose(draws, MODEL.sample_delta(step, rng, size=100_000))
+    exact = steps[0]
+    for step in steps[1:]:
+        exact = se2_compose(exact, step)
+    np.testing.assert_allclose(delta, exact, atol=1e-12)
+    errors = draws - delta
+    errors[:, 2] = wrap_angle(errors[:, 2])
+    sample_cov = np.cov(errors.T)
+    assert np.linalg.norm(sample_cov - cov) <= 2 * MOMENT_RTOL * np.linalg.norm(cov)
+    np.testing.assert_allclose(cov, cov.T)
+    # composing with an exactly known first delta only moves the second's covariance
+    _, moved = compose_odometry(steps[0], np.zeros((3, 3)), steps[1], MODEL.covariance(steps[1]))
+    c, s = np.cos(steps[0, 2]), np.sin(steps[0, 2])
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    np.testing.assert_allclose(moved, R @ MODEL.covariance(steps[1]) @ R.T, atol=1e-15)

@@ -27,10 +27,12 @@ def test_writes_a_log_and_reuses_it(demo_folder, tmp_path, capsys):
     log = load_observation_log(out)
     assert len(log.image_frames) == 3 and log.config_hash.endswith("-first3")
     capsys.readouterr()
-    assert _run(argv) == 0
+    with pytest.raises(ConfigError, match="--overwrite"):  # the one overwrite rule
+        _run(argv)
+    assert _run([*argv, "--resume"]) == 0
     assert "up to date" in capsys.readouterr().err
     config.write_text("laser: {enabled: false}\nsift: lowe\n")
-    assert _run(argv) == 0
+    assert _run([*argv, "--resume"]) == 0
     assert "rebuilding" in capsys.readouterr().err
     assert load_observation_log(out).config["sift"]["edge_threshold"] == 10.0
 

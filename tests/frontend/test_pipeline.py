@@ -7,6 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 from frontend_tolerances import (
+    MAX_NOISE_RATIO_ERROR,
+    MAX_TRIANGULATION_MEDIAN_M,
     MIN_SIGHTINGS_PER_IMAGE,
     MIN_TRACK_LENGTH,
     MIN_TRACK_PRECISION,
@@ -148,3 +150,48 @@ def test_the_log_does_not_depend_on_what_ran_before(demo_sequence, demo_log):
         if a.bearings is not None:
             np.testing.assert_array_equal(a.bearings.landmark_ids, b.bearings.landmark_ids)
             np.testing.assert_array_equal(a.bearings.unit_vectors_r, b.bearings.unit_vectors_r)
+
+
+def test_pipelined_and_sequential_runs_give_the_same_log(demo_sequence, demo_log):
+    """Preparing images in worker threads changes the timing, nothing else."""
+    sequential = run_frontend(demo_sequence, IMAGES_ONLY, pipelined=False)
+    for a, b in zip(demo_log.frames, sequential.frames, strict=True):
+        assert (a.bearings is None) == (b.bearings is None)
+        if a.bearings is not None:
+            np.testing.assert_array_equal(a.bearings.landmark_ids, b.bearings.landmark_ids)
+            np.testing.assert_array_equal(a.bearings.unit_vectors_r, b.bearings.unit_vectors_r)
+            np.testing.assert_array_equal(a.bearings.sigmas_rad, b.bearings.sigmas_rad)
+    for stats in (demo_log.stats, sequential.stats):
+        assert stats["cpu_seconds_extract"] > 0 and stats["seconds_images_total"] > 0
+
+
+def test_bearing_sigmas_agree_with_the_residuals_against_ground_truth(demo_sequence, demo_log,
+                                                                      demo_truth):
+    """The logged sigma of a bearing is its RMS error against the true point of its track
+    (the issue's criterion: within 1.5x), not a multiple of it (measured on these 24 images:
+    0.87; with the previous 1 px of pixel noise it was ~0.2)."""
+    sightings = evaluation.true_sightings(demo_log, demo_truth)
+    residuals = evaluation.bearing_residuals(
+        demo_log, sightings, demo_sequence.ground_truth.trajectory.poses_w,
+        demo_sequence.calibration.viewpoint_r)
+    assert residuals.angle_rad.size > 2000
+    ratio = evaluation.noise_ratio(residuals)
+    assert 1 / MAX_NOISE_RATIO_ERROR < ratio < MAX_NOISE_RATIO_ERROR
+    # the same residuals against a sigma from 1 px of noise (the previous model) would not be
+    sigma_1px = demo_sequence.calibration.camera.angular_sigma(
+        np.concatenate([p for p in demo_log.pixels if p is not None]), 1.0)
+    assert sigma_1px.size >= residuals.sigma_rad.size
+    assert np.median(residuals.sigma_rad) < 0.5 * np.median(sigma_1px)
+
+
+def test_the_bearings_fix_their_landmarks_from_the_true_poses(demo_sequence, demo_log,
+                                                              demo_truth):
+    """Tracks triangulated from the true poses land near their true points: what the front
+    end leaves to a back end (measured on these 24 images: median 0.5 cm)."""
+    sightings = evaluation.true_sightings(demo_log, demo_truth)
+    tri = evaluation.triangulation_errors(
+        demo_log, sightings, demo_sequence.ground_truth.trajectory.poses_w,
+        demo_sequence.calibration.viewpoint_r)
+    assert tri.error_m.size > 200
+    wide = tri.parallax_rad > np.deg2rad(3.0)
+    assert np.median(tri.error_m[wide]) < MAX_TRIANGULATION_MEDIAN_M

@@ -47,14 +47,16 @@ def verified_matches_per_pair(pairs: int | None = PAIRS) -> list[tuple[int, int,
     extractor = SiftExtractor(OMNI_THESIS)
     features = [extractor.extract(image) for image in images]
     rng = np.random.default_rng(0)
-    any_turn = VerificationConfig(threshold_rad=THRESHOLD_RAD, prior_rotation_tol_rad=np.pi)
+    any_turn = VerificationConfig(threshold_rad=THRESHOLD_RAD, prior_rotation_tol_rad=np.pi,
+                                  planar_motion=False)
     out = []
     for a, b in itertools.pairwise(features):
         m = match_brute_force(b.descriptors, a.descriptors, MatchConfig())
         f1 = camera.unproject(a.pixels[m.train])
         f2 = camera.unproject(b.pixels[m.query])
-        essential = verify_matches(f1, f2, None, VerificationConfig(threshold_rad=THRESHOLD_RAD),
-                                   rng)
+        # hand-held: the general (8-point) model, not the wheeled robot's planar one
+        general = VerificationConfig(threshold_rad=THRESHOLD_RAD, planar_motion=False)
+        essential = verify_matches(f1, f2, None, general, rng)
         turn = verify_matches(f1, f2, RelativePose(np.eye(3), np.zeros(3)), any_turn, rng)
         assert essential.kind is ModelKind.ESSENTIAL and turn.kind is ModelKind.ROTATION
         out.append((len(m), essential.n_inliers, turn.n_inliers))

@@ -17,8 +17,8 @@ FIRST_PASS = 10
 REVISITED = 2
 #: landmarks re-recognised from the map on the revisit
 MIN_FROM_MAP = 30
-#: fraction of the first visit's ids seen again on the revisit
-MIN_SAME_IDS = 0.4
+#: fraction of the first visit's landmarks (its features seen at least twice) seen again
+MIN_SAME_IDS = 0.6
 
 
 @pytest.fixture(scope="module")
@@ -52,15 +52,20 @@ def test_ids_are_stable_and_unique_per_image(tracked):
 
 
 def test_a_revisited_place_is_re_recognised_with_its_old_ids(tracked):
-    """Measured: 138 of the 290 ids of the first visit come back, 65 of them from the map
-    (the others were never seen twice, so never entered the map)."""
+    """Measured: of the 409 features of the first visit, 216 were seen at least twice before
+    the revisit (landmarks); 154 of those come back, 83 from the map. (The fraction is taken
+    of the landmarks, not of all features: features seen once never enter the map, and how
+    many there are depends on the detector -- octave -1 sampled natively adds ~120.)"""
     tracker, out = tracked
     revisit, original = out[-1], out[REVISITED]
     window = tracker.config.tracks.window_images
     recent = np.concatenate([f.track_ids for f in out[FIRST_PASS - window:FIRST_PASS]])
     assert revisit.from_map >= MIN_FROM_MAP
+    seen_before = tracker.sightings[original.track_ids] - np.isin(original.track_ids,
+                                                                  revisit.track_ids)
+    landmarks = original.track_ids[seen_before >= 2]
     again = np.isin(revisit.track_ids, original.track_ids)
-    assert again.sum() >= MIN_SAME_IDS * len(original.track_ids)
+    assert np.isin(revisit.track_ids, landmarks).sum() >= MIN_SAME_IDS * landmarks.size
     # the map, not the frame-to-frame window, brought the older ones back
     assert np.sum(again & ~np.isin(revisit.track_ids, recent)) >= MIN_FROM_MAP
 

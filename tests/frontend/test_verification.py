@@ -9,8 +9,10 @@ from omnislam.frontend.verification import (
     ModelKind,
     RelativePose,
     decompose_essential,
+    decompose_planar_essential,
     epipolar_errors,
     essential_from_bearings,
+    planar_essential_from_bearings,
     rotation_angle,
     verify_matches,
 )
@@ -56,6 +58,42 @@ def test_eight_point_on_the_whole_sphere_recovers_the_pose():
     est = decompose_essential(E, f1, f2)
     assert rotation_angle(est.R @ pose.R.T) < 1e-7
     assert np.allclose(est.t, pose.t / np.linalg.norm(pose.t), atol=1e-7)
+
+
+def test_three_point_planar_solver_recovers_a_planar_motion():
+    rng = np.random.default_rng(7)
+    pose, f1, f2 = _scene(rng, n=3, delta=(-0.4, 0.25, -0.7))
+    E = planar_essential_from_bearings(f1, f2)
+    # exact on the three, and the form of [t]x Rz: singular values (s, s, 0)
+    assert np.max(epipolar_errors(E, f1, f2)) < EXACT_RAD
+    singular = np.linalg.svd(E, compute_uv=False)
+    assert abs(singular[0] - singular[1]) < 1e-9 * singular[0] and singular[2] < 1e-12
+    _, g1, g2 = _scene(np.random.default_rng(8), n=50, delta=(-0.4, 0.25, -0.7))
+    est = decompose_planar_essential(E, g1, g2)
+    assert rotation_angle(est.R @ pose.R.T) < EXACT_RAD
+    assert np.allclose(est.t, pose.t / np.linalg.norm(pose.t), atol=1e-8)
+    # least squares over many pairs agrees with the 8-point solution up to sign and scale
+    _, h1, h2 = _scene(np.random.default_rng(9), n=40)
+    planar = planar_essential_from_bearings(h1, h2)
+    general = essential_from_bearings(h1, h2)
+    planar, general = planar / np.linalg.norm(planar), general / np.linalg.norm(general)
+    assert min(np.abs(planar - general).max(), np.abs(planar + general).max()) < 1e-8
+
+
+def test_the_planar_model_refuses_a_motion_off_the_plane():
+    """A tilted second view (not a wheeled robot's motion) is verified only by the general
+    model: the planar one cannot explain the matches."""
+    rng = np.random.default_rng(10)
+    _, f1, f2 = _scene(rng, n=200)
+    tilt = 0.1  # rad about the x axis
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(tilt), -np.sin(tilt)],
+                   [0.0, np.sin(tilt), np.cos(tilt)]])
+    f2 = f2 @ Rx  # the second camera is rotated by Rx^T
+    planar = verify_matches(f1, f2, None, VerificationConfig(), np.random.default_rng(0))
+    general = verify_matches(f1, f2, None, VerificationConfig(planar_motion=False),
+                             np.random.default_rng(0))
+    assert general.n_inliers == 200
+    assert planar.n_inliers < 100
 
 
 def test_ransac_separates_outliers_and_respects_the_threshold():

@@ -120,3 +120,18 @@ def test_odometry_conditioning_floors_translation_given_rotation():
     # a covariance that already respects the floor is returned unchanged
     fine = np.diag([1e-4, 4e-6, 4e-6])
     assert fx.condition_odometry_covariance(fine, floor) is fine
+
+
+def test_between_covariance_matches_the_sampled_factor_error(rng):
+    """A delta drawn from the motion model, seen through the factor's error Log(z^-1 x): its
+    covariance is ``between_covariance``, not the delta's own (the rotation by dtheta)."""
+    motion = OdometryMotionModel()
+    delta = np.array([0.3, 0.05, 0.8])  # a large turn, as between two images
+    cov = motion.covariance(delta)
+    draws = motion.sample_delta(delta, rng, size=40_000)
+    z = fx.pose2(delta)
+    errors = np.array([z.localCoordinates(fx.pose2(d)) for d in draws])
+    sample_cov = np.cov(errors.T)
+    expected = fx.between_covariance(delta, cov)
+    assert np.linalg.norm(sample_cov - expected) < 0.03 * np.linalg.norm(expected)
+    assert np.linalg.norm(sample_cov - cov) > 0.3 * np.linalg.norm(cov)  # the raw one is off

@@ -31,6 +31,7 @@ from omnislam.graphslam import (
     RobustKernel,
 )
 from omnislam.graphslam import factors as fx
+from omnislam.graphslam.config import PoseVariables
 
 gtsam = pytest.importorskip("gtsam")
 
@@ -172,10 +173,25 @@ def test_frames_before_the_first_sighting_are_dead_reckoning(planar):
     np.testing.assert_allclose(
         estimate.trajectory.se2, se2_integrate(deltas, planar.poses_true[0]), atol=1e-9
     )
-    assert estimator.info().factors == 20 and estimator.info().landmarks == 0
+    # no sighting, no pose variable but frame 0's: the odometry waits to be composed
+    assert estimator.info().factors == 1 and estimator.info().landmarks == 0
     estimator.step(planar.frames[20])
     estimator.step(planar.frames[21])  # a landmark enters at its second agreeing sighting
     assert len(estimator.estimate().trajectory) == 22 and estimator.info().landmarks > 0
+    graph = estimator.factor_graph()
+    between = [graph.at(i) for i in range(graph.size())]
+    between = [f for f in between if isinstance(f, gtsam.BetweenFactorPose2)]
+    assert [tuple(f.keys()) for f in between] == [
+        (fx.pose_key(0), fx.pose_key(20)),
+        (fx.pose_key(20), fx.pose_key(21)),
+    ]
+    # one variable per frame: the chain of 19 odometry factors
+    every = GraphSLAM(RB, _config(pose_variables=PoseVariables.FRAMES), planar.poses_true[0])
+    estimate = run(every, blind)
+    np.testing.assert_allclose(
+        estimate.trajectory.se2, se2_integrate(deltas, planar.poses_true[0]), atol=1e-9
+    )
+    assert every.info().factors == 20
 
 
 def test_wrong_associations_the_defaults_keep_ate_near_clean():

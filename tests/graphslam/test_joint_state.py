@@ -10,6 +10,7 @@ from omnislam.core.modality import Modality
 from omnislam.core.types import FrameInput
 from omnislam.graphslam import GraphSLAM, GraphSLAMConfig
 from omnislam.graphslam import factors as fx
+from omnislam.graphslam.config import PoseVariables
 from omnislam.graphslam.joint_state import joint_state
 
 gtsam = pytest.importorskip("gtsam")
@@ -35,7 +36,11 @@ def test_joint_state_is_the_joint_marginal_and_propagates_the_newest_pose(rng):
     scenario = simulate_planar(rng)
     estimator = GraphSLAM(
         Modality.RANGE_BEARING_2D,
-        GraphSLAMConfig(motion_noise=MOTION_NOISE, min_consistent_sightings=1),
+        GraphSLAMConfig(
+            motion_noise=MOTION_NOISE,
+            min_consistent_sightings=1,
+            pose_variables=PoseVariables.FRAMES,  # the blind frame below gets a variable
+        ),
         scenario.poses_true[0],
     )
     k = 40
@@ -56,10 +61,11 @@ def test_joint_state_is_the_joint_marginal_and_propagates_the_newest_pose(rng):
     # the frame being added: propagated from k-1 with the odometry factor's covariance; iSAM2
     # holds the same Gaussian once the pose is added without sightings
     blind = FrameInput(k, scenario.frames[k].odometry)
-    delta = np.asarray(blind.odometry.delta)
-    estimator._poses._frame = blind  # what ``add`` sets before the builder is called
-    Q = estimator._poses.odometry_step()[1]
-    predicted = joint_state(session, [k - 2], landmarks, (k, delta, Q))
+    estimator._poses.fold(k, blind)  # what ``step`` does before the builder is called
+    a, delta, Q = estimator._poses.odometry_step()
+    assert a == k - 1
+    np.testing.assert_allclose(delta, blind.odometry.delta)
+    predicted = joint_state(session, [k - 2], landmarks, (k, a, delta, Q))
     estimator.step(blind)
     after = joint_state(session, [k - 2, k], landmarks)
     order = [0, 1, 2, *range(6, 12), 3, 4, 5]  # after: k-2, k, landmarks; predicted: k last

@@ -124,7 +124,8 @@ def test_pose_nees_of_a_simulated_run_is_in_the_95_percent_band(rng):
     nees = []
     for _ in range(NEES_RUNS):
         deltas, sightings, true = simulate(rng)
-        ukf = localiser(**{"association": AssociationConfig(use_ids=True)})
+        # the filter's noise is the simulation's (the UKF's own default is 4x larger)
+        ukf = localiser(motion_noise=MotionNoise(), association=AssociationConfig(use_ids=True))
         for frame in frames(deltas, sightings):
             ukf.step(frame)
         est = ukf.estimate()
@@ -146,3 +147,15 @@ def test_frames_are_processed_every_d_it_of_travel(rng, d_it):
     processed = [a.index for a in ukf.associations]
     # 0.1 m per frame: every frame, or every 4th (0.4 m >= 0.9 * 0.35 m; 0.3 m is not)
     assert processed == (list(range(40)) if d_it == 0 else list(range(0, 40, 4)))
+
+
+def test_a_covariance_that_lost_definiteness_in_rounding_is_repaired():
+    from omnislam.ukf.filter import positive_definite
+
+    good = np.diag([1e-2, 4e-3, 1e-4])
+    assert np.array_equal(positive_definite(good), good)
+    v = np.array([1.0, -1.0, 0.0]) / math.sqrt(2.0)
+    bad = np.diag([1e-2, 1e-2, 1e-4]) - (1e-2 + 1e-15) * np.outer(v, v)  # eigenvalue -1e-15
+    fixed = positive_definite(bad)
+    np.linalg.cholesky(fixed)
+    assert np.allclose(fixed, bad, atol=1e-11)

@@ -10,13 +10,12 @@ from omnislam.errors import ConfigError
 
 
 def cli_synth(args: argparse.Namespace) -> int:
-    """Render preset ``args.preset`` into ``args.out`` with a progress bar on stderr.
+    """Render preset ``args.preset`` into ``args.out``, its progress on stderr.
 
     ``args`` carries ``preset``, ``out``, ``seed`` (default 0), ``frames`` (None: all images),
     ``backend`` (None: open3d if installed) and optionally ``overwrite``. Returns the exit code.
     """
-    from tqdm import tqdm
-
+    from omnislam._progress import Progress
     from omnislam.datasets.synthetic.presets import PRESETS
     from omnislam.datasets.synthetic.simulate import simulate
     from omnislam.datasets.synthetic.writer import prepare_output, write_synthetic
@@ -27,11 +26,13 @@ def cli_synth(args: argparse.Namespace) -> int:
     overwrite = bool(getattr(args, "overwrite", False))
     prepare_output(Path(args.out), overwrite)
     seed = 0 if args.seed is None else int(args.seed)
-    sim = simulate(preset, seed, max_images=args.frames, backend=args.backend)
-    with tqdm(total=int(sim.image_frames.size), desc=f"synth {preset.name}", unit="img",
-              file=sys.stderr, disable=None) as bar:
+    with Progress(f"synth {preset.name}", None, "frame") as stage:
+        stage.update(doing="simulating the route, odometry, sightings and laser")
+        sim = simulate(preset, seed, max_images=args.frames, backend=args.backend)
+        stage.close(f"{sim.stamps_s.size} frames simulated")
+    with Progress(f"synth {preset.name}", int(sim.image_frames.size), "img") as bar:
         def progress(count: int) -> None:
-            bar.update(count - bar.n)
+            bar.update(count, doing="rendering")
 
         write_synthetic(args.out, sim, backend=args.backend, overwrite=overwrite,
                         progress=progress)

@@ -176,6 +176,26 @@ def read_ground_truth_maps(path: str | Path, index: int) -> GroundTruthMaps:
     return SyntheticFolder(path).ground_truth_maps(index)
 
 
+def _line_colours(path: Path, landmark_ids: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """``line_colours.csv`` as (means_left, means_right) rows of ``landmark_ids`` (NaN where the
+    survey has none), or None when the folder has no such file (rendered before it existed, or
+    without images)."""
+    if not path.exists():
+        return None
+    table = _read_csv(path, 8)
+    row = {int(i): k for k, i in enumerate(landmark_ids)}
+    left = np.full((len(landmark_ids), 3), np.nan)
+    right = np.full((len(landmark_ids), 3), np.nan)
+    for line, values in enumerate(table, start=2):
+        k = row.get(int(values[0]))
+        if k is None:
+            raise DataError(f"line {line}: landmark {int(values[0])} is not in landmarks.csv", path)
+        if not np.all(np.isfinite(values[2:]) | np.isnan(values[2:])):
+            raise DataError(f"line {line}: colours must be finite or empty", path)
+        left[k], right[k] = values[2:5], values[5:8]
+    return left, right
+
+
 def _read_laser(path: Path, frames: int) -> LaserScans:
     """``laser.npz`` checked against the folder: one scan per frame, ranges in [0, max]."""
     try:
@@ -244,11 +264,15 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
     landmark_ids = landmarks[:, 0].astype(np.int64)
     line_ids = {line.landmark_id for line in world.vertical_lines}
     walls = np.array([[w.x0_m, w.y0_m, w.x1_m, w.y1_m] for w in world.walls_2d])
+    means = _line_colours(root / "line_colours.csv", landmark_ids)
     prior_map = PriorMap(
-        source="the world's 2-D map (landmarks.csv: poles and vertical lines; walls.csv)",
+        source="the world's 2-D map (landmarks.csv: poles and vertical lines; walls.csv"
+        + ("; MC surveyed in the rendered images, line_colours.csv)" if means else ")"),
         landmark_ids=landmark_ids,
         points_w=landmarks[:, 1:4],
         vertical_line=np.isin(landmark_ids, sorted(line_ids)),
+        means_left=means[0] if means else None,
+        means_right=means[1] if means else None,
         walls_w=walls.reshape(-1, 2, 2),
         initial_pose_w=se2_from_se3(gt_traj.poses_w[0]),
     )

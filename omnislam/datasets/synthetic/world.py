@@ -29,6 +29,8 @@ from omnislam.errors import DataError
 
 #: version of world.json; bump when the layout changes
 WORLD_FORMAT_VERSION = 1
+#: a door frame stands this far in front of its wall [m]
+FRAME_OFFSET_M = 0.02
 
 
 class SurfaceKind(enum.Enum):
@@ -491,7 +493,10 @@ class WorldBuilder:
              height: float = 2.05) -> None:
         """A wooden door with a dark frame on a wall; the frame's outer edges are vertical lines.
 
-        (x, y) is the door's centre on the wall line; ``yaw`` the direction it faces.
+        (x, y) is the door's centre on the wall line; ``yaw`` the direction it faces. The frame
+        stands ``FRAME_OFFSET_M`` in front of the wall, and so do its vertical-line landmarks:
+        the edge the camera sees is the frame's, not the wall's (on the wall line they projected
+        up to 5 px aside of the rendered edge in corridor21's pinhole images).
         """
         centre, normal, edge_u = self._facing(x, y, yaw, width)
         unit_u = edge_u / width
@@ -502,12 +507,15 @@ class WorldBuilder:
         frame = 0.08
         tex_frame = self.texture(TextureKind.FRAME, (frame, height + frame), shared="door-frame")
         for side in (-1, 1):
-            left = centre + 0.02 * normal + unit_u * (side * (width / 2 + frame / 2) - frame / 2)
+            left = centre + FRAME_OFFSET_M * normal + unit_u * (
+                side * (width / 2 + frame / 2) - frame / 2
+            )
             up = np.array([0.0, 0.0, height + frame])
             self.quad(SurfaceKind.DOOR_FRAME, left + up, unit_u * frame, -up, tex_frame, obj)
-            outer = centre + unit_u * side * (width / 2 + frame)
+            outer = centre + FRAME_OFFSET_M * normal + unit_u * side * (width / 2 + frame)
             self.vertical_lines.append(
                 VerticalLine(self.new_landmark_id(), float(outer[0]), float(outer[1]))
             )
-        top = centre + 0.02 * normal - unit_u * (width / 2) + np.array([0.0, 0.0, height + frame])
+        top = centre + FRAME_OFFSET_M * normal - unit_u * (width / 2)
+        top = top + np.array([0.0, 0.0, height + frame])
         self.quad(SurfaceKind.DOOR_FRAME, top, unit_u * width, (0, 0, -frame), tex_frame, obj)

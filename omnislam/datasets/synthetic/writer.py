@@ -39,6 +39,11 @@ byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
     ``id,x,y,z`` ground-truth 2-D landmarks (pole centres, door-frame vertical lines), z = 0.
 ``walls.csv``
     ``x0,y0,x1,y1`` main walls of the 2-D map (Barra & Costa's occlusion map).
+``line_colours.csv``
+    ``id,count,r_left,g_left,b_left,r_right,g_right,b_right``: the MC (Barra & Costa sec. 2.2)
+    of every vertical-line landmark, surveyed in the rendered images at the true poses
+    (``line_survey``), ``count`` images; empty colours where never seen. Only with images and
+    vertical lines.
 """
 
 from __future__ import annotations
@@ -56,6 +61,7 @@ import numpy as np
 
 from omnislam._files import check_output_location, output_error
 from omnislam.core.types import Trajectory
+from omnislam.datasets.synthetic.line_survey import LineSurvey
 from omnislam.datasets.synthetic.raycast import Backend
 from omnislam.datasets.synthetic.render import Renderer
 from omnislam.datasets.synthetic.simulate import Simulation
@@ -188,14 +194,29 @@ def write_synthetic(
             (tmp / "images").mkdir()
             (tmp / "gt").mkdir()
             renderer = Renderer(sim.world, sim.rig, backend, supersample)
+            lines = sim.world.vertical_lines
+            survey = LineSurvey(
+                np.array([v.landmark_id for v in lines], dtype=np.int64),
+                np.array([(v.x_m, v.y_m) for v in lines]),
+                sim.rig,
+            )
+            poses_se3 = Trajectory.from_se2(sim.stamps_s, sim.poses_w).poses_w
             for count, index in enumerate(sim.image_frames, start=1):
                 frame = renderer.render(sim.poses_w[index])
+                survey.add(frame.image, frame.points_w, poses_se3[index])
                 name = frame_name(int(index))
                 if not cv2.imwrite(str(tmp / "images" / f"{name}.png"), frame.image[..., ::-1]):
                     raise DataError("cannot write image", tmp / "images" / f"{name}.png")
                 write_npz(tmp / "gt" / f"{name}.npz", {"surface_id": frame.surface_ids})
                 if progress is not None:
                     progress(count)
+            if lines:
+                _write_csv(
+                    tmp / "line_colours.csv",
+                    "id,count,r_left,g_left,b_left,r_right,g_right,b_right",
+                    survey.rows().astype(object),
+                    ["%d", "%d"] + [_FLOAT] * 6,
+                )
         if out.exists():
             trash = out.parent / f".{out.name}.old-{os.getpid()}"
             out.rename(trash)

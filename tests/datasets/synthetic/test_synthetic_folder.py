@@ -128,3 +128,29 @@ def test_the_prior_map_is_the_worlds_2d_map(demo_folder):
             assert np.allclose(point, [*lines[lid], 0.0])
     assert len(prior.walls_w) == len(world.walls_2d) > 0
     assert np.allclose(prior.initial_pose_w, sequence.initial_pose_w)
+
+
+def test_the_prior_map_carries_the_surveyed_line_colours(demo_folder):
+    sequence = load_synthetic(demo_folder)
+    prior = sequence.prior_map
+    assert (demo_folder / "line_colours.csv").exists()
+    assert prior.means_left is not None and "line_colours.csv" in prior.source
+    lines = prior.vertical_line
+    # poles carry no descriptors; the door-frame lines the images show do
+    assert np.isnan(prior.means_left[~lines]).all()
+    seen = np.isfinite(prior.means_left[:, 0]) & lines
+    assert seen.any()
+
+
+def test_a_bad_line_colours_row_is_one_error_naming_file_and_line(tmp_path, demo_folder):
+    import shutil
+
+    copy = tmp_path / "demo"
+    shutil.copytree(demo_folder, copy)
+    path = copy / "line_colours.csv"
+    rows = path.read_text().splitlines()
+    rows.append("999999,1,1,2,3,4,5,6")
+    path.write_text("\n".join(rows) + "\n")
+    with pytest.raises(DataError, match=rf"line {len(rows)}: landmark 999999") as info:
+        load_synthetic(copy)
+    assert "line_colours.csv" in str(info.value)

@@ -1,0 +1,162 @@
+"""The README's results table, generated from the suite's report (``reports/suite``)::
+
+    .venv/bin/python benchmarks/suite_table.py [--report reports/suite] [--readme README.md]
+        [--check]
+
+``make suite`` runs it after ``omnislam compare benchmarks/grids/suite.yaml`` and ``omnislam
+report``. It reads two tables the report writes -- ``tables/ate-rmse.csv`` (ATE RMSE per dataset
+and estimator, mean and standard deviation over seeds) and ``tables/verdict.csv`` (per dataset
+the best estimator by median ATE over seeds, dead reckoning excluded, the runner-up and whether
+the margin is within the seed spread) -- and rewrites the block of the README between
+``<!-- suite-table:begin -->`` and ``<!-- suite-table:end -->``: no number in that block is
+typed by hand. ``--check`` rewrites nothing and exits 1 when the block is not what the report
+gives (for CI, after the report changed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+BEGIN = "<!-- suite-table:begin -->"
+END = "<!-- suite-table:end -->"
+ATE_TABLE = Path("tables") / "ate-rmse.csv"
+VERDICT_TABLE = Path("tables") / "verdict.csv"
+#: columns of ate-rmse.csv before the estimators
+LEADING = ("dataset", "ground truth")
+
+
+class SuiteTableError(Exception):
+    """The report lacks a table, a table is malformed, or the README has no marked block."""
+
+
+@dataclass(frozen=True, slots=True)
+class Verdict:
+    """One row of verdict.csv, as far as the table shows it."""
+
+    best: str
+    runner_up: str
+    margin_percent: float | None
+    within_spread: str
+
+
+def _read_csv(path: Path) -> tuple[list[str], list[dict[str, str]]]:
+    try:
+        with path.open(newline="") as handle:
+            reader = csv.DictReader(handle)
+            rows = list(reader)
+            return list(reader.fieldnames or []), rows
+    except OSError as exc:
+        raise SuiteTableError(f"{path}: cannot read ({exc.strerror or exc})") from None
+
+
+def _number(text: str) -> float | None:
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    return None if math.isnan(value) else value
+
+
+def _format(mean: str, std: str) -> str:
+    """``0.113``, ``0.532 ± 0.095``; the report's own text (``– (failed)``) when no number."""
+    value = _number(mean)
+    if value is None:
+        return mean.strip() or "–"
+    spread = _number(std)
+    return f"{value:.3g}" if spread is None else f"{value:.3g} ± {spread:.2g}"
+
+
+def read_verdicts(report: Path) -> dict[str, Verdict]:
+    """Dataset label -> its verdict (datasets without a ranked estimator are absent)."""
+    _, rows = _read_csv(report / VERDICT_TABLE)
+    out = {}
+    for row in rows:
+        try:
+            if row["best"]:
+                out[row["dataset"]] = Verdict(
+                    row["best"],
+                    row["runner-up"],
+                    _number(row["margin [%]"]),
+                    row["within seed spread"],
+                )
+        except KeyError as exc:
+            raise SuiteTableError(f"{report / VERDICT_TABLE}: no column {exc}") from None
+    return out
+
+
+def suite_table(report: str | Path) -> str:
+    """The Markdown table of ATE RMSE per dataset and estimator, with each row's verdict."""
+    report = Path(report)
+    header, rows = _read_csv(report / ATE_TABLE)
+    if tuple(header[:2]) != LEADING:
+        raise SuiteTableError(f"{report / ATE_TABLE}: expected columns {LEADING} first")
+    estimators = [h for h in header[2:] if not h.endswith(" std")]
+    verdicts = read_verdicts(report)
+    lines = [
+        "| dataset | ground truth | " + " | ".join(estimators) + " | best (margin over next) |",
+        "|---|---|" + "---|" * len(estimators) + "---|",
+    ]
+    for row in rows:
+        verdict = verdicts.get(row["dataset"])
+        cells = []
+        for name in estimators:
+            text = _format(row.get(name, ""), row.get(f"{name} std", ""))
+            cells.append(f"**{text}**" if verdict is not None and verdict.best == name else text)
+        if verdict is None:
+            best = "–"
+        else:
+            margin = (
+                f"{verdict.margin_percent:.0f} %" if verdict.margin_percent is not None else "?"
+            )
+            best = f"{verdict.best} ({margin} over {verdict.runner_up or '–'}"
+            best += "; within seed spread)" if verdict.within_spread == "yes" else ")"
+        lines.append(
+            f"| {row['dataset']} | {row['ground truth']} | " + " | ".join(cells) + f" | {best} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def rewrite_block(text: str, table: str) -> str:
+    """``text`` with the block between the markers replaced by ``table``."""
+    start, end = text.find(BEGIN), text.find(END)
+    if start < 0 or end < start:
+        raise SuiteTableError(f"no block between {BEGIN} and {END}")
+    return text[: start + len(BEGIN)] + "\n" + table + text[end:]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--report", default=str(REPO / "reports" / "suite"))
+    parser.add_argument("--readme", default=str(REPO / "README.md"))
+    parser.add_argument("--check", action="store_true", help="exit 1 if the README is stale")
+    args = parser.parse_args(argv)
+    readme = Path(args.readme)
+    try:
+        text = readme.read_text()
+        updated = rewrite_block(text, suite_table(args.report))
+    except OSError as exc:
+        print(f"suite_table: {readme}: cannot read ({exc.strerror or exc})", file=sys.stderr)
+        return 2
+    except SuiteTableError as exc:
+        where = "" if str(exc).startswith(str(args.report)) else f"{readme}: "
+        print(f"suite_table: {where}{exc}", file=sys.stderr)
+        return 2
+    if args.check:
+        if updated != text:
+            print(f"suite_table: {readme}'s table is not the one {args.report} gives")
+            return 1
+        return 0
+    if updated != text:
+        readme.write_text(updated)
+    print(f"suite_table: {readme} table from {args.report}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,158 @@
+"""``omnislam estimators [NAME ...] [--json]``: every registered estimator and its options.
+
+For each estimator of the registry (``omnislam.estimators.ESTIMATORS``): what it is, the
+observation streams it consumes, whether this installation can run it, its presets, and every
+``--set KEY=VALUE`` option with its default and meaning, read from the estimator's
+configuration dataclass and the ``Attributes:`` section of its docstring
+(``omnislam.options.describe_options``), so the list cannot drift from the code. The options
+the harness takes for every estimator (``modality``, ``prior_map``, ``wrong_id_fraction``) end
+the list.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+#: options whose default the factories take from the dataset when it states one
+FROM_THE_DATA = {
+    "sensor_height_m": "(default: the height of the dataset's camera rig, when it has one)",
+}
+
+
+def harness_options() -> dict[str, tuple[str, str]]:
+    """Options the harness (``compare.execute``) takes for every estimator:
+    key -> (what it takes, meaning)."""
+    from omnislam.compare.perturb import WRONG_ID_OPTION
+    from omnislam.compare.prior import PRIOR_MAP_OPTION
+    from omnislam.core.modality import MODALITY_OPTION, Modality
+
+    return {
+        MODALITY_OPTION: (
+            "|".join(m.value for m in Modality),
+            "the observation stream to consume instead of the one the shared rule picks.",
+        ),
+        PRIOR_MAP_OPTION: (
+            "RUN_DIR",
+            "the landmarks of an earlier run as the prior map (for localisers).",
+        ),
+        WRONG_ID_OPTION: (
+            "float",
+            "re-label this fraction of the sightings with another landmark's id before the run.",
+        ),
+    }
+
+
+def loader_options() -> dict[str, tuple[str, ...]]:
+    """Dataset format -> the ``--set`` keys its loader takes (formats that take any)."""
+    from omnislam.datasets.registry import FORMATS
+
+    return {fmt.value: tuple(spec.options) for fmt, spec in FORMATS.items() if spec.options}
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "estimators",
+        help="list the estimators with their options, defaults and meaning",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("names", nargs="*", metavar="NAME", help="only these estimators")
+    p.add_argument("--json", action="store_true", help="print JSON (full option descriptions)")
+    p.set_defaults(handler=run)
+
+
+def _availability(name: str) -> str:
+    from omnislam.errors import OmnislamError
+    from omnislam.estimators import estimator_factory
+
+    try:
+        estimator_factory(name)
+    except (OmnislamError, ImportError) as exc:
+        return f"not available: {exc}"
+    return "available"
+
+
+def describe(name: str) -> dict[str, object]:
+    """What ``omnislam estimators`` says about one estimator (the JSON object)."""
+    from omnislam.estimators import ESTIMATORS, estimator_defaults
+    from omnislam.options import describe_options
+
+    entry = ESTIMATORS[name]
+    config, presets = estimator_defaults(name)
+    options = [] if config is None else describe_options(config)
+    return {
+        "name": name,
+        "summary": entry.summary,
+        "consumes": sorted(m.value for m in entry.modalities),
+        "status": _availability(name),
+        "presets": list(presets),
+        "preset": entry.preset or None,
+        "options": [
+            {"key": o.key, "kind": o.kind, "default": o.default, "meaning": o.meaning}
+            for o in options
+        ],
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    import json
+
+    from omnislam.errors import ConfigError
+    from omnislam.estimators import ESTIMATORS
+    from omnislam.options import first_sentence
+
+    unknown = [n for n in args.names if n not in ESTIMATORS]
+    if unknown:
+        raise ConfigError(
+            f"unknown estimator {unknown[0]!r}; known: {', '.join(ESTIMATORS)}"
+        )
+    names = args.names or list(ESTIMATORS)
+    described = [describe(name) for name in names]
+    harness = harness_options()
+    loaders = loader_options()
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "estimators": described,
+                    "harness_options": [
+                        {"key": key, "kind": kind, "meaning": meaning}
+                        for key, (kind, meaning) in harness.items()
+                    ],
+                    "loader_options": {fmt: list(keys) for fmt, keys in loaders.items()},
+                },
+                indent=2,
+            )
+        )
+        return 0
+    for d in described:
+        print(f"{d['name']}: {d['summary']}")
+        consumes = ", ".join(d["consumes"]) or "no sightings (odometry only)"  # type: ignore[arg-type]
+        print(f"  consumes: {consumes}; {d['status']}")
+        if d["presets"]:
+            presets = ", ".join(
+                f"{p} (default)" if p == d["preset"] else str(p)
+                for p in d["presets"]  # type: ignore[union-attr]
+            )
+            print(f"  presets (--set preset=NAME): {presets}")
+        options = d["options"]
+        if not options:
+            print("  options: none")
+        else:
+            width = max(len(f"{o['key']}={o['default']}") for o in options)  # type: ignore[union-attr]
+            print("  options (--set KEY=VALUE; the default shown, then what it takes):")
+            for o in options:  # type: ignore[union-attr]
+                setting = f"{o['key']}={o['default']}"
+                meaning = first_sentence(str(o["meaning"])).replace("``", "")
+                if o["key"] in FROM_THE_DATA:
+                    meaning += f" {FROM_THE_DATA[str(o['key'])]}"
+                print(f"    {setting.ljust(width)}  [{o['kind']}]  {meaning}")
+        print()
+    print("options of every estimator (taken by the harness):")
+    width = max(len(k) for k in harness)
+    for key, (kind, meaning) in harness.items():
+        print(f"    {key.ljust(width)}  [{kind}]  {meaning}")
+    print("options of the dataset loaders (by dataset format; --set passes them to the loader):")
+    for fmt, keys in loaders.items():
+        print(f"    {fmt}: {', '.join(keys)}")
+    return 0

@@ -1,0 +1,521 @@
+"""Compiled kernels for FastSLAM's per-pair loops (numba, the optional extra ``fast``).
+
+At 100 particles and ~6 sightings a step is ~600 (particle, sighting) pairs, and the numpy
+path spends it in ~460 calls of 1-3 us each: the per-call overhead, not the arithmetic,
+dominates. These kernels do the same work as one loop over the pairs each:
+
+* ``tree_rows`` / ``tree_scatter``: the landmark tree's walks and its path copying
+  (``landmark_tree.LandmarkTree.gather`` / ``scatter``);
+* ``ekf_range_bearing``: the 2-D landmark EKF update (``core.kalman.ekf_update`` with
+  ``RangeBearing2D``, thesis eqs. 4.33-4.37);
+* ``refine_range_bearing``: FastSLAM 2.0's sequential proposal over a step's sightings of
+  established landmarks (``proposal.refine_proposal``, thesis eqs. 4.45-4.46 / Montemerlo 2003,
+  Joseph form);
+* ``cholesky_draws``: the proposal's pose draws mean + L e (``core.gaussian.sample_gaussian``);
+* ``odometry_prediction``: the odometry model's prediction from exact poses, the start of the
+  FastSLAM 2.0 proposal (``core.motion.OdometryMotionModel.predict`` with P = None);
+* ``weighted_moments``: the particle set's weighted mean pose (circular mean heading) and
+  covariance, recorded every step (``particles.ParticleSet.mean_pose`` / ``pose_covariance``).
+
+The numpy path stays the reference and the test oracle (``tests/fastslam/test_kernels.py``):
+every kernel writes out the reference's arithmetic in the reference's order (products summed
+in index order as ``core.batch_linalg.product``, the same closed-form 2x2 inverse, the same
+floored-modulo angle wrap), and leaves the transcendental functions whose numpy versions are
+SIMD builds (``log`` of the innovation determinant, the random draws) to numpy, so that a
+filter gives the same numbers with and without them. The tree kernels only move integers and
+rows and are exact; the floating-point kernels agree with the reference to the last bits of
+``atan2`` / ``sqrt`` / ``cos`` (numba calls the C library, numpy may use its own SIMD loops),
+which the tests bound at 1e-12 relative.
+
+The functions are plain Python written in the subset numba compiles; ``compiled()`` compiles
+them on first use (cached on disk by numba), or raises ``MissingExtraError`` when numba is not
+installed.
+"""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+
+from omnislam.errors import MissingExtraError
+
+#: columns of the landmark tree's node table (``landmark_tree``)
+_LEFT, _TOKEN, _PAYLOAD = 0, 2, 3
+#: floor of a squared range (``core.measurement``'s ``_EPS``)
+_EPS = 1e-12
+_PI = math.pi
+_TWO_PI = 2.0 * math.pi
+
+_COMPILED: SimpleNamespace | None = None
+
+
+def available() -> bool:
+    """True when numba can be imported."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def resolve(choice: object) -> SimpleNamespace | None:
+    """The compiled kernels for a ``config.Kernels`` choice, or None for the numpy path.
+
+    Raises:
+        MissingExtraError: NUMBA chosen without numba installed.
+    """
+    value = getattr(choice, "value", choice)
+    if value == "numpy" or (value == "auto" and not available()):
+        return None
+    return compiled()
+
+
+def compiled() -> SimpleNamespace:
+    """The kernels compiled with ``numba.njit`` (compiled once per process, cached on disk).
+
+    Raises:
+        MissingExtraError: numba is not installed (``pip install omnislam[fast]``).
+    """
+    global _COMPILED
+    if _COMPILED is None:
+        try:
+            import numba
+        except ImportError as exc:
+            raise MissingExtraError("numba", "fast") from exc
+        jit = numba.njit(cache=True, nogil=True)
+        # the helpers the kernels call must be compiled first (numba resolves globals then)
+        namespace = globals()
+        namespace["_wrap"] = jit(_wrap)
+        namespace["_key_depth"] = jit(_key_depth)
+        _COMPILED = SimpleNamespace(
+            tree_rows=jit(tree_rows),
+            tree_scatter=jit(tree_scatter),
+            ekf_range_bearing=jit(ekf_range_bearing),
+            refine_range_bearing=jit(refine_range_bearing),
+            cholesky_draws=jit(cholesky_draws),
+            odometry_prediction=jit(odometry_prediction),
+            weighted_moments=jit(weighted_moments),
+        )
+    return _COMPILED
+
+
+def _wrap(angle: float) -> float:
+    """(angle + pi) mod 2 pi - pi with floored modulo: ``core.se.wrap_angle`` bit for bit."""
+    shifted = angle + _PI
+    return (shifted % _TWO_PI) - _PI
+
+
+# -- the landmark tree --------------------------------------------------------------------------
+
+
+def _key_depth(slot: int, leaf_height: int) -> tuple[int, int]:
+    """Heap key and depth of a slot (``LandmarkTree._paths``); leaf_height < 0: all-nodes."""
+    if leaf_height < 0:
+        key = slot + 1
+        depth = 0
+        k = key
+        while k > 1:
+            k >>= 1
+            depth += 1
+        return key, depth
+    return slot + (1 << leaf_height), leaf_height
+
+
+def tree_rows(
+    links: np.ndarray,
+    roots: np.ndarray,
+    particles: np.ndarray,
+    slots: np.ndarray,
+    leaf_height: int,
+) -> tuple[np.ndarray, int]:
+    """Payload rows of N (particle, slot) pairs: each pair's walk from its particle's root.
+
+    Args:
+        links: (R, 4) node table [left, right, token, payload]; row 0 the null node.
+        roots: (P,) root node of each particle.
+        particles, slots: (N,) the pairs.
+        leaf_height: the leaf-only tree's height, or -1 for the all-nodes tree.
+
+    Returns:
+        (N,) payload rows (0: absent), and the number of nodes visited.
+    """
+    n = particles.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    visits = 0
+    for i in range(n):
+        key, depth = _key_depth(slots[i], leaf_height)
+        visits += depth + 1
+        node = roots[particles[i]]
+        for level in range(depth - 1, -1, -1):
+            node = links[node, _LEFT + ((key >> level) & 1)]
+        out[i] = links[node, _PAYLOAD]
+    return out, visits
+
+
+def tree_scatter(
+    links: np.ndarray,
+    roots: np.ndarray,
+    tokens: np.ndarray,
+    particles: np.ndarray,
+    slots: np.ndarray,
+    leaf_height: int,
+    node_free: np.ndarray,
+    node_used: int,
+    payload_free: np.ndarray,
+    payload_used: int,
+) -> tuple[np.ndarray, int, int, int, int, int, int]:
+    """Path copying for N written (particle, slot) pairs (``LandmarkTree.scatter``).
+
+    Every node on a pair's path that the writing particle does not own (its token differs) is
+    copied into a new row owned by it and linked from its parent (or made the root); pairs of
+    one particle share the copies of their common prefix because the copies are then owned.
+    Each written node gets a fresh payload row. New rows come from the free lists first, then
+    from never used rows (``landmark_tree._Rows.allocate``); the caller has reserved enough.
+
+    Returns:
+        (N,) the payload row of each pair; how many rows of ``node_free`` were taken, the new
+        count of used node rows, the same two for the payload table, the nodes copied and the
+        nodes visited.
+    """
+    n = particles.shape[0]
+    rows = np.empty(n, dtype=np.int64)
+    node_taken = 0
+    payload_taken = 0
+    copies = 0
+    visits = 0
+    for i in range(n):
+        p = particles[i]
+        token = tokens[p]
+        key, depth = _key_depth(slots[i], leaf_height)
+        visits += depth + 1
+        node = roots[p]
+        if links[node, _TOKEN] != token:
+            if node_taken < node_free.shape[0]:
+                new = node_free[node_taken]
+                node_taken += 1
+            else:
+                if node_used >= links.shape[0]:
+                    raise IndexError("landmark tree: node table full (reservation too small)")
+                new = node_used
+                node_used += 1
+            for c in range(4):
+                links[new, c] = links[node, c]
+            links[new, _TOKEN] = token
+            roots[p] = new
+            node = new
+            copies += 1
+        for level in range(depth - 1, -1, -1):
+            column = _LEFT + ((key >> level) & 1)
+            child = links[node, column]
+            if links[child, _TOKEN] != token:
+                if node_taken < node_free.shape[0]:
+                    new = node_free[node_taken]
+                    node_taken += 1
+                else:
+                    if node_used >= links.shape[0]:
+                        raise IndexError("landmark tree: node table full (reservation too small)")
+                    new = node_used
+                    node_used += 1
+                for c in range(4):
+                    links[new, c] = links[child, c]
+                links[new, _TOKEN] = token
+                links[node, column] = new
+                child = new
+                copies += 1
+            node = child
+        if payload_taken < payload_free.shape[0]:
+            row = payload_free[payload_taken]
+            payload_taken += 1
+        else:
+            row = payload_used
+            payload_used += 1
+        links[node, _PAYLOAD] = row
+        rows[i] = row
+    return rows, node_taken, node_used, payload_taken, payload_used, copies, visits
+
+
+# -- 2-D range-bearing landmark EKF -------------------------------------------------------------
+
+
+def ekf_range_bearing(
+    wTr: np.ndarray,
+    mean: np.ndarray,
+    cov: np.ndarray,
+    z: np.ndarray,
+    R: np.ndarray,
+    out_mean: np.ndarray,
+    out_cov: np.ndarray,
+    out_mahalanobis: np.ndarray,
+    out_det: np.ndarray,
+) -> None:
+    """EKF update of N 2-D landmarks by range-bearing sightings from exact poses.
+
+    ``core.kalman.ekf_update`` with ``RangeBearing2D`` in the plain form, per pair: predicted
+    z, landmark Jacobian H, S = H Sigma H^T + R, K = Sigma H^T S^-1, mean + K y and the
+    symmetrised Sigma - K (Sigma H^T)^T (thesis eqs. 4.33-4.37). Writes the updated means and
+    covariances, the innovations' squared Mahalanobis distances and det S (the caller takes
+    the log, as the reference does, for the likelihood of eq. 4.47).
+
+    Args:
+        wTr: (N, 3) poses; mean: (N, 2); cov: (N, 2, 2); z: (N, 2); R: (N, 2, 2).
+        out_mean, out_cov, out_mahalanobis, out_det: outputs of shapes (N, 2), (N, 2, 2),
+            (N,), (N,) (may alias ``mean`` / ``cov``).
+    """
+    for i in range(wTr.shape[0]):
+        dx = mean[i, 0] - wTr[i, 0]
+        dy = mean[i, 1] - wTr[i, 1]
+        q = dx * dx
+        q += dy * dy
+        if q < _EPS:
+            q = _EPS
+        r = math.sqrt(q)
+        bearing = _wrap(math.atan2(dy, dx) - wTr[i, 2])
+        y0 = z[i, 0] - r
+        y1 = _wrap(z[i, 1] - bearing)
+        h00, h01 = dx / r, dy / r
+        h10, h11 = -(dy / q), dx / q
+        p00, p01, p10, p11 = cov[i, 0, 0], cov[i, 0, 1], cov[i, 1, 0], cov[i, 1, 1]
+        # P H^T, then S = H P H^T + R (terms summed in index order)
+        a00 = p00 * h00 + p01 * h01
+        a01 = p00 * h10 + p01 * h11
+        a10 = p10 * h00 + p11 * h01
+        a11 = p10 * h10 + p11 * h11
+        s00 = h00 * a00 + h01 * a10 + R[i, 0, 0]
+        s01 = h00 * a01 + h01 * a11 + R[i, 0, 1]
+        s10 = h10 * a00 + h11 * a10 + R[i, 1, 0]
+        s11 = h10 * a01 + h11 * a11 + R[i, 1, 1]
+        det = s00 * s11 - s01 * s10
+        i00, i01, i10, i11 = s11 / det, -s01 / det, -s10 / det, s00 / det
+        k00 = a00 * i00 + a01 * i10
+        k01 = a00 * i01 + a01 * i11
+        k10 = a10 * i00 + a11 * i10
+        k11 = a10 * i01 + a11 * i11
+        out_mean[i, 0] = mean[i, 0] + (k00 * y0 + k01 * y1)
+        out_mean[i, 1] = mean[i, 1] + (k10 * y0 + k11 * y1)
+        c00 = p00 - (k00 * a00 + k01 * a01)
+        c01 = p01 - (k00 * a10 + k01 * a11)
+        c10 = p10 - (k10 * a00 + k11 * a01)
+        c11 = p11 - (k10 * a10 + k11 * a11)
+        out_cov[i, 0, 0] = 0.5 * (c00 + c00)
+        out_cov[i, 0, 1] = 0.5 * (c01 + c10)
+        out_cov[i, 1, 0] = 0.5 * (c10 + c01)
+        out_cov[i, 1, 1] = 0.5 * (c11 + c11)
+        t0 = i00 * y0 + i01 * y1
+        t1 = i10 * y0 + i11 * y1
+        out_mahalanobis[i] = y0 * t0 + y1 * t1
+        out_det[i] = det
+
+
+# -- FastSLAM 2.0's proposal over 2-D range-bearing sightings ---------------------------------
+
+
+def refine_range_bearing(
+    pose_mean: np.ndarray,
+    pose_cov: np.ndarray,
+    who: np.ndarray,
+    z: np.ndarray,
+    R: np.ndarray,
+    landmark_mean: np.ndarray,
+    landmark_cov: np.ndarray,
+    out_mahalanobis: np.ndarray,
+    out_det: np.ndarray,
+) -> None:
+    """Refine the proposals of particles ``who`` by N sightings, one after the other, in place.
+
+    ``proposal.refine_proposal`` with ``RangeBearing2D`` and no gate, per pair in the given
+    order (the reference loops over the sightings in ascending order and updates every
+    particle that saw the current one: the same sequence per particle): relinearised at the
+    refined mean, Q = H_m Sigma_m H_m^T + R, the Kalman form of thesis eq. 4.45 with the
+    covariance in Joseph form, symmetrised, and the heading wrapped.
+
+    Args:
+        pose_mean: (P, 3), pose_cov: (P, 3, 3): the particles' proposals, updated in place.
+        who: (N,) particle of each pair, in processing order.
+        z: (N, 2), R: (N, 2, 2): the pairs' sightings; landmark_mean: (N, 2), landmark_cov:
+            (N, 2, 2): the observed landmarks in that particle's map.
+        out_mahalanobis, out_det: (N,) y^T L^-1 y and det L of each pair's innovation (the
+            predictive likelihood's terms; the caller takes the log).
+    """
+    # scratch matrices, allocated once
+    a = np.empty((3, 2))
+    k = np.empty((3, 2))
+    hx = np.empty((2, 3))
+    ikh = np.empty((3, 3))
+    bp = np.empty((3, 3))
+    c = np.empty((3, 3))
+    for i in range(who.shape[0]):
+        p = who[i]
+        x, y, theta = pose_mean[p, 0], pose_mean[p, 1], pose_mean[p, 2]
+        dx = landmark_mean[i, 0] - x
+        dy = landmark_mean[i, 1] - y
+        q = dx * dx
+        q += dy * dy
+        if q < _EPS:
+            q = _EPS
+        r = math.sqrt(q)
+        bearing = _wrap(math.atan2(dy, dx) - theta)
+        y0 = z[i, 0] - r
+        y1 = _wrap(z[i, 1] - bearing)
+        m00, m01 = dx / r, dy / r  # landmark Jacobian H_m
+        m10, m11 = -(dy / q), dx / q
+        # pose Jacobian H_x = [-H_m | (0, -1)^T]
+        x00, x01, x02 = -m00, -m01, 0.0
+        x10, x11, x12 = -m10, -m11, -1.0
+        l00, l01 = landmark_cov[i, 0, 0], landmark_cov[i, 0, 1]
+        l10, l11 = landmark_cov[i, 1, 0], landmark_cov[i, 1, 1]
+        # Q = (H_m Sigma_m) H_m^T + R
+        b00 = m00 * l00 + m01 * l10
+        b01 = m00 * l01 + m01 * l11
+        b10 = m10 * l00 + m11 * l10
+        b11 = m10 * l01 + m11 * l11
+        q00 = b00 * m00 + b01 * m01 + R[i, 0, 0]
+        q01 = b00 * m10 + b01 * m11 + R[i, 0, 1]
+        q10 = b10 * m00 + b11 * m01 + R[i, 1, 0]
+        q11 = b10 * m10 + b11 * m11 + R[i, 1, 1]
+        P = pose_cov[p]
+        # P H_x^T (3 x 2)
+        for row in range(3):
+            a[row, 0] = P[row, 0] * x00 + P[row, 1] * x01 + P[row, 2] * x02
+            a[row, 1] = P[row, 0] * x10 + P[row, 1] * x11 + P[row, 2] * x12
+        s00 = x00 * a[0, 0] + x01 * a[1, 0] + x02 * a[2, 0] + q00
+        s01 = x00 * a[0, 1] + x01 * a[1, 1] + x02 * a[2, 1] + q01
+        s10 = x10 * a[0, 0] + x11 * a[1, 0] + x12 * a[2, 0] + q10
+        s11 = x10 * a[0, 1] + x11 * a[1, 1] + x12 * a[2, 1] + q11
+        det = s00 * s11 - s01 * s10
+        i00, i01, i10, i11 = s11 / det, -s01 / det, -s10 / det, s00 / det
+        for row in range(3):
+            k[row, 0] = a[row, 0] * i00 + a[row, 1] * i10
+            k[row, 1] = a[row, 0] * i01 + a[row, 1] * i11
+        step0 = k[0, 0] * y0 + k[0, 1] * y1
+        step1 = k[1, 0] * y0 + k[1, 1] * y1
+        step2 = k[2, 0] * y0 + k[2, 1] * y1
+        # Joseph form (I - K H_x) P (I - K H_x)^T + (K Q) K^T
+        hx[0, 0], hx[0, 1], hx[0, 2] = x00, x01, x02
+        hx[1, 0], hx[1, 1], hx[1, 2] = x10, x11, x12
+        for row in range(3):
+            for col in range(3):
+                ikh[row, col] = (1.0 if row == col else 0.0) - (
+                    k[row, 0] * hx[0, col] + k[row, 1] * hx[1, col]
+                )
+        for row in range(3):
+            for col in range(3):
+                bp[row, col] = (
+                    ikh[row, 0] * P[0, col] + ikh[row, 1] * P[1, col] + ikh[row, 2] * P[2, col]
+                )
+        for row in range(3):
+            d0 = k[row, 0] * q00 + k[row, 1] * q10
+            d1 = k[row, 0] * q01 + k[row, 1] * q11
+            for col in range(3):
+                joseph = (
+                    bp[row, 0] * ikh[col, 0] + bp[row, 1] * ikh[col, 1] + bp[row, 2] * ikh[col, 2]
+                )
+                c[row, col] = joseph + (d0 * k[col, 0] + d1 * k[col, 1])
+        for row in range(3):
+            for col in range(3):
+                P[row, col] = 0.5 * (c[row, col] + c[col, row])
+        pose_mean[p, 0] = x + step0
+        pose_mean[p, 1] = y + step1
+        pose_mean[p, 2] = _wrap(theta + step2)
+        t0 = i00 * y0 + i01 * y1
+        t1 = i10 * y0 + i11 * y1
+        out_mahalanobis[i] = y0 * t0 + y1 * t1
+        out_det[i] = det
+
+
+def cholesky_draws(
+    mean: np.ndarray, cov: np.ndarray, normals: np.ndarray, jitter: float, out: np.ndarray
+) -> None:
+    """out = mean + L e per row, cov + jitter I = L L^T (3 x 3), heading wrapped.
+
+    ``proposal.sample_poses`` with the standard normal draws ``normals`` (N, 3) taken by the
+    caller from the filter's generator, so both paths consume the same random numbers.
+    """
+    for i in range(mean.shape[0]):
+        a00 = cov[i, 0, 0] + jitter
+        a11 = cov[i, 1, 1] + jitter
+        a22 = cov[i, 2, 2] + jitter
+        l00 = math.sqrt(a00)
+        l10 = cov[i, 1, 0] / l00
+        l20 = cov[i, 2, 0] / l00
+        l11 = math.sqrt(a11 - l10 * l10)
+        l21 = (cov[i, 2, 1] - l20 * l10) / l11
+        l22 = math.sqrt(a22 - l20 * l20 - l21 * l21)
+        e0, e1, e2 = normals[i, 0], normals[i, 1], normals[i, 2]
+        out[i, 0] = mean[i, 0] + l00 * e0
+        out[i, 1] = mean[i, 1] + (l10 * e0 + l11 * e1)
+        out[i, 2] = _wrap(mean[i, 2] + (l20 * e0 + l21 * e1 + l22 * e2))
+
+
+def odometry_prediction(
+    wTr: np.ndarray,
+    rot1: float,
+    trans: float,
+    rot2: float,
+    variances: np.ndarray,
+    out_mean: np.ndarray,
+    out_cov: np.ndarray,
+) -> None:
+    """Mean and covariance of P exact poses moved by one odometry step, thesis eqs. 4.41-4.44.
+
+    ``OdometryMotionModel.predict(wTr, None, delta)`` with the decomposed step (rot1, trans,
+    rot2) and its component variances: x' = x + [t cos(theta + rot1), t sin(theta + rot1),
+    rot1 + rot2] (heading wrapped) and V diag(variances) V^T with V the Jacobian with respect
+    to (rot1, trans, rot2) (Thrun et al. 2005, Table 7.1).
+    """
+    m0, m1, m2 = variances[0], variances[1], variances[2]
+    for i in range(wTr.shape[0]):
+        heading = wTr[i, 2] + rot1
+        c = math.cos(heading)
+        s = math.sin(heading)
+        out_mean[i, 0] = c * trans + wTr[i, 0]
+        out_mean[i, 1] = s * trans + wTr[i, 1]
+        out_mean[i, 2] = _wrap(heading + rot2)
+        # V = [[-t s, c, 0], [t c, s, 0], [1, 0, 1]]; N = (V M) V^T, terms in index order
+        v00, v01 = -trans * s, c
+        v10, v11 = trans * c, s
+        a00, a01 = v00 * m0, v01 * m1
+        a10, a11 = v10 * m0, v11 * m1
+        a20, a22 = m0, m2
+        out_cov[i, 0, 0] = a00 * v00 + a01 * v01
+        out_cov[i, 0, 1] = a00 * v10 + a01 * v11
+        out_cov[i, 0, 2] = a00
+        out_cov[i, 1, 0] = a10 * v00 + a11 * v01
+        out_cov[i, 1, 1] = a10 * v10 + a11 * v11
+        out_cov[i, 1, 2] = a10
+        out_cov[i, 2, 0] = a20 * v00
+        out_cov[i, 2, 1] = a20 * v10
+        out_cov[i, 2, 2] = a20 + a22
+
+
+def weighted_moments(
+    weights: np.ndarray, poses: np.ndarray, out_mean: np.ndarray, out_cov: np.ndarray
+) -> None:
+    """Weighted mean (heading: atan2 of the weighted sines and cosines) and weighted covariance
+    about it (heading residuals wrapped) of P poses; sums in particle order (the reference's
+    BLAS dot products may group them differently: equal to rounding)."""
+    sx = sy = ss = sc = 0.0
+    for i in range(poses.shape[0]):
+        w = weights[i]
+        sx += w * poses[i, 0]
+        sy += w * poses[i, 1]
+        ss += w * math.sin(poses[i, 2])
+        sc += w * math.cos(poses[i, 2])
+    theta = math.atan2(ss, sc)
+    out_mean[0], out_mean[1], out_mean[2] = sx, sy, theta
+    c00 = c01 = c02 = c11 = c12 = c22 = 0.0
+    for i in range(poses.shape[0]):
+        w = weights[i]
+        d0 = poses[i, 0] - sx
+        d1 = poses[i, 1] - sy
+        d2 = _wrap(poses[i, 2] - theta)
+        c00 += w * d0 * d0
+        c01 += w * d0 * d1
+        c02 += w * d0 * d2
+        c11 += w * d1 * d1
+        c12 += w * d1 * d2
+        c22 += w * d2 * d2
+    out_cov[0, 0], out_cov[0, 1], out_cov[0, 2] = c00, c01, c02
+    out_cov[1, 0], out_cov[1, 1], out_cov[1, 2] = c01, c11, c12
+    out_cov[2, 0], out_cov[2, 1], out_cov[2, 2] = c02, c12, c22

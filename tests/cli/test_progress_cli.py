@@ -1,0 +1,153 @@
+"""Progress of the long commands as a user sees it: on stderr, plain lines off a terminal (no
+escape codes), one redrawn line on a terminal, frames from inside the runs of a grid."""
+
+from __future__ import annotations
+
+import os
+import pty
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from omnislam.compare import channel
+from omnislam.compare.channel import ProgressChannel
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "compare"))
+from small_mrclam import write_small_mrclam
+
+REPO = Path(__file__).resolve().parents[2]
+CONTROL = re.compile(r"[\r\x1b]")
+
+
+def _env(**extra: str) -> dict[str, str]:
+    env = {**os.environ, "PYTHONPATH": str(REPO), "OMNISLAM_PROGRESS_INTERVAL": "0", **extra}
+    env.pop("OMNISLAM_PROGRESS", None)
+    env.pop("DASK_LOGGING__DISTRIBUTED", None)
+    return env
+
+
+def _omnislam(*args: str, **extra: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "omnislam", *args],
+        capture_output=True,
+        text=True,
+        env=_env(**extra),
+        check=True,
+    )
+
+
+def test_run_prints_frames_rate_and_eta_as_plain_lines_off_a_terminal(tmp_path):
+    data = write_small_mrclam(tmp_path / "MRCLAM_Small")
+    result = _omnislam("run", str(data), "--estimator", "ekfslam", "--out", str(tmp_path / "r"))
+    err = result.stderr
+    assert not CONTROL.search(err), repr(err)
+    lines = [x for x in err.splitlines() if x.startswith("run ekfslam on MRCLAM_Small: ")]
+    counted = [x for x in lines if re.search(r": \d+/61 frame \(\d+%\)", x)]
+    assert len(counted) >= 2, err
+    assert any("done in" in x for x in counted), err
+    assert "-> " in result.stdout  # the result line is on stdout, progress is not
+
+
+def test_quiet_silences_progress(tmp_path):
+    data = write_small_mrclam(tmp_path / "MRCLAM_Small")
+    argv = ["--quiet", "run", str(data), "--estimator", "ekfslam", "--out", str(tmp_path / "r")]
+    result = _omnislam(*argv)
+    assert "frame" not in result.stderr
+
+
+def test_a_terminal_gets_one_line_redrawn_in_place(tmp_path):
+    data = write_small_mrclam(tmp_path / "MRCLAM_Small")
+    leader, follower = pty.openpty()
+    try:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "omnislam", "run", str(data), "--estimator", "ekfslam",
+             "--out", str(tmp_path / "r")],
+            stdout=subprocess.DEVNULL,
+            stderr=follower,
+            env=_env(),
+        )
+        os.close(follower)
+        chunks = []
+        while True:
+            try:
+                chunk = os.read(leader, 4096)
+            except OSError:  # the child closed the terminal
+                break
+            if not chunk:
+                break
+            chunks.append(chunk)
+        assert process.wait(timeout=120) == 0
+    finally:
+        os.close(leader)
+    text = b"".join(chunks).decode(errors="replace")
+    assert "\r" in text and "\x1b[K" in text
+    assert re.search(r"run ekfslam on MRCLAM_Small: 61/61 frame \(100%\).*done in", text)
+
+
+def test_compare_shows_the_frames_the_workers_step(tmp_path):
+    data = write_small_mrclam(tmp_path / "MRCLAM_Small")
+    grid = tmp_path / "grid.yaml"
+    grid.write_text(f"datasets: [{data.name}]\nestimators: [deadreckoning, ekfslam]\n")
+    result = _omnislam("compare", str(grid), "--out", str(tmp_path / "results"), "--workers", "1")
+    err = result.stderr
+    assert not CONTROL.search(err), repr(err)
+    lines = [x for x in err.splitlines() if x.startswith("compare (1 local): ")]
+    # what a worker process is doing, sent from inside its run
+    assert any(re.search(r"- ekfslam \d+/61", x) for x in lines), err
+    assert any(re.search(r"- deadreckoning loading", x) for x in lines), err
+    assert re.search(r"2/2 cells, 122/122 frame \(100%\).*done in", lines[-1]), lines[-1]
+
+
+def _report(address: str, key: bytes, frames: int) -> None:
+    """A worker process: report every frame of a run through the channel."""
+    channel.SEND_INTERVAL_S = 0.0
+    reporter = channel.StepReporter(address, key, "cell-a")
+    reporter("loading", 0, 0)
+    for done in range(frames + 1):
+        reporter("running", done, frames)
+
+
+def test_the_channel_carries_a_workers_frames_in_order():
+    import multiprocessing
+    import time
+
+    with ProgressChannel() as progress:
+        reporter = progress.reporter("cell-a")
+        worker = multiprocessing.get_context("spawn").Process(
+            target=_report, args=(reporter.address, reporter.authkey, 25)
+        )
+        worker.start()
+        worker.join(timeout=120)
+        assert worker.exitcode == 0
+        messages = []
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and len(messages) < 27:
+            messages += progress.drain()
+            time.sleep(0.02)
+    assert [(m.stage, m.done) for m in messages] == [("loading", 0)] + [
+        ("running", k) for k in range(26)
+    ]
+    assert {m.key for m in messages} == {"cell-a"} and messages[-1].total == 25
+
+
+def test_a_reporter_that_cannot_reach_its_channel_stays_silent():
+    reporter = channel.StepReporter("/nonexistent/socket", b"key", "cell")
+    for done in range(3):
+        reporter("running", done, 3)  # no error: progress never fails a run
+
+
+@pytest.mark.slow
+def test_dask_is_quiet_unless_verbose(tmp_path):
+    pytest.importorskip("distributed")
+    data = write_small_mrclam(tmp_path / "MRCLAM_Small")
+    grid = tmp_path / "grid.yaml"
+    grid.write_text(f"datasets: [{data.name}]\nestimators: [deadreckoning]\n")
+    argv = ["compare", str(grid), "--scheduler", "local", "--workers", "1"]
+    quiet = _omnislam(*argv, "--out", str(tmp_path / "a"))
+    assert " INFO " not in quiet.stderr and "distributed." not in quiet.stderr, quiet.stderr
+    assert re.search(r"compare \(Dask at .*\): .*deadreckoning", quiet.stderr), quiet.stderr
+    verbose = _omnislam("-v", *argv, "--out", str(tmp_path / "b"))
+    assert "INFO" in verbose.stderr

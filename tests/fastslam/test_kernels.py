@@ -1,0 +1,257 @@
+"""The compiled kernels against the numpy path, their reference and test oracle.
+
+Each kernel is compared with the numpy function it replaces on random inputs; whole filters
+(FastSLAM 1.0 and 2.0, known and unknown association, 2-D and 3-D) are run on both paths from
+the same seed and must give the same trajectory, resamplings and map.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from fastslam_scenario import (
+    BEARING_SCENARIO_NOISE,
+    SCENARIO_NOISE,
+    SENSOR_HEIGHT_M,
+    make_bearing_scenario,
+    make_scenario,
+)
+
+from omnislam.core.kalman import ekf_update
+from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.modality import Modality
+from omnislam.core.motion import MotionNoise, OdometryMotionModel
+from omnislam.errors import MissingExtraError
+from omnislam.fastslam import FastSLAMConfig, Kernels, Variant, make_fastslam
+from omnislam.fastslam import kernels as kernel_module
+from omnislam.fastslam.landmark_store import LandmarkBlock, LandmarkStatus
+from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
+from omnislam.fastslam.particles import ParticleSet
+from omnislam.fastslam.proposal import _JITTER, refine_proposal, sample_poses
+
+pytest.importorskip("numba")
+
+#: kernels vs numpy, per call: both evaluate the same expressions in the same order; only the
+#: last bits of atan2 / sqrt / cos / sin may differ (C library vs numpy's SIMD loops)
+KERNEL_RTOL = 1e-12
+#: whole runs: those last bits, carried through a few hundred filter steps
+RUN_ATOL = 1e-9
+
+
+@pytest.fixture(scope="module")
+def k():
+    return kernel_module.compiled()
+
+
+def _random_landmarks(rng, n):
+    mean = rng.uniform(-5, 5, (n, 2))
+    a = rng.normal(0, 0.2, (n, 2, 2))
+    cov = a @ np.swapaxes(a, 1, 2) + 0.01 * np.eye(2)
+    return mean, cov
+
+
+def _range_bearing(rng, n):
+    z = np.column_stack([rng.uniform(0.5, 6, n), rng.uniform(-np.pi, np.pi, n)])
+    R = np.zeros((n, 2, 2))
+    R[:, 0, 0], R[:, 1, 1] = 0.05**2, 0.02**2
+    return z, R
+
+
+def test_ekf_kernel_matches_core_ekf_update(k):
+    rng = np.random.default_rng(0)
+    n = 300
+    wTr = np.column_stack([rng.uniform(-3, 3, (n, 2)), rng.uniform(-np.pi, np.pi, n)])
+    mean, cov = _random_landmarks(rng, n)
+    z, R = _range_bearing(rng, n)
+    reference = ekf_update(wTr, mean, cov, z, R, RangeBearing2D())
+    out_mean, out_cov = np.empty_like(mean), np.empty_like(cov)
+    mahalanobis, det = np.empty(n), np.empty(n)
+    k.ekf_range_bearing(wTr, mean, cov, z, R, out_mean, out_cov, mahalanobis, det)
+    np.testing.assert_allclose(out_mean, reference.mean, rtol=KERNEL_RTOL, atol=1e-14)
+    np.testing.assert_allclose(out_cov, reference.cov, rtol=KERNEL_RTOL, atol=1e-16)
+    np.testing.assert_allclose(mahalanobis, reference.mahalanobis, rtol=KERNEL_RTOL)
+    assert np.array_equal(out_cov, np.swapaxes(out_cov, 1, 2))  # symmetrised
+    # updated in place (the mapper's use) gives the same
+    k.ekf_range_bearing(wTr, mean, cov, z, R, mean, cov, mahalanobis, det)
+    np.testing.assert_array_equal(mean, out_mean)
+
+
+def test_sequential_proposal_kernel_matches_refine_proposal(k):
+    rng = np.random.default_rng(1)
+    p, per = 40, 5
+    mean0 = np.column_stack([rng.uniform(-2, 2, (p, 2)), rng.uniform(-np.pi, np.pi, p)])
+    a = rng.normal(0, 0.05, (p, 3, 3))
+    cov0 = a @ np.swapaxes(a, 1, 2) + 1e-6 * np.eye(3)
+    n = p * per
+    who = np.tile(np.arange(p), per)  # sighting-major, as the reference loops
+    lm_mean, lm_cov = _random_landmarks(rng, n)
+    z, R = _range_bearing(rng, n)
+    mean, cov = mean0.copy(), cov0.copy()
+    expected_ll = np.zeros(p)
+    model = RangeBearing2D()
+    for j in range(per):
+        rows = np.arange(j * p, (j + 1) * p)
+        update = refine_proposal(
+            mean[who[rows]], cov[who[rows]], z[rows], R[rows], lm_mean[rows], lm_cov[rows], model
+        )
+        mean[who[rows]], cov[who[rows]] = update.mean, update.cov
+        expected_ll[who[rows]] += update.log_likelihood
+    got_mean, got_cov = mean0.copy(), cov0.copy()
+    mahalanobis, det = np.empty(n), np.empty(n)
+    k.refine_range_bearing(got_mean, got_cov, who, z, R, lm_mean, lm_cov, mahalanobis, det)
+    ll = -0.5 * (mahalanobis + np.log(det) + 2 * math.log(2 * math.pi))
+    np.testing.assert_allclose(got_mean, mean, rtol=KERNEL_RTOL, atol=1e-13)
+    np.testing.assert_allclose(got_cov, cov, rtol=1e-10, atol=1e-16)
+    np.testing.assert_allclose(np.bincount(who, weights=ll), expected_ll, rtol=KERNEL_RTOL)
+
+
+def test_draw_kernel_matches_sample_poses(k):
+    rng = np.random.default_rng(2)
+    n = 200
+    mean = np.column_stack([rng.normal(0, 3, (n, 2)), rng.uniform(-np.pi, np.pi, n)])
+    a = rng.normal(0, 0.1, (n, 3, 3))
+    cov = a @ np.swapaxes(a, 1, 2)
+    cov[:5] = 0.0  # a proposal collapsed to a point: the jitter keeps it factorisable
+    reference = sample_poses(mean, cov, np.random.default_rng(7))
+    normals = np.random.default_rng(7).standard_normal(mean.shape)
+    out = np.empty_like(mean)
+    k.cholesky_draws(mean, cov, normals, _JITTER, out)
+    np.testing.assert_allclose(out, reference, rtol=KERNEL_RTOL, atol=1e-13)
+
+
+def test_odometry_prediction_kernel_matches_the_motion_model(k):
+    rng = np.random.default_rng(3)
+    model = OdometryMotionModel(MotionNoise(a_vv=0.1, a_vw=0.05, a_wv=0.02, a_ww=0.1))
+    wTr = np.column_stack([rng.normal(0, 3, (50, 2)), rng.uniform(-np.pi, np.pi, 50)])
+    for delta in ([0.3, 0.02, 0.1], [-0.2, 0.0, -0.4], [0.0, 0.0, 0.5]):
+        mean, cov = model.predict(wTr, None, np.array(delta))
+        rot1, trans, rot2 = model.decompose(np.array(delta))
+        variances = model.component_sigmas(np.array([rot1, trans, rot2])) ** 2
+        out_mean, out_cov = np.empty((50, 3)), np.empty((50, 3, 3))
+        k.odometry_prediction(wTr, rot1, trans, rot2, variances, out_mean, out_cov)
+        np.testing.assert_allclose(out_mean, mean, rtol=KERNEL_RTOL, atol=1e-14)
+        np.testing.assert_allclose(out_cov, cov, rtol=KERNEL_RTOL, atol=1e-20)
+
+
+def test_weighted_moments_kernel_matches_the_particle_set(k):
+    rng = np.random.default_rng(4)
+    particles = ParticleSet(
+        np.column_stack([rng.normal(0, 1, (64, 2)), rng.normal(3.1, 0.2, 64)])  # near +-pi
+    )
+    particles.reweight(rng.normal(0, 2, 64))
+    mean, cov = np.empty(3), np.empty((3, 3))
+    k.weighted_moments(particles.weights, particles.poses, mean, cov)
+    expected = particles.mean_pose()
+    np.testing.assert_allclose(mean, expected, rtol=KERNEL_RTOL)
+    np.testing.assert_allclose(cov, particles.pose_covariance(expected), rtol=1e-10)
+
+
+@pytest.mark.parametrize("layout", list(TreeLayout))
+def test_tree_kernels_give_the_same_maps_and_counts(k, layout):
+    """Random writes, reads and resamplings on two trees, one walking with the kernels: the
+    same maps after every operation and the same node counts."""
+    rng = np.random.default_rng(5)
+    p = 12
+    trees = [
+        LandmarkTree(p, 2, 0, initial_capacity=4, layout=layout),
+        LandmarkTree(p, 2, 0, initial_capacity=4, layout=layout, kernels=k),
+    ]
+    for step in range(60):
+        if step % 7 == 0:
+            count = int(rng.integers(1, 6))
+            for tree in trees:
+                tree.add_landmarks(count)
+        m = trees[0].n_landmarks
+        n = int(rng.integers(1, p * min(m, 4) + 1))
+        keys = rng.choice(p * m, size=n, replace=False)
+        who, slots = keys // m, keys % m
+        block = LandmarkBlock.empty(n, 2, 0)
+        block.mean[:] = rng.normal(size=(n, 2))
+        block.cov[:] = rng.normal(size=(n, 2, 2))
+        block.status[:] = LandmarkStatus.ESTIMATED
+        block.existence[:] = rng.integers(0, 9, n)
+        for tree in trees:
+            tree.scatter(who, slots, block)
+        if step % 3 == 0:
+            ancestors = np.sort(rng.integers(0, p, p))
+            for tree in trees:
+                tree.resample(ancestors)
+        probe_who, probe_slots = rng.integers(0, p, 30), rng.integers(0, m, 30)
+        a, b = (tree.gather(probe_who, probe_slots) for tree in trees)
+        for name in ("mean", "cov", "status", "existence"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    for particle in range(p):
+        a, b = (tree.particle_map(particle) for tree in trees)
+        np.testing.assert_array_equal(a.mean, b.mean)
+        np.testing.assert_array_equal(a.status, b.status)
+    assert trees[0].nodes_allocated == trees[1].nodes_allocated
+    assert trees[0].node_visits == trees[1].node_visits
+    assert trees[0].live_nodes() == trees[1].live_nodes()
+
+
+def _run(config, frames, modality, initial_pose=None):
+    slam = make_fastslam(config, modality, np.random.default_rng(11), initial_pose)
+    for frame in frames:
+        slam.step(frame)
+    return slam
+
+
+def _assert_same_run(numpy_run, kernel_run, atol):
+    assert numpy_run.resample_count == kernel_run.resample_count
+    np.testing.assert_array_equal(numpy_run.diversity.distinct, kernel_run.diversity.distinct)
+    a, b = numpy_run.estimate(), kernel_run.estimate()
+    np.testing.assert_allclose(a.trajectory.se2, b.trajectory.se2, rtol=0, atol=atol)
+    np.testing.assert_array_equal(a.landmark_ids, b.landmark_ids)
+    np.testing.assert_allclose(a.landmarks_w, b.landmarks_w, rtol=0, atol=atol)
+    np.testing.assert_allclose(a.pose_covariances, b.pose_covariances, rtol=1e-6, atol=1e-18)
+
+
+@pytest.mark.parametrize("variant", list(Variant))
+@pytest.mark.parametrize("unknown_ids", [False, True])
+def test_range_bearing_runs_agree_on_both_paths(variant, unknown_ids):
+    frames = make_scenario(3, steps=120, unknown_ids=unknown_ids).frames
+    config = FastSLAMConfig(variant=variant, n_particles=30, motion_noise=SCENARIO_NOISE)
+    runs = [
+        _run(config.with_(kernels=kernels), frames, Modality.RANGE_BEARING_2D)
+        for kernels in (Kernels.NUMPY, Kernels.NUMBA)
+    ]
+    _assert_same_run(*runs, RUN_ATOL)
+
+
+@pytest.mark.parametrize("variant", list(Variant))
+def test_bearing_runs_agree_on_both_paths(variant):
+    """3-D: the tree, the draws and the motion prediction run compiled; the bearing EKF and its
+    gated proposal stay numpy."""
+    frames = make_bearing_scenario(2, steps=60).frames
+    config = FastSLAMConfig(
+        variant=variant,
+        n_particles=10,
+        motion_noise=BEARING_SCENARIO_NOISE,
+        sensor_height_m=SENSOR_HEIGHT_M,
+    )
+    runs = [
+        _run(config.with_(kernels=kernels), frames, Modality.BEARINGS_3D)
+        for kernels in (Kernels.NUMPY, Kernels.NUMBA)
+    ]
+    _assert_same_run(*runs, RUN_ATOL)
+
+
+def test_numba_choice_without_numba_names_the_extra(monkeypatch):
+    monkeypatch.setattr(kernel_module, "_COMPILED", None)
+    monkeypatch.setattr(kernel_module, "available", lambda: False)
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_numba(name, *args, **kwargs):
+        if name == "numba" or name.startswith("numba."):
+            raise ImportError("no numba here")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_numba)
+    assert kernel_module.resolve(Kernels.AUTO) is None  # AUTO falls back to numpy
+    assert kernel_module.resolve(Kernels.NUMPY) is None
+    with pytest.raises(MissingExtraError, match=r"omnislam\[fast\]"):
+        kernel_module.resolve(Kernels.NUMBA)
