@@ -87,8 +87,14 @@ SIGMA_BEARING_RAD = 0.011
 #: delay applied; squared Mahalanobis distances capped at 25 against outliers). Commanded
 #: velocities know nothing of slip, bumps or the delay's jitter: 1.3-7x the shared default
 #: motion noise, under which the frame-to-frame NEES has a median of 15 (3 dof; 2.4 expected)
-#: and an outlier gate rejects most of the correct sightings after a sparse stretch.
-ODOMETRY_NOISE = MotionNoise(a_vv=0.063, a_vw=0.227, a_wv=0.059, a_ww=0.367)
+#: and an outlier gate rejects most of the correct sightings after a sparse stretch. Floor of
+#: 1 mm / 1 mrad per step: frames sit at sighting times, some only ~10 ms apart, and a step of
+#: 0.07 mm and 9 urad with the model's own 0.1 mrad floor made iSAM2's Cholesky throw
+#: "Indeterminate linear system" once on every robot (recovered by the QR rebuild; ATE within
+#: 0.5 mm with the floor, ``omnislam run mrclam6-rK --estimator graphslam``).
+ODOMETRY_NOISE = MotionNoise(
+    a_vv=0.063, a_vw=0.227, a_wv=0.059, a_ww=0.367, min_sigma=(1e-3, 1e-3, 1e-3)
+)
 
 #: plausible commanded speeds of an iRobot Create (it tops out at 0.5 m/s; dataset 6 commands
 #: at most 0.6 m/s and 0.6 rad/s): anything outside is a corrupt file, not a fast robot
@@ -96,6 +102,10 @@ MAX_SPEED_M_S = 5.0
 MAX_TURN_RATE_RAD_S = 10.0
 #: plausible sighting range [m] (the room is 15 m x 8 m)
 MAX_RANGE_M = 100.0
+#: plausible |bearing| of a landmark sighting [rad]: the camera sees about +-0.575 rad (dataset
+#: 6: at most 0.592); beyond 1 rad the file is not a camera's, and its "range" column cannot be
+#: the optical-axis depth (``DEPTH_BIAS_M``; cos(bearing) would reach 0 and turn negative)
+MAX_BEARING_RAD = 1.0
 
 #: the odometry may end this much before the last sighting [s] (dataset 6: it ends after it)
 ODOMETRY_END_TOLERANCE_S = 0.5
@@ -173,7 +183,8 @@ def read_robot_measurements(path: Path, barcodes: dict[int, int]) -> Sightings:
 
     Raises:
         DataError: malformed file, no sightings at all (empty or header only), a negative or
-            implausible range (naming the line).
+            implausible range, a landmark bearing outside the camera's field of view (naming
+            the line).
     """
     columns = ("time[s]", "barcode", "range[m]", "bearing[rad]")
     table = read_table(path, columns, min_rows=1)
@@ -188,6 +199,14 @@ def read_robot_measurements(path: Path, barcodes: dict[int, int]) -> Sightings:
     if np.any(values[keep, 2] < 0):
         row = int(np.argmax(keep & (values[:, 2] < 0)))
         raise DataError(f"{table.where(row)}: negative range", path)
+    outside = keep & (np.abs(values[:, 3]) > MAX_BEARING_RAD)
+    if np.any(outside):
+        row = int(np.argmax(outside))
+        raise DataError(
+            f"{table.where(row)}: bearing {values[row, 3]:g} rad outside the camera's field of "
+            f"view (|bearing| <= {MAX_BEARING_RAD:g} rad)",
+            path,
+        )
     return Sightings(
         stamps_s=values[keep, 0],
         landmark_ids=subjects[keep],
