@@ -85,6 +85,7 @@ class RangeBearingGraph:
             else None
         )
         self._rejected = 0
+        self._in_graph: dict[int, int] = {}  # landmark id -> its sightings in the graph
         self._registry = LandmarkRegistry()
         self._window = (
             WindowAssociation(config, session, self._registry, self._tentative, self._pose_of)
@@ -118,8 +119,11 @@ class RangeBearingGraph:
         mapped = np.array(
             [not u and lid in self._registry for u, lid in zip(unknown, ids.tolist(), strict=True)]
         )
-        if mapped.any() and k > 0 and self._outlier_gate < np.inf:
-            rows = np.flatnonzero(mapped)
+        established = mapped & np.array(
+            [self._in_graph.get(lid, 0) >= self._config.outlier_gate_min_sightings for lid in ids]
+        )
+        if established.any() and k > 0 and self._outlier_gate < np.inf:
+            rows = np.flatnonzero(established)
             ids[rows[~self._gate_mapped(k, rows, sightings, guess_w)]] = UNKNOWN_ID
         for i, (lid, r, b, s_r, s_b) in enumerate(
             zip(
@@ -136,6 +140,7 @@ class RangeBearingGraph:
             factor = fx.bearing_range_2d(k, lid, b, r, self._noise.diagonal(s_b, s_r))
             if lid in self._registry:
                 graph.add(factor)
+                self._in_graph[lid] += 1
                 continue
             if lid in created and self._tentative is not None:  # unlabelled: wait for more
                 row = unknown_row[i]
@@ -216,6 +221,7 @@ class RangeBearingGraph:
             factor = fx.bearing_range_2d(k, lid, rb.bearings_rad[i], rb.ranges_m[i], noise)
             if lid in self._registry:
                 graph.add(factor)
+                self._in_graph[lid] += 1
             elif self._tentative is not None:
                 commitment = self._tentative.add(lid, k, points[i], covs[i], factor)
                 if commitment is not None:
@@ -259,6 +265,7 @@ class RangeBearingGraph:
         """A landmark enters the graph at ``point_w`` (2,) with its factors."""
         values.insert(fx.landmark_key(lid), gtsam.Point2(point_w))
         self._registry.add(lid, point_w)
+        self._in_graph[lid] = len(factors)
         for factor in factors:
             graph.add(factor)
 
