@@ -158,8 +158,10 @@ class GraphSLAMConfig:
             guess, with the covariance of the guess and the landmark read from iSAM2
             (``joint_state.py``), beyond the chi-square quantile drops the sighting. 1.0
             disables it.
-        outlier_gate_min_sightings: the outlier gate tests only sightings of landmarks with at
-            least this many sightings in the graph (default 20). A young landmark's iSAM2
+        outlier_gate_min_sightings: sightings of landmarks with fewer sightings in the graph
+            are gated 10 times wider (``range_bearing.YOUNG_GATE_FACTOR``; default 20): a
+            wrong id among a landmark's first sightings is still hundreds of sigmas off (the
+            20%-wrong-ids test of ``tests/graphslam/test_isam.py``). A young landmark's iSAM2
             marginal is linearised where its first sightings put it: with Victoria Park's
             0.2 rad bearing noise the gate then rejected its re-sightings (range innovations of
             3-4 m against a predicted 0.7 m std), each rejection leaving it worse placed, and

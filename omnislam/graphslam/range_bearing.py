@@ -47,6 +47,11 @@ from omnislam.graphslam.window_association import Decided, WindowAssociation
 
 gtsam = require("gtsam")
 
+#: a landmark with fewer than ``GraphSLAMConfig.outlier_gate_min_sightings`` sightings in the
+#: graph is gated at this many times the outlier gate's squared distance: its linearised
+#: marginal is not trusted near the gate, a sighting hundreds of sigmas off still is rejected
+YOUNG_GATE_FACTOR = 10.0
+
 #: first id given to a landmark created by the association of unlabelled sightings
 CREATED_ID_BASE = 1_000_000_000
 
@@ -119,12 +124,16 @@ class RangeBearingGraph:
         mapped = np.array(
             [not u and lid in self._registry for u, lid in zip(unknown, ids.tolist(), strict=True)]
         )
-        established = mapped & np.array(
-            [self._in_graph.get(lid, 0) >= self._config.outlier_gate_min_sightings for lid in ids]
-        )
-        if established.any() and k > 0 and self._outlier_gate < np.inf:
-            rows = np.flatnonzero(established)
-            ids[rows[~self._gate_mapped(k, rows, sightings, guess_w)]] = UNKNOWN_ID
+        if mapped.any() and k > 0 and self._outlier_gate < np.inf:
+            rows = np.flatnonzero(mapped)
+            young = np.array(
+                [
+                    self._in_graph.get(lid, 0) < self._config.outlier_gate_min_sightings
+                    for lid in ids[rows].tolist()
+                ]
+            )
+            gates = np.where(young, YOUNG_GATE_FACTOR * self._outlier_gate, self._outlier_gate)
+            ids[rows[~self._gate_mapped(k, rows, sightings, guess_w, gates)]] = UNKNOWN_ID
         for i, (lid, r, b, s_r, s_b) in enumerate(
             zip(
                 ids.tolist(),
@@ -230,7 +239,12 @@ class RangeBearingGraph:
                 self._insert(lid, points[i], (factor,), graph, values)
 
     def _gate_mapped(
-        self, k: int, rows: np.ndarray, sightings: RangeBearing, guess_w: np.ndarray
+        self,
+        k: int,
+        rows: np.ndarray,
+        sightings: RangeBearing,
+        guess_w: np.ndarray,
+        gates: np.ndarray,
     ) -> np.ndarray:
         """(len(rows),) True for the sightings ``rows`` of mapped landmarks inside the outlier gate.
 
@@ -257,7 +271,7 @@ class RangeBearingGraph:
                 [sightings.sigma_range_m[row] ** 2, sightings.sigma_bearing_rad[row] ** 2]
             )
         d2 = Pairings(nu, H, state.covariance, R).individual()[:, 0]
-        inside = d2 <= self._outlier_gate
+        inside = d2 <= gates
         self._rejected += int(np.sum(~inside))
         return inside
 
