@@ -106,7 +106,8 @@ def test_compare_shows_the_frames_the_workers_step(tmp_path):
     # what a worker process is doing, sent from inside its run
     assert any(re.search(rf"- ekfslam \d+/{_frames(data)}", x) for x in lines), err
     assert any(re.search(r"- deadreckoning loading", x) for x in lines), err
-    assert re.search(r"2/2 cells, 122/122 frame \(100%\).*done in", lines[-1]), lines[-1]
+    n = 2 * _frames(data)  # two cells
+    assert re.search(rf"2/2 cells, {n}/{n} frame \(100%\).*done in", lines[-1]), lines[-1]
 
 
 def _report(address: str, key: bytes, frames: int) -> None:
