@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from omnislam.core.ackermann import integrate_unicycle
+from omnislam.core.motion import MotionNoise, OdometryMotionModel
 from omnislam.core.se import wrap_angle
 from omnislam.core.types import PriorMap, Trajectory
 from omnislam.datasets._common import (
@@ -56,13 +57,44 @@ ROBOT_SUBJECTS = 5
 #: Vicon samples further apart than this do not bracket a frame stamp (dropout) [s]
 VICON_MAX_GAP_S = 0.5
 
-#: Default sighting noise, measured on dataset 6: the robust spread (1.4826 x MAD) of the
-#: residuals against Vicon poses and surveyed landmarks is 0.08-0.18 m in range and
-#: 0.006-0.011 rad in bearing over robots 1-5 (tests/datasets/test_mrclam.py recomputes it for
-#: robot 1). The defaults cover the worst robot and, for bearing, the heavier tails. The range
-#: bias of about +4 cm (Leung et al. 2011; median residual here +0.04 m) is left in the data.
-SIGMA_RANGE_M = 0.15
-SIGMA_BEARING_RAD = 0.02
+#: The "range" column is the landmark's *depth along the camera's optical axis*, not its
+#: distance: the camera infers it from the barcode's apparent height, which gives the pinhole
+#: depth z = r cos(bearing). Measured on dataset 6 against Vicon poses and surveyed landmarks
+#: (robots 1-5): range residuals fall from a median of +0.07..+0.15 m at |bearing| < 0.2 rad to
+#: -0.3..-0.55 m at the edge of the field of view (|bearing| > 0.45 rad, where every
+#: "range-only" outlier of the file lies), while depth residuals are flat in bearing; their
+#: robust spread is 0.022-0.050 m against 0.08-0.18 m for ranges. The depths carry a bias of
+#: +0.09..+0.18 m per robot (median over all sightings +0.117 m): the loader converts
+#: range = (depth - DEPTH_BIAS_M) / cos(bearing). ``tests/datasets/test_mrclam.py`` recomputes
+#: both facts on robot 1.
+DEPTH_BIAS_M = 0.12
+
+#: The commanded velocities lead the motion by ~0.2 s: the yaw rate they command matches the
+#: Vicon yaw rate best (rms 0.077-0.091 rad/s against 0.103-0.137 unshifted) when shifted by
+#: +0.2 s on each of robots 1-5. The loader integrates them from their stamps + this delay.
+COMMAND_DELAY_S = 0.2
+
+#: Default sighting noise after the conversion, measured on dataset 6 (1.4826 x MAD of the
+#: residuals against Vicon, robots 1-5): 0.03-0.09 m in range (growing with range, and with a
+#: per-robot scale error of up to 3 %: robot 2) and 0.006-0.011 rad in bearing (robot 4 carries
+#: a -0.014 rad bias). The defaults cover the spread of the robots together.
+SIGMA_RANGE_M = 0.06
+SIGMA_BEARING_RAD = 0.011
+
+#: The noise of the commanded odometry, stated with every frame (``Sequence.odometry_covariance_r``
+#: from ``OdometryMotionModel.covariance``, thesis eq. 4.41): the alpha coefficients fitted by
+#: maximum likelihood to the frame-to-frame odometry errors against Vicon (robots 1-5, the
+#: delay applied; squared Mahalanobis distances capped at 25 against outliers). Commanded
+#: velocities know nothing of slip, bumps or the delay's jitter: 1.3-7x the shared default
+#: motion noise, under which the frame-to-frame NEES has a median of 15 (3 dof; 2.4 expected)
+#: and an outlier gate rejects most of the correct sightings after a sparse stretch. Floor of
+#: 1 mm / 1 mrad per step: frames sit at sighting times, some only ~10 ms apart, and a step of
+#: 0.07 mm and 9 urad with the model's own 0.1 mrad floor made iSAM2's Cholesky throw
+#: "Indeterminate linear system" once on every robot (recovered by the QR rebuild; ATE within
+#: 0.5 mm with the floor, ``omnislam run mrclam6-rK --estimator graphslam``).
+ODOMETRY_NOISE = MotionNoise(
+    a_vv=0.063, a_vw=0.227, a_wv=0.059, a_ww=0.367, min_sigma=(1e-3, 1e-3, 1e-3)
+)
 
 #: plausible commanded speeds of an iRobot Create (it tops out at 0.5 m/s; dataset 6 commands
 #: at most 0.6 m/s and 0.6 rad/s): anything outside is a corrupt file, not a fast robot
@@ -70,6 +102,10 @@ MAX_SPEED_M_S = 5.0
 MAX_TURN_RATE_RAD_S = 10.0
 #: plausible sighting range [m] (the room is 15 m x 8 m)
 MAX_RANGE_M = 100.0
+#: plausible |bearing| of a landmark sighting [rad]: the camera sees about +-0.575 rad (dataset
+#: 6: at most 0.592); beyond 1 rad the file is not a camera's, and its "range" column cannot be
+#: the optical-axis depth (``DEPTH_BIAS_M``; cos(bearing) would reach 0 and turn negative)
+MAX_BEARING_RAD = 1.0
 
 #: the odometry may end this much before the last sighting [s] (dataset 6: it ends after it)
 ODOMETRY_END_TOLERANCE_S = 0.5
@@ -147,7 +183,8 @@ def read_robot_measurements(path: Path, barcodes: dict[int, int]) -> Sightings:
 
     Raises:
         DataError: malformed file, no sightings at all (empty or header only), a negative or
-            implausible range (naming the line).
+            implausible range, a landmark bearing outside the camera's field of view (naming
+            the line).
     """
     columns = ("time[s]", "barcode", "range[m]", "bearing[rad]")
     table = read_table(path, columns, min_rows=1)
@@ -162,6 +199,14 @@ def read_robot_measurements(path: Path, barcodes: dict[int, int]) -> Sightings:
     if np.any(values[keep, 2] < 0):
         row = int(np.argmax(keep & (values[:, 2] < 0)))
         raise DataError(f"{table.where(row)}: negative range", path)
+    outside = keep & (np.abs(values[:, 3]) > MAX_BEARING_RAD)
+    if np.any(outside):
+        row = int(np.argmax(outside))
+        raise DataError(
+            f"{table.where(row)}: bearing {values[row, 3]:g} rad outside the camera's field of "
+            f"view (|bearing| <= {MAX_BEARING_RAD:g} rad)",
+            path,
+        )
     return Sightings(
         stamps_s=values[keep, 0],
         landmark_ids=subjects[keep],
@@ -170,6 +215,15 @@ def read_robot_measurements(path: Path, barcodes: dict[int, int]) -> Sightings:
         robot_sightings=int(np.sum(robots)),
         unknown_barcodes={int(c): int(n) for c, n in zip(missing, counts, strict=True)},
     )
+
+
+def ranges_from_depths(depths_m: np.ndarray, bearings_rad: np.ndarray) -> np.ndarray:
+    """Ranges [m] of landmarks whose optical-axis depths [m] and bearings [rad] were measured.
+
+    range = (depth - DEPTH_BIAS_M) / cos(bearing) (see ``DEPTH_BIAS_M``); the field of view
+    (about +-0.575 rad) keeps cos(bearing) above 0.8.
+    """
+    return (np.asarray(depths_m) - DEPTH_BIAS_M) / np.cos(np.asarray(bearings_rad))
 
 
 def is_mrclam_folder(path: Path) -> bool:
@@ -189,6 +243,9 @@ def load_mrclam(
     association: Association = Association.KNOWN,
     sigma_range_m: float = SIGMA_RANGE_M,
     sigma_bearing_rad: float = SIGMA_BEARING_RAD,
+    depth_ranges: bool = True,
+    command_delay_s: float = COMMAND_DELAY_S,
+    odometry_noise: bool = True,
     name: str | None = None,
 ) -> Sequence:
     """Load one robot of an MR.CLAM dataset folder as a Sequence.
@@ -199,6 +256,11 @@ def load_mrclam(
         association: KNOWN keeps the landmark ids in the sightings (ground truth keeps them
             always), UNKNOWN hides them from the estimators.
         sigma_range_m, sigma_bearing_rad: sighting noise given to the estimators.
+        depth_ranges: convert the file's optical-axis depths into ranges (``DEPTH_BIAS_M``);
+            False keeps the column as it is.
+        command_delay_s: delay of the commanded velocities (``COMMAND_DELAY_S``) [s].
+        odometry_noise: state the odometry covariance of every frame (``ODOMETRY_NOISE``);
+            False leaves it to each estimator's motion model.
         name: sequence name (default ``<folder>-r<robot>``).
 
     Returns:
@@ -235,13 +297,24 @@ def load_mrclam(
     early = sightings.stamps_s < start_s
     stamps = sightings.stamps_s[~early]
     frame_stamps = np.unique(np.concatenate([[start_s], stamps]))
-    poses_odom = integrate_unicycle(odometry[:, 0], odometry[:, 1], odometry[:, 2], frame_stamps)
+    poses_odom = integrate_unicycle(
+        odometry[:, 0] + command_delay_s, odometry[:, 1], odometry[:, 2], frame_stamps
+    )
+    odometry_r = odometry_from_poses(poses_odom)
+    odometry_cov = None
+    if odometry_noise:
+        model = OdometryMotionModel(ODOMETRY_NOISE)
+        odometry_cov = np.array([model.covariance(delta) for delta in odometry_r])
+    bearings = sightings.bearings_rad[~early]
+    ranges = sightings.ranges_m[~early]
+    if depth_ranges:
+        ranges = ranges_from_depths(ranges, bearings)
     range_bearing = group_sightings(
         frame_stamps,
         stamps,
         sightings.landmark_ids[~early],
-        sightings.ranges_m[~early],
-        sightings.bearings_rad[~early],
+        ranges,
+        bearings,
         sigma_range_m,
         sigma_bearing_rad,
         association,
@@ -294,13 +367,17 @@ def load_mrclam(
         "association": association.value,
         "sigma_range_m": str(sigma_range_m),
         "sigma_bearing_rad": str(sigma_bearing_rad),
+        "ranges": f"(depth - {DEPTH_BIAS_M} m) / cos(bearing)" if depth_ranges else "as recorded",
+        "command_delay_s": str(command_delay_s),
+        "odometry_noise": "stated (ODOMETRY_NOISE)" if odometry_noise else "not stated",
         "robot_frame": "robot centre (Vicon frame), x forward",
     }
     return Sequence(
         name=name or f"{folder.name}-r{robot}",
         source=SOURCE,
         stamps_s=frame_stamps,
-        odometry_r=odometry_from_poses(poses_odom),
+        odometry_r=odometry_r,
+        odometry_covariance_r=odometry_cov,
         ground_truth=ground_truth,
         initial_pose_w=initial_pose,
         range_bearing=range_bearing,

@@ -22,6 +22,13 @@ from omnislam.datasets.sequence import GroundTruthKind, Sequence
 from omnislam.errors import ConfigError, DataError
 
 
+def _bool(text: str) -> bool:
+    lowered = text.strip().lower()
+    if lowered not in {"true", "false", "1", "0", "yes", "no"}:
+        raise ValueError(f"expected true/false, got {text!r}")
+    return lowered in {"true", "1", "yes"}
+
+
 def _positive_float(text: str) -> float:
     value = float(text)
     if not value > 0:
@@ -85,6 +92,9 @@ FORMATS: dict[DatasetFormat, FormatSpec] = {
             "association": Association.parse,
             "sigma_range_m": _positive_float,
             "sigma_bearing_rad": _positive_float,
+            "depth_ranges": _bool,
+            "command_delay_s": float,
+            "odometry_noise": _bool,
         },
     ),
     DatasetFormat.VICTORIA_PARK: FormatSpec(

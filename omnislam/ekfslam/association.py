@@ -12,6 +12,12 @@ it is kept outside the filter state (``TentativeLandmarks``), matched by the sam
 positions, and enters the state at its N-th sighting. A tentative landmark not re-observed
 within a window of frames is dropped. ``nearest_gated`` chooses among landmarks of the state,
 ``TentativeLandmarks`` holds the others.
+
+With the joint test (``EKFSLAMConfig.association_test = "joint"``, the default) the frame's
+sightings of unknown id are associated together (``core.compatibility.jcbb``, Neira & Tardos
+2001) against the state landmarks and the tentative ones: ``frame_pairings`` builds the
+linearised predictions from the filter's own P (robot and candidate blocks with their
+cross-covariances); tentative candidates join with their own covariance, independent of the rest.
 """
 
 from __future__ import annotations
@@ -20,7 +26,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from omnislam.core.compatibility import Pairings
 from omnislam.core.gaussian import mahalanobis_squared
+from omnislam.core.measurement import RangeBearing2D
 
 
 def nearest_gated(d2: np.ndarray, gate: float) -> int | None:
@@ -95,3 +103,30 @@ class TentativeLandmarks:
         if stale:
             self.remove(stale)
         return len(stale)
+
+
+def frame_pairings(
+    x_r: np.ndarray,
+    P_sub: np.ndarray,
+    landmarks_w: np.ndarray,
+    z: np.ndarray,
+    R: np.ndarray,
+    model: RangeBearing2D,
+) -> Pairings:
+    """The linearised predictions of one frame's K sightings against M candidates.
+
+    Args:
+        x_r: (3,) robot pose.
+        P_sub: (3 + 2M, 3 + 2M) covariance of [robot, candidate 1, ..., candidate M].
+        landmarks_w: (M, 2) candidate positions.
+        z: (K, 2) sightings (range, bearing); R: (K, 2, 2) their noise.
+        model: the range-bearing model.
+    """
+    m, k = len(landmarks_w), len(z)
+    z_hat, H_r, H_l = model.predict(np.broadcast_to(x_r, (m, 3)), landmarks_w)
+    nu = model.residual(z[:, None, :], z_hat[None, :, :])
+    H = np.zeros((k, m, 2, 3 + 2 * m))
+    H[:, :, :, :3] = H_r[None]
+    for j in range(m):
+        H[:, j, :, 3 + 2 * j : 5 + 2 * j] = H_l[j]
+    return Pairings(nu, H, P_sub, R)

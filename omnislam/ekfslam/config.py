@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+from omnislam.core.gating import OUTLIER_GATE_PROBABILITY
 from omnislam.core.motion import MotionNoise
 from omnislam.errors import ConfigError
 
@@ -39,9 +40,17 @@ class EKFSLAMConfig:
             sighting. 1: every unmatched sighting becomes a landmark at once.
         tentative_window_frames: a tentative landmark not re-observed within this many frames
             is dropped (a spurious detection).
-        known_gate_probability: an optional outlier gate for sightings *with* ids: an update
-            whose innovation lies outside the chi-square quantile of this probability is
-            skipped. 1.0 (default): ids are trusted and every sighting is used.
+        known_gate_probability: the outlier gate for sightings *with* ids: an update whose
+            innovation lies outside the chi-square quantile of this probability (2 dof, under
+            the filter's own S = H P H^T + R) is skipped. Default
+            ``core.gating.OUTLIER_GATE_PROBABILITY`` (0.999, the same as every Gaussian back
+            end); 1.0 trusts every id.
+        association_test: "joint" (default): a frame's sightings of unknown id against the
+            state landmarks by joint compatibility (JCBB, Neira & Tardos 2001) with the filter's
+            P; "nearest": the tutorial's sequential nearest neighbour.
+        ambiguity_margin: with "joint", a pairing that the second-best hypothesis (as many
+            pairings) makes differently is dropped as ambiguous unless its joint D2 exceeds
+            the best's by this margin (default 2 ln 10 = 4.6; ``core.compatibility.decide``).
         ignore_ids: treat every sighting as of unknown id (nearest-neighbour association even
             when the data carry ids).
         initial_landmark_capacity: landmark slots preallocated in the state; the arrays double
@@ -67,7 +76,9 @@ class EKFSLAMConfig:
     new_landmark_gate_probability: float = 0.99999
     min_sightings: int = 2
     tentative_window_frames: int = 20
-    known_gate_probability: float = 1.0
+    known_gate_probability: float = OUTLIER_GATE_PROBABILITY
+    association_test: str = "joint"
+    ambiguity_margin: float = 4.6
     ignore_ids: bool = False
     initial_landmark_capacity: int = 64
     sensor_height_m: float = 0.0
@@ -88,6 +99,12 @@ class EKFSLAMConfig:
             raise ConfigError(
                 f"known_gate_probability must be in (0, 1], got {self.known_gate_probability}"
             )
+        if self.association_test not in ("joint", "nearest"):
+            raise ConfigError(
+                f"association_test must be 'joint' or 'nearest', got {self.association_test!r}"
+            )
+        if self.ambiguity_margin < 0:
+            raise ConfigError(f"ambiguity_margin must be >= 0, got {self.ambiguity_margin}")
         if self.min_sightings < 1:
             raise ConfigError(f"min_sightings must be >= 1, got {self.min_sightings}")
         if self.tentative_window_frames < 1:

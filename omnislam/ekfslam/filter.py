@@ -18,11 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from omnislam.core.compatibility import Decision, decide, jcbb
 from omnislam.core.gating import chi_square_gate
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.types import UNKNOWN_ID, Estimate, FrameInput, RangeBearing, Trajectory
-from omnislam.ekfslam.association import TentativeLandmarks, nearest_gated
+from omnislam.ekfslam.association import TentativeLandmarks, frame_pairings, nearest_gated
 from omnislam.ekfslam.config import EKFSLAMConfig
 from omnislam.ekfslam.state import SlamGaussian
 
@@ -175,6 +176,7 @@ class EKFSLAM:
         new_known: list[tuple[int, int]] = []  # (row, id) of ids not in the state yet
         unmatched: list[int] = []  # rows of unknown-id sightings outside every gate
         used: set[int] = set()  # state slots updated in this frame (one sighting each)
+        unknown_rows: list[int] = []  # sightings of unknown id for the joint test
         for row, landmark_id in enumerate(ids.tolist()):
             z, R = z_all[row], R_all[row]
             if landmark_id != UNKNOWN_ID:
@@ -190,6 +192,9 @@ class EKFSLAM:
                         continue
                 state.update(slot, z, R)
                 self._counts["associated"] += 1
+                continue
+            if self.config.association_test == "joint":
+                unknown_rows.append(row)
                 continue
             free = np.ones(state.n_landmarks, dtype=bool)
             free[list(used)] = False
@@ -207,12 +212,61 @@ class EKFSLAM:
             used.add(slot)
             state.update(slot, z, R)
             self._counts["associated"] += 1
+        if unknown_rows:
+            unmatched += self._joint_step(unknown_rows, z_all, R_all, used)
         if len(sightings):
             state.symmetrise()
         # Passo 3: new landmarks, from the pose corrected by this frame's updates
         for row, landmark_id in new_known:
             self._add_landmark(z_all[row], R_all[row], landmark_id)
         self._tentative_step(unmatched, z_all, R_all)
+
+    def _joint_step(
+        self, rows: list[int], z_all: np.ndarray, R_all: np.ndarray, used: set[int]
+    ) -> list[int]:
+        """The frame's sightings of unknown id by joint compatibility (``association``).
+
+        Candidates: state landmarks not updated by an id this frame whose individual distance
+        to some sighting is within 4x the new-landmark gate. PAIRED sightings update the state;
+        NEW ones go to the tentative landmarks (returned); AMBIGUOUS and REJECTED are dropped.
+
+        Returns:
+            the rows that start or re-observe a tentative landmark.
+        """
+        state = self.state
+        z, R = z_all[rows], R_all[rows]
+        free = np.setdiff1d(np.arange(state.n_landmarks), list(used))
+        if len(free):
+            d2 = np.array([state.mahalanobis_all(z[i], R[i], free)[0] for i in range(len(rows))])
+            free = free[d2.min(axis=0) <= 4.0 * self._new_gate]
+        if not len(free):
+            self._counts["gated"] += len(rows)
+            return list(rows)
+        cols = np.concatenate([np.arange(3), (3 + 2 * free[:, None] + np.arange(2)).ravel()])
+        pairings = frame_pairings(
+            state.pose, state.cov[np.ix_(cols, cols)], state.landmarks[free], z, R, self.model
+        )
+        result = jcbb(pairings, self.config.gate_probability)
+        decisions = decide(
+            result,
+            pairings.groups,
+            self._gate,
+            self._new_gate,
+            self.config.ambiguity_margin,
+        )
+        to_tentative: list[int] = []
+        for i, row in enumerate(rows):
+            if decisions[i] == Decision.PAIRED:
+                state.update(int(free[result.assignment[i]]), z[i], R[i])
+                self._counts["associated"] += 1
+            elif decisions[i] == Decision.NEW:  # outside every gate: a tentative landmark
+                self._counts["gated"] += 1
+                to_tentative.append(row)
+            elif decisions[i] == Decision.AMBIGUOUS:
+                self._counts["ambiguous"] += 1
+            else:
+                self._counts["gated"] += 1
+        return to_tentative
 
     def _tentative_step(self, rows: list[int], z_all: np.ndarray, R_all: np.ndarray) -> None:
         """Match unmatched sightings to tentative landmarks (the tutorial's counter); promote a

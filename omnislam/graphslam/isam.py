@@ -253,10 +253,24 @@ class GraphSLAM:
             return True
         return bool(np.hypot(*self._poses.since_key[:2]) >= spacing)
 
+    def finish(self) -> None:
+        """Decide the sightings the graph builder still holds back (the association window of
+        ``window_association.py``) and run one iSAM2 update with them.
+
+        Called by every read of the whole estimate; ``step`` may continue afterwards.
+        """
+        finish = getattr(self._graph, "finish", None)
+        if finish is None or self._frames == 0:
+            return
+        graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
+        if finish(graph, values):
+            self._session.update(graph, values, self._frames - 1)
+
     def estimate(self) -> Estimate:
         """The current iSAM2 estimate: all poses, all landmarks, covariances if configured."""
         if self._frames == 0:
             return _empty_estimate()
+        self.finish()
         covariance = self._session.marginal_covariance if self.config.compute_covariances else None
         return self._estimate_from(self._session.estimate(), covariance)
 
@@ -309,10 +323,12 @@ class GraphSLAM:
 
     def factor_graph(self) -> Any:
         """The ``gtsam.NonlinearFactorGraph`` of every factor added so far (iSAM2's own copy)."""
+        self.finish()
         return self._session.factors()
 
     def values(self) -> Any:
         """The current iSAM2 estimate as ``gtsam.Values`` (a full back-substitution)."""
+        self.finish()
         return self._session.estimate()
 
     def newest_pose(self) -> np.ndarray:

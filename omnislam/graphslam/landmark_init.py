@@ -176,19 +176,24 @@ class ConsistentInsertion:
     landmark initialised from a wrong first sighting sits metres away; a robust kernel then
     down-weights its *correct* sightings and iSAM2 can stay in that minimum. Waiting until
     sightings agree -- squared Mahalanobis distance ``(p_i - p_j)^T (C_i + C_j)^-1 (p_i - p_j)``
-    inside ``gate`` -- and starting at their mean avoids it. All held-back factors are released
-    (the robust kernel handles the disagreeing ones).
+    inside ``gate`` -- and starting at their mean avoids it. The agreeing sightings' factors
+    are released; the disagreeing ones too with ``release_disagreeing`` (a robust kernel then
+    handles them), else they are dropped and counted (``rejected``), as an outlier gate on the
+    landmark would have done.
 
     Args:
         min_consistent: agreeing sightings needed (1 inserts on the first sighting).
         gate: chi-square threshold on the squared distance (2 degrees of freedom).
+        release_disagreeing: release every held-back factor, not only the agreeing ones.
     """
 
-    def __init__(self, min_consistent: int, gate: float) -> None:
+    def __init__(self, min_consistent: int, gate: float, release_disagreeing: bool = True) -> None:
         self._min_consistent = min_consistent
         self._gate = gate
+        self._release_disagreeing = release_disagreeing
         self._pending: dict[int, tuple[list[np.ndarray], list[np.ndarray], list[Any]]] = {}
         self._inserted = 0
+        self.rejected = 0
 
     def hold(
         self, track_id: int, point_w: np.ndarray, covariance_w: np.ndarray, factor: Any
@@ -205,16 +210,19 @@ class ConsistentInsertion:
             return None
         points, covariances, factors = self._pending[track_id]
         newest, newest_cov = points[-1], covariances[-1]
-        agreeing = [
-            p
+        agrees = [
+            bool((d := p - newest) @ np.linalg.solve(c + newest_cov, d) <= self._gate)
             for p, c in zip(points, covariances, strict=True)
-            if (d := p - newest) @ np.linalg.solve(c + newest_cov, d) <= self._gate
         ]  # includes the newest itself (distance 0)
-        if len(agreeing) < self._min_consistent:
+        if sum(agrees) < self._min_consistent:
             return None
         del self._pending[track_id]
         self._inserted += 1
-        return Insertion(track_id, np.mean(agreeing, axis=0), factors)
+        point = np.mean([p for p, a in zip(points, agrees, strict=True) if a], axis=0)
+        if self._release_disagreeing:
+            return Insertion(track_id, point, factors)
+        self.rejected += len(agrees) - sum(agrees)
+        return Insertion(track_id, point, [f for f, a in zip(factors, agrees, strict=True) if a])
 
     def stats(self) -> DelayedInsertionStats:
         """Counts so far (no triangulation here: ``triangulations_rejected`` is 0)."""

@@ -136,6 +136,22 @@ class PoseChain(abc.ABC):
         """(3,) the odometry folded in since the newest key frame [x, y, theta] (do not modify)."""
         return self._since_key
 
+    def odometry_step(self) -> tuple[int, np.ndarray, np.ndarray]:
+        """(newest key frame, delta (3,), covariance (3, 3)) of the odometry since it.
+
+        The frame being added is the newest key frame's estimate composed with ``delta``
+        (``guess_w``); the association propagates that key frame's uncertainty to the guess with
+        the composed odometry's covariance (``core.motion.compose_odometry``, raised to the
+        ``odometry_min_sigma_m`` floor). Call after ``fold`` and before ``read_newest``.
+        """
+        return (
+            self._newest_key,
+            self._since_key.copy(),
+            fx.condition_odometry_covariance(
+                self._since_key_cov, self._config.odometry_min_sigma_m
+            ),
+        )
+
     def fold(self, k: int, frame: FrameInput) -> np.ndarray:
         """Fold frame k's odometry into the odometry since the newest key frame; set its guess.
 

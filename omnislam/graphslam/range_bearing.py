@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 
 from omnislam._optional import require
+from omnislam.core.compatibility import Decision, Pairings
+from omnislam.core.gating import chi_square_gate
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
 from omnislam.core.types import UNKNOWN_ID, RangeBearing
@@ -35,13 +37,20 @@ from omnislam.graphslam.association import (
     sighting_points,
 )
 from omnislam.graphslam.builder import LandmarkRegistry, SightingCounts
-from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.config import AssociationTest, GraphSLAMConfig
+from omnislam.graphslam.joint_state import joint_state
 from omnislam.graphslam.landmark_init import ConsistentInsertion
 from omnislam.graphslam.poses import PlanarPoses
 from omnislam.graphslam.session import ISAM2Session
 from omnislam.graphslam.tentative import TentativeLandmarks, TentativeStats
+from omnislam.graphslam.window_association import Decided, WindowAssociation
 
 gtsam = require("gtsam")
+
+#: a landmark with fewer than ``GraphSLAMConfig.outlier_gate_min_sightings`` sightings in the
+#: graph is gated at this many times the outlier gate's squared distance: its linearised
+#: marginal is not trusted near the gate, a sighting hundreds of sigmas off still is rejected
+YOUNG_GATE_FACTOR = 10.0
 
 #: first id given to a landmark created by the association of unlabelled sightings
 CREATED_ID_BASE = 1_000_000_000
@@ -69,15 +78,27 @@ class RangeBearingGraph:
         self._gates = Gates.from_probabilities(
             config.association_gate_probability, config.new_landmark_probability
         )
-        self._consistent = ConsistentInsertion(config.min_consistent_sightings, self._gates.match)
+        self._outlier_gate = chi_square_gate(config.outlier_gate_probability, 2)
+        self._consistent = ConsistentInsertion(
+            config.min_consistent_sightings,
+            self._gates.match,
+            release_disagreeing=not np.isfinite(self._outlier_gate),
+        )
         self._tentative = (
             TentativeLandmarks(config.association_min_sightings, config.association_window_frames)
             if config.association_min_sightings > 1
             else None
         )
+        self._rejected = 0
+        self._in_graph: dict[int, int] = {}  # landmark id -> its sightings in the graph
         self._registry = LandmarkRegistry()
+        self._window = (
+            WindowAssociation(config, session, self._registry, self._tentative, self._pose_of)
+            if config.association_test is AssociationTest.JOINT
+            else None
+        )
         self._next_created_id = CREATED_ID_BASE
-        self._created = self._associated = self._ambiguous = 0
+        self._created = self._associated = self._ambiguous = self._jointly_rejected = 0
 
     def add(
         self, k: int, sightings: RangeBearing, guess_w: np.ndarray, graph: Any, values: Any
@@ -87,13 +108,32 @@ class RangeBearingGraph:
         unknown = ids == UNKNOWN_ID
         created: set[int] = set()
         points_w = covariances_w = np.zeros((0, 2))
-        if unknown.any():
+        if unknown.any() and self._window is not None:
+            rows = np.flatnonzero(unknown)
+            waiting = _subset(sightings, rows)
+            step = self._poses.odometry_step() if k > 0 else (0, np.zeros(3), np.eye(3))
+            for decided in self._window.push(k, waiting, guess_w, step):
+                self._add_decided(decided, k, guess_w, graph, values)
+        elif unknown.any():
             ids[unknown], points_w, covariances_w = self._associate(
                 k, np.flatnonzero(unknown), sightings, guess_w
             )
             created = set(ids[unknown].tolist())
         unknown_row = np.cumsum(unknown) - 1  # row of each unlabelled sighting in points_w
         delay = self._config.min_consistent_sightings > 1
+        mapped = np.array(
+            [not u and lid in self._registry for u, lid in zip(unknown, ids.tolist(), strict=True)]
+        )
+        if mapped.any() and k > 0 and self._outlier_gate < np.inf:
+            rows = np.flatnonzero(mapped)
+            young = np.array(
+                [
+                    self._in_graph.get(lid, 0) < self._config.outlier_gate_min_sightings
+                    for lid in ids[rows].tolist()
+                ]
+            )
+            gates = np.where(young, YOUNG_GATE_FACTOR * self._outlier_gate, self._outlier_gate)
+            ids[rows[~self._gate_mapped(k, rows, sightings, guess_w, gates)]] = UNKNOWN_ID
         for i, (lid, r, b, s_r, s_b) in enumerate(
             zip(
                 ids.tolist(),
@@ -104,11 +144,12 @@ class RangeBearingGraph:
                 strict=True,
             )
         ):
-            if lid == UNKNOWN_ID:  # ambiguous
+            if lid == UNKNOWN_ID:  # rejected, ambiguous, or waiting in the association window
                 continue
             factor = fx.bearing_range_2d(k, lid, b, r, self._noise.diagonal(s_b, s_r))
             if lid in self._registry:
                 graph.add(factor)
+                self._in_graph[lid] += 1
                 continue
             if lid in created and self._tentative is not None:  # unlabelled: wait for more
                 row = unknown_row[i]
@@ -126,10 +167,119 @@ class RangeBearingGraph:
             if insertion is not None:
                 self._insert(lid, insertion.point_w, insertion.factors, graph, values)
 
+    def finish(self, graph: Any, values: Any) -> bool:
+        """Decide every sighting waiting in the association window (all poses in iSAM2).
+
+        Returns:
+            True when factors or variables were added to ``graph`` / ``values``.
+        """
+        if self._window is None or not len(self._window):
+            return False
+        for decided in self._window.flush():
+            self._add_decided(decided, None, None, graph, values)
+        return True
+
+    def _pose_of(self, k: int) -> np.ndarray:
+        """(3,) iSAM2's current estimate of frame k's pose."""
+        return fx.planar_from_pose2(self._session.pose2(fx.pose_key(k)))
+
+    def _add_decided(
+        self,
+        decided: Decided,
+        k_now: int | None,
+        guess_w: np.ndarray | None,
+        graph: Any,
+        values: Any,
+    ) -> None:
+        """Factors and landmarks of one frame's decided unlabelled sightings.
+
+        Args:
+            decided: the frame's decisions (``WindowAssociation``).
+            k_now, guess_w: the frame being added and its guess (its pose is not in iSAM2
+                yet), or None when every pose is.
+        """
+        k = decided.k
+        rb = decided.sightings
+        pose = guess_w if k == k_now else self._pose_of(k)
+        pose_cov = None
+        new_rows = np.flatnonzero(decided.decisions == Decision.NEW)
+        if self._tentative is not None and (len(new_rows) or np.any(decided.candidate_ids >= 0)):
+            self._tentative.expire(k)
+            if k != k_now:
+                pose_cov = self._poses.world_covariance(
+                    self._session.marginal_covariance(fx.pose_key(k)), pose[2]
+                )
+        points, covs = sighting_points(
+            pose, rb.ranges_m, rb.bearings_rad, rb.sigma_range_m, rb.sigma_bearing_rad, pose_cov
+        )
+        for i, decision in enumerate(decided.decisions.tolist()):
+            if decision == Decision.AMBIGUOUS:
+                self._ambiguous += 1
+                continue
+            if decision == Decision.REJECTED:
+                self._jointly_rejected += 1
+                continue
+            if decision == Decision.NEW:
+                lid = self._next_created_id
+                self._next_created_id += 1
+                self._created += 1
+            else:
+                lid = int(decided.candidate_ids[i])
+                self._associated += 1
+            noise = self._noise.diagonal(rb.sigma_bearing_rad[i], rb.sigma_range_m[i])
+            factor = fx.bearing_range_2d(k, lid, rb.bearings_rad[i], rb.ranges_m[i], noise)
+            if lid in self._registry:
+                graph.add(factor)
+                self._in_graph[lid] += 1
+            elif self._tentative is not None:
+                commitment = self._tentative.add(lid, k, points[i], covs[i], factor)
+                if commitment is not None:
+                    self._insert(lid, commitment.point_w, commitment.factors, graph, values)
+            else:
+                self._insert(lid, points[i], (factor,), graph, values)
+
+    def _gate_mapped(
+        self,
+        k: int,
+        rows: np.ndarray,
+        sightings: RangeBearing,
+        guess_w: np.ndarray,
+        gates: np.ndarray,
+    ) -> np.ndarray:
+        """(len(rows),) True for the sightings ``rows`` of mapped landmarks inside the outlier gate.
+
+        The innovation of each sighting at frame k's guess and the landmark's current estimate,
+        with the covariance of both read from iSAM2 (``joint_state``):
+        ``S = H P H^T + R`` with H the Jacobian with respect to (pose k, landmark)
+        (``core.compatibility.Pairings.individual``). Sightings outside are counted as rejected.
+        """
+        lids = sightings.landmark_ids[rows].tolist()
+        state = joint_state(self._session, [], lids, (k, *self._poses.odometry_step()))
+        pose_col = state.pose_column[k]
+        K = len(rows)
+        nu = np.zeros((K, 1, 2))
+        H = np.zeros((K, 1, 2, state.dim))
+        R = np.zeros((K, 2, 2))
+        for i, (row, lid) in enumerate(zip(rows.tolist(), lids, strict=True)):
+            z_hat, H_r, H_l = _RANGE_BEARING.predict(state.pose(k), state.landmark(lid))
+            z = np.array([sightings.ranges_m[row], sightings.bearings_rad[row]])
+            nu[i, 0] = _RANGE_BEARING.residual(z, z_hat)
+            H[i, 0, :, pose_col : pose_col + 3] = H_r
+            col = state.landmark_column[lid]
+            H[i, 0, :, col : col + 2] = H_l
+            R[i] = np.diag(
+                [sightings.sigma_range_m[row] ** 2, sightings.sigma_bearing_rad[row] ** 2]
+            )
+        d2 = Pairings(nu, H, state.covariance, R).individual()[:, 0]
+        inside = d2 <= gates
+        self._rejected += int(np.sum(~inside))
+        return inside
+
     def _insert(self, lid: int, point_w: np.ndarray, factors: Any, graph: Any, values: Any) -> None:
         """A landmark enters the graph at ``point_w`` (2,) with its factors."""
         values.insert(fx.landmark_key(lid), gtsam.Point2(point_w))
         self._registry.add(lid, point_w)
+        self._in_graph[lid] = len(factors)
         for factor in factors:
             graph.add(factor)
 
@@ -240,5 +390,17 @@ class RangeBearingGraph:
             landmarks_created=self._created,
             sightings_associated=self._associated,
             sightings_ambiguous=self._ambiguous,
+            sightings_gated=self._rejected + self._consistent.rejected + self._jointly_rejected,
             tentative=self._tentative.stats() if self._tentative is not None else TentativeStats(),
         )
+
+
+def _subset(sightings: RangeBearing, rows: np.ndarray) -> RangeBearing:
+    """The sightings ``rows`` of a frame."""
+    return RangeBearing(
+        sightings.landmark_ids[rows],
+        sightings.ranges_m[rows],
+        sightings.bearings_rad[rows],
+        sightings.sigma_range_m[rows],
+        sightings.sigma_bearing_rad[rows],
+    )

@@ -130,6 +130,14 @@ class ISAM2Session:
         """iSAM2's marginal covariance of one variable, in its tangent space."""
         return self._isam.marginalCovariance(key)
 
+    def joint_marginal_covariance(self, keys: list[int]) -> np.ndarray:
+        """iSAM2's joint marginal covariance of ``keys``, blocks in their order (tangent spaces).
+
+        Computed from the Bayes tree for these variables only (``ISAM2.jointMarginalCovariance``),
+        not from the whole map: the association's pose and candidate landmarks.
+        """
+        return self._isam.jointMarginalCovariance(list(keys)).fullMatrix()
+
     def estimate(self) -> Any:
         """The full current estimate as ``gtsam.Values`` (a full back-substitution)."""
         return self._isam.calculateEstimate()

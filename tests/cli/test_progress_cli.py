@@ -29,6 +29,12 @@ def _env(**extra: str) -> dict[str, str]:
     return env
 
 
+def _frames(data: Path) -> int:
+    """Frames of the small MR.CLAM run: the start and every stamp with a sighting."""
+    lines = (data / "Robot1_Measurement.dat").read_text().splitlines()[1:]
+    return len({x.split()[0] for x in lines}) + 1
+
+
 def _omnislam(*args: str, **extra: str) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, "-m", "omnislam", *args],
@@ -45,7 +51,8 @@ def test_run_prints_frames_rate_and_eta_as_plain_lines_off_a_terminal(tmp_path):
     err = result.stderr
     assert not CONTROL.search(err), repr(err)
     lines = [x for x in err.splitlines() if x.startswith("run ekfslam on MRCLAM_Small: ")]
-    counted = [x for x in lines if re.search(r": \d+/61 frame \(\d+%\)", x)]
+    frames = _frames(data)
+    counted = [x for x in lines if re.search(rf": \d+/{frames} frame \(\d+%\)", x)]
     assert len(counted) >= 2, err
     assert any("done in" in x for x in counted), err
     assert "-> " in result.stdout  # the result line is on stdout, progress is not
@@ -84,7 +91,8 @@ def test_a_terminal_gets_one_line_redrawn_in_place(tmp_path):
         os.close(leader)
     text = b"".join(chunks).decode(errors="replace")
     assert "\r" in text and "\x1b[K" in text
-    assert re.search(r"run ekfslam on MRCLAM_Small: 61/61 frame \(100%\).*done in", text)
+    n = _frames(data)
+    assert re.search(rf"run ekfslam on MRCLAM_Small: {n}/{n} frame \(100%\).*done in", text)
 
 
 def test_compare_shows_the_frames_the_workers_step(tmp_path):
@@ -96,9 +104,10 @@ def test_compare_shows_the_frames_the_workers_step(tmp_path):
     assert not CONTROL.search(err), repr(err)
     lines = [x for x in err.splitlines() if x.startswith("compare (1 local): ")]
     # what a worker process is doing, sent from inside its run
-    assert any(re.search(r"- ekfslam \d+/61", x) for x in lines), err
+    assert any(re.search(rf"- ekfslam \d+/{_frames(data)}", x) for x in lines), err
     assert any(re.search(r"- deadreckoning loading", x) for x in lines), err
-    assert re.search(r"2/2 cells, 122/122 frame \(100%\).*done in", lines[-1]), lines[-1]
+    n = 2 * _frames(data)  # two cells
+    assert re.search(rf"2/2 cells, {n}/{n} frame \(100%\).*done in", lines[-1]), lines[-1]
 
 
 def _report(address: str, key: bytes, frames: int) -> None:

@@ -1,7 +1,8 @@
 """A small MR.CLAM folder written into a test folder: robot 1 drives a circle among 4 landmarks.
 
-Odometry (v, omega at 10 Hz), range-bearing sightings of every landmark within 6 m (2 Hz, seeded
-noise), Vicon-style ground truth and the surveyed landmarks: what the MR.CLAM loader reads, so
+Odometry (v, omega at 10 Hz), sightings of every landmark within 6 m and the camera's field of
+view (2 Hz, seeded noise; the "range" column is the camera's optical-axis depth, as in
+MR.CLAM), Vicon-style ground truth and the surveyed landmarks: what the MR.CLAM loader reads, so
 EKF-SLAM and FastSLAM build maps with covariances without the real data.
 """
 
@@ -10,6 +11,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+
+from omnislam.datasets.mrclam import DEPTH_BIAS_M
+
+#: half the camera's field of view [rad] (MR.CLAM's: about 0.575)
+FIELD_OF_VIEW_RAD = 0.55
 
 #: landmark barcode -> (x, y) [m]
 LANDMARKS = {63: (2.0, 0.5), 27: (-1.5, 2.0), 45: (0.5, -2.5), 81: (-2.0, -1.0)}
@@ -37,14 +43,16 @@ def write_small_mrclam(folder: Path, seconds: float = 30.0, seed: int = 0) -> Pa
                 continue
             b = float(np.arctan2(dy, dx) - theta[k])
             b = float(np.arctan2(np.sin(b), np.cos(b)))
+            if abs(b) > FIELD_OF_VIEW_RAD:
+                continue
+            # the camera's column: the optical-axis depth with its bias (``mrclam.DEPTH_BIAS_M``)
+            depth = (r + rng.normal(0, 0.02)) * np.cos(b) + DEPTH_BIAS_M
             sightings.append(
-                f"{stamps[k]:.3f} {barcode} {r + rng.normal(0, 0.02):.4f} "
-                f"{b + rng.normal(0, 0.01):.4f}\n"
+                f"{stamps[k]:.3f} {barcode} {depth:.4f} {b + rng.normal(0, 0.01):.4f}\n"
             )
     subjects = {1: 5, **{6 + i: code for i, code in enumerate(LANDMARKS)}}
     files = {
-        "Barcodes.dat": "# subject barcode\n"
-        + "".join(f"{s} {c}\n" for s, c in subjects.items()),
+        "Barcodes.dat": "# subject barcode\n" + "".join(f"{s} {c}\n" for s, c in subjects.items()),
         "Landmark_Groundtruth.dat": "# subject x y sx sy\n"
         + "".join(
             f"{6 + i} {lx} {ly} 0.001 0.001\n" for i, (lx, ly) in enumerate(LANDMARKS.values())

@@ -91,8 +91,15 @@ def test_the_warm_start_is_the_updates_graphslam_makes(prefix):
     bare = ref.isam2_pass(ref.graph_frames(frames))
     assert bare.step_s.shape == (len(frames),) and np.all(bare.step_s > 0)
     # one pose variable per frame, as the bare pass has (graphslam's default composes the
-    # odometry of frames without sightings)
-    config = replace(PRESETS["victoria-park-gtsam"], pose_variables=PoseVariables.FRAMES)
+    # odometry of frames without sightings); every sighting a factor at once, as the bare
+    # pass adds them (by default the outlier gate drops some and a landmark waits for its
+    # second agreeing sighting)
+    config = replace(
+        PRESETS["victoria-park-gtsam"],
+        pose_variables=PoseVariables.FRAMES,
+        outlier_gate_probability=1.0,
+        min_consistent_sightings=1,
+    )
     estimator = GraphSLAM(Modality.RANGE_BEARING_2D, config)
     for frame in frames:
         estimator.step(frame)
@@ -159,7 +166,16 @@ def test_runs_on_a_gtsam_graph_are_scored_against_the_lm_optimum(prefix, associa
     assert metrics.ate.rmse_m is not None
     assert metrics.landmarks.rmse_m is not None
     assert metrics.landmarks.truth == 52
-    if association == "known":  # iSAM2 itself: within the benchmark's 2 cm of the optimum
-        assert metrics.ate.rmse_m < 0.02
+    if association == "known":
+        # the defaults drop the sightings the outlier gate rejects and a landmark until two
+        # sightings agree: 0.071 m from the optimum on this prefix, 45 of the 52 landmarks
+        # (the others seen once, or never twice in agreement)
+        assert metrics.ate.rmse_m < 0.1
         assert metrics.landmarks.association is LandmarkAssociation.BY_ID
-        assert metrics.landmarks.matched == 52
+        assert 45 <= metrics.landmarks.matched == metrics.landmarks.estimated
+        # every sighting a factor: iSAM2 itself, within the benchmark's 2 cm of the optimum
+        every = {"outlier_gate_probability": "1.0", "min_consistent_sightings": "1"}
+        options = {"preset": "victoria-park-gtsam", "association": association, **every}
+        plain = evaluate_run(execute_run(RunSpec(str(prefix), "graphslam", options=options)))
+        assert plain.ate.rmse_m < 0.02
+        assert plain.landmarks.matched == 52
