@@ -110,6 +110,8 @@ def suite_table(report: str | Path) -> str:
             cells.append(f"**{text}**" if verdict is not None and verdict.best == name else text)
         if verdict is None:
             best = "–"
+        elif not verdict.runner_up:  # the only estimator besides dead reckoning
+            best = f"{verdict.best} (only one ranked)"
         else:
             margin = (
                 f"{verdict.margin_percent:.0f} %" if verdict.margin_percent is not None else "?"

@@ -203,7 +203,7 @@ def execute_run(
         frames = list(sequence.frame_inputs())
     else:
         replay = _load_log(sequence, log)
-        frames = list(sequence.frame_inputs(replay.frames))
+        frames = _own_sighting_ids(sequence, list(sequence.frame_inputs(replay.frames)), log)
     reassigned = 0
     if wrong_fraction > 0:
         # its own stream, so the estimator draws the same numbers with and without it
@@ -347,6 +347,42 @@ def _load_log(sequence: object, log: str) -> Any:
             Path(log),
         )
     return replay
+
+
+def _own_sighting_ids(sequence: Any, frames: list[Any], log: str | Path) -> list[Any]:
+    """The replayed frames with the ids this loader gives its own range-bearing sightings.
+
+    A front-end log is shared by every cell of a dataset: each frame's range-bearing sightings
+    in it are the loader's own as the front end saw them (default loader options) followed by
+    the laser landmarks it extracted (``frontend.pipeline._merge_sightings``). A loader option
+    that changes the ids -- ``association: unknown`` hides them -- must still reach the
+    estimator, so the leading rows take the ids of this sequence's own sightings.
+
+    Raises:
+        DataError: a frame's leading rows are not this sequence's sightings (a stale log).
+    """
+    own = sequence.range_bearing
+    if own is None:
+        return frames
+    out = []
+    for frame in frames:
+        given, fed = own[frame.index], frame.range_bearing
+        if given is None or not len(given) or fed is None:
+            out.append(frame)
+            continue
+        k = len(given)
+        if len(fed) < k or not np.array_equal(fed.ranges_m[:k], given.ranges_m):
+            raise DataError(
+                f"frame {frame.index}: its range-bearing sightings are not the loader's "
+                "(a stale log: delete it to recompute)",
+                log,
+            )
+        if np.array_equal(fed.landmark_ids[:k], given.landmark_ids):
+            out.append(frame)
+            continue
+        ids = np.concatenate([given.landmark_ids, fed.landmark_ids[k:]])
+        out.append(replace(frame, range_bearing=replace(fed, landmark_ids=ids)))
+    return out
 
 
 def cache_track_truth(sequence: Any, log: str | Path, progress: bool = False) -> None:

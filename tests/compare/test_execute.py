@@ -91,3 +91,37 @@ def test_prior_map_of_a_missing_or_empty_run_is_refused(shared_data, tmp_path):
         execute_run(
             RunSpec("mrclam6-r1", "deadreckoning", options={"prior_map": str(tmp_path / "dr")})
         )
+
+
+def test_a_loader_option_hiding_ids_reaches_the_estimator_through_the_shared_log(tmp_path):
+    """The shared front-end log of a synthetic world stores its pole sightings with their ids;
+    the ``-noids`` cell replaying it must still see them without (issue 20: demo-noids gave
+    byte-identical trajectories to demo)."""
+    from omnislam.compare.grid import load_grid
+    from omnislam.compare.runner import CELLS, CellStatus, SerialExecutor, run_grid
+    from omnislam.frontend.observation_log import load_observation_log
+
+    grid_file = tmp_path / "grid.yaml"
+    grid_file.write_text(
+        "name: ids and no ids\n"
+        "datasets:\n"
+        "  - {synthetic: demo, images: 2, seeds: [0], estimators: [ekfslam]}\n"
+        "  - {synthetic: demo, label: demo-noids, images: 2, seeds: [0],\n"
+        "     options: {association: unknown}, estimators: [ekfslam]}\n"
+        "estimators: [ekfslam]\n"
+    )
+    grid = load_grid(grid_file)
+    result = run_grid(grid, tmp_path / "out", lambda: SerialExecutor())
+    assert result.count(CellStatus.COMPUTED) == 2, [o.error for o in result.outcomes]
+    runs = {o.cell.dataset_label: read_run_dir(tmp_path / "out" / CELLS / o.cell.cell_id)
+            for o in result.outcomes}
+    log = load_observation_log(runs["demo"].config.frontend_log)
+    assert runs["demo-noids"].config.frontend_log == runs["demo"].config.frontend_log
+    logged = [f.range_bearing for f in log.frames if f.range_bearing is not None]
+    assert sum(len(rb) for rb in logged) > 0 and all(np.all(rb.landmark_ids >= 0) for rb in logged)
+    assert runs["demo"].config.landmark_ids_from_truth
+    assert not runs["demo-noids"].config.landmark_ids_from_truth
+    info = {k: json.loads(r.attachments[ESTIMATOR_INFO]) for k, r in runs.items()}
+    assert info["demo"]["sightings"] == info["demo-noids"]["sightings"] > 0
+    assert info["demo"]["ambiguous"] == info["demo"]["gated"] == 0  # ids: nothing to decide
+    assert info["demo-noids"]["tentative_created"] > 0  # it associated by itself

@@ -27,7 +27,8 @@ from omnislam.compare.runner import SerialExecutor, run_grid
 from omnislam.compare.tables import latex_escape
 
 FAST = ReportOptions(exports=False, occupancy=False, command=("omnislam", "report", "R"))
-NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e[+-]?\d+)?")
+# a number standing alone (not the digits inside a commit hash such as 3d2a412fbcdc4b032e41445...)
+NUMBER = re.compile(r"(?<![\w.])-?\d+(?:\.\d+)?(?:e[+-]?\d+)?(?![\w.])")
 
 
 @pytest.fixture
