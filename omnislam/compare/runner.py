@@ -638,13 +638,17 @@ class _GridRun:
         reporter = self.channel.reporter(cell.cell_id) if self.channel is not None else None
         self._submit("cell", cell.cell_id, run_cell, self._spec(cell), reporter)
 
-    def _relay(self) -> None:
-        """Pass on what the workers reported of their running cells."""
+    def _relay(self, finishing: str | None = None) -> None:
+        """Pass on what the workers reported of their running cells (and of ``finishing``, the
+        cell being collected now)."""
         if self.channel is None or self.on_progress is None:
             return
+        running = {key for kind, key in self.running.values() if kind == "cell"} | {finishing}
         for message in self.channel.drain():
             cell = self.by_id.get(message.key)
-            if cell is not None:
+            # a message that arrives after its cell was collected (the channel's reader thread
+            # lags under load) would count the cell's frames a second time: dropped
+            if cell is not None and message.key in running:
                 self.on_progress(CellProgress(cell, message.stage, message.done, message.total))
 
     def _spec(self, cell: Cell) -> RunSpec:
@@ -742,7 +746,7 @@ class _GridRun:
         record, time_taken = result  # type: ignore[misc]
         cell = self.by_id[key]
         if self.on_progress is not None:
-            self._relay()  # its last frames before it is stored
+            self._relay(finishing=key)  # its last frames before it is stored
             frames = record.config.frames
             self.on_progress(CellProgress(cell, "storing", frames, frames))
         metrics = store_cell(self.cells_dir, cell, record, self.grid.evaluation, time_taken)

@@ -275,3 +275,41 @@ def test_without_reuse_every_cell_is_computed_again_and_stale_cells_go(tmp_path)
         ("room_a__deadreckoning__s0", 60, 60),
         ("room_a__deadreckoning__s1", 60, 60),
     ]
+
+
+def test_a_progress_message_that_arrives_after_its_cell_was_stored_is_dropped(
+    tmp_path, monkeypatch
+):
+    # the channel's reader thread can lag behind the worker under load: a cell's early
+    # messages then arrive after the runner stored the cell, and were counted a second time
+    from omnislam.compare import channel
+    from omnislam.compare.channel import StepMessage
+
+    drain = channel.ProgressChannel.drain
+    seen = []
+    held: list[StepMessage] = []
+
+    delivered_late = []
+
+    def lagging(self):  # each cell's "loading" message is delivered once the cell is stored
+        held.extend(drain(self))
+        stored = {p.cell.cell_id for p in seen if p.stage == "storing"}
+        out, keep = [], []
+        for m in held:
+            (out if m.stage != "loading" or m.key in stored else keep).append(m)
+        delivered_late.extend(m for m in out if m.stage == "loading")
+        held[:] = keep
+        return out
+
+    monkeypatch.setattr(channel.ProgressChannel, "drain", lagging)
+    run_grid(
+        load_grid(make_grid(tmp_path)), tmp_path / "out", SerialExecutor, on_progress=seen.append
+    )
+    stored = set()
+    for p in seen:
+        if p.stage == "storing":
+            stored.add(p.cell.cell_id)
+        else:
+            assert p.cell.cell_id not in stored, f"{p.cell.cell_id}: {p.stage} after it was stored"
+    assert len(stored) == 4
+    assert len(delivered_late) >= 3  # the late messages did arrive: they were dropped
