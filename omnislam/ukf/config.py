@@ -70,7 +70,11 @@ class AssociationConfig:
             of image positions that the previous projection can move to [px].
         min_depth_m, max_depth_m: step 3 (ours): depths spanned by that interval [m].
         use_ids: take the sightings' landmark ids as the association (steps 3-5 skipped).
-            Off by default: ground-truth ids never reach the association unless asked for.
+            None (default): in a frame whose every sighting carries an id -- a dataset's own
+            ids, as MR.CLAM's barcodes, which every other estimator takes too; a dataset hides
+            them with its ``association=unknown`` option -- and steps 3-5 elsewhere (extracted
+            image lines carry none). True: always (sightings without an id unused); False:
+            never, steps 3-5 on every frame.
         validate: step 5, use a pair only when the previous frame associated the same landmark
             with the same physical line (paper: on).
         gate_probability: chi-square probability of the two gates step 4 gets from the UKF's
@@ -104,7 +108,7 @@ class AssociationConfig:
     track_tolerance_px: float = 6.0
     min_depth_m: float = 0.3
     max_depth_m: float = 50.0
-    use_ids: bool = False
+    use_ids: bool | None = None
     validate: bool = True
     gate_probability: float | None = 0.999
     largest_set_first: bool = True

@@ -12,8 +12,9 @@ frames of a range-bearing sensor) and the frame carries sightings, process it:
       (``photometric``), u_shift windows and Sc_k (``association.associate_landmarks``);
 5.    validation (``association.validate``); the validated bearings update the UKF.
 
-With ``association.use_ids`` the sightings' own landmark ids are the association (steps 3-5
-skipped); otherwise ids are never read.
+With ``association.use_ids`` (by default: in a frame whose every sighting carries one) the
+sightings' own landmark ids are the association (steps 3-5 skipped); otherwise ids are never
+read.
 """
 
 from __future__ import annotations
@@ -84,7 +85,7 @@ class UKFInfo:
 
     modality: str
     photometric_gate: bool
-    use_ids: bool
+    use_ids: bool | None
     frames: int
     frames_processed: int
     frames_updated: int
@@ -247,7 +248,10 @@ class VerticalLineUKF:
         wTr = self._ukf.x
         prior_cov = self._ukf.P
         cfg = self.config.association
-        if cfg.use_ids:
+        given = seen.landmark_ids
+        if cfg.use_ids or (
+            cfg.use_ids is None and len(given) and bool(np.all(given != UNKNOWN_ID))
+        ):
             rows = np.array([self._row_of.get(int(i), -1) for i in seen.landmark_ids])
             lines = np.flatnonzero((seen.landmark_ids != UNKNOWN_ID) & (rows >= 0))
             used = {int(i): int(self._ids[rows[i]]) for i in lines}

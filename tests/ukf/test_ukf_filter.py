@@ -182,3 +182,24 @@ def test_a_sighting_far_outside_the_innovation_gate_is_dropped_with_ids(rng):
         if gate is not None:
             assert ukf.info().pairs_gated_out == 1
     assert errors[default] < 0.05 < errors[None]
+
+
+def test_by_default_ids_are_the_association_where_every_sighting_carries_one(rng):
+    from dataclasses import replace
+
+    from omnislam.core.types import UNKNOWN_ID
+
+    deltas, sightings, _ = simulate(rng, n=60)
+    hidden = [replace(s, landmark_ids=np.full_like(s.landmark_ids, UNKNOWN_ID)) for s in sightings]
+
+    def run(rb, use_ids):
+        ukf = localiser(association=AssociationConfig(use_ids=use_ids))
+        for frame in frames(deltas, rb):
+            ukf.step(frame)
+        return ukf.estimate().trajectory.se2
+
+    # the dataset's own ids (MR.CLAM's barcodes) are used as every other estimator uses them
+    np.testing.assert_array_equal(run(sightings, None), run(sightings, True))
+    assert not np.array_equal(run(sightings, None), run(sightings, False))
+    # hidden ids (a dataset's association=unknown): steps 3-5, as with use_ids=false
+    np.testing.assert_array_equal(run(hidden, None), run(hidden, False))
