@@ -7,6 +7,7 @@ the calibration in memory.
 
 from __future__ import annotations
 
+import io
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -50,7 +51,13 @@ def _read_csv(path: Path, columns: int) -> np.ndarray:
     try:
         with path.open() as handle:
             header = handle.readline()
-            data = np.loadtxt(handle, delimiter=",", ndmin=2)
+            body = handle.read()
+        # a header alone is a valid empty table (corridor21 has no poles): no loadtxt warning
+        data = (
+            np.loadtxt(io.StringIO(body), delimiter=",", ndmin=2)
+            if body.strip()
+            else np.empty((0, columns))
+        )
     except (OSError, ValueError) as exc:
         raise DataError(f"cannot parse CSV: {exc}", path) from exc
     if not header.strip():

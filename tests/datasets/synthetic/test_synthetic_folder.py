@@ -154,3 +154,12 @@ def test_a_bad_line_colours_row_is_one_error_naming_file_and_line(tmp_path, demo
     with pytest.raises(DataError, match=rf"line {len(rows)}: landmark 999999") as info:
         load_synthetic(copy)
     assert "line_colours.csv" in str(info.value)
+
+
+def test_a_table_with_its_header_only_is_empty_and_quiet(tmp_path, recwarn):
+    from omnislam.datasets.synthetic.loader import _read_csv
+
+    path = tmp_path / "poles.csv"
+    path.write_text("frame,id,range_m,bearing_rad,sigma_range_m,sigma_bearing_rad\n")
+    assert _read_csv(path, 6).shape == (0, 6)  # corridor21 has no poles
+    assert not [w for w in recwarn if issubclass(w.category, UserWarning)]
