@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-from omnislam.core.gating import OUTLIER_GATE_PROBABILITY
+from omnislam.core.gating import OUTLIER_GATE_MIN_SIGHTINGS, OUTLIER_GATE_PROBABILITY
 from omnislam.core.motion import MotionNoise
 from omnislam.errors import ConfigError
 
@@ -45,6 +45,10 @@ class EKFSLAMConfig:
             the filter's own S = H P H^T + R) is skipped. Default
             ``core.gating.OUTLIER_GATE_PROBABILITY`` (0.999, the same as every Gaussian back
             end); 1.0 trusts every id.
+        known_gate_min_sightings: landmarks with fewer sightings in the state are gated
+            ``core.gating.YOUNG_GATE_FACTOR`` (10) times wider (default 20, as graphslam): with
+            the plain gate on ``victoria-park-gtsam`` 2650 of 3640 sightings were gated and the
+            run ended 105 m off (6.6 m with no gate).
         association_test: "joint" (default): a frame's sightings of unknown id against the
             state landmarks by joint compatibility (JCBB, Neira & Tardos 2001) with the filter's
             P; "nearest": the tutorial's sequential nearest neighbour.
@@ -77,6 +81,7 @@ class EKFSLAMConfig:
     min_sightings: int = 2
     tentative_window_frames: int = 20
     known_gate_probability: float = OUTLIER_GATE_PROBABILITY
+    known_gate_min_sightings: int = OUTLIER_GATE_MIN_SIGHTINGS
     association_test: str = "joint"
     ambiguity_margin: float = 4.6
     ignore_ids: bool = False

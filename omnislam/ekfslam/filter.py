@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from omnislam.core.compatibility import Decision, decide, jcbb
-from omnislam.core.gating import chi_square_gate
+from omnislam.core.gating import YOUNG_GATE_FACTOR, chi_square_gate
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.types import UNKNOWN_ID, Estimate, FrameInput, RangeBearing, Trajectory
@@ -90,6 +90,7 @@ class EKFSLAM:
         self._known_gate = chi_square_gate(self.config.known_gate_probability, 2)
         self._slot_ids: list[int] = []  # landmark id of each state slot
         self._slot_of_id: dict[int, int] = {}
+        self._sightings: dict[int, int] = {}  # per slot: its creation and updates by id
         self._next_id = 0
         self._tentative = TentativeLandmarks()
         self._frames = 0
@@ -187,10 +188,12 @@ class EKFSLAM:
                     continue
                 if np.isfinite(self._known_gate):
                     d2, _ = state.mahalanobis_all(z, R, np.array([slot]))
-                    if d2[0] > self._known_gate:
+                    young = self._sightings[slot] < self.config.known_gate_min_sightings
+                    if d2[0] > self._known_gate * (YOUNG_GATE_FACTOR if young else 1.0):
                         self._counts["gated"] += 1
                         continue
                 state.update(slot, z, R)
+                self._sightings[slot] += 1
                 self._counts["associated"] += 1
                 continue
             if self.config.association_test == "joint":
@@ -308,4 +311,5 @@ class EKFSLAM:
             landmark_id = self._next_id
         self._slot_ids.append(int(landmark_id))
         self._slot_of_id[int(landmark_id)] = slot
+        self._sightings[slot] = 1
         self._counts["created"] += 1

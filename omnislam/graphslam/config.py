@@ -12,7 +12,7 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass, field
 
-from omnislam.core.gating import OUTLIER_GATE_PROBABILITY
+from omnislam.core.gating import OUTLIER_GATE_MIN_SIGHTINGS, OUTLIER_GATE_PROBABILITY
 from omnislam.core.motion import MotionNoise
 from omnislam.errors import ConfigError
 
@@ -171,7 +171,7 @@ class GraphSLAMConfig:
             (``joint_state.py``), beyond the chi-square quantile drops the sighting. 1.0
             disables it.
         outlier_gate_min_sightings: sightings of landmarks with fewer sightings in the graph
-            are gated 10 times wider (``range_bearing.YOUNG_GATE_FACTOR``; default 20): a
+            are gated 10 times wider (``core.gating.YOUNG_GATE_FACTOR``; default 20): a
             wrong id among a landmark's first sightings is still hundreds of sigmas off (the
             20%-wrong-ids test of ``tests/graphslam/test_isam.py``). A young landmark's iSAM2
             marginal is linearised where its first sightings put it: with Victoria Park's
@@ -245,7 +245,7 @@ class GraphSLAMConfig:
     robust_kernel: RobustKernel = RobustKernel.NONE
     robust_threshold: float | None = None
     outlier_gate_probability: float = OUTLIER_GATE_PROBABILITY
-    outlier_gate_min_sightings: int = 20
+    outlier_gate_min_sightings: int = OUTLIER_GATE_MIN_SIGHTINGS
     association_test: AssociationTest = AssociationTest.JOINT
     association_gate_probability: float = 0.99
     association_lag_frames: int = 0

@@ -23,7 +23,7 @@ import numpy as np
 
 from omnislam._optional import require
 from omnislam.core.compatibility import Decision, Pairings
-from omnislam.core.gating import chi_square_gate
+from omnislam.core.gating import YOUNG_GATE_FACTOR, chi_square_gate
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
 from omnislam.core.types import UNKNOWN_ID, RangeBearing
@@ -47,10 +47,6 @@ from omnislam.graphslam.window_association import Decided, WindowAssociation
 
 gtsam = require("gtsam")
 
-#: a landmark with fewer than ``GraphSLAMConfig.outlier_gate_min_sightings`` sightings in the
-#: graph is gated at this many times the outlier gate's squared distance: its linearised
-#: marginal is not trusted near the gate, a sighting hundreds of sigmas off still is rejected
-YOUNG_GATE_FACTOR = 10.0
 
 #: first id given to a landmark created by the association of unlabelled sightings
 CREATED_ID_BASE = 1_000_000_000

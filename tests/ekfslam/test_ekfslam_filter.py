@@ -208,3 +208,39 @@ def test_fastslam2_with_many_particles_agrees_with_ekfslam_on_a_small_map():
         diff = fast.landmarks_w[k, :2] - ekf.landmarks_w[ekf_row[lid], :2]
         cov = ekf.landmark_covariances[ekf_row[lid], :2, :2]
         assert diff @ np.linalg.solve(cov, diff) <= gate2, f"landmark {lid}"
+
+
+def _with_range_error(frames, sigmas: float, after: int):
+    """The scenario with one landmark's sighting in frame ``after`` or later moved ``sigmas``
+    range stds (the first such sighting only); returns (frames, that landmark's id)."""
+    from dataclasses import replace
+
+    seen: dict[int, int] = {}
+    out = list(frames)
+    for k, frame in enumerate(frames):
+        rb = frame.range_bearing
+        if rb is None:
+            continue
+        for row, lid in enumerate(rb.landmark_ids.tolist()):
+            seen[lid] = seen.get(lid, 0) + 1
+            if k >= after and seen[lid] == 2:
+                ranges = rb.ranges_m.copy()
+                ranges[row] += sigmas * float(np.broadcast_to(rb.sigma_range_m, ranges.shape)[row])
+                out[k] = replace(frame, range_bearing=replace(rb, ranges_m=ranges))
+                return out, lid
+    raise AssertionError("no landmark seen twice")
+
+
+@pytest.mark.parametrize("sigmas, gated_young", [(6.0, False), (60.0, True)])
+def test_a_young_landmark_is_gated_wider_than_a_well_observed_one(rng, sigmas, gated_young):
+    # 6 sigmas: outside the 0.999 gate (d2 ~ 36 > 13.8), inside 10x; 60 sigmas: outside both
+    scenario = make_scenario(seed=3, steps=60)
+    frames, _ = _with_range_error(scenario.frames, sigmas, after=1)
+    young = make_estimator("ekfslam", sequence_info(), NOISE_OPTIONS, rng)
+    plain = make_estimator(
+        "ekfslam", sequence_info(), {**NOISE_OPTIONS, "known_gate_min_sightings": "0"}, rng
+    )
+    run(young, frames)
+    run(plain, frames)
+    assert plain.info().gated == 1  # the plain gate drops it
+    assert young.info().gated == int(gated_young)
