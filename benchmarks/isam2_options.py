@@ -14,7 +14,7 @@ Configurations: ``--set KEY=VALUE`` options of ``GraphSLAMConfig`` (``relineariz
 ``ISAM2Params`` attribute the config does not expose (``cacheLinearizedFactors``,
 ``findUnusedFactorSlots``)::
 
-    PYTHONPATH=. .venv/bin/python benchmarks/isam2_options.py lab40 /work/renders/lab40-v2 LOG \\
+    PYTHONPATH=. .venv/bin/python benchmarks/isam2_options.py lab40 runs/lab40-v2 LOG \\
         --growth --config "" --config relinearize_threshold=0.5 --config relinearize_skip=10 \\
         --config adaptive_reorder_threshold=2 --config P:cacheLinearizedFactors=False \\
         --config P:findUnusedFactorSlots=True
