@@ -89,6 +89,7 @@ def compiled() -> SimpleNamespace:
         namespace = globals()
         namespace["_wrap"] = jit(_wrap)
         namespace["_key_depth"] = jit(_key_depth)
+        namespace["_own_copy"] = jit(_own_copy)
         _COMPILED = SimpleNamespace(
             tree_rows=jit(tree_rows),
             tree_scatter=jit(tree_scatter),
@@ -121,6 +122,30 @@ def _key_depth(slot: int, leaf_height: int) -> tuple[int, int]:
             depth += 1
         return key, depth
     return slot + (1 << leaf_height), leaf_height
+
+
+def _own_copy(
+    links: np.ndarray,
+    source: int,
+    token: int,
+    node_free: np.ndarray,
+    node_taken: int,
+    node_used: int,
+) -> tuple[int, int, int]:
+    """Copy-on-write of a shared tree node: a free (or the next unused) row takes ``source``'s
+    links and the writer's ``token``. Returns (new row, free rows taken, rows used)."""
+    if node_taken < node_free.shape[0]:
+        new = node_free[node_taken]
+        node_taken += 1
+    else:
+        if node_used >= links.shape[0]:
+            raise IndexError("landmark tree: node table full (reservation too small)")
+        new = node_used
+        node_used += 1
+    for c in range(4):
+        links[new, c] = links[source, c]
+    links[new, _TOKEN] = token
+    return new, node_taken, node_used
 
 
 def tree_rows(
@@ -192,17 +217,9 @@ def tree_scatter(
         visits += depth + 1
         node = roots[p]
         if links[node, _TOKEN] != token:
-            if node_taken < node_free.shape[0]:
-                new = node_free[node_taken]
-                node_taken += 1
-            else:
-                if node_used >= links.shape[0]:
-                    raise IndexError("landmark tree: node table full (reservation too small)")
-                new = node_used
-                node_used += 1
-            for c in range(4):
-                links[new, c] = links[node, c]
-            links[new, _TOKEN] = token
+            new, node_taken, node_used = _own_copy(
+                links, node, token, node_free, node_taken, node_used
+            )
             roots[p] = new
             node = new
             copies += 1
@@ -210,17 +227,9 @@ def tree_scatter(
             column = _LEFT + ((key >> level) & 1)
             child = links[node, column]
             if links[child, _TOKEN] != token:
-                if node_taken < node_free.shape[0]:
-                    new = node_free[node_taken]
-                    node_taken += 1
-                else:
-                    if node_used >= links.shape[0]:
-                        raise IndexError("landmark tree: node table full (reservation too small)")
-                    new = node_used
-                    node_used += 1
-                for c in range(4):
-                    links[new, c] = links[child, c]
-                links[new, _TOKEN] = token
+                new, node_taken, node_used = _own_copy(
+                    links, child, token, node_free, node_taken, node_used
+                )
                 links[node, column] = new
                 child = new
                 copies += 1
