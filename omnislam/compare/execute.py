@@ -258,6 +258,7 @@ def execute_run(
         estimator=spec.estimator,
         omnislam_version=omnislam.__version__,
         frames=len(sequence),
+        images=len(sequence.image_frames),
         total_s=float(step_s.sum() + final_s),
         peak_rss_mb=round(peak_rss_mb(), 1),
         ground_truth_kind=ground_truth.kind.value,

@@ -17,7 +17,7 @@ RUN_DIR, or a folder of RUN_DIRs), and writes:
 It opens with a verdict per dataset (``compare.verdict``: the best estimator by ATE RMSE, dead
 reckoning excluded, its margin over the next as medians over seeds, and whether that margin is
 within the seed spread) and ends with a provenance block (``compare.provenance``: omnislam
-version and commit, date, command line, seeds, frames and path length of each dataset, each
+version and commit, date, command line, seeds, frames, images and path length of each dataset, each
 estimator's options, the machine). Every table is also written as ``tables/NAME.csv`` (full
 precision) and ``tables/NAME.tex`` (LaTeX ``booktabs``), linked under the table.
 
@@ -489,6 +489,14 @@ def _options_text(options: Mapping[str, str]) -> str:
     return ", ".join(f"{k}={v}" for k, v in sorted(options.items())) or "defaults"
 
 
+def _images_text(configs: Sequence[RunConfig]) -> str:
+    """The camera images of a dataset's runs ("unknown" for runs that predate the count)."""
+    counts = sorted({cfg.images for cfg in configs if cfg.images is not None})
+    if not counts:
+        return provenance.UNKNOWN
+    return ", ".join(map(str, counts))
+
+
 def _path_length(cells: Sequence[ReportCell]) -> str:
     """Path length of the dataset's ground truth, else of dead reckoning."""
     ok = sorted((c for c in cells if c.ok), key=lambda c: (c.seed is None, c.seed or 0))
@@ -542,6 +550,7 @@ def provenance_rows(
         frames = sorted({cfg.frames for cfg in group_configs})  # type: ignore[union-attr]
         source = group_configs[0].dataset if group_configs else provenance.UNKNOWN  # type: ignore[union-attr]
         text = f"{source}; frames {', '.join(map(str, frames)) or provenance.UNKNOWN}"
+        text += f"; images {_images_text(group_configs)}"
         text += f"; path length {_path_length(group)}"
         loader = {_options_text(cfg.dataset_options) for cfg in group_configs}  # type: ignore[union-attr]
         if loader - {"defaults"}:

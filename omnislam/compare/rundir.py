@@ -70,6 +70,8 @@ class RunConfig:
         seed: the ``--seed`` (None when not given).
         omnislam_version: package version that produced the run.
         frames: number of frames processed.
+        images: how many of those frames carry a camera image (0: none; None: a run written
+            before this was recorded).
         total_s: wall time of all estimator steps [s].
         peak_rss_mb: peak resident memory of the process [MB].
         ground_truth_kind: ``GroundTruthKind`` value.
@@ -113,6 +115,7 @@ class RunConfig:
     sightings_reassigned: int = 0
     modality: str | None = None
     prior_map: str | None = None
+    images: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -366,6 +369,16 @@ def read_run_config(path: Path) -> RunConfig:
         raise DataError(f"unexpected contents ({exc})", file) from exc
     if isinstance(config.frames, bool) or not isinstance(config.frames, int) or config.frames < 1:
         raise DataError(f"frames must be a positive integer, got {config.frames!r}", file)
+    if config.images is not None and (
+        isinstance(config.images, bool)
+        or not isinstance(config.images, int)
+        or not 0 <= config.images <= config.frames
+    ):
+        raise DataError(
+            f"images must be an integer between 0 and frames ({config.frames}), "
+            f"got {config.images!r}",
+            file,
+        )
     return config
 
 

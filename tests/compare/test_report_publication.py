@@ -184,7 +184,8 @@ def test_provenance_block_and_publication_tables(fakes, tmp_path):
         assert facts["git commit"] == "unknown"
     assert facts["command line"] == "omnislam report R"
     assert facts["seeds"] == "0, 1"
-    assert "frames 60" in facts["dataset room"] and "(ground truth)" in facts["dataset room"]
+    assert "frames 60; images 0;" in facts["dataset room"]
+    assert "(ground truth)" in facts["dataset room"]
     length = float(re.search(r"path length ([\d.]+) m", facts["dataset room"]).group(1))
     assert 15.0 < length < 2 * np.pi * 3.0  # the 6 m x 5 m ellipse of the room log
     assert facts["estimator tidy_odo"] == "tidy_odo; options: amplitude=0.02"

@@ -30,10 +30,12 @@ def runs(demo_folder, tmp_path_factory):
 
 
 @pytest.mark.parametrize("name", list(ESTIMATORS))
-def test_runs_without_flags_on_the_shared_front_end(runs, name):
+def test_runs_without_flags_on_the_shared_front_end(runs, name, demo_folder):
     out, codes = runs
     assert codes[name] == 0
     config = yaml.safe_load((out / name / CONFIG).read_text())
+    images = sorted((demo_folder / "images").glob("*.png"))
+    assert config["images"] == len(images) > 0  # the report's provenance counts them
     accepted = ESTIMATORS[name].modalities
     if not accepted:  # dead reckoning uses no sightings: no front end to run
         assert config["modality"] is None and config["frontend_log"] is None
