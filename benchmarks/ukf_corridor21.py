@@ -12,8 +12,9 @@ quality against the renderer's ground truth (lines labelled by their true projec
 4 px).
 
 ``--seeds`` gives one row per seed. ``--ablation`` compares the defaults with the paper's
-step 4 alone (no covariance gates, Sc_k alone), the covariance gates with Sc_k alone, and the
-defaults with core's (4x smaller) odometry noise. ``--sweep`` runs the paper's d_it sweep
+step 4 alone (no covariance gates, Sc_k alone), the covariance gates with Sc_k alone, the
+defaults without the nearest-line rule, and the defaults with core's (4x smaller) odometry
+noise. ``--sweep`` runs the paper's d_it sweep
 (sec. 5: 10-90 cm) on the same render, front end and map, one table row per value. ``--sck``
 runs the Sc_k calibration of sec. 5 ("first Sc_k was calibrated, to minimise the number of
 incorrect associations"): the only free constant of Sc_k is the weight of F_shift
@@ -261,8 +262,15 @@ ABLATION = (
         "the paper's step 4 alone (no covariance gates, Sc_k alone)",
         {"association.gate_probability": "none", "association.largest_set_first": "false"},
     ),
-    ("pre-gate and joint gate, Sc_k alone", {"association.largest_set_first": "false"}),
-    ("defaults (gates, largest consistent set, then Sc_k)", {}),
+    (
+        "pre-gate and joint gate, Sc_k alone",
+        {"association.largest_set_first": "false", "association.nearest_line": "false"},
+    ),
+    (
+        "defaults without the nearest-line rule",
+        {"association.nearest_line": "false"},
+    ),
+    ("defaults (gates, largest consistent set, then Sc_k, nearest line)", {}),
     (
         "defaults with core's odometry noise (4x smaller)",
         {
