@@ -207,7 +207,8 @@ class PoseConsistency:
 
     def nearest_lines(self, lines: np.ndarray, candidates: np.ndarray) -> np.ndarray:
         """(n,) True where pair k's line is, of all the frame's extracted lines (whatever their
-        colour), the one nearest to its landmark's bearing as the set's other pairs predict it.
+        colour), the one nearest to its landmark's bearing as the set's other pairs predict it
+        (ours, on step 4 of sec. 3.2; ``AssociationConfig.nearest_line``).
 
         With S = Pzz + R, a = S^-1 y and h = diag(S^-1), the innovation of pair k given the
         others has mean mu_k = y_k - a_k / h_k and variance 1 / h_k; without line k's own
