@@ -11,9 +11,11 @@ wall; steps 1-2 are the front end's vertical-edge time, printed separately), and
 quality against the renderer's ground truth (lines labelled by their true projection within
 4 px).
 
-``--seeds`` gives one row per seed. ``--ablation`` compares the defaults with the paper's
-step 4 alone (no covariance gates, Sc_k alone), the covariance gates with Sc_k alone, and the
-defaults with core's (4x smaller) odometry noise. ``--sweep`` runs the paper's d_it sweep
+``--seeds`` gives one row per seed. ``--dump-wrong`` (with ``--sweep``) lists every wrong
+validated pair and what let it through. ``--ablation`` compares the defaults with the paper's
+step 4 alone (no covariance gates, Sc_k alone), the covariance gates with Sc_k alone, the
+defaults without the nearest-line rule, and the defaults with core's (4x smaller) odometry
+noise. ``--sweep`` runs the paper's d_it sweep
 (sec. 5: 10-90 cm) on the same render, front end and map, one table row per value. ``--sck``
 runs the Sc_k calibration of sec. 5 ("first Sc_k was calibrated, to minimise the number of
 incorrect associations"): the only free constant of Sc_k is the weight of F_shift
@@ -23,7 +25,7 @@ those holding a wrong pair. ``--sck-min`` drops sets below an Sc_k threshold.
 
     PYTHONPATH=. python benchmarks/ukf_corridor21.py [--out DIR] [--noise 1] [--seed 0]
         [--set k=v ...] [--seeds S ...] [--ablation] [--sweep [CM ...]] [--sck [W ...]]
-        [--sck-min [T ...]] [--image-every K]
+        [--sck-min [T ...]] [--image-every K] [--dump-wrong]
 
 corridor21 renders one image every 12 odometry steps (about 36 cm of travel), so d_it below
 that processes every image: the sweep renders with ``--image-every 3`` (about 9 cm). Renders and
@@ -35,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import time
 import warnings
 from pathlib import Path
@@ -121,10 +124,13 @@ def run_once(
 
     config = apply_options(UKFConfig(), options)
     sets: list[tuple[float, float, float, np.ndarray]] = []  # (Sc_k, F_shift, mean C', lines)
+    steps: list[dict] = []  # per processed frame without ids: step 4's inputs, step 3's tracks
     original = localiser_module.associate_landmarks
+    original_track = localiser_module.track_lines
 
     def spy(u_lines, u_cands, scores, cfg, consistency=None):  # records the chosen set's terms
         best = original(u_lines, u_cands, scores, cfg, consistency)
+        steps.append(dict(scores=scores, consistency=consistency, tracked=None))
         if min_score is not None and best.score < min_score:
             best = dataclasses.replace(best, lines=best.lines[:0], candidates=best.candidates[:0])
         if len(best):
@@ -136,7 +142,13 @@ def run_once(
             sets.append((-np.inf, 0.0, np.nan, best.lines))
         return best
 
+    def spy_track(*args, **kwargs):
+        tracked = original_track(*args, **kwargs)
+        steps[-1]["tracked"] = tracked
+        return tracked
+
     localiser_module.associate_landmarks = spy
+    localiser_module.track_lines = spy_track
     try:
         ukf = VerticalLineUKF(setup.prior, config, Modality.VERTICAL_LINES, setup.line)
         processed_s, processed_cpu_s, processed_index = [], [], []
@@ -150,6 +162,7 @@ def run_once(
                 processed_index.append(frame.index)
     finally:
         localiser_module.associate_landmarks = original
+        localiser_module.track_lines = original_track
     estimate = ukf.estimate()
     poses = estimate.trajectory.se2
     err = np.hypot(*(poses[:, :2] - setup.truth[:, :2]).T)
@@ -175,10 +188,13 @@ def run_once(
         err=err,
         step_cpu_s=np.array(processed_cpu_s),
         processed_index=np.array(processed_index, dtype=np.int64),
+        steps=steps,
+        labels=[],
     )
     scored = []
     for k, a in enumerate(ukf.associations):
         labels = label_lines(setup.truth[a.index], a.bearings_rad, setup.prior, setup.line, 4.0)
+        row["labels"].append(labels)
         row["seen"] += int((labels >= 0).sum())
         row["visible"] += len(a.candidates)
         row["pairs"] += len(a.pairs)
@@ -261,8 +277,15 @@ ABLATION = (
         "the paper's step 4 alone (no covariance gates, Sc_k alone)",
         {"association.gate_probability": "none", "association.largest_set_first": "false"},
     ),
-    ("pre-gate and joint gate, Sc_k alone", {"association.largest_set_first": "false"}),
-    ("defaults (gates, largest consistent set, then Sc_k)", {}),
+    (
+        "pre-gate and joint gate, Sc_k alone",
+        {"association.largest_set_first": "false", "association.nearest_line": "false"},
+    ),
+    (
+        "defaults without the nearest-line rule",
+        {"association.nearest_line": "false"},
+    ),
+    ("defaults (gates, largest consistent set, then Sc_k, nearest line)", {}),
     (
         "defaults with core's odometry noise (4x smaller)",
         {
@@ -336,6 +359,100 @@ def _steps_1_to_5_cpu_s(setup: Setup, r: dict) -> np.ndarray:
         extract_vertical_lines(image, setup.seq.calibration, config)
         extraction.append(time.process_time() - start)
     return np.asarray(extraction) + r["step_cpu_s"]
+
+
+def _print_wrong(setup: Setup, r: dict) -> None:
+    """Every wrong validated pair of a run, and what let it through (issue 13).
+
+    Per pair: the frame, the line, its true landmark (-1: an unmapped line) and the chosen one;
+    the pair's innovation and predicted sigma (line and pose) [px at the image centre], its
+    squared distance given the set's other pairs (the joint gate's 1-dof test, 10.8 at 0.999);
+    the pose's error and sigmas; the landmark's own line (labelled by the truth), its distance
+    and photometric differences against the landmark's MC (the gate: diff_banda <= 30,
+    diff_media <= 100); how many consecutive processed frames step 4 paired the same tracked
+    line with the same landmark. Then, over every validated pair, what two other rules would
+    have kept, offline: validation over three frames, and the nearest line given the others
+    (``association.nearest_line``).
+    """
+    from omnislam.core.se import wrap_angle
+    from omnislam.ukf.photometric import colour_differences, mc_from_pmc
+
+    px = setup.line.px_per_rad
+    row_of = {int(i): k for k, i in enumerate(setup.prior.landmark_ids)}
+    assocs, steps, labels = r["ukf"].associations, r["steps"], r["labels"]
+    if len(steps) != len(assocs):
+        print("(frames associated by id: nothing to dump)")
+        return
+    kept = {"three frames": [0, 0, 0, 0], "nearest line": [0, 0, 0, 0]}  # right/of, wrong/of
+
+    def run_length(k: int, line: int, landmark: int) -> int:
+        n = 1
+        while k > 0 and steps[k]["tracked"] is not None and steps[k]["tracked"][line] >= 0:
+            line = int(steps[k]["tracked"][line])
+            if {int(i): int(j) for i, j in assocs[k - 1].pairs}.get(line) != landmark:
+                break
+            n, k = n + 1, k - 1
+        return n
+
+    print(
+        "| frame | line | true | chosen | innovation [px] | sigma [px] | d2 given others |"
+        " pose err x, y [cm], th [deg] (sigma) | own line: d2, diff_banda, diff_media |"
+        " frames paired |"
+    )
+    print("|---" * 10 + "|")
+    for k, a in enumerate(assocs):
+        c = steps[k]["consistency"]
+        if c is None or not len(a.pairs):
+            continue
+        lines = a.pairs[:, 0]
+        cols = np.array([int(np.flatnonzero(a.candidates == j)[0]) for j in a.pairs[:, 1]])
+        y = c.innovations_rad[lines, cols]
+        S_inv = np.linalg.inv(c.prediction.covariance(cols) + np.diag(c.line_variance[lines]))
+        given = (S_inv @ y) ** 2 / np.diag(S_inv)
+        nearest = c.nearest_lines(lines, cols)
+        used = {int(i) for i, _ in a.used}
+        for n, (line, landmark) in enumerate(a.pairs.tolist()):
+            if line not in used:
+                continue
+            right = int(labels[k][line] == landmark)
+            for rule, keep in (
+                ("three frames", run_length(k, line, landmark) >= 3),
+                ("nearest line", bool(nearest[n])),
+            ):
+                kept[rule][2 * (1 - right)] += int(keep)
+                kept[rule][2 * (1 - right) + 1] += 1
+            if right:
+                continue
+            err = a.prior_pose - setup.truth[a.index]
+            sd = np.sqrt(np.diag(a.prior_cov))
+            sigma = math.sqrt(c.line_variance[line] + c.prediction.variance[cols[n]])
+            own = np.flatnonzero(labels[k] == landmark)
+            own_text = "not extracted"
+            if own.size:
+                o = int(own[0])
+                profiles = setup.log.frames[a.index].vertical_lines.profiles
+                left, right_mc = mc_from_pmc(profiles[o : o + 1])
+                m = row_of[landmark]
+                band, mean = colour_differences(
+                    left,
+                    right_mc,
+                    setup.prior.means_left[m : m + 1],
+                    setup.prior.means_right[m : m + 1],
+                )
+                d2 = c.pair_distances()[o, cols[n]]
+                own_text = f"{d2:.2f}, {band[0, 0]:.0f}, {mean[0, 0]:.0f}"
+            print(
+                f"| {a.index} | {line} | {labels[k][line]} | {landmark} | {y[n] * px:+.1f}"
+                f" | {sigma * px:.1f} | {given[n]:.2f} | {err[0] * 100:+.1f}, {err[1] * 100:+.1f},"
+                f" {math.degrees(float(wrap_angle(err[2]))):+.2f} ({sd[0] * 100:.1f},"
+                f" {sd[1] * 100:.1f}, {math.degrees(sd[2]):.2f}) | {own_text}"
+                f" | {run_length(k, line, landmark)} |"
+            )
+    for rule, (r_kept, r_all, w_kept, w_all) in kept.items():
+        print(
+            f"offline, {rule}: keeps {r_kept} of {r_all} right validated pairs and {w_kept} of"
+            f" {w_all} wrong"
+        )
 
 
 def _print_ablation(setup: Setup, options: dict[str, str]) -> None:
@@ -418,6 +535,11 @@ def main() -> None:
         help="one image every K odometry steps (preset: 12, about 36 cm; the"
         " sweep below that spacing needs a smaller K, e.g. 3)",
     )
+    parser.add_argument(
+        "--dump-wrong",
+        action="store_true",
+        help="with --sweep: every wrong validated pair and what let it through",
+    )
     args = parser.parse_args()
     options = dict(kv.split("=", 1) for kv in args.set)
     if args.seeds is not None:
@@ -442,6 +564,8 @@ def main() -> None:
         for cm in args.sweep or SWEEP_CM:
             r = run_once(setup, {**options, "d_it_m": str(cm / 100)})
             print(_row(f"{cm:g}", r), flush=True)
+            if args.dump_wrong:
+                _print_wrong(setup, r)
     if args.sck is not None:
         print(
             "\nSc_k calibration: weight of F_shift in Sc_k = mean(C'_ij) + w F_shift"

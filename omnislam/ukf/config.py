@@ -95,6 +95,11 @@ class AssociationConfig:
             the wrong landmark whenever the pose had drifted (median ATE 0.64-2.55 m over
             robots 1-5; with the rule 0.31-1.73 m; both at innovation_gate 0.999). It
             changes nothing on corridor21.
+        nearest_line: a pair of the chosen set is kept only when its line is, of all the
+            frame's extracted lines (whatever their colour), the one nearest to its landmark's
+            bearing as the set's other pairs predict it (ours; with ``gate_probability``;
+            False: the photometric stage may pick any line inside the gates). See
+            ``association.PoseConsistency.nearest_lines`` and the module docstring.
     """
 
     max_range_m: float = 50.0
@@ -113,6 +118,7 @@ class AssociationConfig:
     gate_probability: float | None = 0.999
     largest_set_first: bool = True
     unambiguous_single: bool = True
+    nearest_line: bool = True
 
 
 @dataclass(frozen=True, slots=True)

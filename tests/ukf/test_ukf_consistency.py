@@ -196,3 +196,43 @@ def test_the_papers_step_4_alone_validates_wrong_pairs_there():
     paper = UKFConfig(association=AssociationConfig(gate_probability=None, largest_set_first=False))
     fraction, used, _ = _pooled(paper, range(10, 12))
     assert fraction > 10 * MAX_WRONG_FRACTION, (fraction, used)
+
+
+def test_a_pair_whose_landmark_has_a_nearer_line_is_dropped():
+    """corridor21's wrong validated pairs: a door frame's landmark near the camera, whose image
+    the pose's uncertainty along the corridor spreads over several pixels; its own line fails
+    the photometric gate (the surveyed MC is a mean over ranges) and the frame's inner edge, 8 cm
+    away and unmapped, passes it. The far landmarks fix the heading and leave the near one's
+    bearing as uncertain as before, so the wrong pair passes every gate, in this frame and in
+    the next (the two-frame validation sees it twice)."""
+    motion = OdometryMotionModel(MotionNoise())
+    ukf = PoseUKF(np.zeros(3), np.diag([0.04**2, 0.003**2, 0.003**2]), motion)
+    landmarks = np.array([[2.0, 1.0], [10.0, -1.0], [10.0, 1.0], [12.0, 0.5]])  # 0: near
+    inner_edge = np.array([[1.92, 1.0]])  # the door frame's inner edge, unmapped
+    truth = np.array([0.01, 0.0, 0.0])  # within the pose's uncertainty
+    lines_b = Bearing2D().predict(truth, np.vstack([landmarks, inner_edge]), jacobians=False)[0]
+    lines_b = lines_b[:, 0]  # lines 0-3: the landmarks' own, line 4: the inner edge
+    prediction = ukf.predict_bearings(landmarks)
+    consistency = PoseConsistency(
+        wrap_angle(lines_b[:, None] - prediction.mean[None, :]),
+        np.full(lines_b.size, 0.005**2),  # 2 px at f = 400 px
+        prediction,
+        0.999,
+    )
+    scores = np.where(np.eye(5, 4, dtype=bool), 0.8, np.nan)
+    scores[0, 0] = np.nan  # the near landmark's own line fails the photometric gate
+    scores[4, 0] = 0.6  # its inner edge passes it
+    pregated = consistency.pregate()
+    assert pregated[0, 0] and pregated[4, 0]  # both lines lie inside the landmark's gate
+    u_lines, u_expected = LINE.u_px(lines_b), LINE.u_px(prediction.mean)
+
+    def pairs(config):
+        best = associate_landmarks(u_lines, u_expected, scores, config, consistency)
+        return sorted(zip(best.lines.tolist(), best.candidates.tolist(), strict=True))
+
+    # without the rule the inner edge is taken for the near landmark
+    assert pairs(AssociationConfig(nearest_line=False)) == [(1, 1), (2, 2), (3, 3), (4, 0)]
+    # with it, the near landmark's nearest line (its own, rejected by colour) is not the chosen
+    # one: the pair is dropped, and the far landmarks' pairs stay
+    assert pairs(AssociationConfig()) == [(1, 1), (2, 2), (3, 3)]
+    assert consistency.nearest_lines(np.array([0, 1, 2, 3]), np.arange(4)).all()
