@@ -25,6 +25,8 @@ All angles are in radians; the robot heading stays wrapped to [-pi, pi).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from omnislam.core.measurement import MeasurementModel, RangeBearing2D
@@ -55,9 +57,15 @@ def subtract_symmetric(P: np.ndarray, U: np.ndarray, V: np.ndarray) -> None:
         stop = min(start + PANEL_ROWS, d)
         P[start:stop, start:] -= U[start:stop] @ V[start:].T
         tile = P[start:stop, start:stop]
-        lower = np.tril_indices(stop - start, -1)
+        lower = _strict_lower(stop - start)
         tile[lower] = tile.T[lower]
         P[stop:, start:stop] = P[start:stop, stop:].T
+
+
+@functools.lru_cache(maxsize=8)
+def _strict_lower(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.tril_indices(n, -1)``, made once per size (it cost as much as the mirroring)."""
+    return np.tril_indices(n, -1)
 
 
 def landmark_columns(slot: int, landmark_dim: int = LANDMARK_DIM) -> slice:
