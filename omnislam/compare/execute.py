@@ -171,7 +171,7 @@ def execute_run(
     from omnislam.datasets.registry import load_dataset, resolve
     from omnislam.estimators import ESTIMATORS, make_estimator, resolve_estimator_modality
 
-    say: StepCallback = on_step if on_step is not None else _silent
+    say = StageClock(on_step if on_step is not None else _silent)
     reset_peak_rss()
     check_estimator(spec.estimator)
     say("loading", 0, 0)
@@ -231,6 +231,7 @@ def execute_run(
     estimate = estimator.estimate()
     final_s = clock() - start
     attachments = {**_attachments(estimator), **_estimator_info(estimator)}
+    stages_wall_s, stages_cpu_s = say.finish()
 
     config = RunConfig(
         dataset=spec.dataset,
@@ -254,6 +255,8 @@ def execute_run(
         sightings_reassigned=reassigned,
         modality=None if modality is None else modality.value,
         prior_map=prior_run,
+        stages_wall_s=stages_wall_s,
+        stages_cpu_s=stages_cpu_s,
     )
     return RunRecord(config, estimate, step_s, ground_truth, attachments)
 
@@ -287,6 +290,56 @@ def sequence_info(sequence: Any, frames: list[Any]) -> Any:
         calibration=sequence.calibration,
         facts=sequence.info,
     )
+
+
+class StageClock:
+    """An ``on_step`` callback that also times the stages it is told about.
+
+    Wall-clock and CPU seconds from each stage's first call to the next stage's (the last
+    stage ends at ``finish``). CPU counts this process and the child processes that ended
+    within the stage (the front end's workers: their whole CPU once they have exited).
+
+    Args:
+        say: the callback to pass every call on to.
+    """
+
+    def __init__(self, say: StepCallback) -> None:
+        self._say = say
+        self._stage: str | None = None
+        self._start = (0.0, 0.0)
+        self.wall_s: dict[str, float] = {}
+        self.cpu_s: dict[str, float] = {}
+
+    def __call__(self, stage: str, done: int, total: int) -> None:
+        if stage != self._stage:
+            self._switch(stage)
+        self._say(stage, done, total)
+
+    def _switch(self, stage: str | None) -> None:
+        now = (time.perf_counter(), _cpu_with_children_s())
+        if self._stage is not None:
+            key = self._stage
+            self.wall_s[key] = self.wall_s.get(key, 0.0) + now[0] - self._start[0]
+            self.cpu_s[key] = self.cpu_s.get(key, 0.0) + now[1] - self._start[1]
+        self._stage, self._start = stage, now
+
+    def finish(self) -> tuple[dict[str, float], dict[str, float]]:
+        """End the current stage; (wall, CPU) seconds per stage, rounded to the millisecond."""
+        self._switch(None)
+        return (
+            {k: round(v, 3) for k, v in self.wall_s.items()},
+            {k: round(v, 3) for k, v in self.cpu_s.items()},
+        )
+
+
+def _cpu_with_children_s() -> float:
+    """CPU seconds of this process and of its children that have ended (POSIX)."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - Windows
+        return time.process_time()
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
 
 
 def _silent(stage: str, done: int, total: int) -> None:
