@@ -18,6 +18,29 @@ from __future__ import annotations
 import numpy as np
 
 
+def rows_dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products of 3-vectors along the last axis: ``np.sum(a * b, axis=-1)``, bit for bit.
+
+    The terms are added in numpy's order for a 3-element reduction, (p0 + p1) + p2 (a test
+    checks the equality), as three whole-array operations instead of a reduction with a
+    3-element inner loop per row: ~3x faster on the 10^4-row stacks of FastSLAM's
+    triangulations.
+
+    Args:
+        a, b: [..., 3] (broadcasting).
+
+    Returns:
+        [...] the dot products.
+    """
+    return (a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]) + a[..., 2] * b[..., 2]
+
+
+def rows_norm(a: np.ndarray) -> np.ndarray:
+    """Euclidean norms of 3-vectors along the last axis: ``np.linalg.norm(a, axis=-1)``, bit
+    for bit (``rows_dot``)."""
+    return np.sqrt(rows_dot(a, a))
+
+
 def transpose(a: np.ndarray) -> np.ndarray:
     """Swap the last two axes of a stack-major stack of matrices [..., r, c] -> [..., c, r]."""
     return np.swapaxes(a, -1, -2)
