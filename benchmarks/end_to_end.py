@@ -23,6 +23,11 @@ named, ``omnislam run DIR --estimator NAME --log LOG`` in a fresh process (the t
 points are cached next to the log by then), and prints the replay's wall and CPU seconds
 (stages "running" + "final estimate") against the budget of 20x real time: the dataset's
 driving duration (last stamp - first) / 20.
+
+``--blas-threads N`` runs every command with N BLAS threads. numpy's OpenBLAS takes one thread
+per core by default; on a machine shared with other jobs the EKF-SLAM's covariance products then
+spin on the busy cores (a lab40 replay: ~11 s with one thread, 32-85 s with two at a load of
+4-9), so measure both ways there.
 """
 
 from __future__ import annotations
@@ -53,12 +58,16 @@ def children_cpu_s() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
+#: environment of the commands run (``--blas-threads`` adds the BLAS libraries' thread counts)
+ENVIRONMENT: dict[str, str] = {}
+
+
 def run_command(dataset: Path, estimator: str, options: list[str], cache: Path, out: Path,
                 log: Path | None = None) -> dict[str, float]:
     """``python -m omnislam run``: its wall and CPU seconds, and the stages of its config.yaml."""
     import yaml
 
-    env = dict(os.environ, OMNISLAM_CACHE=str(cache), OMNISLAM_PROGRESS="0")
+    env = dict(os.environ, OMNISLAM_CACHE=str(cache), OMNISLAM_PROGRESS="0", **ENVIRONMENT)
     command = [sys.executable, "-m", "omnislam", "run", str(dataset), "--estimator", estimator,
                "--out", str(out), "--overwrite"]
     if log is not None:
@@ -149,11 +158,18 @@ def main() -> int:
     parser.add_argument("--replay", default="", metavar="NAMES",
                         help="comma-separated estimators to replay the first run's log through "
                              "(--runs times each), against 20x real time")
+    parser.add_argument("--blas-threads", type=int, default=None, metavar="N",
+                        help="run the commands with N BLAS threads (OPENBLAS_NUM_THREADS, "
+                             "OMP_NUM_THREADS, MKL_NUM_THREADS); default: the libraries' own "
+                             "(numpy's OpenBLAS: one per core)")
     parser.add_argument("--json", type=Path, help="write the results here")
     parser.add_argument("--keep-log", type=Path, default=None, metavar="LOG",
                         help="copy the first run's front-end log here (for benchmarks/frontend.py "
                              "--log)")
     args = parser.parse_args()
+    if args.blas_threads is not None:
+        ENVIRONMENT.update(dict.fromkeys(
+            ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"), str(args.blas_threads)))
     dataset = args.dataset.resolve()
     replays = [name for name in args.replay.split(",") if name]
     with tempfile.TemporaryDirectory(prefix="omnislam-e2e-log-") as keep:
@@ -164,9 +180,12 @@ def main() -> int:
             print(f"run {k + 1}/{args.runs}: " + ", ".join(f"{key} {value:.2f}"
                                                            for key, value in runs[-1].items()),
                   file=sys.stderr, flush=True)
-        print_stages(f"omnislam run {args.dataset} --estimator {args.estimator}", runs)
+        threads = "default" if args.blas_threads is None else args.blas_threads
+        print_stages(f"omnislam run {args.dataset} --estimator {args.estimator} (BLAS threads: "
+                     f"{threads})", runs)
         results = {"dataset": str(args.dataset), "estimator": args.estimator,
                    "options": args.options, "cpus": os.cpu_count(),
+                   "blas_threads": args.blas_threads,
                    "median": medians(runs), "runs": runs}
         if args.keep_log is not None and log.exists():
             shutil.copyfile(log, args.keep_log)
