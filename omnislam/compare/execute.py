@@ -28,7 +28,7 @@ from collections.abc import Callable, Mapping
 from contextlib import nullcontext
 from dataclasses import asdict, dataclass, field, is_dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -42,6 +42,9 @@ from omnislam.core.modality import Modality, modalities_of
 from omnislam.core.types import UNKNOWN_ID, Exporting, Introspectable
 from omnislam.datasets.sequence import GroundTruth
 from omnislam.errors import ConfigError, DataError
+
+if TYPE_CHECKING:
+    from omnislam.estimators import SequenceInfo
 
 _STATUS = Path("/proc/self/status")
 _CLEAR_REFS = Path("/proc/self/clear_refs")
@@ -261,7 +264,7 @@ def execute_run(
     return RunRecord(config, estimate, step_s, ground_truth, attachments)
 
 
-def sequence_info(sequence: Any, frames: list[Any]) -> Any:
+def sequence_info(sequence: Any, frames: list[Any]) -> SequenceInfo:
     """What the estimators are told about a run (``estimators.SequenceInfo``), from the frames
     as fed: their modalities, whether every range-bearing sighting carries a true id, the
     sightings' first sigmas, the rig, the prior map.
