@@ -47,14 +47,14 @@ import numpy as np
 from omnislam.compare.cache import LOGS, cache_dir
 from omnislam.compare.execute import (
     _load_log,
-    _sensor_height_m,
+    _own_sighting_ids,
     _with_track_truth,
     frontend_log_for,
     peak_rss_mb,
     reset_peak_rss,
+    sequence_info,
 )
 from omnislam.compare.metrics import Alignment, LandmarkAssociation, ate, landmark_error
-from omnislam.core.modality import modalities_of
 from omnislam.core.types import Trajectory
 from omnislam.datasets.registry import load_dataset
 from omnislam.estimators import SequenceInfo, make_estimator
@@ -80,13 +80,14 @@ VARIANTS: dict[str, tuple[str, dict[str, str]]] = {
     "wheel-scale": ("graphslam", {"floor_scale": "false"}),
 }
 #: the other estimators timed on the same log (omni options as in benchmarks/fastslam_lab40.py)
-#: (EKF-SLAM consumes range-bearing sightings only: on a synthetic log, the poles and laser
-#: landmarks of the same frames)
+#: (EKF-SLAM and the UKF take their default streams: on a synthetic log EKF-SLAM the poles'
+#: range-bearing sightings, the UKF localiser the vertical lines in the world's prior map)
 OTHERS: dict[str, tuple[str, dict[str, str]]] = {
     "deadreckoning": ("deadreckoning", {}),
     "fastslam1": ("fastslam1", {"modality": "bearings-3d"}),
     "fastslam2": ("fastslam2", {"modality": "bearings-3d"}),
     "ekfslam": ("ekfslam", {}),
+    "ukf": ("ukf", {}),
 }
 #: the flatness windows: image steps [100, 200) against the last 100
 EARLY = slice(100, 200)
@@ -135,18 +136,11 @@ def prepare(name: str, folder: str, log: str | None, frames: int | None) -> Repl
     if log is None:
         log = str(frontend_log_for(sequence, str(path), cache_dir() / LOGS, progress=True))
     replay = _load_log(sequence, log)
-    inputs = list(sequence.frame_inputs(replay.frames))
+    inputs = _own_sighting_ids(sequence, list(sequence.frame_inputs(replay.frames)), log)
     if frames is not None:
         inputs = inputs[:frames]
     truth, _ = _with_track_truth(sequence, replay, Path(log))
-    info = SequenceInfo(
-        name=sequence.name,
-        frames=len(sequence),
-        modalities=modalities_of(inputs),
-        sensor_height_m=_sensor_height_m(sequence.calibration),
-        calibration=sequence.calibration,
-        facts=sequence.info,
-    )
+    info = sequence_info(sequence, inputs)  # what `omnislam run` tells the estimator
     images = np.array([f.bearings is not None and len(f.bearings) > 0 for f in inputs])
     return Replay(name, inputs, info, truth, images)
 

@@ -92,6 +92,10 @@ class RunConfig:
             one that uses no sightings.
         prior_map: the RUN_DIR whose landmarks were the prior map (``--set prior_map=``), or
             None (the dataset's own prior map, if any).
+        stages_wall_s: wall-clock seconds of each stage of the run ("loading", "front end",
+            "true points of the tracks", "running", "final estimate"; ``execute.StageClock``).
+        stages_cpu_s: CPU seconds of the same stages (the process and the front end's worker
+            processes).
     """
 
     dataset: str
@@ -116,6 +120,8 @@ class RunConfig:
     modality: str | None = None
     prior_map: str | None = None
     images: int | None = None
+    stages_wall_s: Mapping[str, float] = field(default_factory=dict)
+    stages_cpu_s: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, slots=True)
@@ -272,6 +278,8 @@ def write_run_dir(path: Path, record: RunRecord) -> None:
         config = asdict(record.config)
         config["dataset_options"] = dict(record.config.dataset_options)
         config["estimator_options"] = dict(record.config.estimator_options)
+        config["stages_wall_s"] = dict(record.config.stages_wall_s)
+        config["stages_cpu_s"] = dict(record.config.stages_cpu_s)
         (staging / CONFIG).write_text(yaml.safe_dump(config, sort_keys=False))
         estimate = record.estimate
         if estimate.pose_covariances is not None:

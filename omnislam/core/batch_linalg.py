@@ -8,14 +8,37 @@ array, and a product is one contiguous multiply-add over the whole stack per inn
 (``product``). ``entry_major`` / ``stack_major`` convert from / to numpy's usual stack-major
 layout [..., r, c].
 
-Inverses and log-determinants are closed forms for k <= 2 (and the 3x3 cofactor inverse of
-``inverse_3x3_entry_major``), LAPACK otherwise. The readable reference of every function is
-numpy's stacked algebra; the tests check one against the other.
+Inverses and log-determinants are closed forms for k <= 2 (and, entry-major, the 3x3 cofactor
+inverse of ``inverse_3x3_entry_major``), LAPACK otherwise. The readable reference of every
+function is numpy's stacked algebra; the tests check one against the other.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+
+def rows_dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products of 3-vectors along the last axis: ``np.sum(a * b, axis=-1)``, bit for bit.
+
+    The terms are added in numpy's order for a 3-element reduction, (p0 + p1) + p2 (a test
+    checks the equality), as three whole-array operations instead of a reduction with a
+    3-element inner loop per row: ~3x faster on the 10^4-row stacks of FastSLAM's
+    triangulations.
+
+    Args:
+        a, b: [..., 3] (broadcasting).
+
+    Returns:
+        [...] the dot products.
+    """
+    return (a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]) + a[..., 2] * b[..., 2]
+
+
+def rows_norm(a: np.ndarray) -> np.ndarray:
+    """Euclidean norms of 3-vectors along the last axis: ``np.linalg.norm(a, axis=-1)``, bit
+    for bit (``rows_dot``)."""
+    return np.sqrt(rows_dot(a, a))
 
 
 def transpose(a: np.ndarray) -> np.ndarray:
@@ -84,7 +107,9 @@ def inverse_entry_major(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         S: (k, k, ...) symmetric positive definite.
 
     Returns:
-        S^-1 (k, k, ...) and log det S (...) (closed form for k <= 2, ``inverse_and_logdet``
+        S^-1 (k, k, ...) and log det S (...) (closed form for k <= 2, the cofactor inverse of
+        ``inverse_3x3_entry_major`` for k = 3 -- 8x faster than LAPACK on a FastSLAM frame's
+        ~10^4 triangulated landmark updates, equal to ~1e-15 relative --, ``inverse_and_logdet``
         otherwise).
     """
     k = S.shape[0]
@@ -96,6 +121,9 @@ def inverse_entry_major(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         inverse = np.empty_like(S)
         inverse[0, 0], inverse[0, 1] = d / det, -b / det
         inverse[1, 0], inverse[1, 1] = -c / det, a / det
+        return inverse, np.log(det)
+    if k == 3:
+        inverse, det = inverse_3x3_entry_major(S)
         return inverse, np.log(det)
     inverse, logdet = inverse_and_logdet(stack_major(S))
     return entry_major(inverse), logdet

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from omnislam.core.batch_linalg import rows_dot, rows_norm
+
 #: rays whose (ground-projected) directions are closer to parallel than this are rejected
 _PARALLEL_SIN = 1e-9
 
@@ -63,12 +65,12 @@ def triangulate_midpoint(
     o2 = np.asarray(origins2_w, dtype=float)
     d1 = np.asarray(rays1_w, dtype=float)
     d2 = np.asarray(rays2_w, dtype=float)
-    d1 = d1 / np.linalg.norm(d1, axis=-1, keepdims=True)
-    d2 = d2 / np.linalg.norm(d2, axis=-1, keepdims=True)
+    d1 = d1 / rows_norm(d1)[..., None]
+    d2 = d2 / rows_norm(d2)[..., None]
     w = o1 - o2
-    b = np.sum(d1 * d2, axis=-1)
-    d = np.sum(d1 * w, axis=-1)
-    e = np.sum(d2 * w, axis=-1)
+    b = rows_dot(d1, d2)
+    d = rows_dot(d1, w)
+    e = rows_dot(d2, w)
     denom = 1.0 - b * b
     parallel = denom <= _PARALLEL_SIN
     safe = np.where(parallel, 1.0, denom)

@@ -126,6 +126,10 @@ class Sequence:
         point_map_loader: ``point_map_loader(i)`` returns the world point each pixel of image i
             sees, (H, W, 3) [m] with NaN where none (synthetic renders), or None. It gives the
             true position of any keypoint, hence of every front-end landmark.
+        pixel_points_loader: ``pixel_points_loader(i, rows, cols)`` returns
+            ``point_map_loader(i)[rows, cols]``, (K, 3) for integer pixel centres, computed at
+            those pixels only (the true points of a log's keypoints without whole maps), or
+            None.
         calibration: the camera rig (``omnislam.camera``), or None.
         ground_truth: see GroundTruth.
         prior_map: a map known before the run (surveyed landmarks, a world's line map and
@@ -146,6 +150,7 @@ class Sequence:
     image_loader: Callable[[int], np.ndarray] | None = None
     image_frames: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     point_map_loader: Callable[[int], np.ndarray] | None = None
+    pixel_points_loader: Callable[[int, np.ndarray, np.ndarray], np.ndarray] | None = None
     calibration: object | None = None
     prior_map: PriorMap | None = None
     info: Mapping[str, str] = field(default_factory=dict)

@@ -399,8 +399,7 @@ class BearingEKFSLAM:
         if slots:
             R = np.zeros((len(slots), 2, 2))
             R[:, 0, 0] = R[:, 1, 1] = sigmas[update_rows] ** 2
-            state.update_batch(np.asarray(slots), z_all[update_rows], R)
-            state.symmetrise()
+            state.update_batch(np.asarray(slots), z_all[update_rows], R)  # P stays symmetric
             self._counts["associated"] += len(slots)
         # the others are held back from the corrected pose (also those the budget has not
         # admitted yet: their sightings count once they are); admitted ones that qualify enter

@@ -25,6 +25,8 @@ All angles are in radians; the robot heading stays wrapped to [-pi, pi).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from omnislam.core.measurement import MeasurementModel, RangeBearing2D
@@ -35,6 +37,35 @@ from omnislam.core.se import se2_compose_jacobians, wrap_angle
 POSE_DIM = 3
 #: dimension of one landmark block of the 2-D (range-bearing) filter
 LANDMARK_DIM = 2
+
+
+#: rows of P per panel of ``subtract_symmetric`` and per tile of ``symmetrise``
+PANEL_ROWS = 256
+
+
+def subtract_symmetric(P: np.ndarray, U: np.ndarray, V: np.ndarray) -> None:
+    """P <- P - U V^T in place, for a product known to leave P symmetric (a covariance
+    correction): only the upper triangle is computed, panel by panel of ``PANEL_ROWS`` rows
+    (about half of the (d x r)(r x d) product), and mirrored, so P stays exactly symmetric.
+
+    Args:
+        P: (d, d) symmetric, C-contiguous rows (a view of the state's P).
+        U, V: (d, r).
+    """
+    d = P.shape[0]
+    for start in range(0, d, PANEL_ROWS):
+        stop = min(start + PANEL_ROWS, d)
+        P[start:stop, start:] -= U[start:stop] @ V[start:].T
+        tile = P[start:stop, start:stop]
+        lower = _strict_lower(stop - start)
+        tile[lower] = tile.T[lower]
+        P[stop:, start:stop] = P[start:stop, stop:].T
+
+
+@functools.lru_cache(maxsize=8)
+def _strict_lower(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.tril_indices(n, -1)``, made once per size (it cost as much as the mirroring)."""
+    return np.tril_indices(n, -1)
 
 
 def landmark_columns(slot: int, landmark_dim: int = LANDMARK_DIM) -> slice:
@@ -231,7 +262,9 @@ class SlamGaussian:
         the Joseph-form correction of ``update`` is one (d x 2mk)(2mk x d) product: the same
         O(m n^2) as m sequential updates, but one pass over P instead of m (the omni filter's
         ~40 bearings per image). Equal to m sequential updates up to the relinearisation
-        between them (exact for a linear model).
+        between them (exact for a linear model). The corrected P is exactly symmetric
+        (``subtract_symmetric``: its upper triangle computed, mirrored), so no ``symmetrise``
+        is needed after it.
 
         Args:
             slots: (m,) distinct landmark slots.
@@ -265,14 +298,24 @@ class SlamGaussian:
         self._x[2] = wrap_angle(self._x[2])
         U = np.concatenate([K, PHt - K @ S], axis=1)
         V = np.concatenate([PHt, K], axis=1)
-        P -= U @ V.T
+        subtract_symmetric(P, U, V)
 
     def symmetrise(self) -> None:
-        """P <- (P + P^T) / 2: removes the rounding asymmetry of the sequential updates."""
+        """P <- (P + P^T) / 2: removes the rounding asymmetry of the sequential updates.
+
+        Tile by tile (``PANEL_ROWS`` square), so no transposed copy of the whole of P is made
+        (it cost as much as the sum itself); each element is the same (P_ij + P_ji) * 0.5.
+        """
         d = self.dim
         P = self._P[:d, :d]
-        P += P.T.copy()
-        P *= 0.5
+        for i in range(0, d, PANEL_ROWS):
+            rows = slice(i, min(i + PANEL_ROWS, d))
+            for j in range(i, d, PANEL_ROWS):
+                cols = slice(j, min(j + PANEL_ROWS, d))
+                tile = P[rows, cols] + P[cols, rows].T
+                tile *= 0.5
+                P[rows, cols] = tile
+                P[cols, rows] = tile.T
 
     # -- Passo 3: augmentation ------------------------------------------------------------------
 

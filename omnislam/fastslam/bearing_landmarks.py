@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from omnislam.core.batch_linalg import rows_dot, rows_norm
 from omnislam.core.measurement import RangeAzimuthElevation3D
 from omnislam.core.se import se2_rotate_vectors
 from omnislam.core.triangulation import triangulate_ground_plane, triangulate_midpoint
@@ -62,7 +63,7 @@ def triangulate(
         points, valid = triangulate_ground_plane(o1, d1, o2, d2)
     else:
         points, valid = triangulate_midpoint(o1, d1, o2, d2)
-    cosine = np.sum(d1 * d2, axis=-1) / (np.linalg.norm(d1, axis=-1) * np.linalg.norm(d2, axis=-1))
+    cosine = rows_dot(d1, d2) / (rows_norm(d1) * rows_norm(d2))
     parallax = np.arccos(np.clip(cosine, -1.0, 1.0))
     return points, valid & np.all(np.isfinite(points), axis=-1), parallax
 

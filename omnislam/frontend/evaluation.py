@@ -39,6 +39,11 @@ class Sightings:
     points_w: np.ndarray
 
 
+#: ``sample(rows, cols)``: the (K, 3) world points [m] of K integer pixel centres of one image
+#: (NaN where none): a whole map indexed, or ``Sequence.pixel_points_loader`` at that frame
+PixelSampler = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
 def point_at_pixels(points_w: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     """True world points at sub-pixel keypoint positions.
 
@@ -53,19 +58,42 @@ def point_at_pixels(points_w: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     Returns:
         (K, 3) world points [m] (NaN where unknown).
     """
-    h, w = points_w.shape[:2]
+    return sampled_point_at_pixels(
+        lambda rows, cols: points_w[rows, cols], points_w.shape[:2], pixels
+    )
+
+
+def sampled_point_at_pixels(
+    sample: PixelSampler, shape: tuple[int, int], pixels: np.ndarray
+) -> np.ndarray:
+    """``point_at_pixels`` reading only the pixel centres it needs (four around each keypoint
+    and the nearest), in one ``sample`` call.
+
+    Args:
+        sample: the world points of pixel centres of the image (``PixelSampler``).
+        shape: (H, W) of the image's map.
+        pixels: (K, 2) ``[u, v]`` [px].
+
+    Returns:
+        (K, 3) world points [m] (NaN where unknown).
+    """
+    h, w = shape
+    k = pixels.shape[0]
     u = np.clip(pixels[:, 0], 0, w - 1)
     v = np.clip(pixels[:, 1], 0, h - 1)
     u0 = np.clip(np.floor(u).astype(int), 0, w - 2)
     v0 = np.clip(np.floor(v).astype(int), 0, h - 2)
+    rows = np.concatenate([v0, v0, v0 + 1, v0 + 1, np.round(v).astype(int)])
+    cols = np.concatenate([u0, u0 + 1, u0, u0 + 1, np.round(u).astype(int)])
+    flat, inverse = np.unique(rows * w + cols, return_inverse=True)
+    values = sample(flat // w, flat % w)[inverse.reshape(-1)]
+    c00, c10, c01, c11, at_nearest = (values[j * k:(j + 1) * k] for j in range(5))
     a, b = (u - u0)[:, None], (v - v0)[:, None]
-    c00, c10 = points_w[v0, u0], points_w[v0, u0 + 1]
-    c01, c11 = points_w[v0 + 1, u0], points_w[v0 + 1, u0 + 1]
     corners = np.stack([c00, c10, c01, c11], axis=1).astype(float)
     bilinear = (1 - a) * (1 - b) * c00 + a * (1 - b) * c10 + (1 - a) * b * c01 + a * b * c11
     spread = np.max(np.linalg.norm(corners - corners.mean(axis=1, keepdims=True), axis=2), axis=1)
     smooth = np.all(np.isfinite(corners), axis=(1, 2)) & (spread < SAME_POINT_M)
-    nearest = points_w[np.round(v).astype(int), np.round(u).astype(int)].astype(float)
+    nearest = at_nearest.astype(float)
     return np.where(smooth[:, None], bilinear, nearest)
 
 
@@ -76,6 +104,34 @@ def true_sightings(log: ObservationLog, points_w_of: Callable[[int], np.ndarray]
         log: the log (its ``pixels`` locate the keypoints).
         points_w_of: ``points_w_of(frame)`` -> (H, W, 3) world point of each pixel, NaN none.
     """
+    return _true_sightings(log, lambda frame, px: point_at_pixels(points_w_of(frame), px))
+
+
+def sampled_true_sightings(
+    log: ObservationLog,
+    pixel_points_of: Callable[[int, np.ndarray, np.ndarray], np.ndarray],
+    shape: tuple[int, int],
+) -> Sightings:
+    """``true_sightings`` reading each image's true points at its keypoints' pixels only.
+
+    Args:
+        log: the log.
+        pixel_points_of: ``pixel_points_of(frame, rows, cols)`` -> (K, 3) world points of
+            those pixel centres (``Sequence.pixel_points_loader``).
+        shape: (H, W) of the images' maps.
+    """
+    return _true_sightings(
+        log,
+        lambda frame, px: sampled_point_at_pixels(
+            lambda rows, cols: pixel_points_of(frame, rows, cols), shape, px
+        ),
+    )
+
+
+def _true_sightings(
+    log: ObservationLog, points_at: Callable[[int, np.ndarray], np.ndarray]
+) -> Sightings:
+    """The sightings of ``log`` with ``points_at(frame, pixels)`` as their true points."""
     frames, stamps, tracks, points = [], [], [], []
     for frame, px in zip(log.frames, log.pixels, strict=True):
         if frame.bearings is None or px is None or len(frame.bearings) == 0:
@@ -84,7 +140,7 @@ def true_sightings(log: ObservationLog, points_w_of: Callable[[int], np.ndarray]
         frames.append(np.full(k, frame.index))
         stamps.append(np.full(k, frame.stamp_s))
         tracks.append(frame.bearings.landmark_ids)
-        points.append(point_at_pixels(points_w_of(frame.index), px))
+        points.append(points_at(frame.index, px))
     if not frames:
         return Sightings(np.zeros(0, int), np.zeros(0), np.zeros(0, int), np.zeros((0, 3)))
     return Sightings(

@@ -27,6 +27,26 @@ def test_graphslam_counts_are_written_next_to_the_estimate(shared_data, tmp_path
     )
 
 
+def test_the_stages_of_a_run_are_timed_and_written(shared_data, tmp_path):
+    from omnislam.compare.rundir import read_run_config
+
+    seen = []
+    record = execute_run(
+        RunSpec("mrclam6-r1", "graphslam", seed=0), on_step=lambda *args: seen.append(args)
+    )
+    stages = ["loading", "front end", "running", "final estimate"]  # front end: nothing to do
+    assert seen[0][0] == "loading" and seen[-1][0] == "final estimate"  # every call passed on
+    config = record.config
+    assert list(config.stages_wall_s) == list(config.stages_cpu_s) == stages
+    assert all(v >= 0 for v in (*config.stages_wall_s.values(), *config.stages_cpu_s.values()))
+    # the steps and the final estimate are within their stages
+    assert config.stages_wall_s["running"] + config.stages_wall_s["final estimate"] >= (
+        0.9 * config.total_s
+    )
+    write_run_dir(tmp_path / "run", record)
+    assert read_run_config(tmp_path / "run").stages_cpu_s == config.stages_cpu_s
+
+
 def test_an_estimator_without_info_writes_none(shared_data):
     record = execute_run(RunSpec("mrclam6-r1", "deadreckoning", seed=0))
     assert ESTIMATOR_INFO not in record.attachments

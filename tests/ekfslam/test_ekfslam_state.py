@@ -153,3 +153,32 @@ def test_covariance_stays_symmetric_psd_over_10000_steps():
             worst = min(worst, eig[0] / eig[-1])
     assert ekf.state.n_landmarks == len(scenario.landmarks_w)
     assert worst >= -1e-12, f"P lost positive semi-definiteness: min/max eigenvalue {worst}"
+
+
+@pytest.mark.parametrize("d", [7, 256, 600])
+def test_tiled_symmetrise_is_the_mean_with_the_transpose_bit_for_bit(d):
+    from omnislam.ekfslam.state import POSE_DIM
+
+    rng = np.random.default_rng(d)
+    state = SlamGaussian(np.zeros(3), np.eye(3), capacity=(d - POSE_DIM) // 2 + 1)
+    state.n_landmarks = (d - POSE_DIM) // 2
+    P = rng.standard_normal(state.cov.shape)
+    state.cov[...] = P
+    state.symmetrise()
+    assert np.array_equal(state.cov, (P + P.T) * 0.5)
+
+
+@pytest.mark.parametrize("d", [9, 256, 700])
+def test_subtract_symmetric_is_the_upper_triangle_of_the_product_mirrored(d):
+    from omnislam.ekfslam.state import subtract_symmetric
+
+    rng = np.random.default_rng(d)
+    M = rng.standard_normal((d, d))
+    P = M @ M.T
+    G = rng.standard_normal((d, 6))
+    S = np.diag(rng.uniform(0.5, 2.0, 6))
+    U, V = G @ S, G  # U V^T = G S G^T: symmetric
+    expected = P - U @ V.T
+    subtract_symmetric(P, U, V)
+    assert np.array_equal(P, P.T)
+    np.testing.assert_allclose(P, expected, rtol=0, atol=1e-10 * np.abs(expected).max())

@@ -131,14 +131,56 @@ class SyntheticFolder:
         ids = self.surface_ids(index)
         height, width = ids.shape
         rows, cols = np.nonzero(ids >= 0)
+        points = np.full((height, width, 3), np.nan, dtype=np.float32)
+        points[rows, cols] = self._points_at(index, ids, rows, cols)
+        return GroundTruthMaps(points_w=points, surface_ids=ids)
+
+    def pixel_points(self, index: int, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """World points seen by some pixel centres of frame ``index``'s image.
+
+        ``ground_truth_maps(index).points_w[rows, cols]``, bit for bit, computed at those
+        pixels only: the true points of a few hundred keypoints cost the surface-id map's
+        read instead of intersecting every pixel's ray.
+
+        Args:
+            index: frame index.
+            rows, cols: (K,) integer pixel-centre coordinates (``v``, ``u``) in the image.
+
+        Returns:
+            (K, 3) float32 world points [m]; NaN where the pixel sees nothing.
+
+        Raises:
+            DataError: no camera, an unreadable map, a pixel outside it.
+        """
+        if self.rig is None:
+            raise DataError("the folder has no camera", self.path)
+        ids = self.surface_ids(index)
+        rows = np.asarray(rows, dtype=np.int64).reshape(-1)
+        cols = np.asarray(cols, dtype=np.int64).reshape(-1)
+        height, width = ids.shape
+        if rows.size and (rows.min() < 0 or rows.max() >= height or cols.min() < 0
+                          or cols.max() >= width):
+            raise DataError(
+                f"pixel outside the {width}x{height} ground-truth map of frame {index}",
+                self.path / "gt" / f"{frame_name(index)}.npz",
+            )
+        return self._points_at(index, ids, rows, cols)
+
+    def _points_at(self, index: int, ids: np.ndarray, rows: np.ndarray, cols: np.ndarray
+                   ) -> np.ndarray:
+        """(K, 3) float32 world points of pixel centres ``(rows, cols)`` given the frame's
+        surface-id map: each pixel's ray intersected with the plane of its surface (NaN: none).
+        Every operation is per pixel, so any subset of pixels gets the same bits."""
+        assert self.rig is not None
         wTr = self.groundtruth.poses_w[index]
-        rays_w = self._rays_r_at(rows, cols, (height, width)) @ wTr[:3, :3].T
+        rays_w = self._rays_r_at(rows, cols, ids.shape) @ wTr[:3, :3].T
         origin_w = wTr[:3, :3] @ self.rig.viewpoint_r + wTr[:3, 3]
         hit = ids[rows, cols].astype(np.int64)
-        t = plane_distances(self.quads, origin_w, rays_w, hit)
-        points = np.full((height, width, 3), np.nan, dtype=np.float32)
-        points[rows, cols] = origin_w + t[:, None] * rays_w
-        return GroundTruthMaps(points_w=points, surface_ids=ids)
+        seen = hit >= 0
+        t = plane_distances(self.quads, origin_w, rays_w[seen], hit[seen])
+        points = np.full((rows.shape[0], 3), np.nan, dtype=np.float32)
+        points[seen] = origin_w + t[:, None] * rays_w[seen]
+        return points
 
     def world_points(self, index: int, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Exact world points seen at sub-pixel locations of frame ``index``'s image.
@@ -316,6 +358,7 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
         image_loader=folder.image if images else None,
         image_frames=np.array(images, dtype=np.int64),
         point_map_loader=(lambda i: folder.ground_truth_maps(i).points_w) if images else None,
+        pixel_points_loader=folder.pixel_points if images else None,
         calibration=folder.rig,
         prior_map=prior_map,
         info={

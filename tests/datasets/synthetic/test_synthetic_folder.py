@@ -163,3 +163,19 @@ def test_a_table_with_its_header_only_is_empty_and_quiet(tmp_path, recwarn):
     path.write_text("frame,id,range_m,bearing_rad,sigma_range_m,sigma_bearing_rad\n")
     assert _read_csv(path, 6).shape == (0, 6)  # corridor21 has no poles
     assert not [w for w in recwarn if issubclass(w.category, UserWarning)]
+
+
+def test_pixel_points_are_the_ground_truth_maps_at_those_pixels(demo_folder, demo_sim):
+    folder = SyntheticFolder(demo_folder)
+    index = int(demo_sim.image_frames[1])
+    maps = folder.ground_truth_maps(index)
+    h, w = maps.surface_ids.shape
+    rng = np.random.default_rng(2)
+    rows, cols = rng.integers(0, h, 500), rng.integers(0, w, 500)
+    points = folder.pixel_points(index, rows, cols)
+    assert points.dtype == np.float32 and points.shape == (500, 3)
+    assert np.isnan(points).any() and np.isfinite(points).any()
+    np.testing.assert_array_equal(points, maps.points_w[rows, cols])
+    assert folder.pixel_points(index, rows[:0], cols[:0]).shape == (0, 3)
+    with pytest.raises(DataError, match="outside"):
+        folder.pixel_points(index, np.array([h]), np.array([0]))
