@@ -59,7 +59,7 @@ class SiftConfig:
             the thesis keeps the same rejection rate on omni images with R ~ 2.
         n_octave_layers: scales per octave N (k = 2^(1/N), thesis 4.1.1).
         sigma: Lowe's sigma: blur of octave 0's base image [px] (octave -1 starts at half).
-        max_features: keep at most this many strongest features (0 = all).
+        max_features: keep at most this many strongest features, strongest first (0 = all).
         features_per_kpx: keep at most this many strongest features per 1000 pixels of the
             detection region (the mask's, else the whole image's; 0 = no such budget), so that
             one budget suits images of any size.
@@ -97,13 +97,14 @@ LOWE = SiftConfig()
 #: Thesis 4.1.2: on omnidirectional images keep Lowe's rejection rate with R ~ 2. The contrast
 #: threshold is lowered to 0.02 so that the ring (a third of the pixels of a perspective image
 #: of the same size, blurred by the mirror) still yields several hundred features. The finest
-#: octave is sampled at the image's pixels (the thesis leaves doubling optional, 4.1.1). No
-#: keypoint budget by default: ``features_per_kpx=1.2`` (318 of ~490 keypoints on a lab40 image)
-#: raised lab40's track precision from 98.98 % to 99.60 % and cut the RMS error of landmarks
-#: triangulated from the true poses from 182 to 27 cm, at 140 instead of 226 sightings per
-#: image, but changes every estimator's input (docs/results.md, "Front-end speed and quality").
+#: octave is sampled at the image's pixels (the thesis leaves doubling optional, 4.1.1). The
+#: strongest 1.2 keypoints per 1000 px of the ring are kept (318 of ~490 on a lab40 image),
+#: chosen before their orientations and descriptors are computed: the weakest keypoints make
+#: the wrong tracks (lab40's track precision 98.98 % -> 99.6 %, the RMS error of landmarks
+#: triangulated from the true poses 182 -> 27 cm, at 140 instead of 226 sightings per image)
+#: and cost a third of the CPU of tracking (docs/results.md, "Front-end speed and quality").
 OMNI_THESIS = SiftConfig(contrast_threshold=0.02, edge_threshold=2.0,
-                         first_octave=FirstOctave.NATIVE)
+                         first_octave=FirstOctave.NATIVE, features_per_kpx=1.2)
 SIFT_PRESETS: dict[str, SiftConfig] = {"lowe": LOWE, "omni-thesis": OMNI_THESIS}
 
 
