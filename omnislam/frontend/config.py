@@ -63,10 +63,6 @@ class SiftConfig:
         features_per_kpx: keep at most this many strongest features per 1000 pixels of the
             detection region (the mask's, else the whole image's; 0 = no such budget), so that
             one budget suits images of any size.
-        budget_bands: the budget is shared out over this many concentric bands of equal area
-            about the detection region's centroid, each keeping its own strongest features (on
-            an omni image the bands are elevations: the low-contrast floor keeps its share
-            beside the posters on the walls); 1 = one budget over the whole region.
         first_octave: how octave -1 (the scales sigma / 2 .. sigma) is sampled.
         precise_upscale: with ``first_octave`` DOUBLED, OpenCV doubles the image by mapping
             pixel x to 2x exactly (``enable_precise_upscale``) instead of its default resize,
@@ -80,7 +76,6 @@ class SiftConfig:
     sigma: float = 1.6
     max_features: int = 0
     features_per_kpx: float = 0.0
-    budget_bands: int = 1
     first_octave: FirstOctave = FirstOctave.DOUBLED
     precise_upscale: bool = True
     backend: SiftBackend = SiftBackend.OPENCV
@@ -89,9 +84,9 @@ class SiftConfig:
         if self.contrast_threshold < 0 or self.edge_threshold <= 1.0:
             raise ConfigError("SiftConfig: contrast_threshold >= 0 and edge_threshold > 1")
         if (self.n_octave_layers < 1 or self.sigma <= 0 or self.max_features < 0
-                or not self.features_per_kpx >= 0 or self.budget_bands < 1):
+                or not self.features_per_kpx >= 0):
             raise ConfigError("SiftConfig: n_octave_layers >= 1, sigma > 0, max_features >= 0, "
-                              "features_per_kpx >= 0, budget_bands >= 1")
+                              "features_per_kpx >= 0")
         if self.backend is SiftBackend.PYCOLMAP and self.first_octave is FirstOctave.NATIVE:
             raise ConfigError("SiftConfig: the pycolmap backend has no native first octave "
                               "(first_octave: doubled or none)")

@@ -25,7 +25,7 @@ import numpy as np
 from omnislam._optional import require
 from omnislam.errors import DataError
 from omnislam.frontend.config import FirstOctave, SiftBackend, SiftConfig
-from omnislam.frontend.scale_space import _cell_of, detect_keypoints, strongest
+from omnislam.frontend.scale_space import detect_keypoints
 
 #: descriptor length of SIFT (4 x 4 cells x 8 orientations)
 DESCRIPTOR_SIZE = 128
@@ -113,7 +113,7 @@ class SiftExtractor:
 
     def __init__(self, config: SiftConfig) -> None:
         self.config = config
-        self._cells: tuple | None = None  # (shape, mask, cells, budgets) of the last mask
+        self._area: tuple[np.ndarray, int] | None = None  # (mask, its non-zero pixels)
         if config.backend is SiftBackend.OPENCV:
             cv2 = require("cv2")
             # OpenCV divides contrastThreshold by the number of layers (see cv2.SIFT_create);
@@ -160,45 +160,23 @@ class SiftExtractor:
             features = self._extract_opencv(grey, mask)
         else:
             features = self._extract_pycolmap(grey, mask)
-        cells, budgets = self.budget_cells(grey.shape, mask)
-        if budgets.any():  # a no-op for the native detector, which applied it already
-            cell = _cell_of(cells, features.pixels[:, 0], features.pixels[:, 1])
-            features = features.subset(strongest(features.contrast, cell, budgets))
+        budget = self.budget(grey.shape, mask)
+        if budget and len(features) > budget:
+            features = features.subset(np.sort(
+                np.argsort(-features.contrast, kind="stable")[:budget]))
         return features
 
     def budget(self, shape: tuple[int, ...], mask: np.ndarray | None) -> int:
         """Most features ``SiftConfig.features_per_kpx`` keeps on an image (0: no limit)."""
-        return int(self.budget_cells(shape, mask)[1].sum())
-
-    def budget_cells(self, shape: tuple[int, ...], mask: np.ndarray | None
-                     ) -> tuple[np.ndarray | None, np.ndarray]:
-        """Where the budget applies: ``(cells, budgets)``, the (H, W) band of every pixel (None
-        for one band) and the (B,) most features kept in each (all 0: no budget).
-
-        The detection region (the mask's non-zero pixels, else the image) is cut into
-        ``SiftConfig.budget_bands`` concentric bands of equal area about its centroid; each
-        keeps ``features_per_kpx`` per 1000 of its pixels. The same for every image of a
-        camera: computed once per mask.
-        """
-        cfg = self.config
-        if not cfg.features_per_kpx:
-            return None, np.zeros(1, dtype=np.int64)
-        if self._cells is not None and self._cells[0] == shape[:2] and self._cells[1] is mask:
-            return self._cells[2], self._cells[3]
-        region = np.ones(shape[:2], dtype=bool) if mask is None else np.asarray(mask) > 0
-        rows, cols = np.nonzero(region)
-        cells = None
-        counts = np.array([rows.size])
-        if cfg.budget_bands > 1 and rows.size:
-            radius = np.hypot(rows - rows.mean(), cols - cols.mean())
-            edges = np.quantile(radius, np.arange(1, cfg.budget_bands) / cfg.budget_bands)
-            band = np.searchsorted(edges, radius, side="right")
-            cells = np.zeros(shape[:2], dtype=np.int64)
-            cells[rows, cols] = band
-            counts = np.bincount(band, minlength=cfg.budget_bands)
-        budgets = np.maximum(1, np.rint(cfg.features_per_kpx * counts / 1000.0)).astype(np.int64)
-        self._cells = (shape[:2], mask, cells, budgets)
-        return cells, budgets
+        if not self.config.features_per_kpx:
+            return 0
+        if mask is None:
+            area = shape[0] * shape[1]
+        else:  # the mask is the same for every image of a camera: counted once
+            if self._area is None or self._area[0] is not mask:
+                self._area = (mask, int(np.count_nonzero(mask)))
+            area = self._area[1]
+        return max(1, round(self.config.features_per_kpx * area / 1000.0))
 
     def _extract_opencv(self, grey: np.ndarray, mask: np.ndarray | None) -> Features:
         cfg = self.config
@@ -215,15 +193,11 @@ class SiftExtractor:
             )
         # the budgets are applied before the orientations and descriptors are computed (the
         # same features as computing them all and keeping the strongest: a test)
-        cells, budgets = self.budget_cells(grey.shape, mask)
-        if cfg.max_features and not budgets.any():
-            budgets = np.array([cfg.max_features])
+        limits = [b for b in (cfg.max_features, self.budget(grey.shape, mask)) if b]
         found = detect_keypoints(
             grey, mask, sigma=cfg.sigma, layers=cfg.n_octave_layers,
             contrast_threshold=cfg.contrast_threshold, edge_threshold=cfg.edge_threshold,
-            fine=cfg.first_octave is FirstOctave.NATIVE, max_keypoints=budgets, cells=cells)
-        if cfg.max_features:  # the strongest first, at most max_features of the budget's
-            found = found.subset(np.argsort(-found.response, kind="stable")[: cfg.max_features])
+            fine=cfg.first_octave is FirstOctave.NATIVE, max_keypoints=min(limits, default=0))
         if cfg.max_features:  # strongest first
             found = found.subset(np.argsort(-found.response, kind="stable"))
         if len(found) == 0:

@@ -84,40 +84,6 @@ def test_the_budget_keeps_the_strongest_features_per_area(omni_image):
         SiftConfig(features_per_kpx=-1.0)
 
 
-def test_a_budget_per_band_keeps_the_strongest_of_each_band(omni_image):
-    """``budget_bands`` cuts the region into concentric bands of equal area about its
-    centroid, each with its share of the budget; applied before the descriptors, it keeps
-    exactly what describing every keypoint and keeping each band's strongest gives."""
-    from omnislam.frontend.scale_space import strongest
-
-    image, rig = omni_image
-    mask = detection_mask(rig.camera.mask(), rig.camera.mask().shape)
-    config = dataclasses.replace(OMNI_THESIS, features_per_kpx=0.8, budget_bands=4)
-    extractor = SiftExtractor(config)
-    cells, budgets = extractor.budget_cells(image.shape, mask)
-    area = np.bincount(cells[mask > 0], minlength=4)
-    assert area.max() - area.min() <= 0.01 * area.mean()  # equal areas
-    np.testing.assert_array_equal(budgets, np.rint(0.8 * area / 1000))
-    # the bands are rings: the mean distance to the centre grows band by band
-    rows, cols = np.nonzero(mask)
-    radius = np.hypot(rows - rows.mean(), cols - cols.mean())
-    assert np.all(np.diff([radius[cells[rows, cols] == b].mean() for b in range(4)]) > 0)
-
-    every = SiftExtractor(dataclasses.replace(config, features_per_kpx=0.0)).extract(image,
-                                                                                     mask)
-    u = np.rint(every.pixels[:, 0]).astype(int)
-    v = np.rint(every.pixels[:, 1]).astype(int)
-    band = cells[v, u]
-    assert np.all(np.bincount(band, minlength=4) > budgets)  # every band is cut
-    discarded = every.subset(strongest(every.contrast, band, budgets))
-    kept = extractor.extract(image, mask)
-    assert len(kept) == budgets.sum()
-    for name in ("pixels", "sizes_px", "angles_rad", "contrast", "descriptors"):
-        np.testing.assert_array_equal(getattr(kept, name), getattr(discarded, name), name)
-    with pytest.raises(ConfigError):
-        SiftConfig(budget_bands=0)
-
-
 def test_the_omni_preset_rejects_more_edge_like_keypoints(omni_image):
     image, rig = omni_image
     mask = detection_mask(rig.camera.mask(), rig.camera.mask().shape)
