@@ -41,10 +41,6 @@ IMAGE_BORDER = 5
 MAX_INTERP_STEPS = 5
 #: blur assumed in the input image [px] (Lowe 2004 sec. 3.3)
 INPUT_SIGMA = 0.5
-#: the Gaussian kernels reach this many sigma on either side: OpenCV's rule for 8-bit images
-#: (its float images get 4 sigma, 35 % more work in the blurs; 99.7 % of the weight is within
-#: 3 sigma; lab40's track precision 99.45 % instead of 99.59 %: docs/results.md)
-KERNEL_RADIUS_SIGMAS = 3
 #: orientation histogram: bins, window radius and Gaussian weight in units of the scale
 ORI_BINS = 36
 ORI_RADIUS = 4.5
@@ -77,12 +73,6 @@ class Octave:
         return int(self.dog.shape[0] - 2)
 
 
-def _kernel_size(sigma: float) -> tuple[int, int]:
-    """Gaussian kernel reaching ``KERNEL_RADIUS_SIGMAS`` sigma on either side (odd)."""
-    size = round(2 * KERNEL_RADIUS_SIGMAS * sigma + 1) | 1
-    return size, size
-
-
 def n_octaves(height: int, width: int) -> int:
     """OpenCV's octave count for a first octave at the image's own size."""
     return max(1, round(math.log2(min(height, width)) - 2))
@@ -99,8 +89,7 @@ def _octave(base: np.ndarray, sigma: float, layers: int, span: int, step_px: int
     for i in range(1, span + 3):
         # sigma_total(i)^2 = sigma_total(i - 1)^2 + step^2
         step = sigma * k ** (i - 1) * math.sqrt(k * k - 1.0)
-        cv2.GaussianBlur(gaussian[i - 1], _kernel_size(step), step, dst=gaussian[i],
-                         sigmaY=step)
+        cv2.GaussianBlur(gaussian[i - 1], (0, 0), step, dst=gaussian[i], sigmaY=step)
     dog = np.empty((span + 2, *base.shape), dtype=np.float32)
     np.subtract(gaussian[1:], gaussian[:-1], out=dog)
     return Octave(gaussian, dog, step_px, sigma, index)
@@ -127,7 +116,7 @@ def build_scale_space(grey: np.ndarray, sigma: float, layers: int, *, fine: bool
     image = grey.astype(np.float32) * np.float32(1.0 / 255.0)
     first = sigma / 2 if fine else sigma
     blur = math.sqrt(max(first**2 - INPUT_SIGMA**2, 0.01))
-    base = cv2.GaussianBlur(image, _kernel_size(blur), blur, sigmaY=blur)
+    base = cv2.GaussianBlur(image, (0, 0), blur, sigmaY=blur)
     octaves = [_octave(base, first, layers, 2 * layers if fine else layers, 1, -1 if fine else 0)]
     for o in range(1, n_octaves(*grey.shape)):
         previous = octaves[-1].gaussian[-3]  # blur 2 sigma in the previous octave's pixels
