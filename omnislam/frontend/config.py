@@ -142,10 +142,7 @@ class MatchConfig:
     Attributes:
         ratio: Lowe's ratio test: accept when d1 < ratio * d2.
         flann_trees: randomised kd-trees of the FLANN index over the map (the BBF search).
-        flann_checks: leaves visited per query (more = closer to exact). 2 trees and 32
-            checks instead of 4 and 64 took 4 ms per image off lab40's map matching and
-            index building (half each) with the same quality (track precision 99.62 % vs
-            99.45 %, 49.0 % vs 49.5 % re-associated after a return; docs/results.md).
+        flann_checks: leaves visited per query (more = closer to exact).
         min_object_matches: object-level validation: a group's matches are accepted only if
             at least this many of its features match (Lowe: 3 features recognise an object).
         min_object_fraction: ... and at least this fraction of the object's live features
@@ -154,8 +151,8 @@ class MatchConfig:
     """
 
     ratio: float = 0.8
-    flann_trees: int = 2
-    flann_checks: int = 32
+    flann_trees: int = 4
+    flann_checks: int = 64
     min_object_matches: int = 3
     min_object_fraction: float = 0.0
 
