@@ -6,6 +6,7 @@ Usage (render the datasets first with ``omnislam dataset synth PRESET --out DIR`
         [--repeat 3] [--sequential] [--unverified] [--variants] [--corridor DIR] [--real] \
         [--json results.json]
     .venv/bin/python benchmarks/frontend.py --dataset runs/lab40 --log LOG  # quality only
+    .venv/bin/python benchmarks/frontend.py --dataset runs/lab40 --config budget.yaml  # overrides
 
 Reports, on the synthetic omni dataset, with the default configuration (vertical edges on, as
 ``omnislam frontend`` runs; no laser):
@@ -45,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+from omnislam._files import read_yaml
 from omnislam.datasets.synthetic.loader import SyntheticFolder, load_synthetic
 from omnislam.frontend import evaluation
 from omnislam.frontend.config import (
@@ -53,6 +55,7 @@ from omnislam.frontend.config import (
     LaserLandmarkConfig,
     VerificationConfig,
     VerticalEdgeConfig,
+    frontend_config_from_dict,
 )
 from omnislam.frontend.observation_log import load_observation_log
 from omnislam.frontend.pipeline import run_frontend
@@ -216,11 +219,17 @@ def main() -> int:
     parser.add_argument("--corridor", type=Path, help="corridor21 folder (vertical edges)")
     parser.add_argument("--real", action="store_true", help="real VMR lab image pairs")
     parser.add_argument("--json", type=Path, help="write the results here")
+    parser.add_argument("--config", type=Path, default=None,
+                        help="YAML of front-end overrides (as `omnislam frontend --config`), "
+                             "e.g. `sift: {features_per_kpx: 1.2}` for the keypoint budget")
     args = parser.parse_args()
 
     sequence = load_synthetic(args.dataset)
     truth = Truth(SyntheticFolder(args.dataset))
     config = FrontendConfig(laser=LaserLandmarkConfig(enabled=False))
+    if args.config is not None:
+        overrides = read_yaml(args.config) or {}
+        config = frontend_config_from_dict({**overrides, "laser": {"enabled": False}})
     results: dict[str, object] = {"dataset": str(args.dataset), "images": args.images,
                                   "cpus": os.cpu_count(), "load_average_before": os.getloadavg()}
     if args.log is not None:  # the quality of a log written before (omnislam frontend / run)

@@ -372,6 +372,7 @@ def detect_keypoints(
     contrast_threshold: float,
     edge_threshold: float,
     fine: bool = True,
+    max_keypoints: int = 0,
 ) -> Detections:
     """SIFT keypoints of an image without doubling it (see the module docstring).
 
@@ -383,15 +384,23 @@ def detect_keypoints(
         contrast_threshold: C on |D(x^)| for images in [0, 1] (thesis eq. 4.9).
         edge_threshold: R, the principal-curvature ratio (thesis eq. 4.15).
         fine: detect at the scales sigma / 2 .. sigma too, on the image's own pixels.
+        max_keypoints: keep only this many of the strongest detections (by ``response``;
+            0 = all). The budget is applied before the orientations are computed: only the
+            strongest located keypoints get an orientation histogram, and the strongest
+            detections among their orientations are kept, which are exactly the detections
+            that computing every orientation and keeping the strongest would give, in the
+            same order (an orientation shares its keypoint's response, so no keypoint beyond
+            the ``max_keypoints`` strongest can hold one of the strongest detections).
 
     Returns:
-        The detections, one per orientation (thesis 4.1.2: peaks >= 80 % make keypoints).
+        The detections, one per orientation (thesis 4.1.2: peaks >= 80 % make keypoints), in
+        the order octave, layer, candidate, orientation.
     """
     cv2 = require("cv2")
-    parts = []
     full_mask = None if mask is None else (mask > 0).astype(np.uint8) * 255
     octave_mask = full_mask
     threshold = 0.5 * contrast_threshold  # candidates: half the final contrast threshold
+    located: list[tuple[Octave, _Refined]] = []
     for octave in build_scale_space(grey, sigma, layers, fine=fine):
         if full_mask is not None and octave.step_px > 1:
             # a pixel of the octave stands for step^2 image pixels: detect where any may
@@ -403,6 +412,26 @@ def detect_keypoints(
         if s.size == 0:
             continue
         ref = _refine(octave.dog, span, s, r, c, contrast_threshold, edge_threshold)
+        # layer by layer (the orientations are computed per layer, in this order)
+        ref = _subset_refined(ref, np.argsort(ref.layer, kind="stable"))
+        if mask is not None:  # the refined position must fall inside the mask
+            step = float(octave.step_px)
+            u = np.clip(np.rint((ref.col + ref.offset[:, 0]) * step).astype(np.int64), 0,
+                        mask.shape[1] - 1)
+            v = np.clip(np.rint((ref.row + ref.offset[:, 1]) * step).astype(np.int64), 0,
+                        mask.shape[0] - 1)
+            ref = _subset_refined(ref, mask[v, u] > 0)
+        if ref.layer.size:
+            located.append((octave, ref))
+    if max_keypoints and sum(ref.layer.size for _, ref in located) > max_keypoints:
+        response = np.concatenate([ref.contrast for _, ref in located])
+        keep = np.zeros(response.shape[0], dtype=bool)
+        keep[np.argsort(-response, kind="stable")[:max_keypoints]] = True
+        sizes = np.cumsum([0] + [ref.layer.size for _, ref in located])
+        located = [(octave, _subset_refined(ref, keep[a:b]))
+                   for (octave, ref), a, b in zip(located, sizes[:-1], sizes[1:], strict=True)]
+    parts = []
+    for octave, ref in located:
         if ref.layer.size == 0:
             continue
         scale = octave.sigma_px * 2.0 ** ((ref.layer + ref.offset[:, 2]) / layers)
@@ -434,8 +463,11 @@ def detect_keypoints(
         return Detections(empty, empty, empty, empty, empty, ints, ints, empty)
     found = Detections(*(np.concatenate([getattr(p, f) for p in parts])
                          for f in Detections.__slots__))
-    if mask is None:
-        return found
-    u = np.clip(np.rint(found.x).astype(np.int64), 0, mask.shape[1] - 1)
-    v = np.clip(np.rint(found.y).astype(np.int64), 0, mask.shape[0] - 1)
-    return found.subset(mask[v, u] > 0)
+    if max_keypoints and len(found) > max_keypoints:  # orientations beyond the budget
+        found = found.subset(np.sort(np.argsort(-found.response, kind="stable")[:max_keypoints]))
+    return found
+
+
+def _subset_refined(ref: _Refined, index: np.ndarray) -> _Refined:
+    return _Refined(ref.layer[index], ref.row[index], ref.col[index], ref.offset[index],
+                    ref.contrast[index])

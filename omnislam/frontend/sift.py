@@ -113,6 +113,7 @@ class SiftExtractor:
 
     def __init__(self, config: SiftConfig) -> None:
         self.config = config
+        self._area: tuple[np.ndarray, int] | None = None  # (mask, its non-zero pixels)
         if config.backend is SiftBackend.OPENCV:
             cv2 = require("cv2")
             # OpenCV divides contrastThreshold by the number of layers (see cv2.SIFT_create);
@@ -169,7 +170,12 @@ class SiftExtractor:
         """Most features ``SiftConfig.features_per_kpx`` keeps on an image (0: no limit)."""
         if not self.config.features_per_kpx:
             return 0
-        area = int(np.count_nonzero(mask)) if mask is not None else shape[0] * shape[1]
+        if mask is None:
+            area = shape[0] * shape[1]
+        else:  # the mask is the same for every image of a camera: counted once
+            if self._area is None or self._area[0] is not mask:
+                self._area = (mask, int(np.count_nonzero(mask)))
+            area = self._area[1]
         return max(1, round(self.config.features_per_kpx * area / 1000.0))
 
     def _extract_opencv(self, grey: np.ndarray, mask: np.ndarray | None) -> Features:
@@ -185,12 +191,15 @@ class SiftExtractor:
                 contrast=np.array([k.response for k in keypoints], dtype=float),
                 descriptors=np.ascontiguousarray(descriptors, dtype=np.float32),
             )
+        # the budgets are applied before the orientations and descriptors are computed (the
+        # same features as computing them all and keeping the strongest: a test)
+        limits = [b for b in (cfg.max_features, self.budget(grey.shape, mask)) if b]
         found = detect_keypoints(
             grey, mask, sigma=cfg.sigma, layers=cfg.n_octave_layers,
             contrast_threshold=cfg.contrast_threshold, edge_threshold=cfg.edge_threshold,
-            fine=cfg.first_octave is FirstOctave.NATIVE)
-        if cfg.max_features and len(found) > cfg.max_features:
-            found = found.subset(np.argsort(-found.response, kind="stable")[: cfg.max_features])
+            fine=cfg.first_octave is FirstOctave.NATIVE, max_keypoints=min(limits, default=0))
+        if cfg.max_features:  # strongest first
+            found = found.subset(np.argsort(-found.response, kind="stable"))
         if len(found) == 0:
             return Features.empty()
         # OpenCV's descriptor, computed by a SIFT of half the sigma: its octave o is Lowe's

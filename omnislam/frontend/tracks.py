@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,6 +65,13 @@ class TrackedFrame:
     from_map: int
     new: int
     candidates_previous: int
+
+
+def _most_common(values: np.ndarray) -> int:
+    """The most frequent value; among equally frequent ones the first to occur (as
+    ``collections.Counter(values).most_common(1)``)."""
+    unique, first, counts = np.unique(values, return_index=True, return_counts=True)
+    return int(unique[np.lexsort((first, -counts))[0]])
 
 
 class _Growable:
@@ -308,11 +316,14 @@ class LandmarkTracker:
             verification = dataclasses.replace(
                 verification,
                 threshold_rad=verification.threshold_rad * cfg.tracks.relocalise_threshold_scale)
+        # the images that saw each candidate's track, flattened once (candidate by candidate)
+        frames_of = [self._track_frames[t] for t in m.train.tolist()]
+        seen_in = np.fromiter(itertools.chain.from_iterable(frames_of), dtype=np.int64)
+        owner = np.repeat(np.arange(len(m)), [len(f) for f in frames_of])
         for _ in range(cfg.tracks.max_reference_images):
             if len(m) == 0:
                 return
-            counts = collections.Counter(f for t in m.train for f in self._track_frames[t])
-            reference, _ = counts.most_common(1)[0]
+            reference = _most_common(seen_in)
             ref_ids = self._frame_ids[reference]
             done = np.flatnonzero(assigned >= 0)
             query = np.concatenate([m.query, done])
@@ -334,7 +345,11 @@ class LandmarkTracker:
                 ok[np.flatnonzero(seen)[result.inliers]] = True
                 accept = ok & is_candidate
                 assigned[query[accept]] = train[accept]
-            m = m.subset(~seen[: len(m)])
+            left = ~seen[: len(m)]
+            m = m.subset(left)
+            kept = left[owner]
+            seen_in = seen_in[kept]
+            owner = (np.cumsum(left) - 1)[owner[kept]]
 
     def _prune(self, recognised: np.ndarray, matched_ids: np.ndarray) -> None:
         """Remove features that keep failing while their object is recognised (thesis 4.2).

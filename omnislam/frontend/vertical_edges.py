@@ -27,6 +27,8 @@ from omnislam.frontend.config import VerticalEdgeConfig
 
 #: peaks closer than this many bins/columns are one line (non-maximum suppression)
 NMS_RADIUS = 3
+#: omni: pixels with |g|^2 >= this times min_gradient^2 are tested exactly (float32 rounding)
+STRONG_SLACK = 0.999
 
 
 def _gradients(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -120,6 +122,10 @@ class VerticalLineExtractor:
         self.mask = camera.mask()
         rows, cols = np.nonzero(self.mask)
         self.flat = rows * self.mask.shape[1] + cols  # ring pixels, row-major
+        self.ring_u8 = self.mask.astype(np.uint8) * 255
+        # index among the ring pixels of every image pixel (-1 outside the ring)
+        self.ring_index = np.full(self.mask.size, -1, dtype=np.int64)
+        self.ring_index[self.flat] = np.arange(self.flat.shape[0])
         du, dv = cols - self.cu, rows - self.cv
         radius = np.hypot(du, dv)
         safe = np.maximum(radius, 1e-9)
@@ -144,15 +150,27 @@ class VerticalLineExtractor:
 
     def _omni(self, image: np.ndarray) -> VerticalLines:
         config, rig = self.config, self.rig
+        cv2 = require("cv2")
         gx, gy = _gradients(image)
-        g_u, g_v = gx.ravel()[self.flat], gy.ravel()[self.flat]
-        radial2 = np.square(g_u * self.unit_u + g_v * self.unit_v)
-        tangential2 = np.square(g_v * self.unit_u - g_u * self.unit_v)
+        # the ring's pixels with a strong gradient (a few percent of them): |g|^2 over the whole
+        # image, with a margin for float32 rounding below the exact test that follows
+        magnitude2 = gx * gx
+        magnitude2 += gy * gy
+        strong = cv2.bitwise_and(cv2.compare(magnitude2, STRONG_SLACK * config.min_gradient**2,
+                                             cv2.CMP_GE), self.ring_u8)
+        points = cv2.findNonZero(strong)  # (x, y), row-major like the ring's pixels
+        points = np.zeros((0, 2), np.int64) if points is None else points.reshape(-1, 2)
+        flat = points[:, 1].astype(np.int64) * gx.shape[1] + points[:, 0]
+        ring = self.ring_index[flat]
+        g_u, g_v = gx.ravel()[flat], gy.ravel()[flat]
+        unit_u, unit_v = self.unit_u[ring], self.unit_v[ring]
+        radial2 = np.square(g_u * unit_u + g_v * unit_v)
+        tangential2 = np.square(g_v * unit_u - g_u * unit_v)
         # |g| >= min_gradient and |g_radial| <= tan(max error) |g_tangential|, squared
-        edge = np.flatnonzero((radial2 + tangential2 >= config.min_gradient**2) & (
+        ok = np.flatnonzero((radial2 + tangential2 >= config.min_gradient**2) & (
             radial2 <= np.tan(config.max_direction_error_rad) ** 2 * tangential2))
-        magnitude = np.zeros(g_u.shape[0])
-        magnitude[edge] = np.sqrt(radial2[edge] + tangential2[edge])
+        edge = ring[ok]  # indices among the ring's pixels, increasing
+        magnitude = np.sqrt(radial2[ok] + tangential2[ok]).astype(float)  # of each edge pixel
         bins = config.azimuth_bins
         # support: fraction of the ring's integer radii holding an edge pixel within +-1 bin
         occupied = np.zeros((bins, self.n_radii), dtype=bool)
@@ -171,11 +189,12 @@ class VerticalLineExtractor:
         starts = np.searchsorted(edge_bin[order], np.arange(bins + 1))
         phi = np.empty(peaks.shape[0])
         for n, peak in enumerate(peaks.tolist()):
-            near = edge[np.concatenate([order[starts[b % bins]: starts[b % bins + 1]]
-                                        for b in range(peak - 2, peak + 3)])]
+            which = np.concatenate([order[starts[b % bins]: starts[b % bins + 1]]
+                                    for b in range(peak - 2, peak + 3)])
+            near = edge[which]
             centre = (peak + 0.5) * width - np.pi
             offset = (self.azimuth[near] - centre + np.pi) % (2 * np.pi) - np.pi
-            w = np.where(np.abs(offset) <= 1.5 * width, magnitude[near], 0.0)
+            w = np.where(np.abs(offset) <= 1.5 * width, magnitude[which], 0.0)
             phi[n] = centre + float(np.sum(w * offset)) / max(float(np.sum(w)), 1e-12)
         cu, cv, r_in, r_out = self.cu, self.cv, self.r_in, self.r_out
         r_mid = 0.5 * (r_in + r_out)

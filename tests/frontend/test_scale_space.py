@@ -121,3 +121,17 @@ def test_native_and_doubled_descriptors_describe_the_same_points(omni_grey):
     distance = np.linalg.norm(native.descriptors[j[close]] - doubled.descriptors[close], axis=1)
     # descriptors are scaled to 512: unrelated ones are ~400 apart, repeats of a point < 150
     assert np.median(distance) < 100
+
+
+@pytest.mark.parametrize("budget", [1, 37, 150, 300])
+def test_the_budget_before_orientations_keeps_the_strongest_detections(omni_grey, budget):
+    """``max_keypoints`` gives orientations to the strongest located keypoints only; the result
+    is the strongest ``budget`` of every detection (orientations included), in their order."""
+    grey, mask = omni_grey
+    every = detect_keypoints(grey, mask, **SIFT)
+    assert len(every) > budget
+    strongest = every.subset(np.sort(np.argsort(-every.response, kind="stable")[:budget]))
+    kept = detect_keypoints(grey, mask, max_keypoints=budget, **SIFT)
+    assert len(kept) == budget
+    for name in type(every).__slots__:
+        np.testing.assert_array_equal(getattr(kept, name), getattr(strongest, name), name)

@@ -72,6 +72,11 @@ def test_the_budget_keeps_the_strongest_features_per_area(omni_image):
     assert len(kept) == budget == extractor.budget(image.shape, mask)
     strongest = np.sort(every.contrast)[::-1][:budget]
     np.testing.assert_allclose(np.sort(kept.contrast)[::-1], strongest)
+    # applied before the orientations and descriptors, the budget keeps exactly the features
+    # that describing every keypoint and then keeping the strongest gives, in the same order
+    discarded = every.subset(np.sort(np.argsort(-every.contrast, kind="stable")[:budget]))
+    for name in ("pixels", "sizes_px", "angles_rad", "contrast", "descriptors"):
+        np.testing.assert_array_equal(getattr(kept, name), getattr(discarded, name), name)
     # without a mask the whole image is the region: a larger budget
     assert extractor.budget(image.shape, None) == round(density * image.shape[0]
                                                         * image.shape[1] / 1000) > budget

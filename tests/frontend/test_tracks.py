@@ -77,3 +77,17 @@ def test_merged_tracks_resolve_to_the_landmark_they_joined(tracked):
     assert np.all(tracker.canonical_ids(canonical) == canonical)  # chains are resolved
     merged = canonical != ids
     assert np.all(~tracker.alive[merged]) and np.all(tracker.sightings[merged] == 0)
+
+
+def test_the_reference_image_is_the_most_common_first_seen_among_equals():
+    """``_most_common`` picks what ``collections.Counter(...).most_common(1)`` picks, ties
+    going to the value seen first (the reference image of a verification)."""
+    import collections
+
+    from omnislam.frontend.tracks import _most_common
+
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        values = rng.integers(0, 6, size=rng.integers(1, 30))
+        expected = collections.Counter(values.tolist()).most_common(1)[0][0]
+        assert _most_common(values) == expected
