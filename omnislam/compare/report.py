@@ -1121,7 +1121,7 @@ def _write_into(
             "omnislam report RESULTS_DIR --out DIR draws them from the same results."
         )
     if options.exports:
-        say("exports", 0, 0)
+        say("exports", len(datasets), len(datasets))  # after every dataset's figures
         _exports(out, cells, notes)
         para(
             "Exports: exports/CELL/trajectory.tum and trajectory.kitti for every run, "

@@ -110,6 +110,19 @@ def test_compare_shows_the_frames_the_workers_step(tmp_path):
     assert re.search(rf"2/2 cells, {n}/{n} frame \(100%\).*done in", lines[-1]), lines[-1]
 
 
+def test_report_ends_with_every_dataset_done(tmp_path):
+    """The report's last progress line counts every dataset (its exports come after the
+    figures and once printed "0/1 dataset ... done")."""
+    data = write_small_mrclam(tmp_path / "MRCLAM_Small")
+    grid = tmp_path / "grid.yaml"
+    grid.write_text(f"datasets: [{data.name}]\nestimators: [deadreckoning]\n")
+    _omnislam("compare", str(grid), "--out", str(tmp_path / "results"), "--workers", "1")
+    result = _omnislam("report", str(tmp_path / "results"), "--out", str(tmp_path / "report"))
+    lines = [x for x in result.stderr.splitlines() if x.startswith("report report: ")]
+    assert lines and not CONTROL.search(result.stderr), result.stderr
+    assert re.search(r"1/1 dataset \(100%\).*done in", lines[-1]), lines[-1]
+
+
 def _report(address: str, key: bytes, frames: int) -> None:
     """A worker process: report every frame of a run through the channel."""
     channel.SEND_INTERVAL_S = 0.0
