@@ -1034,7 +1034,7 @@ def _write_into(
         "Best: the lowest median ATE RMSE over seeds; dead reckoning is the baseline and is "
         "not ranked. The margin is the runner-up's median minus the best's (in % of the "
         "runner-up's). A margin is within the seed spread when the two estimators' min–max "
-        "ranges over seeds overlap."
+        "ranges over seeds overlap; medians less than 1 µm apart are a tie."
     )
     para(
         f"Made with omnislam {facts['omnislam version']} (commit "

@@ -3,7 +3,9 @@
 Each estimator column is summarised over its seeds by the median ATE RMSE and the min-max
 range. Dead reckoning is the baseline and is never the verdict's best. The difference between
 the best and the runner-up is *within the seed spread* when their min-max ranges overlap;
-with a single seed no spread is known and the verdict says so.
+with a single seed no spread is known and the verdict says so. Two medians closer than
+``TIE_M`` are a tie (the same estimate reached two ways, e.g. graphslam's final batch pass and
+graphslam-batch), and the verdict names both instead of a margin of nanometres.
 """
 
 from __future__ import annotations
@@ -12,6 +14,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
+#: medians of ATE RMSE closer than this are a tie [m] (1 um: far below what any trajectory in a
+#: comparison resolves)
+TIE_M = 1e-6
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,6 +94,11 @@ class Verdict:
         return self.margin_m / self.runner_up.median
 
     @property
+    def tied(self) -> bool:
+        """The best and the runner-up medians differ by less than ``TIE_M``."""
+        return self.margin_m is not None and self.margin_m < TIE_M
+
+    @property
     def spread_known(self) -> bool:
         """Both the best and the runner-up have at least two seeds."""
         return (
@@ -113,7 +124,14 @@ class Verdict:
                 f"RMSE against the {self.ground_truth}."
             )
         text = f"{self.dataset}: {best.column} has the lowest ATE RMSE, {best.describe()}"
-        if runner is None:
+        if runner is not None and self.tied:
+            assert self.margin_m is not None
+            text = (
+                f"{self.dataset}: {best.column} and {runner.column} tie for the lowest ATE RMSE, "
+                f"{best.describe()} (their medians differ by {self.margin_m:.1g} m, less than "
+                f"{TIE_M * 1e6:.0f} µm)"
+            )
+        elif runner is None:
             text += ", and is the only estimator besides dead reckoning"
         else:
             assert self.margin_m is not None
