@@ -109,10 +109,40 @@ def now_utc() -> str:
     return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
 
 
+def shown_path(path: str | Path, cwd: Path | None = None, cache: Path | None = None) -> str:
+    """A path as a report shows it, without this machine's folders: relative to the working
+    folder when inside it, ``$OMNISLAM_CACHE/...`` when inside the cache, else ``.../NAME``
+    (its last component); a relative path or a registered dataset name as given.
+
+    Args:
+        path: the path (or any string: only absolute paths are rewritten).
+        cwd: the working folder (default: the current one).
+        cache: the cache folder (default: ``compare.cache.cache_dir()``).
+    """
+    text = str(path)
+    if not os.path.isabs(text):
+        return text
+    try:
+        from omnislam.compare.cache import CACHE_ENV, cache_dir
+
+        resolved = Path(text).resolve()
+        for base, prefix in (
+            ((cwd or Path.cwd()).resolve(), ""),
+            ((cache or cache_dir()).resolve(), f"${CACHE_ENV}/"),
+        ):
+            if resolved == base or base in resolved.parents:
+                relative = resolved.relative_to(base).as_posix()
+                return f"{prefix}{relative}" if prefix or relative != "." else "."
+        return f".../{resolved.name}"
+    except Exception:
+        return f".../{Path(text).name}"
+
+
 def command_line(argv: Sequence[str] | None = None) -> str:
-    """``argv`` (default ``sys.argv``) as a shell-quoted line."""
+    """``argv`` (default ``sys.argv``) as a shell-quoted line, absolute paths as
+    ``shown_path`` shows them."""
     args = list(sys.argv if argv is None else argv)
     try:
-        return shlex.join(args) if args else UNKNOWN
+        return shlex.join(shown_path(a) for a in args) if args else UNKNOWN
     except Exception:
         return UNKNOWN

@@ -528,13 +528,17 @@ def provenance_rows(
         ("git commit", provenance.package_commit()),
         ("date (UTC)", provenance.now_utc()),
         ("command line", provenance.command_line(options.command)),
-        ("results", str(Path(results_dir).resolve())),
+        ("results", provenance.shown_path(Path(results_dir).resolve())),
     ]
     grid = Path(results_dir) / GRID_COPY
     if grid.is_file():
         digest = provenance.file_digest(grid)
         rows.append(
-            ("grid", f"{grid.resolve()} ({title!r}" + (f", sha256 {digest})" if digest else ")"))
+            (
+                "grid",
+                f"{provenance.shown_path(grid.resolve())} ({title!r}"
+                + (f", sha256 {digest})" if digest else ")"),
+            )
         )
     configs = {c.cell_id: _config(c) for c in cells}
     made_with = sorted({cfg.omnislam_version for cfg in configs.values() if cfg is not None})
@@ -548,7 +552,11 @@ def provenance_rows(
         group = [c for c in cells if c.dataset == dataset]
         group_configs = [configs[c.cell_id] for c in group if configs[c.cell_id] is not None]
         frames = sorted({cfg.frames for cfg in group_configs})  # type: ignore[union-attr]
-        source = group_configs[0].dataset if group_configs else provenance.UNKNOWN  # type: ignore[union-attr]
+        source = (
+            provenance.shown_path(group_configs[0].dataset)  # type: ignore[union-attr]
+            if group_configs
+            else provenance.UNKNOWN
+        )
         text = f"{source}; frames {', '.join(map(str, frames)) or provenance.UNKNOWN}"
         text += f"; images {_images_text(group_configs)}"
         text += f"; path length {_path_length(group)}"
