@@ -35,7 +35,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import shutil
 import subprocess
 import sys
@@ -45,17 +44,14 @@ from pathlib import Path
 
 import numpy as np
 
+from omnislam.frontend.timing import children_cpu_s  # POSIX: never None here
+
 #: the stages ``compare.execute`` reports, in order
 STAGES = ("loading", "front end", "true points of the tracks", "running", "final estimate")
 #: the replay of a cached log: the estimator's steps and its final estimate
 REPLAY_STAGES = ("running", "final estimate")
 #: the real-time factor the replays must reach
 REAL_TIME_FACTOR = 20.0
-
-
-def children_cpu_s() -> float:
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
 
 
 #: environment of the commands run (``--blas-threads`` adds the BLAS libraries' thread counts)

@@ -174,7 +174,7 @@ def execute_run(
     from omnislam.datasets.registry import load_dataset, resolve
     from omnislam.estimators import ESTIMATORS, make_estimator, resolve_estimator_modality
 
-    say = StageClock(on_step if on_step is not None else _silent)
+    say = RunStages(on_step if on_step is not None else _silent)
     reset_peak_rss()
     check_estimator(spec.estimator)
     say("loading", 0, 0)
@@ -296,7 +296,7 @@ def sequence_info(sequence: Any, frames: list[Any]) -> SequenceInfo:
     )
 
 
-class StageClock:
+class RunStages:
     """An ``on_step`` callback that also times the stages it is told about.
 
     Wall-clock and CPU seconds from each stage's first call to the next stage's (the last
@@ -338,12 +338,9 @@ class StageClock:
 
 def _cpu_with_children_s() -> float:
     """CPU seconds of this process and of its children that have ended (POSIX)."""
-    try:
-        import resource
-    except ImportError:  # pragma: no cover - Windows
-        return time.process_time()
-    children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return time.process_time() + children.ru_utime + children.ru_stime
+    from omnislam.frontend.timing import children_cpu_s
+
+    return time.process_time() + (children_cpu_s() or 0.0)
 
 
 def _silent(stage: str, done: int, total: int) -> None:

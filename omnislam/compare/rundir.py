@@ -93,7 +93,7 @@ class RunConfig:
         prior_map: the RUN_DIR whose landmarks were the prior map (``--set prior_map=``), or
             None (the dataset's own prior map, if any).
         stages_wall_s: wall-clock seconds of each stage of the run ("loading", "front end",
-            "true points of the tracks", "running", "final estimate"; ``execute.StageClock``).
+            "true points of the tracks", "running", "final estimate"; ``execute.RunStages``).
         stages_cpu_s: CPU seconds of the same stages (the process and the front end's worker
             processes).
     """

@@ -45,7 +45,7 @@ from omnislam.frontend.observation_log import (
     save_observation_log,
 )
 from omnislam.frontend.sift import SiftExtractor, detection_mask
-from omnislam.frontend.timing import StageClock
+from omnislam.frontend.timing import StageClock, children_cpu_s
 from omnislam.frontend.tracks import LandmarkTracker
 
 #: default seed of the RANSAC generator when none is injected
@@ -217,17 +217,6 @@ def _prepare_in_worker(i: int) -> PreparedImage:
     return dataclasses.replace(_WORKER(i), in_worker=True)
 
 
-def _children_cpu_s() -> float | None:
-    """User + system CPU seconds of this process's ended (waited-for) children; None where
-    the platform does not count them."""
-    try:
-        import resource
-    except ImportError:  # not POSIX
-        return None
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
-
-
 def _picklable(*objects: Any) -> bool:
     try:
         pickle.dumps(objects)
@@ -315,7 +304,7 @@ def run_frontend(
     raw: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
     lines: dict[int, Any] = {}
     wall_start, cpu_start = time.perf_counter(), time.process_time()
-    children_start = _children_cpu_s()
+    children_start = children_cpu_s()
     prepared_cpu_s = 0.0  # the workers' CPU in their stages (a lower bound of their total)
     if processed.size:
         tracker = LandmarkTracker(rig.viewpoint_r, config, rng, track_clock)
@@ -353,8 +342,8 @@ def run_frontend(
         sightings = np.zeros(0, dtype=np.int64)
     images_wall_s = time.perf_counter() - wall_start
     # the workers ended with the loop: their whole CPU (start-up, pickling included) is known
-    children_cpu_s = _children_cpu_s() - children_start if children_start is not None else 0.0
-    images_cpu_s = time.process_time() - cpu_start + max(prepared_cpu_s, children_cpu_s)
+    children_s = children_cpu_s() - children_start if children_start is not None else 0.0
+    images_cpu_s = time.process_time() - cpu_start + max(prepared_cpu_s, children_s)
 
     laser_sightings: dict[int, RangeBearing] = {}
     if sequence.laser is not None and config.laser.enabled and (

@@ -36,3 +36,14 @@ class StageClock:
 
     def total(self) -> float:
         return sum(self.seconds.values())
+
+
+def children_cpu_s() -> float | None:
+    """User + system CPU seconds of this process's ended (waited-for) children; None where
+    the platform does not count them (not POSIX)."""
+    try:
+        import resource
+    except ImportError:  # not POSIX
+        return None
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
