@@ -63,6 +63,11 @@ class SiftConfig:
         features_per_kpx: keep at most this many strongest features per 1000 pixels of the
             detection region (the mask's, else the whole image's; 0 = no such budget), so that
             one budget suits images of any size.
+        budget_bands, budget_sectors: the budget is shared out over this many rings (equal
+            areas, about the region's centroid: bands of elevation on an omni image) times
+            angular sectors (azimuth), each keeping its share of the strongest, the share the
+            sparse ones leave going to the strongest of the rest (``scale_space.budget_buckets``);
+            1 x 1 = the strongest of the whole region.
         first_octave: how octave -1 (the scales sigma / 2 .. sigma) is sampled.
         precise_upscale: with ``first_octave`` DOUBLED, OpenCV doubles the image by mapping
             pixel x to 2x exactly (``enable_precise_upscale``) instead of its default resize,
@@ -76,6 +81,8 @@ class SiftConfig:
     sigma: float = 1.6
     max_features: int = 0
     features_per_kpx: float = 0.0
+    budget_bands: int = 4
+    budget_sectors: int = 8
     first_octave: FirstOctave = FirstOctave.DOUBLED
     precise_upscale: bool = True
     backend: SiftBackend = SiftBackend.OPENCV
@@ -84,9 +91,10 @@ class SiftConfig:
         if self.contrast_threshold < 0 or self.edge_threshold <= 1.0:
             raise ConfigError("SiftConfig: contrast_threshold >= 0 and edge_threshold > 1")
         if (self.n_octave_layers < 1 or self.sigma <= 0 or self.max_features < 0
-                or not self.features_per_kpx >= 0):
+                or not self.features_per_kpx >= 0 or self.budget_bands < 1
+                or self.budget_sectors < 1):
             raise ConfigError("SiftConfig: n_octave_layers >= 1, sigma > 0, max_features >= 0, "
-                              "features_per_kpx >= 0")
+                              "features_per_kpx >= 0, budget_bands and budget_sectors >= 1")
         if self.backend is SiftBackend.PYCOLMAP and self.first_octave is FirstOctave.NATIVE:
             raise ConfigError("SiftConfig: the pycolmap backend has no native first octave "
                               "(first_octave: doubled or none)")

@@ -373,6 +373,7 @@ def detect_keypoints(
     edge_threshold: float,
     fine: bool = True,
     max_keypoints: int = 0,
+    buckets: np.ndarray | None = None,
 ) -> Detections:
     """SIFT keypoints of an image without doubling it (see the module docstring).
 
@@ -391,6 +392,12 @@ def detect_keypoints(
             that computing every orientation and keeping the strongest would give, in the
             same order (an orientation shares its keypoint's response, so no keypoint beyond
             the ``max_keypoints`` strongest can hold one of the strongest detections).
+        buckets: (H, W) integer map of each pixel's bucket (``budget_buckets``); with it the
+            budget is shared out over the buckets (``strongest_per_bucket``) instead of going
+            to the strongest detections of the whole image. Orientations are computed for the
+            located keypoints that are the strongest of their bucket or of the whole image,
+            a superset of the keypoints whose detections the rule keeps, so the result is
+            again exactly that of computing every orientation first.
 
     Returns:
         The detections, one per orientation (thesis 4.1.2: peaks >= 80 % make keypoints), in
@@ -427,6 +434,10 @@ def detect_keypoints(
         response = np.concatenate([ref.contrast for _, ref in located])
         keep = np.zeros(response.shape[0], dtype=bool)
         keep[np.argsort(-response, kind="stable")[:max_keypoints]] = True
+        if buckets is not None:  # and the strongest of each bucket (the docstring's superset)
+            bucket = np.concatenate([_bucket_of(buckets, octave, ref) for octave, ref in located])
+            keep |= strongest_per_bucket(response, bucket, int(buckets.max()) + 1, max_keypoints,
+                                         spill=False)
         sizes = np.cumsum([0] + [ref.layer.size for _, ref in located])
         located = [(octave, _subset_refined(ref, keep[a:b]))
                    for (octave, ref), a, b in zip(located, sizes[:-1], sizes[1:], strict=True)]
@@ -464,8 +475,85 @@ def detect_keypoints(
     found = Detections(*(np.concatenate([getattr(p, f) for p in parts])
                          for f in Detections.__slots__))
     if max_keypoints and len(found) > max_keypoints:  # orientations beyond the budget
-        found = found.subset(np.sort(np.argsort(-found.response, kind="stable")[:max_keypoints]))
+        if buckets is None:
+            found = found.subset(np.sort(np.argsort(-found.response, kind="stable")[:max_keypoints]))
+        else:
+            found = found.subset(strongest_per_bucket(
+                found.response, bucket_at(buckets, np.column_stack([found.x, found.y])),
+                int(buckets.max()) + 1, max_keypoints))
     return found
+
+
+def budget_buckets(region: np.ndarray, bands: int, sectors: int) -> np.ndarray:
+    """Buckets of equal area for a keypoint budget: rings about the region's centroid times
+    angular sectors.
+
+    The ``bands`` rings split the region's pixels into equal counts by their distance from the
+    centroid, the sectors into equal angles. On a catadioptric image the rings are bands of
+    elevation (on lab40 the floor, seen 35 deg and more below the horizon, is the innermost
+    ring) and the sectors bands of azimuth, so a budget shared out over them keeps features
+    at every elevation and azimuth, where the strongest of the whole image crowd onto a few
+    high-contrast objects (the usual bucketing of visual odometry front ends).
+
+    Args:
+        region: (H, W) detection mask (non-zero = detect).
+        bands: number of rings (>= 1).
+        sectors: number of angular sectors (>= 1).
+
+    Returns:
+        (H, W) int32 map: the bucket ``ring * sectors + sector`` of every pixel (computed for
+        pixels outside the region too, by the same rule).
+    """
+    if bands < 1 or sectors < 1:
+        raise ValueError(f"bands and sectors must be >= 1, got {bands}, {sectors}")
+    rows, cols = np.nonzero(region)
+    if rows.size == 0:
+        raise ValueError("the detection region is empty")
+    cy, cx = rows.mean(), cols.mean()
+    edges = np.quantile(np.hypot(cols - cx, rows - cy), np.linspace(0.0, 1.0, bands + 1)[1:-1])
+    yy, xx = np.mgrid[: region.shape[0], : region.shape[1]]
+    ring = np.searchsorted(edges, np.hypot(xx - cx, yy - cy), side="right")
+    angle = (np.arctan2(yy - cy, xx - cx) + np.pi) / (2.0 * np.pi)
+    sector = np.minimum((angle * sectors).astype(np.int64), sectors - 1)
+    return (ring * sectors + sector).astype(np.int32)
+
+
+def bucket_at(buckets: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+    """The bucket of each ``[u, v]`` pixel position (rounded, clipped to the image)."""
+    u = np.clip(np.rint(pixels[:, 0]).astype(np.int64), 0, buckets.shape[1] - 1)
+    v = np.clip(np.rint(pixels[:, 1]).astype(np.int64), 0, buckets.shape[0] - 1)
+    return buckets[v, u]
+
+
+def strongest_per_bucket(
+    response: np.ndarray, bucket: np.ndarray, n_buckets: int, budget: int, *, spill: bool = True
+) -> np.ndarray:
+    """Which detections a budget shared out over equal-area buckets keeps (a boolean mask).
+
+    Each of the ``n_buckets`` buckets keeps its ``budget // n_buckets`` strongest; with
+    ``spill`` the budget that sparse buckets leave goes to the strongest of the rest, so
+    ``min(budget, len(response))`` are kept. Stable: ties keep their order.
+    """
+    response, bucket = np.asarray(response), np.asarray(bucket, dtype=np.int64)
+    keep = np.zeros(response.shape[0], dtype=bool)
+    if response.shape[0] == 0 or budget <= 0:
+        return keep
+    quota = budget // n_buckets
+    order = np.lexsort((-response, bucket))  # by bucket, strongest first, stable
+    sorted_bucket = bucket[order]
+    rank = np.arange(order.size) - np.searchsorted(sorted_bucket, sorted_bucket, side="left")
+    keep[order[rank < quota]] = True
+    left = budget - int(keep.sum())
+    if spill and left > 0:
+        rest = np.flatnonzero(~keep)
+        keep[rest[np.argsort(-response[rest], kind="stable")[:left]]] = True
+    return keep
+
+
+def _bucket_of(buckets: np.ndarray, octave: Octave, ref: _Refined) -> np.ndarray:
+    step = float(octave.step_px)
+    return bucket_at(buckets, np.column_stack([(ref.col + ref.offset[:, 0]) * step,
+                                               (ref.row + ref.offset[:, 1]) * step]))
 
 
 def _subset_refined(ref: _Refined, index: np.ndarray) -> _Refined:

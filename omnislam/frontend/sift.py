@@ -25,7 +25,12 @@ import numpy as np
 from omnislam._optional import require
 from omnislam.errors import DataError
 from omnislam.frontend.config import FirstOctave, SiftBackend, SiftConfig
-from omnislam.frontend.scale_space import detect_keypoints
+from omnislam.frontend.scale_space import (
+    bucket_at,
+    budget_buckets,
+    detect_keypoints,
+    strongest_per_bucket,
+)
 
 #: descriptor length of SIFT (4 x 4 cells x 8 orientations)
 DESCRIPTOR_SIZE = 128
@@ -114,6 +119,7 @@ class SiftExtractor:
     def __init__(self, config: SiftConfig) -> None:
         self.config = config
         self._area: tuple[np.ndarray, int] | None = None  # (mask, its non-zero pixels)
+        self._buckets: tuple[np.ndarray | None, np.ndarray] | None = None  # (mask, buckets)
         if config.backend is SiftBackend.OPENCV:
             cv2 = require("cv2")
             # OpenCV divides contrastThreshold by the number of layers (see cv2.SIFT_create);
@@ -161,10 +167,21 @@ class SiftExtractor:
         else:
             features = self._extract_pycolmap(grey, mask)
         budget = self.budget(grey.shape, mask)
-        if budget and len(features) > budget:
-            features = features.subset(np.sort(
-                np.argsort(-features.contrast, kind="stable")[:budget]))
+        if budget and len(features) > budget:  # the backends that cannot budget themselves
+            buckets = self.buckets(grey.shape, mask)
+            features = features.subset(strongest_per_bucket(
+                features.contrast, bucket_at(buckets, features.pixels),
+                int(buckets.max()) + 1, budget))
         return features
+
+    def buckets(self, shape: tuple[int, ...], mask: np.ndarray | None) -> np.ndarray:
+        """(H, W) bucket of every pixel for the keypoint budget (``scale_space.budget_buckets``
+        over the mask, else the whole image), computed once per mask."""
+        if self._buckets is None or self._buckets[0] is not mask:
+            region = np.ones(shape[:2], dtype=np.uint8) if mask is None else mask
+            self._buckets = (mask, budget_buckets(region, self.config.budget_bands,
+                                                  self.config.budget_sectors))
+        return self._buckets[1]
 
     def budget(self, shape: tuple[int, ...], mask: np.ndarray | None) -> int:
         """Most features ``SiftConfig.features_per_kpx`` keeps on an image (0: no limit)."""
@@ -197,7 +214,9 @@ class SiftExtractor:
         found = detect_keypoints(
             grey, mask, sigma=cfg.sigma, layers=cfg.n_octave_layers,
             contrast_threshold=cfg.contrast_threshold, edge_threshold=cfg.edge_threshold,
-            fine=cfg.first_octave is FirstOctave.NATIVE, max_keypoints=min(limits, default=0))
+            fine=cfg.first_octave is FirstOctave.NATIVE, max_keypoints=min(limits, default=0),
+            buckets=self.buckets(grey.shape, mask) if limits == [self.budget(grey.shape, mask)]
+            else None)
         if cfg.max_features:  # strongest first
             found = found.subset(np.argsort(-found.response, kind="stable"))
         if len(found) == 0:

@@ -9,7 +9,13 @@ import pytest
 from scipy.spatial import cKDTree
 
 from omnislam.frontend.config import OMNI_THESIS, FirstOctave
-from omnislam.frontend.scale_space import build_scale_space, detect_keypoints
+from omnislam.frontend.scale_space import (
+    bucket_at,
+    budget_buckets,
+    build_scale_space,
+    detect_keypoints,
+    strongest_per_bucket,
+)
 from omnislam.frontend.sift import SiftExtractor, detection_mask
 
 cv2 = pytest.importorskip("cv2")
@@ -135,3 +141,11 @@ def test_the_budget_before_orientations_keeps_the_strongest_detections(omni_grey
     assert len(kept) == budget
     for name in type(every).__slots__:
         np.testing.assert_array_equal(getattr(kept, name), getattr(strongest, name), name)
+    # shared out over rings x sectors: the same rule applied to every detection
+    buckets = budget_buckets(mask, 4, 8)
+    chosen = every.subset(strongest_per_bucket(
+        every.response, bucket_at(buckets, np.column_stack([every.x, every.y])), 32, budget))
+    kept = detect_keypoints(grey, mask, max_keypoints=budget, buckets=buckets, **SIFT)
+    assert len(kept) == budget
+    for name in type(every).__slots__:
+        np.testing.assert_array_equal(getattr(kept, name), getattr(chosen, name), name)
