@@ -26,8 +26,9 @@ Reports, on the synthetic omni dataset, with the default configuration (vertical
   calibrated);
 - ``--variants``: the same quality and CPU figures (per stage) for the scale-space choices of
   ``SiftConfig.first_octave`` (doubled with OpenCV's default upscale, doubled with the exact
-  one, native, none), for native with 2 layers per octave or a budget of the strongest 1.2
-  keypoints per 1000 px of the ring (``SiftConfig.features_per_kpx``), and for the general
+  one, native, none), for native with 2 layers per octave, without the keypoint budget
+  (``SiftConfig.features_per_kpx``) or with it going to the whole ring's strongest instead of
+  being shared out over rings x sectors, and for the general
   8-point RANSAC instead of the planar one, sequentially, one run each (``--variant NAME``
   picks some; ``--repeat 0`` runs only them);
 and optionally vertical-edge recall / bearing error on corridor21 and verified matches per
@@ -82,9 +83,12 @@ def variants(config: FrontendConfig) -> dict[str, FrontendConfig]:
             sift, first_octave=FirstOctave.NONE)),
         "native, 2 layers per octave": dataclasses.replace(config, sift=dataclasses.replace(
             sift, first_octave=FirstOctave.NATIVE, n_octave_layers=2)),
-        "native, 1.2 keypoints per 1000 px": dataclasses.replace(
+        "native, no keypoint budget": dataclasses.replace(
             config, sift=dataclasses.replace(sift, first_octave=FirstOctave.NATIVE,
-                                             features_per_kpx=1.2)),
+                                             features_per_kpx=0.0)),
+        "native, budget to the whole ring's strongest": dataclasses.replace(
+            config, sift=dataclasses.replace(sift, first_octave=FirstOctave.NATIVE,
+                                             budget_bands=1, budget_sectors=1)),
         "native, 8-point RANSAC": dataclasses.replace(config, verification=dataclasses.replace(
             config.verification, planar_motion=False)),
     }

@@ -105,16 +105,16 @@ LOWE = SiftConfig()
 #: Thesis 4.1.2: on omnidirectional images keep Lowe's rejection rate with R ~ 2. The contrast
 #: threshold is lowered to 0.02 so that the ring (a third of the pixels of a perspective image
 #: of the same size, blurred by the mirror) still yields several hundred features. The finest
-#: octave is sampled at the image's pixels (the thesis leaves doubling optional, 4.1.1). No
-#: keypoint budget by default: ``features_per_kpx=1.2`` (318 of ~490 keypoints on a lab40
-#: image, chosen before their orientations and descriptors are computed) raises lab40's track
-#: precision from 98.91 % to 99.59 %, takes 15 % off the front end's CPU (20.2 instead of ~17
-#: images/s on 2 quiet cores) and cuts the RMS error of landmarks triangulated from the true
-#: poses from 183 to 30 cm, but keeps few of the low-contrast floor's keypoints, and the graph
-#: takes the odometry's scale from floor points: on lab40 its ATE was 3.76 cm with the budget
-#: against 0.23 cm without (docs/results.md, "Front-end speed and quality").
+#: octave is sampled at the image's pixels (the thesis leaves doubling optional, 4.1.1). A
+#: keypoint budget of 1.2 per 1000 px of the ring (318 of ~490 keypoints on a lab40 image,
+#: chosen before their orientations and descriptors are computed), shared out over 4 rings x 8
+#: sectors: on lab40 track precision 99.48 % instead of 98.91 % and ~15 % less CPU. Shared out,
+#: not the strongest of the whole ring, because the graph takes the odometry's scale from floor
+#: points, which are low-contrast: the whole ring's strongest kept 383 of 1102 floor keypoints
+#: on 12 lab40 images (1-5 on some), the buckets 669 (docs/results.md, "Front-end speed and
+#: quality").
 OMNI_THESIS = SiftConfig(contrast_threshold=0.02, edge_threshold=2.0,
-                         first_octave=FirstOctave.NATIVE)
+                         first_octave=FirstOctave.NATIVE, features_per_kpx=1.2)
 SIFT_PRESETS: dict[str, SiftConfig] = {"lowe": LOWE, "omni-thesis": OMNI_THESIS}
 
 

@@ -188,6 +188,8 @@ class GraphSLAM:
         ):
             self._floor = FloorScale(self.config.sensor_height_m)
         self._stamps: list[float] = []
+        self._frame_scale: list[float] = []  # floor scale each frame's odometry was added at
+        self._odometry_factors: dict[int, int] = {}  # key-frame row -> its between-factor's index
         self._frames = 0
         self._other_streams_ignored = 0
         self._between_keys = 0  # sightings of frames that got no pose variable
@@ -197,6 +199,7 @@ class GraphSLAM:
     def step(self, frame: FrameInput) -> None:
         """Add one frame: its pose and odometry factor, its sightings, one iSAM2 update."""
         k = self._frames
+        self._poses.rescale(None)  # the final estimate's ratios (finish) are per frame so far
         if self._floor is not None:
             frame = self._scaled(k, frame)
         used = self._modality.stream(frame)
@@ -220,6 +223,8 @@ class GraphSLAM:
         graph = gtsam.NonlinearFactorGraph()
         values = gtsam.Values()
         self._poses.add(k, graph, values, key=True)
+        if k > 0 and self._rescales_final:  # the between-factor is the key frame's first
+            self._odometry_factors[len(self._poses.key_frames) - 1] = self._session.factor_count
         if seen:
             self._graph.add(k, used, guess_w, graph, values)
         self._session.update(graph, values, frame.index)
@@ -233,6 +238,7 @@ class GraphSLAM:
         odometry = frame.odometry
         self._floor.observe(odometry.delta if k > 0 else np.zeros(3), frame.bearings)
         scale = self._floor.scale
+        self._frame_scale.append(scale if k > 0 else 1.0)
         if scale == 1.0 or k == 0:
             return frame
         factors = np.array([scale, scale, 1.0])
@@ -260,11 +266,40 @@ class GraphSLAM:
         Called by every read of the whole estimate; ``step`` may continue afterwards.
         """
         finish = getattr(self._graph, "finish", None)
-        if finish is None or self._frames == 0:
+        if finish is not None and self._frames > 0:
+            graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
+            if finish(graph, values):
+                self._session.update(graph, values, self._frames - 1)
+        if self._rescales_final and self._frames > 0:
+            self._rescale_final()
+
+    @property
+    def _rescales_final(self) -> bool:
+        """Whether the final estimate takes the odometry at the final floor scale
+        (``GraphSLAMConfig.floor_scale_final``; needs the whole-graph LM of the fixed-lag
+        session, whose factors it can replace)."""
+        return (self._floor is not None and self.config.floor_scale_final
+                and isinstance(self._session, FixedLagSession))
+
+    def _rescale_final(self) -> None:
+        """Give the final estimate every odometry translation at the current floor scale: the
+        between-factors rebuilt with their translations times ``final / scale at the time``,
+        the frames between key frames likewise (``PoseChain.rescale``)."""
+        assert self._floor is not None and isinstance(self._session, FixedLagSession)
+        final = self._floor.scale
+        ratios = final / np.asarray(self._frame_scale)
+        if np.all(ratios == 1.0):
+            self._poses.rescale(None)
+            self._session.replace_final({}, final)
             return
-        graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
-        if finish(graph, values):
-            self._session.update(graph, values, self._frames - 1)
+        self._poses.rescale(ratios)
+        config = self.config
+        replacements = {
+            index: fx.between_pose3(*self._poses.odometry_factor_inputs(row),
+                                    config.planar_sigma_m, config.planar_sigma_rad)
+            for row, index in self._odometry_factors.items()
+        }
+        self._session.replace_final(replacements, (final, self._frames))
 
     def estimate(self) -> Estimate:
         """The current iSAM2 estimate: all poses, all landmarks, covariances if configured."""

@@ -107,6 +107,10 @@ class PoseChain(abc.ABC):
         self._steps_since_key = 0
         self._key_delta: list[np.ndarray] = []  # per key frame: odometry from the previous
         self._key_delta_cov: list[np.ndarray] = []  # ... and its covariance
+        self._key_steps: list[int] = []  # ... and the odometry steps composed into it
+        # per frame: what the estimate multiplies the translation of the odometry folded up to
+        # that frame by (``rescale``); None: 1 everywhere
+        self._ratio: np.ndarray | None = None
         self._frame_key: list[int] = []  # per frame: row of its key frame in _key_frames
         self._frame_offset: list[np.ndarray] = []  # per frame: delta from its key frame
         self._frame_offset_cov: list[np.ndarray] = []  # ... and its covariance
@@ -187,6 +191,7 @@ class PoseChain(abc.ABC):
             # the odometry from the previous key frame (what the between-factor measures)
             self._key_delta.append(self._since_key.copy() if k else np.zeros(3))
             self._key_delta_cov.append(self._since_key_cov.copy() if k else np.zeros((3, 3)))
+            self._key_steps.append(self._steps_since_key if k else 0)
             self._frame_offset.append(np.zeros(3))
             self._frame_offset_cov.append(np.zeros((3, 3)))
         else:
@@ -202,8 +207,11 @@ class PoseChain(abc.ABC):
             return frame.odometry.covariance
         return self._motion.covariance(frame.odometry.delta)
 
-    def _odometry_covariance(self) -> np.ndarray:
-        """(3, 3) between-factor covariance of the odometry since the previous key frame.
+    def _odometry_covariance(
+        self, delta: np.ndarray | None = None, cov: np.ndarray | None = None, steps: int = 0
+    ) -> np.ndarray:
+        """(3, 3) between-factor covariance of the odometry since the previous key frame (or of
+        ``delta`` with covariance ``cov`` composed of ``steps`` steps).
 
         A composed delta's covariance is turned into the factor's error convention
         (``factors.between_covariance``); one step keeps the step's covariance as the factor's,
@@ -212,12 +220,46 @@ class PoseChain(abc.ABC):
         0.648 m -- the alpha model is not calibrated for MR.CLAM, so the exact convention is
         not the better one there.
         """
-        cov = self._since_key_cov
-        if self._steps_since_key > 1:
-            cov = fx.between_covariance(self._since_key, cov)
+        if delta is None:
+            delta, cov, steps = self._since_key, self._since_key_cov, self._steps_since_key
+        if steps > 1:
+            cov = fx.between_covariance(delta, cov)
         # a factor far more precise than the poses' absolute uncertainty makes iSAM2's
         # Cholesky reject the clique (see GraphSLAMConfig.odometry_min_sigma_m)
         return fx.condition_odometry_covariance(cov, self._config.odometry_min_sigma_m)
+
+    def rescale(self, ratios: np.ndarray | None) -> None:
+        """Multiply, in the estimate only, the translation of the odometry folded up to each
+        frame (into a key frame: its between-factor's; else its offset from its key frame) by
+        ``ratios`` (N,), one per frame (None: as added). ``GraphSLAM`` uses it to give the final
+        estimate the run's final floor scale (``GraphSLAMConfig.floor_scale``)."""
+        if ratios is not None:
+            ratios = np.asarray(ratios, dtype=float).reshape(-1)
+            if ratios.shape[0] != len(self._frame_key):
+                raise ValueError("one ratio per frame")
+        self._ratio = ratios
+
+    def _scaled_odometry(
+        self, deltas: np.ndarray, covs: np.ndarray, frames: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 3) deltas and (N, 3, 3) covariances with their translations multiplied by the
+        ratios of ``frames`` (``rescale``)."""
+        if self._ratio is None:
+            return deltas, covs
+        factors = np.ones((len(frames), 3))
+        factors[:, :2] = self._ratio[frames, None]
+        return deltas * factors, covs * factors[:, :, None] * factors[:, None, :]
+
+    def odometry_factor_inputs(self, row: int) -> tuple[int, int, np.ndarray, np.ndarray]:
+        """(previous key frame, key frame, delta, between-factor covariance) of the odometry
+        factor into key-frame row ``row`` (>= 1), with ``rescale``'s ratio applied."""
+        if not 1 <= row < len(self._key_frames):
+            raise ValueError(f"no odometry factor into key-frame row {row}")
+        (delta,), (cov,) = self._scaled_odometry(
+            np.asarray(self._key_delta[row])[None], np.asarray(self._key_delta_cov[row])[None],
+            np.array([self._key_frames[row]]))
+        return (self._key_frames[row - 1], self._key_frames[row], delta,
+                self._odometry_covariance(delta, cov, self._key_steps[row]))
 
     def frame_poses(self, key_poses_w: np.ndarray) -> np.ndarray:
         """(N, 4, 4) every frame's pose from the key frames' (K, 4, 4) and the odometry.
@@ -233,18 +275,23 @@ class PoseChain(abc.ABC):
         if len(key_poses_w) != len(self._key_frames):
             raise EstimationError("estimate does not hold one value per pose and landmark")
         rows = np.asarray(self._frame_key, dtype=np.int64)
-        offsets = np.asarray(self._frame_offset, dtype=float).reshape(-1, 3).copy()
+        offsets, offset_covs = self._scaled_odometry(
+            np.asarray(self._frame_offset, dtype=float).reshape(-1, 3),
+            np.asarray(self._frame_offset_cov, dtype=float).reshape(-1, 3, 3),
+            np.arange(len(rows)))
+        offsets = offsets.copy()
         inside = np.flatnonzero(rows + 1 < len(self._key_frames))  # a later key frame exists
         inside = inside[np.asarray(self._key_frames)[rows[inside]] != inside]  # not keys
         if len(inside):
             planar = se2_from_se3(key_poses_w)
             nxt = rows[inside] + 1
-            d_ab = np.asarray(self._key_delta)[nxt]
-            c_ab = np.asarray(self._key_delta_cov)[nxt]
+            d_ab, c_ab = self._scaled_odometry(
+                np.asarray(self._key_delta)[nxt], np.asarray(self._key_delta_cov)[nxt],
+                np.asarray(self._key_frames)[nxt])
             residual = se2_between(planar[rows[inside]], planar[nxt]) - d_ab
             residual[:, 2] = wrap_angle(residual[:, 2])
             d_aj = offsets[inside]
-            c_aj = np.asarray(self._frame_offset_cov)[inside]
+            c_aj = offset_covs[inside]
             J, _ = se2_compose_jacobians(d_aj, se2_between(d_aj, d_ab))
             gain = c_aj @ np.swapaxes(J, 1, 2) @ np.linalg.inv(c_ab)
             offsets[inside] = d_aj + np.einsum("nij,nj->ni", gain, residual)
@@ -258,10 +305,12 @@ class PoseChain(abc.ABC):
         """
         rows = np.asarray(self._frame_key, dtype=np.int64)
         keys_w = planar_w[np.asarray(self._key_frames, dtype=np.int64)][rows]
-        offsets = np.asarray(self._frame_offset).reshape(-1, 3)
+        offsets, C = self._scaled_odometry(
+            np.asarray(self._frame_offset, dtype=float).reshape(-1, 3),
+            np.asarray(self._frame_offset_cov, dtype=float).reshape(-1, 3, 3),
+            np.arange(len(rows)))
         J_a, J_b = se2_compose_jacobians(keys_w, offsets)
         P = key_covariances_w[rows]
-        C = np.asarray(self._frame_offset_cov).reshape(-1, 3, 3)
         return J_a @ P @ np.swapaxes(J_a, 1, 2) + J_b @ C @ np.swapaxes(J_b, 1, 2)
 
     def viewpoint_callback(self, k: int) -> Viewpoint:

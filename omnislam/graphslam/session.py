@@ -220,6 +220,8 @@ class FixedLagSession:
         self._skipped = 0
         self._restarts = 0
         self._final: Any = None  # LM solution, until the next update
+        self._replace: dict[int, Any] = {}  # factors the final graph has instead (replace_final)
+        self._final_graph: Any = None  # the whole graph with them
         self._marginals: Any = None  # gtsam.Marginals at it
 
     def _new_smoother(self) -> Any:
@@ -233,7 +235,7 @@ class FixedLagSession:
 
     def update(self, graph: Any, values: Any, frame_index: int) -> None:
         """Add the frame's factors and variables (see ``ISAM2Session.update``)."""
-        self._final = self._marginals = None
+        self._final = self._marginals = self._final_graph = None
         self._all_factors.push_back(graph)
         new_keys = {int(k) for k in values.keys()}
         online = gtsam.NonlinearFactorGraph()
@@ -260,6 +262,28 @@ class FixedLagSession:
         window = self._smoother.calculateEstimate()
         self._last.insert_or_assign(window)
         self._alive = {int(k) for k in window.keys()}
+
+    def replace_final(self, replacements: dict[int, Any], token: object) -> None:
+        """The final estimate's graph: the run's factors with those at the given indices (in the
+        order added) replaced. ``token`` names the replacements: the same token as the last
+        call keeps the cached estimate. The online smoother is not touched."""
+        if token == getattr(self, "_replace_token", None) and self._final_graph is not None:
+            return
+        self._replace_token = token
+        self._replace = dict(replacements)
+        self._final = self._marginals = self._final_graph = None
+
+    def final_factors(self) -> Any:
+        """The whole graph the final estimate optimises (``replace_final``)."""
+        if self._final_graph is None:
+            if not self._replace:
+                self._final_graph = self._all_factors
+            else:
+                graph = gtsam.NonlinearFactorGraph(self._all_factors)
+                for index, factor in self._replace.items():
+                    graph.replace(index, factor)
+                self._final_graph = graph
+        return self._final_graph
 
     def _restart(self, values: Any, window: set[int], frame_index: int) -> None:
         """A fresh smoother on ``window`` (see the class docstring)."""
@@ -312,7 +336,7 @@ class FixedLagSession:
     def marginal_covariance(self, key: int) -> np.ndarray:
         """The marginal covariance of one variable in the full graph, at ``estimate()``."""
         if self._marginals is None:
-            self._marginals = gtsam.Marginals(self._all_factors, self.estimate())
+            self._marginals = gtsam.Marginals(self.final_factors(), self.estimate())
         return self._marginals.marginalCovariance(key)
 
     def estimate(self) -> Any:
@@ -321,7 +345,7 @@ class FixedLagSession:
             from omnislam.graphslam.batch import optimize_batch
 
             self._final = optimize_batch(
-                self._all_factors,
+                self.final_factors(),
                 self._last,
                 self._config.batch_max_iterations,
                 self._config.batch_relative_error_tol,
@@ -329,8 +353,8 @@ class FixedLagSession:
         return self._final
 
     def factors(self) -> Any:
-        """Every factor of the run (the full graph)."""
-        return self._all_factors
+        """Every factor of the run (the full graph the final estimate optimises)."""
+        return self.final_factors()
 
     def linearization_point(self) -> Any:
         """The newest estimates (``gtsam.Values``)."""

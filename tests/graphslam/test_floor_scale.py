@@ -134,10 +134,51 @@ def test_graphslam_takes_the_floors_scale():
     assert abs(_ate_scale(metric.estimate(), poses) - 1) < 0.006
 
 
+@pytest.mark.parametrize("seed", [3, 5])
+def test_the_final_estimate_takes_the_runs_final_floor_scale(seed):
+    """Floor points only in the second half: the first half's odometry enters the online graph
+    at the wheel's scale (the floor's not known yet). The final estimate takes every odometry
+    translation at the final floor scale, so the whole trajectory, its first half included, has
+    the floor's scale; without that, the first half keeps much of the wheel's 3%."""
+    frames, poses, _ = _scenario(np.random.default_rng(seed))
+    half = len(frames) // 2
+    late = []
+    for frame in frames:
+        if frame.index < half:  # only the raised points (ids >= 400) are seen
+            b = frame.bearings
+            keep = b.landmark_ids >= 400
+            frame = replace(frame, bearings=Bearings(b.landmark_ids[keep], b.unit_vectors_r[keep],
+                                                     b.sigmas_rad[keep]))
+        late.append(frame)
+    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M)
+    final = GraphSLAM(Modality.BEARINGS_3D, config)
+    online = GraphSLAM(Modality.BEARINGS_3D, replace(config, floor_scale_final=False))
+    for frame in late:
+        final.step(frame)
+        online.step(frame)
+        # the online estimate is the same: only the final one is rescaled
+        np.testing.assert_array_equal(final.newest_pose(), online.newest_pose())
+    scale = final.info().odometry_scale
+    assert scale == pytest.approx(1 / WHEEL_SCALE, rel=3e-3)
+    first = slice(0, half)
+    truth = poses[first, :2] - poses[0, :2]
+
+    def first_half_scale(estimate):
+        est = estimate.trajectory.se2[first, :2] - estimate.trajectory.se2[0, :2]
+        return float(np.sum(est * truth) / np.sum(truth * truth))
+
+    assert first_half_scale(final.estimate()) == pytest.approx(scale * WHEEL_SCALE, abs=2e-3)
+    assert first_half_scale(online.estimate()) - scale * WHEEL_SCALE > 0.01
+    # estimate() can be called again, and stepping on after it works
+    assert first_half_scale(final.estimate()) == pytest.approx(scale * WHEEL_SCALE, abs=2e-3)
+
+
 def test_fixed_lag_final_estimate_is_the_whole_graph_optimum():
-    """The smoother's window is bounded; ``estimate()`` smooths every factor, as iSAM2 does."""
+    """The smoother's window is bounded; ``estimate()`` smooths every factor, as iSAM2 does
+    (with the odometry at the scales it was added at, as iSAM2 has it)."""
     frames, _, _ = _scenario(np.random.default_rng(4))
-    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M, online_lag_key_frames=5)
+    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M, online_lag_key_frames=5,
+                             floor_scale_final=False)
     lagged = GraphSLAM(Modality.BEARINGS_3D, config)
     whole = GraphSLAM(Modality.BEARINGS_3D, replace(config, online_lag_key_frames=None))
     window = []
