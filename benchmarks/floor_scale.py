@@ -40,6 +40,10 @@ def main() -> None:
         log_s, sigma = np.log(s[usable]), sigma[usable]
         keep = np.abs(log_s) <= np.log(fs.MAX_SCALE)
         log_s, weights = log_s[keep], 1.0 / sigma[keep] ** 2
+        if len(log_s) == 0:
+            print(f"{log}: scale {floor.scale:.4f}; {n} floor pairs, none within "
+                  f"1/{fs.MAX_SCALE}..{fs.MAX_SCALE}")
+            continue
         grid = np.arange(-np.log(fs.MAX_SCALE), np.log(fs.MAX_SCALE), fs.MODE_BANDWIDTH / 4)
         kernel = np.exp(-0.5 * ((grid[:, None] - log_s[None, :]) / fs.MODE_BANDWIDTH) ** 2)
         density, count = kernel @ weights, kernel.sum(axis=1)

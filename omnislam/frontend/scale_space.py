@@ -476,7 +476,8 @@ def detect_keypoints(
                          for f in Detections.__slots__))
     if max_keypoints and len(found) > max_keypoints:  # orientations beyond the budget
         if buckets is None:
-            found = found.subset(np.sort(np.argsort(-found.response, kind="stable")[:max_keypoints]))
+            strongest = np.argsort(-found.response, kind="stable")[:max_keypoints]
+            found = found.subset(np.sort(strongest))
         else:
             found = found.subset(strongest_per_bucket(
                 found.response, bucket_at(buckets, np.column_stack([found.x, found.y])),
