@@ -47,8 +47,10 @@ def test_ids_are_stable_and_unique_per_image(tracked):
     _, out = tracked
     for frame in out:
         assert len(np.unique(frame.track_ids)) == len(frame.track_ids)
-    # most features of an image continue tracks of the previous ones
-    assert np.median([f.from_previous for f in out[1:FIRST_PASS]]) > 100
+    # a large share of an image's features continue tracks of the previous ones (measured with
+    # the keypoint budget: 26-45 %, median 34 % of ~250 features; ~100 of ~480 without it)
+    continued = [f.from_previous / len(f.track_ids) for f in out[1:FIRST_PASS]]
+    assert np.median(continued) > 0.25
 
 
 def test_a_revisited_place_is_re_recognised_with_its_old_ids(tracked):
