@@ -31,7 +31,10 @@ Variants (``--variants``, comma-separated, or ``all``): ``default`` (the estimat
 per image), ``spacing`` (key frames 0.2 m apart, every track), ``frames`` (the former graph:
 a pose per odometry step, every track), ``batch`` (``graphslam-batch`` with the defaults),
 ``whole`` (iSAM2 over the whole graph at every key frame instead of the default fixed-lag
-smoother), ``wheel-scale`` (the odometry's scale, without the floor points').
+smoother), ``wheel-scale`` (the odometry's scale, without the floor points'), ``online-scale``
+(each odometry factor at the floor scale known when it was added, also in the final estimate),
+``true-scale`` (the odometry at its true scale from the first frame, computed from the ground
+truth: a diagnostic of how much of the error is the floor scale's).
 """
 
 from __future__ import annotations
@@ -55,6 +58,7 @@ from omnislam.compare.execute import (
     sequence_info,
 )
 from omnislam.compare.metrics import Alignment, LandmarkAssociation, ate, landmark_error
+from omnislam.core.se import se2_between
 from omnislam.core.types import Trajectory
 from omnislam.datasets.registry import load_dataset
 from omnislam.estimators import SequenceInfo, make_estimator
@@ -78,6 +82,10 @@ VARIANTS: dict[str, tuple[str, dict[str, str]]] = {
     "batch": ("graphslam-batch", {}),
     "whole": ("graphslam", {"online_lag_key_frames": "none"}),
     "wheel-scale": ("graphslam", {"floor_scale": "false"}),
+    "online-scale": ("graphslam", {"floor_scale_final": "false"}),
+    # the odometry's true translation scale from the first frame (a diagnostic: the graph's
+    # error without the floor scale's; ``true_odometry_scale``)
+    "true-scale": ("graphslam", {"known_odometry_scale": "truth"}),
 }
 #: the other estimators timed on the same log (omni options as in benchmarks/fastslam_lab40.py)
 #: (EKF-SLAM and the UKF take their default streams: on a synthetic log EKF-SLAM the poles'
@@ -143,6 +151,16 @@ def prepare(name: str, folder: str, log: str | None, frames: int | None) -> Repl
     info = sequence_info(sequence, inputs)  # what `omnislam run` tells the estimator
     images = np.array([f.bearings is not None and len(f.bearings) > 0 for f in inputs])
     return Replay(name, inputs, info, truth, images)
+
+
+def true_odometry_scale(data: Replay) -> float:
+    """What the wheel odometry's translations must be multiplied by to be true: the distance
+    truly driven over the distance the odometry says (lab40: 1 / 1.0092; the steps' own
+    direction noise is not scale)."""
+    true = data.truth.trajectory.se2
+    logged = np.array([f.odometry.delta[:2] for f in data.frames[1:]])
+    steps = np.array([se2_between(a, b)[:2] for a, b in zip(true[:-1], true[1:], strict=True)])
+    return float(np.hypot(*steps.T).sum() / np.hypot(*logged.T).sum())
 
 
 def _p95_ms(values: np.ndarray) -> float | None:
@@ -279,6 +297,10 @@ def main() -> None:
         data = prepare(name, folder, log, args.frames)
         for label in names:
             estimator, options = VARIANTS[label]
+            if options.get("known_odometry_scale") == "truth":
+                options = {**options, "known_odometry_scale": repr(true_odometry_scale(data))}
+                print(f"{name}: the odometry's true scale {options['known_odometry_scale']}",
+                      file=sys.stderr)
             results = [
                 replay_once(data, estimator, {**options, **extra}, args.seed)
                 for _ in range(args.runs)

@@ -149,6 +149,11 @@ class GraphSLAMConfig:
             scale, not at the scale known when its factor was added (the first frames, before
             enough floor pairs, were added at 1; on lab40 the online estimate also sat on a
             wrong mode for a while). The online estimate keeps the scale of its time.
+        known_odometry_scale: the wheel odometry's translation scale when it is known (a
+            calibrated wheel radius): each translation is multiplied by it from the first frame
+            and the floor points are not used (None: ``floor_scale`` decides). With the truth's
+            scale it tells how much of a graph's error is the floor scale's
+            (``benchmarks/realtime_lab40.py --variants true-scale``).
         online_lag_key_frames: omni bearings: the online estimate is a fixed-lag smoother over
             the variables touched within this many key frames, and ``estimate()`` is LM over
             the whole graph (default 20; ``session.FixedLagSession``). None: iSAM2 over the
@@ -245,6 +250,7 @@ class GraphSLAMConfig:
     landmark_prior_sigma_m: float | None = 10.0
     floor_scale: bool = True
     floor_scale_final: bool = True
+    known_odometry_scale: float | None = None
     online_lag_key_frames: int | None = 20
     min_consistent_sightings: int = 2
     factorization: Factorization = Factorization.AUTO
@@ -267,6 +273,9 @@ class GraphSLAMConfig:
     compute_covariances: bool = False
 
     def __post_init__(self) -> None:
+        if self.known_odometry_scale is not None and not self.known_odometry_scale > 0:
+            raise ConfigError(
+                f"known_odometry_scale must be positive, got {self.known_odometry_scale}")
         if not isinstance(self.robust_kernel, RobustKernel):
             raise ConfigError(f"robust_kernel must be a RobustKernel, got {self.robust_kernel!r}")
         positive = {

@@ -192,3 +192,25 @@ class FloorScale:
             return
         self._scale = float(np.exp(mode))
         self._inliers = int(inlier.sum())
+
+
+class KnownScale:
+    """A known odometry scale in ``FloorScale``'s place (``GraphSLAMConfig.known_odometry_scale``):
+    the same reads, no floor points used."""
+
+    def __init__(self, scale: float) -> None:
+        if not scale > 0:
+            raise ValueError(f"scale must be positive, got {scale}")
+        self._scale = float(scale)
+
+    @property
+    def scale(self) -> float:
+        return self._scale
+
+    @property
+    def inliers(self) -> int:
+        """No floor pairs: 0."""
+        return 0
+
+    def observe(self, raw_delta: np.ndarray, bearings: Bearings | None) -> None:
+        """Nothing to learn."""

@@ -43,7 +43,7 @@ from omnislam.graphslam.bearings_3d import Bearings3DGraph
 from omnislam.graphslam.builder import GraphBuilder
 from omnislam.graphslam.config import GraphSLAMConfig, PoseVariables
 from omnislam.graphslam.export import G2O_ATTACHMENT, format_g2o
-from omnislam.graphslam.floor_scale import FloorScale
+from omnislam.graphslam.floor_scale import FloorScale, KnownScale
 from omnislam.graphslam.poses import PlanarPoses, PoseChain, ViewpointPoses
 from omnislam.graphslam.range_bearing import CREATED_ID_BASE, RangeBearingGraph
 from omnislam.graphslam.session import FixedLagSession, ISAM2Session
@@ -180,8 +180,10 @@ class GraphSLAM:
                 if modality is Modality.RANGE_BEARING_2D
                 else VerticalLinesGraph(self.config, planar)
             )
-        self._floor: FloorScale | None = None  # see GraphSLAMConfig.floor_scale
-        if (
+        self._floor: FloorScale | KnownScale | None = None  # see GraphSLAMConfig.floor_scale
+        if modality is Modality.BEARINGS_3D and self.config.known_odometry_scale is not None:
+            self._floor = KnownScale(self.config.known_odometry_scale)
+        elif (
             modality is Modality.BEARINGS_3D
             and self.config.floor_scale
             and self.config.sensor_height_m > 0
@@ -238,7 +240,7 @@ class GraphSLAM:
         odometry = frame.odometry
         self._floor.observe(odometry.delta if k > 0 else np.zeros(3), frame.bearings)
         scale = self._floor.scale
-        self._frame_scale.append(scale if k > 0 else 1.0)
+        self._frame_scale.append(scale)  # (frame 0 has no odometry: any scale does)
         if scale == 1.0 or k == 0:
             return frame
         factors = np.array([scale, scale, 1.0])
