@@ -159,7 +159,7 @@ def true_odometry_scale(data: Replay) -> float:
     direction noise is not scale)."""
     true = data.truth.trajectory.se2
     logged = np.array([f.odometry.delta[:2] for f in data.frames[1:]])
-    steps = np.array([se2_between(a, b)[:2] for a, b in zip(true[:-1], true[1:], strict=True)])
+    steps = se2_between(true[:-1], true[1:])[:, :2]
     return float(np.hypot(*steps.T).sum() / np.hypot(*logged.T).sum())
 
 
