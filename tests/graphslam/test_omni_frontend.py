@@ -18,6 +18,9 @@ from omnislam.compare.metrics import Alignment, ate
 IMAGES = 24
 #: the map's RMS error against the true points of the tracks [m]
 LANDMARK_RMSE_M = 0.15
+#: landmarks the graph must hold (the keypoint budget keeps ~250 features per demo image;
+#: seeds 1 / 2 insert 115 / 87 tracks, over 100 each without the budget; map RMSE 4.0 / 3.8 cm)
+MIN_LANDMARKS = 60
 
 
 @pytest.mark.parametrize("seed", [1, 2])
@@ -41,7 +44,7 @@ def test_no_indeterminate_system_on_demo_seeds(tmp_path, seed):
         slam.step(frame)
     estimate = slam.estimate()
     info = slam.info()
-    assert info.tracks_inserted > 100
+    assert info.tracks_inserted > MIN_LANDMARKS
 
     truth = sequence.ground_truth.trajectory
     result = ate(estimate.trajectory, truth, Alignment.SE2)
@@ -49,7 +52,7 @@ def test_no_indeterminate_system_on_demo_seeds(tmp_path, seed):
 
     ids, points = track_truth(true_sightings(log, sequence.point_map_loader))
     common, mine, theirs = np.intersect1d(estimate.landmark_ids, ids, return_indices=True)
-    assert common.size > 100
+    assert common.size > MIN_LANDMARKS
     T = result.gtTest
     aligned = estimate.landmarks_w[mine] @ T[:3, :3].T + T[:3, 3]
     rmse = np.sqrt(np.mean(np.sum((aligned - points[theirs]) ** 2, axis=1)))
