@@ -7,8 +7,9 @@ initialised from the inverse model, mean = h^-1(x, z) and Sigma = J_z R J_z^T (e
 innovation likelihood is FastSLAM 1.0's importance factor (eq. 4.47). The FastSLAM 2.0
 proposal uses the same model.
 
-Every Gaussian back end gates a sighting of a known landmark on its innovation
-(``core.gating``, ``FastSLAMConfig.outlier_gate_probability``); here per particle: an innovation
+The graph and EKF-SLAM gate a sighting of a known landmark on its innovation (``core.gating``);
+FastSLAM can, per particle, with ``FastSLAMConfig.outlier_gate_probability`` < 1 (off by
+default: measured harmful on MR.CLAM, see the option): an innovation
 with y^T S^-1 y above the chi-square gate (S = H Sigma H^T + R for the landmark update, the
 proposal's H_x P H_x^T + Q for FastSLAM 2.0's refinement) neither refines the proposal nor
 updates the landmark, and its weight factor is the Gaussian likelihood truncated at the gate.
