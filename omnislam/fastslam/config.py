@@ -176,7 +176,7 @@ class FastSLAMConfig:
             it) instead of from ``motion_noise``. Default False: measured on MR.CLAM 6 (robots
             1-5, seeds 0-2, ``benchmarks/fastslam_mrclam.py --set stated_odometry_noise=true``)
             fastslam2's median ATE grows from 0.203 to 0.345 m with the loader's 2 s steps
-            (0.275 -> 0.602 m with frames at sighting times only): the stated noise (fitted
+            (0.271 -> 0.602 m with frames at sighting times only): the stated noise (fitted
             frame to frame, 1.3-7x the alphas) spreads the particles wider than the sightings
             can sort out, and the proposal follows the sightings' per-robot biases.
         likelihood_temper: FastSLAM 1.0 only: its importance factor is p(z | x)^t (thesis eq.
@@ -224,8 +224,8 @@ class FastSLAMConfig:
             Gaussian truncated at the gate (``range_bearing_mapper``). Default 1.0 (no gate):
             at 0.999 (the graph's) MR.CLAM 6 fastslam2's median ATE grows from 0.203 to
             1.88 m (robots 1-5, seeds 0-2, ``benchmarks/fastslam_mrclam.py --set
-            outlier_gate_probability=0.999``; r3 2.9-3.4 m): the particle set is far narrower
-            than its error (pose NEES 1e4-1e13), so once the set has drifted the gate rejects
+            outlier_gate_probability=0.999``; r3 3.2 m): the particle set is far narrower
+            than its error (pose NEES 1e7-1e32), so once the set has drifted the gate rejects
             the correct sightings too and nothing pulls it back. The graph's gate works on
             iSAM2's marginals, which are consistent.
         proposal_update: FastSLAM 2.0 only: sequential (Montemerlo 2003, the default) or joint
