@@ -302,3 +302,47 @@ def compose_odometry(
     J_a, J_b = se2_compose_jacobians(delta_ab, delta_bc)
     cov = J_a @ cov_ab @ J_a.T + J_b @ cov_bc @ J_b.T
     return se2_compose(delta_ab, delta_bc), 0.5 * (cov + cov.T)
+
+
+@dataclass(frozen=True, slots=True)
+class StatedOdometryMotion:
+    """The motion of one step whose odometry states its own covariance (``Odometry.covariance``).
+
+    The delta's error is Gaussian and additive on [dx, dy, dtheta] in the previous pose's frame,
+    as the factor graph's between-factor and EKF-SLAM's prediction take a stated covariance
+    (``OdometryMotionModel.covariance`` is what the loaders state): a sample is
+    x' = x (+) (delta + L e), e ~ N(0, I), C = L L^T, and the linearised prediction of an
+    exactly known pose is (x (+) delta, J_b C J_b^T) with J_b the Jacobian of the composition
+    with respect to the delta (``se.se2_compose_jacobians``; Thrun et al. 2005 Table 7.1 with
+    the noise stated in the robot frame). It has ``OdometryMotionModel``'s ``sample`` /
+    ``predict`` interface for the one delta it was built with.
+
+    Attributes:
+        delta: (3,) the measured robot-frame delta [m, m, rad].
+        covariance: (3, 3) its covariance (symmetric positive definite).
+    """
+
+    delta: np.ndarray
+    covariance: np.ndarray
+
+    def sample(self, wTr: np.ndarray, delta_r: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """(P, 3) poses moved by P independent draws of the delta (``delta_r`` must be the
+        delta the model was built with)."""
+        wTr = np.asarray(wTr, dtype=float)
+        chol = np.linalg.cholesky(self.covariance)
+        noisy = rng.standard_normal((wTr.shape[0], 3)) @ chol.T
+        noisy += np.asarray(delta_r, dtype=float)
+        return se2_compose(wTr, noisy)
+
+    def predict(
+        self, wTr: np.ndarray, P: np.ndarray | None, delta_r: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(x (+) delta, J_a P J_a^T + J_b C J_b^T); ``J_b C J_b^T`` alone when P is None."""
+        wTr = np.asarray(wTr, dtype=float)
+        delta_r = np.asarray(delta_r, dtype=float)
+        J_a, J_b = se2_compose_jacobians(wTr, delta_r)
+        noise = J_b @ self.covariance @ np.swapaxes(J_b, -1, -2)
+        mean = se2_compose(wTr, delta_r)
+        if P is None:
+            return mean, noise
+        return mean, J_a @ P @ np.swapaxes(J_a, -1, -2) + noise

@@ -42,6 +42,35 @@ class Association(enum.Enum):
             raise ConfigError(f"association must be one of {names}, got {text!r}") from None
 
 
+def fill_gaps(stamps_s: np.ndarray, max_step_s: float) -> np.ndarray:
+    """``stamps_s`` with stamps inserted at equal spacing into every gap longer than
+    ``max_step_s``, so that no two consecutive stamps are further apart.
+
+    Args:
+        stamps_s: (N,) increasing stamps [s].
+        max_step_s: the longest step allowed (positive; infinite: nothing inserted) [s].
+
+    Returns:
+        (M,) increasing stamps, M >= N, holding every original stamp.
+
+    Raises:
+        ConfigError: ``max_step_s`` not positive.
+    """
+    if not max_step_s > 0:
+        raise ConfigError(f"max_step_s must be positive, got {max_step_s}")
+    stamps_s = np.asarray(stamps_s, dtype=float)
+    if len(stamps_s) < 2 or not np.isfinite(max_step_s):
+        return stamps_s
+    gaps = np.diff(stamps_s)
+    pieces = np.maximum(np.ceil(gaps / max_step_s - 1e-9).astype(np.int64), 1)
+    out = [stamps_s[:1]]
+    for start, gap, n in zip(stamps_s[:-1], gaps, pieces, strict=True):
+        out.append(start + gap * np.arange(1, n + 1) / n)
+    filled = np.concatenate(out)
+    filled[np.cumsum(np.concatenate([[0], pieces]))] = stamps_s  # originals exactly
+    return filled
+
+
 def group_sightings(
     frame_stamps_s: np.ndarray,
     stamps_s: np.ndarray,

@@ -17,9 +17,11 @@ Conventions converted here, once:
   (unicycle arcs, zero-order hold) between frame stamps; the robot frame is the robot's centre
   (the Vicon marker frame), x forward, bearing counter-clockwise from x.
 * Frames: frame 0 at the first odometry sample, then one frame at every time with at least one
-  landmark sighting (simultaneous sightings share one frame).
-* Ground truth: Vicon poses interpolated at the frame stamps (linear, heading unwrapped) where two
-  Vicon samples bracket the stamp within ``VICON_MAX_GAP_S``; surveyed landmarks as the map.
+  landmark sighting (simultaneous sightings share one frame), and frames without sightings that
+  fill the gaps between them longer than ``MAX_STEP_S``.
+* Ground truth: Vicon poses interpolated at the stamps of the frames with sightings and frame 0
+  (linear, heading unwrapped) where two Vicon samples bracket the stamp within
+  ``VICON_MAX_GAP_S``; surveyed landmarks as the map.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from omnislam.core.se import wrap_angle
 from omnislam.core.types import PriorMap, Trajectory
 from omnislam.datasets._common import (
     Association,
+    fill_gaps,
     group_sightings,
     interpolate_se2,
     odometry_from_poses,
@@ -106,6 +109,16 @@ MAX_RANGE_M = 100.0
 #: 6: at most 0.592); beyond 1 rad the file is not a camera's, and its "range" column cannot be
 #: the optical-axis depth (``DEPTH_BIAS_M``; cos(bearing) would reach 0 and turn negative)
 MAX_BEARING_RAD = 1.0
+
+#: Longest odometry step between two frames [s]: where sightings are further apart, frames
+#: without sightings are inserted at equal spacing so that no step is longer. Dataset 6 has gaps
+#: of up to 53 s between sightings (robot 4: 78 s and 52 s); one frame per sighting time made
+#: each gap ONE odometry step of metres and radians, whose stated covariance (the alpha model
+#: linearised once, ``OdometryMotionModel.covariance``) is not the spread of the arcs the robot
+#: drove, and which a particle filter can only sample as one straight rot1-trans-rot2 motion.
+#: With short steps the composed covariance follows the path (``core.motion.compose_odometry``,
+#: as graphslam folds them) and the particles spread along the driven arcs.
+MAX_STEP_S = 2.0
 
 #: the odometry may end this much before the last sighting [s] (dataset 6: it ends after it)
 ODOMETRY_END_TOLERANCE_S = 0.5
@@ -246,6 +259,7 @@ def load_mrclam(
     depth_ranges: bool = True,
     command_delay_s: float = COMMAND_DELAY_S,
     odometry_noise: bool = True,
+    max_step_s: float = MAX_STEP_S,
     name: str | None = None,
 ) -> Sequence:
     """Load one robot of an MR.CLAM dataset folder as a Sequence.
@@ -261,11 +275,14 @@ def load_mrclam(
         command_delay_s: delay of the commanded velocities (``COMMAND_DELAY_S``) [s].
         odometry_noise: state the odometry covariance of every frame (``ODOMETRY_NOISE``);
             False leaves it to each estimator's motion model.
+        max_step_s: longest odometry step: frames without sightings fill longer gaps between
+            sightings (``MAX_STEP_S``; infinite: frames at sighting times only) [s].
         name: sequence name (default ``<folder>-r<robot>``).
 
     Returns:
-        The Sequence (frames at sighting times, odometry from the commanded velocities, Vicon
-        ground truth interpolated at the frames, surveyed landmarks).
+        The Sequence (frames at sighting times and filling longer gaps, odometry from the
+        commanded velocities, Vicon ground truth interpolated at the frames with sightings,
+        surveyed landmarks).
 
     Raises:
         DataError: a missing or malformed file (naming it and the line).
@@ -296,7 +313,8 @@ def load_mrclam(
     start_s = float(odometry[0, 0])
     early = sightings.stamps_s < start_s
     stamps = sightings.stamps_s[~early]
-    frame_stamps = np.unique(np.concatenate([[start_s], stamps]))
+    sighting_frames = np.unique(np.concatenate([[start_s], stamps]))
+    frame_stamps = fill_gaps(sighting_frames, max_step_s)
     poses_odom = integrate_unicycle(
         odometry[:, 0] + command_delay_s, odometry[:, 1], odometry[:, 2], frame_stamps
     )
@@ -328,12 +346,15 @@ def load_mrclam(
     )
     initial_pose = None
     if vicon is not None:
+        # the truth at the frames with sightings (and frame 0) only: the frames that fill the
+        # gaps carry nothing to estimate from, and the trajectory metrics keep the stamps they
+        # had before the gaps were filled
         valid, poses_true = interpolate_se2(
-            vicon.stamps_s, vicon.se2, frame_stamps, VICON_MAX_GAP_S
+            vicon.stamps_s, vicon.se2, sighting_frames, VICON_MAX_GAP_S
         )
         ground_truth = GroundTruth(
             kind=ground_truth.kind,
-            trajectory=Trajectory.from_se2(frame_stamps[valid], poses_true),
+            trajectory=Trajectory.from_se2(sighting_frames[valid], poses_true),
             landmark_ids=ground_truth.landmark_ids,
             landmarks_w=ground_truth.landmarks_w,
             note=ground_truth.note,
@@ -369,6 +390,7 @@ def load_mrclam(
         "sigma_bearing_rad": str(sigma_bearing_rad),
         "ranges": f"(depth - {DEPTH_BIAS_M} m) / cos(bearing)" if depth_ranges else "as recorded",
         "command_delay_s": str(command_delay_s),
+        "max_step_s": str(max_step_s),
         "odometry_noise": "stated (ODOMETRY_NOISE)" if odometry_noise else "not stated",
         "robot_frame": "robot centre (Vicon frame), x forward",
     }

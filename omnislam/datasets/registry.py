@@ -95,6 +95,7 @@ FORMATS: dict[DatasetFormat, FormatSpec] = {
             "depth_ranges": _bool,
             "command_delay_s": float,
             "odometry_noise": _bool,
+            "max_step_s": _positive_float,
         },
     ),
     DatasetFormat.VICTORIA_PARK: FormatSpec(

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from omnislam.core.modality import Modality
-from omnislam.core.motion import MotionModel
+from omnislam.core.motion import MotionModel, StatedOdometryMotion
 from omnislam.core.types import Estimate, FrameInput
 from omnislam.errors import ConfigError
 from omnislam.fastslam.association import SightingAssociation
@@ -102,10 +102,10 @@ class FastSLAMInfo:
         rays_pending: landmarks of the best particle with a stored ray only, waiting for a ray
             with enough parallax (3-D).
         unknown_slots: slots created for sightings of unknown association.
-        sightings_gated: (particle, sighting) landmark updates rejected by the bearing gate
-            (3-D).
-        proposal_sightings_gated: (particle, sighting) pairs the bearing gate kept out of the
-            FastSLAM 2.0 proposal (3-D).
+        sightings_gated: (particle, sighting) landmark updates rejected by the outlier gate
+            (3-D: the bearing gate; 2-D: ``outlier_gate_probability``).
+        proposal_sightings_gated: (particle, sighting) pairs the gate kept out of the
+            FastSLAM 2.0 proposal.
         triangulation_fallbacks: triangulated updates of established landmarks replaced by
             the direct bearing update for lack of parallax (3-D, ``BearingUpdate.TRIANGULATED``).
         distinct_ancestors_min: fewest distinct particles of the previous step any step's set
@@ -247,21 +247,27 @@ class FastSLAM:
         delta = frame.odometry.delta
         sightings = self._mapper.read(frame)
         particles = self._particles
+        stated = None
+        if frame.odometry.covariance is not None and self.config.stated_odometry_noise:
+            stated = StatedOdometryMotion(delta, frame.odometry.covariance)
+        motion = self._motion if stated is None else stated
         if sightings is None:
-            particles.poses = self._motion.sample(particles.poses, delta, self._rng)
+            particles.poses = motion.sample(particles.poses, delta, self._rng)
             self._history.record(frame.stamp_s, particles)
             return
         self._frames_with_sightings += 1
         previous = particles.poses
         if self.config.variant is Variant.FASTSLAM1:
-            poses = self._motion.sample(previous, delta, self._rng)
+            poses = motion.sample(previous, delta, self._rng)
             pairs = self._association.pairs(sightings, poses, None, particles.weights)
             log_factors = np.zeros(len(particles))
             gathered = None
         else:
-            mean, cov = self._proposal.predict(previous, delta)
+            mean, cov = self._proposal.predict(previous, delta, stated)
             pairs = self._association.pairs(sightings, mean, cov, particles.weights)
-            draw = self._proposal.sample(previous, delta, mean, cov, sightings, pairs, self._store)
+            draw = self._proposal.sample(
+                previous, delta, mean, cov, sightings, pairs, self._store, stated
+            )
             poses, log_factors, gathered = draw.poses, draw.log_factors, draw.block
             self._proposal_gated += draw.gated
         particles.poses = poses
@@ -310,6 +316,7 @@ class FastSLAM:
         status = self._store.particle_map(self._particles.best()).status
         mapper = self._mapper
         bearing = mapper if isinstance(mapper, BearingMapper) else None
+        gated = getattr(mapper, "sightings_gated", 0)
         diversity = self._diversity.summary()
         return FastSLAMInfo(
             variant=self.config.variant,
@@ -323,7 +330,7 @@ class FastSLAM:
             landmarks=int(np.count_nonzero(status == ESTIMATED)),
             rays_pending=int(np.count_nonzero(status == RAY)),
             unknown_slots=self._slots.n_unknown,
-            sightings_gated=0 if bearing is None else bearing.sightings_gated,
+            sightings_gated=gated,
             proposal_sightings_gated=self._proposal_gated,
             triangulation_fallbacks=0 if bearing is None else bearing.triangulation_fallbacks,
             distinct_ancestors_min=diversity.distinct_min,

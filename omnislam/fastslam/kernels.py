@@ -258,6 +258,7 @@ def ekf_range_bearing(
     out_cov: np.ndarray,
     out_mahalanobis: np.ndarray,
     out_det: np.ndarray,
+    gate: float = math.inf,
 ) -> None:
     """EKF update of N 2-D landmarks by range-bearing sightings from exact poses.
 
@@ -267,10 +268,14 @@ def ekf_range_bearing(
     covariances, the innovations' squared Mahalanobis distances and det S (the caller takes
     the log, as the reference does, for the likelihood of eq. 4.47).
 
+    A pair whose innovation lies outside the validation ``gate`` (y^T S^-1 y > gate,
+    ``core.gating``) leaves its landmark as it was (the outputs get the inputs).
+
     Args:
         wTr: (N, 3) poses; mean: (N, 2); cov: (N, 2, 2); z: (N, 2); R: (N, 2, 2).
         out_mean, out_cov, out_mahalanobis, out_det: outputs of shapes (N, 2), (N, 2, 2),
             (N,), (N,) (may alias ``mean`` / ``cov``).
+        gate: the validation gate on y^T S^-1 y (infinite: every pair updates).
     """
     for i in range(wTr.shape[0]):
         dx = mean[i, 0] - wTr[i, 0]
@@ -297,6 +302,15 @@ def ekf_range_bearing(
         s11 = h10 * a01 + h11 * a11 + R[i, 1, 1]
         det = s00 * s11 - s01 * s10
         i00, i01, i10, i11 = s11 / det, -s01 / det, -s10 / det, s00 / det
+        t0 = i00 * y0 + i01 * y1
+        t1 = i10 * y0 + i11 * y1
+        out_mahalanobis[i] = y0 * t0 + y1 * t1
+        out_det[i] = det
+        if out_mahalanobis[i] > gate:  # an outlier: the landmark stays as it was
+            out_mean[i, 0], out_mean[i, 1] = mean[i, 0], mean[i, 1]
+            out_cov[i, 0, 0], out_cov[i, 0, 1] = p00, p01
+            out_cov[i, 1, 0], out_cov[i, 1, 1] = p10, p11
+            continue
         k00 = a00 * i00 + a01 * i10
         k01 = a00 * i01 + a01 * i11
         k10 = a10 * i00 + a11 * i10
@@ -311,10 +325,6 @@ def ekf_range_bearing(
         out_cov[i, 0, 1] = 0.5 * (c01 + c10)
         out_cov[i, 1, 0] = 0.5 * (c10 + c01)
         out_cov[i, 1, 1] = 0.5 * (c11 + c11)
-        t0 = i00 * y0 + i01 * y1
-        t1 = i10 * y0 + i11 * y1
-        out_mahalanobis[i] = y0 * t0 + y1 * t1
-        out_det[i] = det
 
 
 # -- FastSLAM 2.0's proposal over 2-D range-bearing sightings ---------------------------------
@@ -330,10 +340,11 @@ def refine_range_bearing(
     landmark_cov: np.ndarray,
     out_mahalanobis: np.ndarray,
     out_det: np.ndarray,
+    gate: float = math.inf,
 ) -> None:
     """Refine the proposals of particles ``who`` by N sightings, one after the other, in place.
 
-    ``proposal.refine_proposal`` with ``RangeBearing2D`` and no gate, per pair in the given
+    ``proposal.refine_proposal`` with ``RangeBearing2D`` and its ``gate``, per pair in the given
     order (the reference loops over the sightings in ascending order and updates every
     particle that saw the current one: the same sequence per particle): relinearised at the
     refined mean, Q = H_m Sigma_m H_m^T + R, the Kalman form of thesis eq. 4.45 with the
@@ -345,7 +356,9 @@ def refine_range_bearing(
         z: (N, 2), R: (N, 2, 2): the pairs' sightings; landmark_mean: (N, 2), landmark_cov:
             (N, 2, 2): the observed landmarks in that particle's map.
         out_mahalanobis, out_det: (N,) y^T L^-1 y and det L of each pair's innovation (the
-            predictive likelihood's terms; the caller takes the log).
+            predictive likelihood's terms; the caller takes the log and truncates at the gate).
+        gate: validation gate on y^T L^-1 y: a pair outside it leaves the proposal as it was
+            (infinite: every pair refines).
     """
     # scratch matrices, allocated once
     a = np.empty((3, 2))
@@ -394,6 +407,12 @@ def refine_range_bearing(
         s11 = x10 * a[0, 1] + x11 * a[1, 1] + x12 * a[2, 1] + q11
         det = s00 * s11 - s01 * s10
         i00, i01, i10, i11 = s11 / det, -s01 / det, -s10 / det, s00 / det
+        t0 = i00 * y0 + i01 * y1
+        t1 = i10 * y0 + i11 * y1
+        out_mahalanobis[i] = y0 * t0 + y1 * t1
+        out_det[i] = det
+        if out_mahalanobis[i] > gate:  # an outlier: the proposal stays as it was
+            continue
         for row in range(3):
             k[row, 0] = a[row, 0] * i00 + a[row, 1] * i10
             k[row, 1] = a[row, 0] * i01 + a[row, 1] * i11
@@ -427,10 +446,6 @@ def refine_range_bearing(
         pose_mean[p, 0] = x + step0
         pose_mean[p, 1] = y + step1
         pose_mean[p, 2] = _wrap(theta + step2)
-        t0 = i00 * y0 + i01 * y1
-        t1 = i10 * y0 + i11 * y1
-        out_mahalanobis[i] = y0 * t0 + y1 * t1
-        out_det[i] = det
 
 
 def cholesky_draws(

@@ -71,13 +71,13 @@ def make_mapper(
     modality: Modality, config: FastSLAMConfig, kernels: object | None = None
 ) -> LandmarkMapper:
     """The mapper of ``modality`` (the 2-D one updates with the compiled ``kernels`` when
-    given).
+    given and gates at ``config.outlier_gate_probability``).
 
     Raises:
         ConfigError: no modality, or one FastSLAM does not consume (naming those it does).
     """
     if modality is Modality.RANGE_BEARING_2D:
-        return RangeBearingMapper(kernels)
+        return RangeBearingMapper(kernels, config.outlier_gate_probability)
     if modality is Modality.BEARINGS_3D:
         return BearingMapper(config)
     allowed = " or ".join(m.value for m in MODALITIES)

@@ -14,7 +14,6 @@ converged landmarks, capped) and with which model and gate.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,21 +69,25 @@ class ProposalSampler:
         self._mode = mode
         self._motion = motion
         self._rng = rng
-        # the compiled sequential proposal covers 2-D range-bearing sightings without a gate
+        # the compiled sequential proposal covers 2-D range-bearing sightings
         compiled = (
             kernels is not None
             and mode is ProposalUpdateMode.SEQUENTIAL
             and isinstance(mapper.proposal_model, RangeBearing2D)
-            and not math.isfinite(mapper.proposal_gate)
         )
         self._kernels = kernels if compiled else None
         self._draw_kernels = kernels
         self._odometry = motion if isinstance(motion, OdometryMotionModel) else None
 
-    def predict(self, previous: np.ndarray, delta_r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def predict(
+        self, previous: np.ndarray, delta_r: np.ndarray, motion: MotionModel | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The motion prediction N(mu0, P) from the exactly known previous poses (thesis 4.41,
         4.44; ``MotionModel.predict(previous, None, delta_r)``), compiled for the odometry
-        model when the kernels are on."""
+        model when the kernels are on. ``motion``: this step's model instead of the filter's
+        (a stated odometry covariance, ``core.motion.StatedOdometryMotion``)."""
+        if motion is not None:
+            return motion.predict(previous, None, delta_r)
         if self._draw_kernels is None or self._odometry is None:
             return self._motion.predict(previous, None, delta_r)
         rot1, trans, rot2 = self._odometry.decompose(delta_r).tolist()
@@ -105,6 +108,7 @@ class ProposalSampler:
         sightings: Sightings,
         pairs: Pairs,
         store: LandmarkStore,
+        motion: MotionModel | None = None,
     ) -> ProposalDraw:
         """Refine each particle's prediction by its sightings and sample from the result.
 
@@ -114,6 +118,8 @@ class ProposalSampler:
             mean, cov: (P, 3) and (P, 3, 3) the motion prediction from ``previous``.
             sightings: the frame's sightings; pairs: what they address (``association``).
             store: the landmark store (the addressed landmarks before this frame's update).
+            motion: this step's motion model for the particles without usable sightings
+                (default: the filter's, as in ``predict``).
         """
         p = len(previous)
         model, gate = self._mapper.proposal_model, self._mapper.proposal_gate
@@ -141,7 +147,7 @@ class ProposalSampler:
             refined[pairs.particle[rows]] = True
             gated = int(joint.accepted.size - np.count_nonzero(joint.accepted))
         elif self._kernels is not None:
-            mean, cov, log_factors = self._refine_compiled(
+            mean, cov, log_factors, gated = self._refine_compiled(
                 mean, cov, sightings, pairs, block, usable
             )
             refined[pairs.particle[usable]] = True
@@ -179,7 +185,8 @@ class ProposalSampler:
             poses[refined] = sample_poses(mean[refined], cov[refined], self._rng)
         plain = ~refined
         if plain.any():
-            poses[plain] = self._motion.sample(previous[plain], delta_r, self._rng)
+            model = self._motion if motion is None else motion
+            poses[plain] = model.sample(previous[plain], delta_r, self._rng)
         return ProposalDraw(poses, log_factors, gated, block)
 
     def _refine_compiled(
@@ -190,10 +197,12 @@ class ProposalSampler:
         pairs: Pairs,
         block: LandmarkBlock,
         usable: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
         """The sequential refinement by ``kernels.refine_range_bearing``: the usable pairs in
         ascending sighting order (the reference's loop order, per particle), the predictive
-        log-likelihoods summed per particle in that order."""
+        log-likelihoods (truncated at the mapper's gate) summed per particle in that order,
+        and the number of pairs the gate kept out."""
+        gate = self._mapper.proposal_gate
         rows = np.flatnonzero(usable)
         rows = rows[np.argsort(pairs.obs[rows], kind="stable")]
         who, obs = pairs.particle[rows], pairs.obs[rows]
@@ -211,8 +220,13 @@ class ProposalSampler:
             block.cov[rows],
             mahalanobis,
             det,
+            gate,
         )
+        rejected = mahalanobis > gate
+        gated = int(np.count_nonzero(rejected))
+        if gated:
+            mahalanobis = np.minimum(mahalanobis, gate)  # as ``refine_proposal`` truncates
         log_likelihood = log_likelihood_from_mahalanobis(mahalanobis, np.log(det), 2)
         log_factors = np.bincount(who, weights=log_likelihood, minlength=len(mean))
         log_factors = log_factors.astype(float, copy=False)  # int64 when there are no pairs
-        return mean, cov, log_factors
+        return mean, cov, log_factors, gated

@@ -30,9 +30,11 @@ def _env(**extra: str) -> dict[str, str]:
 
 
 def _frames(data: Path) -> int:
-    """Frames of the small MR.CLAM run: the start and every stamp with a sighting."""
-    lines = (data / "Robot1_Measurement.dat").read_text().splitlines()[1:]
-    return len({x.split()[0] for x in lines}) + 1
+    """Frames of the small MR.CLAM run: the start, every stamp with a sighting and the frames
+    that fill longer gaps (``datasets.mrclam.MAX_STEP_S``), as the loader makes them."""
+    from omnislam.datasets.mrclam import load_mrclam
+
+    return len(load_mrclam(data, 1))
 
 
 def _omnislam(*args: str, **extra: str) -> subprocess.CompletedProcess:

@@ -3,7 +3,12 @@ import pytest
 from tolerances import JACOBIAN_RTOL, MOMENT_RTOL
 
 from omnislam.core.jacobian import numerical_jacobian
-from omnislam.core.motion import MotionNoise, OdometryMotionModel, compose_odometry
+from omnislam.core.motion import (
+    MotionNoise,
+    OdometryMotionModel,
+    StatedOdometryMotion,
+    compose_odometry,
+)
 from omnislam.core.se import se2_between, se2_compose, wrap_angle
 
 MODEL = OdometryMotionModel(MotionNoise(a_vv=0.08, a_vw=0.02, a_wv=0.01, a_ww=0.06))
@@ -160,3 +165,24 @@ def test_composed_odometry_covariance_matches_sampled_composition(rng):
     c, s = np.cos(steps[0, 2]), np.sin(steps[0, 2])
     R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     np.testing.assert_allclose(moved, R @ MODEL.covariance(steps[1]) @ R.T, atol=1e-15)
+
+
+def test_stated_odometry_motion_samples_and_predicts_the_stated_covariance():
+    """``StatedOdometryMotion``: draws from a rotated pose spread as J_b C J_b^T, the
+    prediction's covariance, around x (+) delta."""
+    delta = np.array([0.4, 0.05, 0.2])
+    C = np.array([[4e-4, 1e-4, 0.0], [1e-4, 9e-4, 2e-4], [0.0, 2e-4, 1e-3]])
+    model = StatedOdometryMotion(delta, C)
+    start = np.array([1.0, -2.0, 2.0])
+    mean, cov = model.predict(start, None, delta)
+    np.testing.assert_allclose(mean, se2_compose(start, delta))
+    c, s = np.cos(2.0), np.sin(2.0)
+    J = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    np.testing.assert_allclose(cov, J @ C @ J.T, atol=1e-15)
+    draws = model.sample(np.tile(start, (20000, 1)), delta, np.random.default_rng(0))
+    np.testing.assert_allclose(draws.mean(axis=0), mean, atol=1e-3)
+    # 20000 draws: each covariance entry within ~1 % of the diagonal's scale (1 sigma)
+    np.testing.assert_allclose(np.cov(draws.T), cov, atol=0.05 * np.max(np.diag(cov)))
+    P = np.diag([0.01, 0.02, 0.03])
+    _, cov_p = model.predict(start, P, delta)
+    assert np.all(np.linalg.eigvalsh(cov_p - cov) > 0)  # the prior's uncertainty is added

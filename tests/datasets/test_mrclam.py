@@ -8,10 +8,11 @@ import pytest
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
 from omnislam.core.se import se2_between, se2_compose, wrap_angle
 from omnislam.core.types import UNKNOWN_ID
-from omnislam.datasets._common import Association
+from omnislam.datasets._common import Association, fill_gaps
 from omnislam.datasets.mrclam import (
     COMMAND_DELAY_S,
     DEPTH_BIAS_M,
+    MAX_STEP_S,
     ODOMETRY_NOISE,
     SIGMA_BEARING_RAD,
     SIGMA_RANGE_M,
@@ -68,8 +69,13 @@ def test_ground_truth_and_frames(robot1):
     gt = robot1.ground_truth
     assert gt.kind is GroundTruthKind.MOTION_CAPTURE
     assert list(gt.landmark_ids) == list(range(6, 21))
-    assert len(gt.trajectory) == len(robot1)  # Vicon covers every frame of robot 1
+    # Vicon covers every frame with sightings of robot 1 (and frame 0); the frames that fill
+    # the gaps between sightings carry no truth
+    with_sightings = [0] + [k for k, rb in enumerate(robot1.range_bearing) if rb is not None]
+    np.testing.assert_array_equal(gt.trajectory.stamps_s, robot1.stamps_s[with_sightings])
+    assert len(robot1) > len(with_sightings)  # dataset 6 robot 1 has gaps > MAX_STEP_S
     assert np.all(np.diff(robot1.stamps_s) > 0)
+    assert np.diff(robot1.stamps_s).max() <= MAX_STEP_S + 1e-9
     ids = np.concatenate([rb.landmark_ids for rb in robot1.range_bearing if rb is not None])
     assert set(ids) <= set(range(6, 21))
     assert np.allclose(robot1.initial_pose_w, gt.trajectory.se2[0])
@@ -107,6 +113,39 @@ def test_commanded_velocities_integrate_to_an_exact_arc(tmp_path):
     assert len(seq.range_bearing[1]) == 2  # robot 2 (barcode 14) dropped
     assert seq.info["unknown_barcodes"] == "99"
     assert seq.ground_truth.kind is GroundTruthKind.NONE
+
+
+def test_a_sighting_gap_is_split_into_odometry_steps(tmp_path):
+    """Sightings at 0.5 s and 10 s: the 9.5 s between them become 5 steps of 1.9 s (frames
+    without sightings) whose odometry composes to the one long step; the truth stays at the
+    frames with sightings."""
+    odometry = "".join(f"{t:.2f} 0.2 0.3\n" for t in np.arange(0.0, 10.5, 0.01))
+    measurement = "0.5 63 2.0 0.1\n10.0 81 1.0 0.2\n"
+    vicon = "".join(f"{t:.2f} 0.0 0.0 0.0\n" for t in np.arange(0.0, 10.5, 0.05))
+    folder = write_folder(tmp_path / "ds", odometry, measurement, vicon)
+    long = load_mrclam(folder, 1, command_delay_s=0, max_step_s=np.inf)
+    split = load_mrclam(folder, 1, command_delay_s=0, max_step_s=2.0)
+    assert list(long.stamps_s) == [0.0, 0.5, 10.0]
+    np.testing.assert_allclose(split.stamps_s, [0.0, 0.5, 2.4, 4.3, 6.2, 8.1, 10.0])
+    assert [rb is not None for rb in split.range_bearing] == [False, True] + [False] * 4 + [True]
+    composed = split.odometry_r[2]
+    for delta in split.odometry_r[3:]:
+        composed = se2_compose(composed, delta)
+    np.testing.assert_allclose(composed, long.odometry_r[2], atol=1e-9)
+    assert np.abs(split.odometry_r[3:, 2]).max() < 0.6  # no step turns more than 1.9 s x 0.3
+    np.testing.assert_array_equal(split.ground_truth.trajectory.stamps_s, [0.0, 0.5, 10.0])
+    assert split.info["max_step_s"] == "2.0"
+
+
+def test_fill_gaps_keeps_every_stamp_and_bounds_the_steps():
+    stamps = np.array([0.0, 0.1, 3.0, 3.05, 10.0])
+    filled = fill_gaps(stamps, 1.0)
+    assert set(stamps) <= set(filled)
+    assert np.all(np.diff(filled) > 0) and np.diff(filled).max() <= 1.0
+    assert len(filled) == 2 + 3 + 1 + 7
+    np.testing.assert_array_equal(fill_gaps(stamps, np.inf), stamps)
+    with pytest.raises(ConfigError, match="max_step_s"):
+        fill_gaps(stamps, 0.0)
 
 
 def test_unknown_robot_is_a_config_error(tmp_path):

@@ -1,0 +1,100 @@
+"""FastSLAM on real logs (#21): a stated odometry covariance and the per-particle outlier gate.
+
+* With ``stated_odometry_noise`` the particles spread as a frame's ``Odometry.covariance``
+  says (``core.motion.StatedOdometryMotion``), not as the alpha model would.
+* With ``outlier_gate_probability`` < 1, a misread sighting (an id that names a landmark
+  metres away, MR.CLAM's misread barcodes) neither moves the landmark nor refines the FastSLAM
+  2.0 proposal, on the numpy path and the compiled kernels alike.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from omnislam.core.modality import Modality
+from omnislam.core.types import FrameInput, Odometry, RangeBearing
+from omnislam.fastslam import FastSLAMConfig, Kernels, Variant, make_fastslam
+from omnislam.fastslam import kernels as kernel_module
+
+#: a stated covariance unlike anything the alpha model gives for the step: wide sideways
+STATED = np.array([[1e-4, 0.0, 0.0], [0.0, 0.04, 0.01], [0.0, 0.01, 0.01]])
+STEP = np.array([0.5, 0.0, 0.0])
+KERNELS = [Kernels.NUMPY] + ([Kernels.NUMBA] if kernel_module.available() else [])
+
+
+def _spread(variant: Variant, stated: bool, with_sighting: bool) -> np.ndarray:
+    config = FastSLAMConfig(variant=variant, n_particles=4000, stated_odometry_noise=stated)
+    slam = make_fastslam(config, Modality.RANGE_BEARING_2D, np.random.default_rng(3))
+    # a first sighting of a landmark: no established landmark, so FastSLAM 2.0 samples from
+    # the motion model too (``proposal_sampling``)
+    rb = RangeBearing(np.array([7]), np.array([2.0]), np.array([0.3]), 0.05, 0.01)
+    slam.step(
+        FrameInput(
+            index=0,
+            odometry=Odometry(STEP, stamp_s=1.0, covariance=STATED),
+            range_bearing=rb if with_sighting else None,
+        )
+    )
+    poses = slam.particles.poses
+    return np.cov((poses - [0.5, 0.0, 0.0]).T)
+
+
+@pytest.mark.parametrize("variant", list(Variant))
+@pytest.mark.parametrize("with_sighting", [False, True])
+def test_particles_follow_a_stated_odometry_covariance(variant, with_sighting):
+    cov = _spread(variant, True, with_sighting)
+    # 4000 draws: a variance is within ~2.2 % (1 sigma), a correlation within ~0.016
+    np.testing.assert_allclose(np.diag(cov), np.diag(STATED), rtol=0.1)
+    assert cov[1, 2] / np.sqrt(cov[1, 1] * cov[2, 2]) == pytest.approx(0.5, abs=0.06)
+    # without the option the alphas decide: almost no sideways spread for a straight step
+    assert _spread(variant, False, with_sighting)[1, 1] < 0.1 * STATED[1, 1]
+
+
+def _frame(index: int, rng_range: float, landmark: int = 7) -> FrameInput:
+    """Standing still at the origin, a sighting of ``landmark`` at range ``rng_range`` dead
+    ahead."""
+    rb = RangeBearing(np.array([landmark]), np.array([rng_range]), np.array([0.0]), 0.05, 0.01)
+    return FrameInput(
+        index=index, odometry=Odometry(np.zeros(3), stamp_s=float(index)), range_bearing=rb
+    )
+
+
+def _run_misread(variant: Variant, gate: float, kernels: Kernels):
+    config = FastSLAMConfig(
+        variant=variant, n_particles=20, outlier_gate_probability=gate, kernels=kernels
+    )
+    slam = make_fastslam(config, Modality.RANGE_BEARING_2D, np.random.default_rng(5))
+    for k in range(5):
+        slam.step(_frame(k, 2.0))
+    slam.step(_frame(5, 5.0))  # misread: the landmark is 2 m away, this says 5 m
+    return slam
+
+
+@pytest.mark.parametrize("variant", list(Variant))
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_misread_sighting_is_gated(variant, kernels):
+    gated = _run_misread(variant, 0.999, kernels)
+    landmark = gated.estimate().landmarks_w[0, :2]
+    assert np.linalg.norm(landmark - [2.0, 0.0]) < 0.05
+    assert np.abs(gated.estimate().trajectory.se2[-1, :2]).max() < 0.05
+    info = gated.info()
+    assert info.sightings_gated + info.proposal_sightings_gated >= 20
+    # without the gate the misread drags the landmark (and FastSLAM 2.0's poses) towards it
+    plain = _run_misread(variant, 1.0, kernels)
+    moved = np.linalg.norm(plain.estimate().landmarks_w[0, :2] - [2.0, 0.0])
+    pose_moved = np.abs(plain.estimate().trajectory.se2[-1, :2]).max()
+    assert max(moved, pose_moved) > 0.2
+    assert plain.info().sightings_gated == 0
+
+
+@pytest.mark.skipif(len(KERNELS) < 2, reason="numba not installed")
+@pytest.mark.parametrize("variant", list(Variant))
+def test_the_gate_agrees_on_both_paths(variant):
+    a, b = (_run_misread(variant, 0.999, kernels) for kernels in KERNELS)
+    np.testing.assert_allclose(
+        a.estimate().trajectory.se2, b.estimate().trajectory.se2, rtol=0, atol=1e-9
+    )
+    np.testing.assert_allclose(a.estimate().landmarks_w, b.estimate().landmarks_w, atol=1e-9)
+    assert a.info().sightings_gated == b.info().sightings_gated
+    assert a.info().proposal_sightings_gated == b.info().proposal_sightings_gated
