@@ -370,6 +370,65 @@ class LaserLandmarkConfig:
 
 
 @dataclass(frozen=True, slots=True)
+class LaserOdometryConfig:
+    """Laser odometry: each scan registered to its predecessor by ICP
+    (``omnislam.frontend.scan_matching``), handed to every estimator as its odometry.
+
+    Attributes:
+        enabled: register the scans when the sequence has them (the log's odometry is then the
+            laser odometry, with the wheel odometry where a match is rejected).
+        max_valid_range_m: ranges beyond are not used (None: below the sensor's maximum).
+        min_range_m: ranges at or below are not used.
+        submap_scans: register to the union of this many previous scans (1: the previous scan),
+            placed with the laser odometry.
+        correspondence_distances_m: ICP's maximum correspondence distance, one ICP per value
+            (coarse to fine, each starting from the previous result).
+        max_iterations: ICP iterations per value.
+        normal_neighbours: neighbours of the 2-D PCA normals of the target.
+        min_points: fewer valid points in a scan (or correspondences) rejects the match.
+        min_fitness: smallest share of the new scan's points with a correspondence.
+        max_rmse_m: largest inlier RMSE.
+        min_translation_information: smallest eigenvalue of the translational block of the
+            point-to-line Hessian per correspondence (1 for two perpendicular walls equally
+            seen, 0 in a corridor): below, the match is degenerate.
+        gate_translation_m: largest disagreement with the wheel odometry's translation, plus
+        gate_translation_fraction: this fraction of the distance travelled.
+        gate_rotation_rad: largest disagreement with the wheel odometry's rotation.
+        sigma_floor_m: smallest residual std used for the covariance.
+        covariance_inflation: the Gauss-Newton covariance multiplied by this.
+        min_sigma: (x, y, theta) std floor added to the covariance [m, m, rad].
+    """
+
+    enabled: bool = True
+    max_valid_range_m: float | None = None
+    min_range_m: float = 0.05
+    submap_scans: int = 3
+    submap_radius_m: float | None = None
+    submap_voxel_m: float = 0.0
+    correspondence_distances_m: tuple[float, ...] = (0.5, 0.2)
+    max_iterations: int = 30
+    normal_neighbours: int = 6
+    min_points: int = 30
+    min_fitness: float = 0.5
+    max_rmse_m: float = 0.1
+    min_translation_information: float = 0.05
+    degenerate_sigma_m: float = 0.05
+    degenerate_sigma_fraction: float = 0.1
+    gate_translation_m: float = 0.3
+    gate_translation_fraction: float = 0.3
+    gate_rotation_rad: float = 0.35
+    sigma_floor_m: float = 0.01
+    covariance_inflation: float = 12.0
+    min_sigma: tuple[float, float, float] = (0.02, 0.02, 0.005)
+
+    def __post_init__(self) -> None:
+        if self.submap_scans < 1 or not self.correspondence_distances_m:
+            raise ConfigError(
+                "LaserOdometryConfig: submap_scans >= 1 and at least one correspondence distance"
+            )
+
+
+@dataclass(frozen=True, slots=True)
 class FrontendConfig:
     """Everything the front end does, in one hashable record (see ``config_hash``)."""
 
@@ -381,6 +440,7 @@ class FrontendConfig:
     schedule: ScheduleConfig = field(default_factory=ScheduleConfig)
     vertical_edges: VerticalEdgeConfig = field(default_factory=VerticalEdgeConfig)
     laser: LaserLandmarkConfig = field(default_factory=LaserLandmarkConfig)
+    laser_odometry: LaserOdometryConfig = field(default_factory=LaserOdometryConfig)
 
 
 def config_to_dict(config: object) -> dict[str, Any]:
