@@ -346,7 +346,11 @@ def run_frontend(
     images_cpu_s = time.process_time() - cpu_start + max(prepared_cpu_s, children_s)
 
     laser_odom = None
-    if sequence.laser is not None and config.laser_odometry.enabled:
+    if (
+        sequence.laser is not None
+        and config.laser_odometry.enabled
+        and (config.laser_odometry.with_images or sequence.image_loader is None)
+    ):
         from omnislam.frontend.scan_matching import laser_odometry
 
         scans = sequence.laser

@@ -185,6 +185,9 @@ def match_scans(
         delta = delta.copy()
         delta[:2] += v * float(v @ (guess[:2] - delta[:2]))
         sigma_along = config.degenerate_sigma_m + config.degenerate_sigma_fraction * travelled
+        keep = np.eye(3)
+        keep[:2, :2] -= np.outer(v, v)  # what the ICP's Hessian says along v is noise: drop it
+        information = keep @ information @ keep
         information[:2, :2] += np.outer(v, v) / sigma_along**2
     diff = delta - guess
     if (
@@ -252,12 +255,14 @@ def laser_odometry(
     history: list[tuple[np.ndarray, np.ndarray]] = []  # (chain pose, points in the chain frame)
     pose = np.zeros(3)  # laser-odometry chain pose of the previous scanned frame
     pending = np.zeros(3)  # wheel motion since the previous scanned frame
+    skipped = 0  # frames without a scan since then
     for i in range(n):
         if i > 0:
             pending = se2_compose(pending, odometry_r[i])
-        points = scan_points(angles_rad, ranges_m[i], max_range_m, config)
         if np.all(np.isnan(ranges_m[i])):
+            skipped += 1
             continue
+        points = scan_points(angles_rad, ranges_m[i], max_range_m, config)
         if history and i > 0:
             previous_pose = history[-1][0]
             world = np.concatenate([pts for _, pts in history[-config.submap_scans:]])
@@ -268,13 +273,14 @@ def laser_odometry(
                 target = _voxel(target, config.submap_voxel_m)
             match = match_scans(points, target, pending, config)
             reasons[i] = match.reason.value
-            if match.accepted and np.array_equal(pending, odometry_r[i]):
+            if match.accepted and skipped == 0:  # one frame's increment, not several
                 deltas[i], covs[i], accepted[i] = match.delta, match.covariance, True
             step = match.delta if match.accepted else pending
             pose = se2_compose(previous_pose, step)
         history.append((pose.copy(), se2_transform_points(pose, points)))
         del history[: -max(config.submap_scans, 1)]
         pending = np.zeros(3)
+        skipped = 0
     return LaserOdometry(deltas, covs, accepted, tuple(reasons))
 
 

@@ -70,18 +70,35 @@ def test_a_known_rigid_motion_is_recovered_from_a_wrong_guess():
     assert err @ np.linalg.solve(match.covariance, err) < 16.27  # chi2(3) 99.9 %
 
 
-def test_a_corridor_is_degenerate_and_keeps_the_wheel_odometry():
+def test_a_corridor_is_degenerate_and_keeps_the_wheel_odometry_along_it():
     rng = np.random.default_rng(4)
     a = np.array([0.0, 0.0, 0.0])
     motion = np.array([0.8, 0.0, 0.02])
     target = points(cast(a, CORRIDOR, 0.01, rng))
     source = points(cast(se2_compose(a, motion), CORRIDOR, 0.01, rng))
     guess = np.array([0.5, 0.03, 0.0])
-    match = match_scans(source, target, guess, LaserOdometryConfig())
-    assert match.reason is Reason.DEGENERATE
-    assert not match.accepted and match.covariance is None
-    np.testing.assert_array_equal(match.delta, guess)
+    config = LaserOdometryConfig()
+    match = match_scans(source, target, guess, config)
+    assert match.reason is Reason.DEGENERATE and match.accepted
     assert match.min_translation_information < 0.01
+    # along the corridor: the wheels' 0.5 m (the scans cannot tell), with the odometry's std
+    assert match.delta[0] == pytest.approx(guess[0], abs=1e-3)
+    sigma_along = config.degenerate_sigma_m + config.degenerate_sigma_fraction * 0.5
+    assert np.sqrt(match.covariance[0, 0]) == pytest.approx(sigma_along, rel=0.05)
+    # across it and in rotation: the scans' (true 0 m and 0.02 rad), tightly
+    assert abs(match.delta[1]) < 0.01 and abs(match.delta[2] - 0.02) < np.deg2rad(0.2)
+    assert np.sqrt(match.covariance[1, 1]) < 0.05
+
+
+def test_a_poor_fit_falls_back_to_the_wheel_odometry():
+    rng = np.random.default_rng(8)
+    target = points(cast((0.0, 0.0, 0.0), CORRIDOR, 0.01, rng))
+    source = points(cast((2.0, 1.5, 0.3), ROOM, 0.01, rng))  # another place altogether
+    guess = np.array([0.5, 0.0, 0.1])
+    match = match_scans(source, target, guess, LaserOdometryConfig())
+    assert match.reason is Reason.POOR_FIT and not match.accepted
+    assert match.covariance is None
+    np.testing.assert_array_equal(match.delta, guess)
 
 
 def test_too_few_points_and_a_match_far_from_the_odometry_are_rejected():
@@ -111,12 +128,17 @@ def test_laser_odometry_of_a_path_beats_the_wheels_and_falls_back_in_a_corridor(
     err_laser = se2_integrate(lo.deltas, truth[0])[-1] - truth[-1]
     err_wheels = se2_integrate(wheels, truth[0])[-1] - truth[-1]
     assert np.hypot(*err_laser[:2]) < 0.05 < np.hypot(*err_wheels[:2])
-    # a corridor: every match rejected, the wheel odometry kept as it is (no covariance stated)
+    # a corridor: every match degenerate: the wheels' translation along it, the scans' across
     corridor = np.array([cast((0.7 * k, 0.0, 0.0), CORRIDOR, 0.01, rng) for k in range(4)])
     wheels = np.r_[[[0.0, 0.0, 0.0]], np.tile([0.65, 0.02, 0.01], (3, 1))]
     lo = laser_odometry(ANGLES, corridor, MAX_RANGE, wheels, LaserOdometryConfig())
-    assert not lo.accepted.any()
     assert lo.reasons[1:] == ("degenerate",) * 3
+    np.testing.assert_allclose(lo.deltas[1:, 0], 0.65, atol=2e-3)
+    assert np.all(np.abs(lo.deltas[1:, 1:]) < 0.01)  # the wheels' 2 cm and 0.01 rad corrected
+    # rejected matches keep the wheel odometry as it is, and no covariance is invented
+    empty = np.full_like(corridor, MAX_RANGE)
+    lo = laser_odometry(ANGLES, empty, MAX_RANGE, wheels, LaserOdometryConfig())
+    assert not lo.accepted.any() and lo.reasons[1:] == ("too-few-points",) * 3
     np.testing.assert_array_equal(lo.deltas, wheels)
     assert np.isnan(lo.covariances).all()
 
@@ -156,8 +178,6 @@ def test_the_log_carries_the_laser_odometry_to_slam_estimators_not_to_dead_recko
     assert not np.allclose(fed[3].odometry.delta, wheels[3])
     np.testing.assert_array_equal(raw[3].odometry.delta, wheels[3])
     assert fed[3].odometry.covariance is not None and raw[3].odometry.covariance is None
-    off = load_observation_log(path).frames  # a log without laser odometry stays "wheel"
-    del off
     no_laser = run_frontend(
         sequence, replace(FrontendConfig(), laser_odometry=LaserOdometryConfig(enabled=False))
     )
