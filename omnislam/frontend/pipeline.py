@@ -7,6 +7,11 @@ the other frames carry odometry (and range-bearing sightings) only. Bearings are
 in the robot frame from the camera's viewpoint with the angular sigma of their pixel
 (``CameraModel.angular_sigma``: larger towards the mirror rim, thesis eq. 4.23).
 
+A sequence with a laser and no images gets laser odometry (``scan_matching``: each scan
+registered to the last few by ICP, with a covariance; the wheel odometry where a match is
+rejected) as its frames' odometry (``ObservationLog.odometry_source == "laser"``), and the
+tutorial's feet of the perpendicular are dropped through it.
+
 Because the whole sequence is processed before any estimator runs, tracks with fewer than
 ``TrackConfig.min_track_length`` sightings (features seen once, unmatched) are dropped from the
 log: no estimator can use them.

@@ -1,31 +1,37 @@
-"""Laser odometry: consecutive planar scans registered by ICP (open3d), wheel odometry as the
-initial guess and the fallback.
+"""Laser odometry: each planar scan registered to the last few by ICP (open3d), the wheel
+odometry as the initial guess and the fallback.
 
-Every scan k is registered to scan k-1 (optionally to a submap of the last few scans, placed
-with the laser odometry itself) by open3d's point-to-plane ICP
-(``open3d.pipelines.registration.registration_icp``) on the scan points lifted to z = 0, the
-target's normals estimated in the plane (2-D PCA of each point's neighbours). The wheel
-odometry increment is the initial guess. A match is **accepted** when
+Scan k is registered to the union of scans k-``submap_scans`` .. k-1 (placed with the laser
+odometry itself, expressed in scan k-1's frame) by open3d's point-to-plane ICP
+(``open3d.pipelines.registration.registration_icp``, ``TransformationEstimationPointToPlane``;
+Chen & Medioni 1992) on the points lifted to z = 0, the target's normals estimated in the
+plane (2-D PCA of each point's neighbours: open3d's own normals of a flat cloud point along z).
+The wheel odometry increment is the initial guess; one ICP per correspondence distance, coarse
+to fine. The match is
 
-* enough points of both scans are valid (``min_points``),
-* the ICP's fitness (share of source points with a correspondence) and point-to-line RMSE pass
-  ``min_fitness`` / ``max_rmse_m``,
-* the point-to-line Hessian is well conditioned: its smallest translational eigenvalue per
-  correspondence is at least ``min_translation_information`` (a single straight wall or a
-  corridor constrains nothing along it: rejected, ``Reason.DEGENERATE``),
-* the increment agrees with the wheel odometry within a gate (``gate_translation_m`` +
-  ``gate_translation_fraction`` x the distance travelled, ``gate_rotation_rad``).
-
-A rejected match falls back to the wheel odometry increment with the wheel odometry's
-covariance (None: the estimator's own motion model), so the log's odometry is never worse than
-a failed registration.
+* **accepted** when enough points of both clouds are valid (``min_points``), the fitness
+  (share of the new scan's points with a correspondence) and the point-to-line RMSE pass
+  ``min_fitness`` / ``max_rmse_m``, and the increment agrees with the wheel odometry within
+  ``gate_translation_m`` + ``gate_translation_fraction`` x the distance travelled and
+  ``gate_rotation_rad``;
+* **degenerate** when, besides, the point-to-line Hessian's translational block has a
+  smallest eigenvalue per correspondence below ``min_translation_information`` (a corridor, one
+  straight wall: nothing fixes the motion along it). The ICP's rotation and its translation
+  across the unconstrained direction v are kept; along v the wheel odometry's translation is
+  kept, with std ``degenerate_sigma_m`` + ``degenerate_sigma_fraction`` x the distance
+  travelled in place of what the Hessian says along v;
+* **rejected** otherwise (too few points, a poor fit, disagreeing with the odometry): the
+  wheel odometry increment is kept as it is, with the covariance the data states for it (None:
+  each estimator's own motion model), so a failed registration never makes the odometry worse.
 
 **Covariance** of an accepted increment: the Gauss-Newton covariance of point-to-line ICP,
 ``sigma^2 H^-1`` with ``H = sum_i J_i^T J_i`` over the correspondences
-(``J_i = n_i^T [I, perp(q_i)]``, left perturbation in the previous scan's frame) and
-``sigma = max(point-to-line RMSE, sigma_floor_m)``, multiplied by ``covariance_inflation`` (correlated
-residuals, wrong correspondences: the plain Hessian is far too confident) and floored by
-``min_sigma`` (x, y, theta); then moved to the increment's own parameters (x, y, theta).
+(``J_i = n_i^T [I, perp(q_i)]``: left perturbation in the previous scan's frame) and
+``sigma = max(point-to-line RMSE, sigma_floor_m)``, multiplied by ``covariance_inflation``
+(correlated residuals and wrong correspondences make the plain Hessian far too confident), moved
+to the increment's own parameters (x, y, theta) and widened by independent stds ``min_sigma``
++ ``sigma_per_m`` x the distance travelled + ``sigma_per_rad`` x the rotation (the config
+docstring gives the values and the NEES they reach).
 """
 
 from __future__ import annotations
@@ -197,7 +203,12 @@ def match_scans(
     ):
         return ScanMatch(guess, None, fitness, rmse, info_t, Reason.DISAGREES_WITH_ODOMETRY)
     A = _left_to_delta(delta)
-    cov = A @ np.linalg.inv(information) @ A.T + np.diag(np.square(config.min_sigma))
+    floor = (
+        np.asarray(config.min_sigma)
+        + travelled * np.asarray(config.sigma_per_m)
+        + abs(float(wrap_angle(guess[2]))) * np.asarray(config.sigma_per_rad)
+    )
+    cov = A @ np.linalg.inv(information) @ A.T + np.diag(np.square(floor))
     return ScanMatch(delta, 0.5 * (cov + cov.T), fitness, rmse, info_t, reason)
 
 

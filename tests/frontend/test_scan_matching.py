@@ -10,9 +10,9 @@ import pytest
 
 pytest.importorskip("open3d")
 
-from omnislam.core.se import se2_between, se2_compose, se2_integrate, wrap_angle  # noqa: E402
-from omnislam.frontend.config import LaserOdometryConfig  # noqa: E402
-from omnislam.frontend.scan_matching import (  # noqa: E402
+from omnislam.core.se import se2_between, se2_compose, se2_integrate, wrap_angle
+from omnislam.frontend.config import LaserOdometryConfig
+from omnislam.frontend.scan_matching import (
     Reason,
     laser_odometry,
     match_scans,
