@@ -11,10 +11,14 @@ Datasets (``--datasets``, groups or names):
   (``--set association=unknown``);
 * ``victoria``: Victoria Park against GPS;
 * ``carmen``: CARMEN intel and aces against the corrected poses, the laser landmarks of the
-  shared front end (no ids); with ``--line-landmarks corners`` the front end's lines become
-  corners instead of the tutorial's feet (a log built here, replayed to every estimator);
-  the goal each SLAM estimator <= 0.3x dead reckoning's ATE is checked; with
-  ``--stated-odometry`` the logs state the odometry noise fitted to the corrected poses;
+  shared front end (no ids) and its laser odometry (scans registered by ICP,
+  ``frontend.scan_matching``), which the SLAM estimators get as their odometry; dead reckoning
+  stays the wheel odometry, and the column "laser odometry alone" is the log's laser odometry
+  composed without any landmark; with ``--line-landmarks corners`` the front end's lines
+  become corners instead of the tutorial's feet, with ``--wheel-odometry`` the log has no
+  laser odometry (either way a log built here, replayed to every estimator); the goal each
+  SLAM estimator <= 0.3x dead reckoning's ATE is checked; with ``--stated-odometry`` the
+  logs state the odometry noise fitted to the corrected poses;
 * ``--synthetic RENDER ...``: synthetic laser presets (e.g. a ``loop150`` render), on their
   range-bearing sightings (``modality=range-bearing-2d``);
 * ``--omni RENDER ...``: omni renders (``demo``, ``lab40``) on the shared front end's bearings.
@@ -23,7 +27,7 @@ Datasets (``--datasets``, groups or names):
 
     PYTHONPATH=. OMNISLAM_DATA=../shared/data .venv/bin/python benchmarks/ekfslam_accuracy.py
         [--datasets mrclam victoria carmen] [--estimators deadreckoning graphslam fastslam1
-        fastslam2 ekfslam] [--seeds 0] [--line-landmarks feet|corners]
+        fastslam2 ekfslam] [--seeds 0] [--line-landmarks feet|corners] [--wheel-odometry]
         [--synthetic /path/loop150-render] [--omni /path/demo-render /path/lab40-render]
         [--diagnose]
 
@@ -47,9 +51,16 @@ from omnislam.compare.evaluation import evaluate_run
 from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.core.se import se2_integrate
 from omnislam.datasets.registry import CARMEN_ODOMETRY_NOISE, load_dataset, resolve
-from omnislam.frontend.config import FrontendConfig, LaserLandmarkConfig, LineLandmarks
+from omnislam.frontend.config import (
+    FrontendConfig,
+    LaserLandmarkConfig,
+    LaserOdometryConfig,
+    LineLandmarks,
+)
 
 ESTIMATORS = ("deadreckoning", "graphslam", "fastslam1", "fastslam2", "ekfslam")
+#: the CARMEN column of the log's laser odometry composed on its own (no landmarks)
+LASER_ALONE = "laser odometry alone"
 GOAL_RATIO = 0.3
 
 
@@ -86,15 +97,42 @@ def cells(args: argparse.Namespace) -> list[tuple[str, str, dict[str, str], bool
     return rows
 
 
-def laser_log(dataset: str, line_landmarks: LineLandmarks, folder: Path) -> str:
-    """The shared front end's log of a laser dataset with the chosen line landmarks."""
+def laser_log(
+    dataset: str, line_landmarks: LineLandmarks, folder: Path, laser_odometry: bool = True
+) -> str:
+    """The shared front end's log of a laser dataset with the chosen line landmarks (and the
+    laser odometry on or off)."""
     from omnislam.frontend.pipeline import cached_frontend
 
     sequence = load_dataset(resolve(dataset), {})
-    config = FrontendConfig(laser=LaserLandmarkConfig(line_landmarks=line_landmarks))
-    path = folder / f"{dataset}-{line_landmarks.value}.npz"
+    config = FrontendConfig(
+        laser=LaserLandmarkConfig(line_landmarks=line_landmarks),
+        laser_odometry=LaserOdometryConfig(enabled=laser_odometry),
+    )
+    path = folder / f"{dataset}-{line_landmarks.value}-{laser_odometry}.npz"
     cached_frontend(sequence, path, config)
     return str(path)
+
+
+def laser_alone(dataset: str, log: str | None) -> float | None:
+    """ATE [m] (SE(2)-aligned, as ``omnislam evaluate``) of the log's laser odometry composed
+    on its own: what the SLAM estimators start from before any landmark (None: the log has no
+    laser odometry)."""
+    from omnislam.compare.cache import LOGS, cache_dir
+    from omnislam.compare.execute import frontend_log_for
+    from omnislam.compare.metrics import Alignment, ate
+    from omnislam.core.types import Trajectory
+    from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
+
+    sequence = load_dataset(resolve(dataset), {})
+    path = log if log is not None else frontend_log_for(sequence, dataset, cache_dir() / LOGS)
+    replay = load_observation_log(path, dataset_id=dataset_fingerprint(sequence))
+    if replay.odometry_source != "laser":
+        return None
+    deltas = np.array([f.odometry.delta for f in replay.frames])
+    poses = se2_integrate(deltas)
+    estimate = Trajectory.from_se2(sequence.stamps_s, poses)
+    return ate(estimate, sequence.ground_truth.trajectory, Alignment.SE2).rmse_m
 
 
 def diagnose(dataset: str) -> None:
@@ -156,6 +194,12 @@ def main() -> None:
         default=None,
         help="CARMEN: build the laser log with these line landmarks (default: the cached one)",
     )
+    parser.add_argument(
+        "--wheel-odometry",
+        action="store_true",
+        help="CARMEN: build the laser log without the laser odometry (the estimators get the "
+        "wheel odometry, as before the scan matching)",
+    )
     parser.add_argument("--synthetic", nargs="*", default=[])
     parser.add_argument("--omni", nargs="*", default=[])
     parser.add_argument("--diagnose", action="store_true")
@@ -175,8 +219,19 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for label, dataset, options, carmen in rows:
             log = None
-            if carmen and args.line_landmarks is not None:
-                log = laser_log(dataset, LineLandmarks(args.line_landmarks), Path(tmp))
+            if carmen and (args.line_landmarks is not None or args.wheel_odometry):
+                lines = LineLandmarks(args.line_landmarks or LineLandmarks.FEET.value)
+                log = laser_log(dataset, lines, Path(tmp), not args.wheel_odometry)
+            if carmen:
+                start = time.process_time()
+                alone = laser_alone(dataset, log)
+                if alone is not None:
+                    results[(label, LASER_ALONE)] = [(alone, None, 0)]
+                    print(
+                        f"{label} {LASER_ALONE}: ATE {alone:.3f} m, CPU "
+                        f"{time.process_time() - start:.1f} s",
+                        flush=True,
+                    )
             for estimator in args.estimators:
                 seeds = (
                     [0] if estimator in ("deadreckoning", "graphslam", "ekfslam") else args.seeds
@@ -204,12 +259,17 @@ def main() -> None:
                         f"{lm} m, {cell[2]} landmarks, CPU {time.process_time() - start:.1f} s",
                         flush=True,
                     )
-    print("\nATE [m] / landmark RMSE [m] / landmarks (mean over seeds for the particle filters)")
-    print("| dataset | " + " | ".join(args.estimators) + " |")
-    print("|---|" + "---|" * len(args.estimators))
+    columns = list(args.estimators)
+    if any((label, LASER_ALONE) in results for label, _, _, _ in rows):
+        at = columns.index("deadreckoning") + 1 if "deadreckoning" in columns else 0
+        columns.insert(at, LASER_ALONE)
+    print("\nATE [m] / landmark RMSE [m] / landmarks (mean over seeds for the particle filters; "
+          "+- the std over seeds)")
+    print("| dataset | " + " | ".join(columns) + " |")
+    print("|---|" + "---|" * len(columns))
     for label, _, _, _ in rows:
         parts = []
-        for estimator in args.estimators:
+        for estimator in columns:
             values = results.get((label, estimator))
             if not values:
                 parts.append("-")
@@ -217,18 +277,23 @@ def main() -> None:
             ate = np.mean([v[0] for v in values])
             lms = [v[1] for v in values if v[1] is not None]
             lm = f"{np.mean(lms):.3f}" if lms else "-"
-            parts.append(f"{ate:.3f} / {lm} / {round(np.mean([v[2] for v in values]))}")
+            spread = f" +- {np.std([v[0] for v in values]):.2f}" if len(values) > 1 else ""
+            parts.append(
+                f"{ate:.3f}{spread} / {lm} / {round(np.mean([v[2] for v in values]))}"
+            )
         print(f"| {label} | " + " | ".join(parts) + " |")
     carmen_rows = [label for label, _, _, carmen in rows if carmen]
     if carmen_rows and "deadreckoning" in args.estimators:
         print(f"\nCARMEN goal: every SLAM estimator <= {GOAL_RATIO}x dead reckoning's ATE")
         for label in carmen_rows:
             dr = results[(label, "deadreckoning")][0][0]
-            for estimator in args.estimators:
+            for estimator in columns:
                 if estimator == "deadreckoning" or (label, estimator) not in results:
                     continue
                 ratio = np.mean([v[0] for v in results[(label, estimator)]]) / dr
                 verdict = "met" if ratio <= GOAL_RATIO else "NOT met"
+                if estimator == LASER_ALONE:
+                    verdict = "no landmarks: what the estimators start from"
                 print(f"  {label} {estimator}: {ratio:.2f}x dead reckoning ({verdict})")
 
 

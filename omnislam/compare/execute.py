@@ -201,7 +201,12 @@ def execute_run(
         frames = list(sequence.frame_inputs())
     else:
         replay = _load_log(sequence, log)
-        frames = _own_sighting_ids(sequence, list(sequence.frame_inputs(replay.frames)), log)
+        # a log's laser odometry replaces the wheel odometry for the SLAM estimators; dead
+        # reckoning stays the wheel odometry, the baseline they are compared with
+        laser = replay.odometry_source == "laser" and spec.estimator != "deadreckoning"
+        frames = _own_sighting_ids(
+            sequence, list(sequence.frame_inputs(replay.frames, odometry=laser)), log
+        )
     reassigned = 0
     if wrong_fraction > 0:
         # its own stream, so the estimator draws the same numbers with and without it

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Callable, Iterable, Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -239,14 +239,16 @@ class Sequence:
         )
 
     def frame_inputs(
-        self, observations: Iterable[FrameInput] | None = None
+        self, observations: Iterable[FrameInput] | None = None, *, odometry: bool = False
     ) -> Iterator[FrameInput]:
         """Yield one FrameInput per frame.
 
         Args:
             observations: a front-end log's frames (one per frame, in order): their bearings,
-                range-bearing sightings and vertical lines replace the loader's sightings;
-                odometry always comes from the sequence. None: the loader's sightings only.
+                range-bearing sightings and vertical lines replace the loader's sightings.
+                None: the loader's sightings only.
+            odometry: take the odometry (and its covariance) from ``observations`` too (a
+                log's laser odometry); else it comes from the sequence.
 
         Raises:
             DataError: the observations do not have one frame per frame of the sequence.
@@ -262,11 +264,17 @@ class Sequence:
                     f"{self.name}: observation frame {seen.index} does not follow frame "
                     f"{count - 2} of {len(self)}"
                 )
-            yield self.frame_input(
+            frame = self.frame_input(
                 seen.index,
                 bearings=seen.bearings,
                 range_bearing=seen.range_bearing,
                 vertical_lines=seen.vertical_lines,
             )
+            if odometry and seen.index > 0:
+                own = frame.odometry  # kept with its stated covariance where the log kept it
+                if not (seen.odometry.covariance is None
+                        and np.array_equal(seen.odometry.delta, own.delta)):
+                    frame = replace(frame, odometry=seen.odometry)
+            yield frame
         if count != len(self):
             raise DataError(f"{self.name}: observations for {count} of {len(self)} frames")

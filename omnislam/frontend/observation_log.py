@@ -47,6 +47,11 @@ class ObservationLog:
             frames without bearings); aligned with ``frames[i].bearings``.
         config: the configuration as plain data (for reports).
         stats: counts and seconds per stage.
+        odometry_source: ``"wheel"``: the frames' odometry is the dataset's; ``"laser"``: it is
+            the front end's laser odometry (``frontend.scan_matching``: scans registered by
+            ICP, with their covariance; the wheel odometry where a match was rejected), which
+            ``omnislam run`` hands the SLAM estimators instead of the dataset's (dead
+            reckoning keeps the wheel odometry).
     """
 
     dataset_id: str
@@ -55,8 +60,11 @@ class ObservationLog:
     pixels: tuple[np.ndarray | None, ...]
     config: Mapping[str, Any] = field(default_factory=dict)
     stats: Mapping[str, float] = field(default_factory=dict)
+    odometry_source: str = "wheel"
 
     def __post_init__(self) -> None:
+        if self.odometry_source not in ("wheel", "laser"):
+            raise DataError(f"ObservationLog: unknown odometry source {self.odometry_source!r}")
         if len(self.pixels) != len(self.frames):
             raise DataError("ObservationLog: one pixels entry per frame is required")
         for frame, px in zip(self.frames, self.pixels, strict=True):
@@ -138,6 +146,11 @@ def save_observation_log(log: ObservationLog, path: str | Path) -> None:
         "stamps_s": np.array([f.odometry.stamp_s for f in frames], dtype=float),
         "odometry": np.array([f.odometry.delta for f in frames], dtype=float).reshape(-1, 3),
     }
+    if any(f.odometry.covariance is not None for f in frames):  # NaN: none stated
+        arrays["odometry_cov"] = np.array(
+            [np.full((3, 3), np.nan) if f.odometry.covariance is None else f.odometry.covariance
+             for f in frames], dtype=float,
+        ).reshape(-1, 3, 3)
     arrays |= _csr([f.bearings for f in frames], _BEARINGS, "bearings")
     arrays |= _csr(list(log.pixels), {"pixels": ("", (2,), float)}, "pixels")
     arrays |= _csr([f.range_bearing for f in frames], _RANGE_BEARING, "rb")
@@ -156,6 +169,7 @@ def save_observation_log(log: ObservationLog, path: str | Path) -> None:
         "config_hash": log.config_hash,
         "config": dict(log.config),
         "stats": dict(log.stats),
+        "odometry_source": log.odometry_source,
     }
     arrays["meta"] = np.array(json.dumps(meta, sort_keys=True))
     try:
@@ -244,6 +258,7 @@ def load_observation_log(
         pixels=pixels,
         config=meta.get("config", {}),
         stats=meta.get("stats", {}),
+        odometry_source=meta.get("odometry_source", "wheel"),
     )
 
 
@@ -276,9 +291,12 @@ def _frames_from_arrays(
             a["lines_bearings"][v], a["lines_sigma"][v], a["lines_profiles"][v],
             a["lines_means_left"][v], a["lines_means_right"][v], a["lines_ids"][v],
         )
+        cov = a["odometry_cov"][i] if "odometry_cov" in a else None
+        if cov is not None and np.any(np.isnan(cov)):
+            cov = None
         frames.append(FrameInput(
             index=int(index),
-            odometry=Odometry(a["odometry"][i], float(a["stamps_s"][i])),
+            odometry=Odometry(a["odometry"][i], float(a["stamps_s"][i]), cov),
             bearings=bearings,
             range_bearing=rb,
             vertical_lines=lines,

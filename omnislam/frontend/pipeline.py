@@ -7,6 +7,11 @@ the other frames carry odometry (and range-bearing sightings) only. Bearings are
 in the robot frame from the camera's viewpoint with the angular sigma of their pixel
 (``CameraModel.angular_sigma``: larger towards the mirror rim, thesis eq. 4.23).
 
+A sequence with a laser and no images gets laser odometry (``scan_matching``: each scan
+registered to the last few by ICP, with a covariance; the wheel odometry where a match is
+rejected) as its frames' odometry (``ObservationLog.odometry_source == "laser"``), and the
+tutorial's feet of the perpendicular are dropped through it.
+
 Because the whole sequence is processed before any estimator runs, tracks with fewer than
 ``TrackConfig.min_track_length`` sightings (features seen once, unmatched) are dropped from the
 log: no estimator can use them.
@@ -23,7 +28,7 @@ import pickle
 import time
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +36,7 @@ import numpy as np
 
 from omnislam._optional import require
 from omnislam.core.se import se2_integrate
-from omnislam.core.types import Bearings, FrameInput, RangeBearing
+from omnislam.core.types import Bearings, FrameInput, Odometry, RangeBearing
 from omnislam.errors import DataError
 from omnislam.frontend.bearing_noise import bearing_sigmas
 from omnislam.frontend.config import FrontendConfig, ScheduleConfig, ScheduleMode, config_hash
@@ -345,6 +350,21 @@ def run_frontend(
     children_s = children_cpu_s() - children_start if children_start is not None else 0.0
     images_cpu_s = time.process_time() - cpu_start + max(prepared_cpu_s, children_s)
 
+    laser_odom = None
+    if (
+        sequence.laser is not None
+        and config.laser_odometry.enabled
+        and (config.laser_odometry.with_images or sequence.image_loader is None)
+    ):
+        from omnislam.frontend.scan_matching import laser_odometry
+
+        scans = sequence.laser
+        with clock("laser_odometry"):
+            laser_odom = laser_odometry(
+                scans.angles_rad, scans.ranges_m, scans.max_range_m, sequence.odometry_r,
+                config.laser_odometry, sequence.odometry_covariance_r,
+            )
+
     laser_sightings: dict[int, RangeBearing] = {}
     if sequence.laser is not None and config.laser.enabled and (
         config.laser.merge_with_sightings or not _has_own_sightings(sequence)
@@ -352,7 +372,11 @@ def run_frontend(
         from omnislam.frontend.laser_landmarks import extract_laser_landmarks
 
         scans = sequence.laser
-        poses_dr = se2_integrate(sequence.odometry_r)
+        # the feet of the perpendicular are dropped from the odometry frame's origin through
+        # the odometry the estimators get (the laser odometry when it is on)
+        poses_dr = se2_integrate(
+            sequence.odometry_r if laser_odom is None else laser_odom.deltas
+        )
         with clock("laser"):
             for i in range(n):
                 ranges = scans.ranges_m[i]
@@ -377,12 +401,19 @@ def run_frontend(
             px = pix[ok]
             n_bearings.append(len(bearings))
         given = sequence.range_bearing[i] if sequence.range_bearing is not None else None
-        frames.append(sequence.frame_input(
+        frame = sequence.frame_input(
             i,
             bearings=bearings,
             range_bearing=_merge_sightings(given, laser_sightings.get(i)),
             vertical_lines=lines.get(i),
-        ))
+        )
+        if laser_odom is not None and i > 0:
+            cov = laser_odom.covariances[i]
+            frame = replace(frame, odometry=Odometry(
+                laser_odom.deltas[i], frame.odometry.stamp_s,
+                None if np.any(np.isnan(cov)) else cov,
+            ))
+        frames.append(frame)
         pixels.append(px)
     stats: dict[str, float] = {}
     for c in (clock, track_clock):
@@ -396,6 +427,10 @@ def run_frontend(
         "tracks_kept": float(keep_track.sum()),
         "sightings_per_image_median": float(np.median(n_bearings)) if n_bearings else 0.0,
     }
+    if laser_odom is not None:
+        matched = [r for r in laser_odom.reasons if r]
+        stats["laser_odometry_matches"] = float(len(matched))
+        stats["laser_odometry_accepted"] = float(laser_odom.accepted.sum())
     return ObservationLog(
         dataset_id=dataset_fingerprint(sequence),
         config_hash=log_key(config, max_images),
@@ -403,6 +438,7 @@ def run_frontend(
         pixels=tuple(pixels),
         config=_config_to_dict(config),
         stats=stats,
+        odometry_source="wheel" if laser_odom is None else "laser",
     )
 
 

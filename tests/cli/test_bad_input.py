@@ -304,6 +304,15 @@ _carmen_case("range-not-a-number", flaser(1.0).replace("1.0 1.0 1.0 1.0", "1.0 x
 _carmen_case("odom-short", "ODOM 0 0\n")
 _carmen_case("time-backwards", flaser(10.0) + flaser(1.0))
 _carmen_case("no-scans", "PARAM x 1\n")
+_carmen_case("beam-counts-differ", flaser(1.0) + flaser(2.0, beams=5))
+
+
+@case("carmen-range-not-a-number-slam")
+def _(tmp, _fx):
+    """A SLAM estimator (laser landmarks and laser odometry) on a malformed laser row."""
+    path = tmp / "bad.log"
+    path.write_text(flaser(1.0) + flaser(2.0).replace("1.0 1.0 1.0 1.0", "1.0 1.0 x 1.0"))
+    return run_args(path, tmp, "ekfslam"), "bad.log"
 
 
 @case("carmen-truncated-gzip")

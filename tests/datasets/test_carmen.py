@@ -99,6 +99,10 @@ def test_raw_log_uses_flaser_odom_fields(tmp_path):
             "line 2: time 1.0 is earlier",
         ),
         ("PARAM x 1\n", "no FLASER records"),
+        (
+            flaser((0, 0, 0), (0, 0, 0), 1.0) + flaser((0, 0, 0), (0, 0, 0), 2.0, beams=5),
+            "line 2: FLASER has 5 beams, earlier ones 4",
+        ),
     ],
 )
 def test_bad_input(tmp_path, text, message):

@@ -1,0 +1,125 @@
+"""The shared front end's laser odometry (``omnislam.frontend.scan_matching``) on its own.
+
+For each dataset (a registered name such as ``carmen-intel``, or a render folder): how many
+matches were accepted, degenerate (corridor) or rejected, the step error of the accepted
+increments against the ground truth next to the wheel odometry's, the median NEES of their
+stated covariance (2.37 expected), their mean heading error (a bias adds up over the run),
+the CPU per scan, and the SE(2)-aligned ATE of the laser
+odometry composed alone against the wheels'. ``--submap-scans`` repeats it for other submap
+sizes.
+
+With ``--estimators`` it also runs them (seed 0) on a log of the dataset's own range-bearing
+sightings (the renders' poles, ids known, ``modality=range-bearing-2d``; no images processed)
+twice: with the wheel odometry and with the laser odometry (``with_images: true``), to show what
+the laser odometry does under sightings that already correct the wheels.
+
+::
+
+    PYTHONPATH=. OMNISLAM_DATA=../shared/data .venv/bin/python benchmarks/laser_odometry.py
+        [carmen-intel carmen-aces /path/loop150-render ...] [--submap-scans 3 1 10]
+        [--estimators graphslam fastslam2 ekfslam]
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from collections import Counter
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from omnislam.compare.metrics import Alignment, ate
+from omnislam.core.se import se2_between, se2_integrate, wrap_angle
+from omnislam.core.types import Trajectory
+from omnislam.datasets.registry import load_dataset, resolve
+from omnislam.frontend.config import FrontendConfig, LaserOdometryConfig
+from omnislam.frontend.scan_matching import laser_odometry
+
+
+def report(dataset: str, submap_scans: int) -> None:
+    sequence = load_dataset(resolve(dataset), {})
+    scans, truth = sequence.laser, sequence.ground_truth.trajectory
+    config = replace(LaserOdometryConfig(), submap_scans=submap_scans)
+    start = time.process_time()
+    lo = laser_odometry(
+        scans.angles_rad, scans.ranges_m, scans.max_range_m, sequence.odometry_r, config,
+        sequence.odometry_covariance_r,
+    )
+    per_scan_ms = 1000 * (time.process_time() - start) / len(sequence)
+    poses = truth.se2
+    true = np.zeros_like(sequence.odometry_r)
+    true[1:] = se2_between(poses[:-1], poses[1:])
+    used = lo.accepted
+
+    def step_errors(deltas: np.ndarray) -> tuple[float, float]:
+        e = deltas[used] - true[used]
+        return (float(np.median(np.hypot(e[:, 0], e[:, 1]))),
+                float(np.degrees(np.median(np.abs(wrap_angle(e[:, 2]))))))
+
+    e = lo.deltas - true
+    e[:, 2] = wrap_angle(e[:, 2])
+    nees = [e[i] @ np.linalg.solve(lo.covariances[i], e[i]) for i in np.flatnonzero(used)]
+    counts = Counter(r for r in lo.reasons if r)
+    laser_xy, laser_deg = step_errors(lo.deltas)
+    wheel_xy, wheel_deg = step_errors(sequence.odometry_r)
+
+    def alone(deltas: np.ndarray) -> float:
+        estimate = Trajectory.from_se2(sequence.stamps_s, se2_integrate(deltas))
+        return ate(estimate, truth, Alignment.SE2).rmse_m
+
+    print(
+        f"{Path(dataset).name} submap {submap_scans}: {dict(counts)} of {len(sequence) - 1}; "
+        f"accepted steps' error median {100 * laser_xy:.1f} cm / {laser_deg:.2f} deg (wheels "
+        f"{100 * wheel_xy:.1f} cm / {wheel_deg:.2f} deg), mean heading error "
+        f"{np.degrees(np.mean(e[used, 2])):+.4f} deg per step; NEES median {np.median(nees):.2f}; "
+        f"{per_scan_ms:.1f} ms CPU per scan; ATE alone {alone(lo.deltas):.3f} m (wheels "
+        f"{alone(sequence.odometry_r):.3f} m)",
+        flush=True,
+    )
+
+
+def with_and_without(dataset: str, estimators: list[str]) -> None:
+    """Each estimator on the dataset's own sightings, wheel odometry against laser odometry."""
+    from omnislam.compare.evaluation import evaluate_run
+    from omnislam.compare.execute import RunSpec, execute_run
+    from omnislam.frontend.observation_log import save_observation_log
+    from omnislam.frontend.pipeline import run_frontend
+
+    sequence = load_dataset(resolve(dataset), {})
+    with tempfile.TemporaryDirectory() as tmp:
+        for on in (False, True):
+            config = FrontendConfig(
+                laser_odometry=LaserOdometryConfig(enabled=on, with_images=True)
+            )
+            path = Path(tmp) / f"{on}.npz"
+            save_observation_log(run_frontend(sequence, config, max_images=0), path)
+            for estimator in estimators:
+                spec = RunSpec(dataset, estimator, 0, {"modality": "range-bearing-2d"}, str(path))
+                metrics = evaluate_run(execute_run(spec))
+                lm = metrics.landmarks.rmse_m
+                print(
+                    f"{Path(dataset).name} {'laser' if on else 'wheel'} odometry {estimator}: "
+                    f"ATE {metrics.ate.rmse_m:.4f} m, landmark RMSE "
+                    f"{'-' if lm is None else f'{lm:.4f}'} m",
+                    flush=True,
+                )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("datasets", nargs="*", default=["carmen-intel", "carmen-aces"])
+    parser.add_argument("--submap-scans", type=int, nargs="+", default=[3])
+    parser.add_argument("--estimators", nargs="*", default=[])
+    args = parser.parse_args()
+    for dataset in args.datasets:
+        for k in args.submap_scans:
+            report(dataset, k)
+        if args.estimators:
+            with_and_without(dataset, args.estimators)
+
+
+if __name__ == "__main__":
+    main()
