@@ -13,9 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from graphslam_scenarios import hide_ids, run, simulate_planar
 
 from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.modality import Modality
 from omnislam.core.se import se2_between, se2_compose
+from omnislam.graphslam import GraphSLAM
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam.builder import LandmarkRegistry
 from omnislam.graphslam.config import GraphSLAMConfig
@@ -146,3 +149,24 @@ def test_landmarks_with_given_ids_are_never_merged():
     session, _, merger = _graph({A2: TRUE_XY[A], B2: TRUE_XY[B]}, drift)
     merger._is_created = lambda lid: False  # as if every id had been given
     assert _check(session, merger) == []
+
+
+def test_on_a_clean_loop_nothing_distinct_is_merged_and_retired_landmarks_leave_the_map(rng):
+    scenario = simulate_planar(rng)
+    frames = hide_ids(scenario.frames)
+    with_closure = GraphSLAM(Modality.RANGE_BEARING_2D, GraphSLAMConfig())
+    estimate = run(with_closure, frames)
+    without = run(GraphSLAM(Modality.RANGE_BEARING_2D, GraphSLAMConfig(loop_closure=False)), frames)
+    info = with_closure.info()
+    # the association closes this loop itself: no duplicates, so nothing may be merged
+    assert info.landmarks_merged == 0 and info.loop_closures == 0
+    assert len(estimate.landmark_ids) == len(without.landmark_ids) == info.landmarks
+    # a retired landmark keeps its variable but leaves the exported map
+    builder = with_closure._graph
+    kept, retired = (int(i) for i in estimate.landmark_ids[:2])
+    builder._registry.retire(retired, kept)
+    after = with_closure.estimate()
+    assert retired not in after.landmark_ids.tolist()
+    assert len(after.landmark_ids) == len(after.landmarks_w) == len(estimate.landmark_ids) - 1
+    rows = [estimate.landmark_ids.tolist().index(i) for i in after.landmark_ids.tolist()]
+    np.testing.assert_allclose(after.landmarks_w, estimate.landmarks_w[rows])
