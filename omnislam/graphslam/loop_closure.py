@@ -97,7 +97,12 @@ class LandmarkMerger:
         self.checks = 0
 
     def seen(self, landmark_id: int, k: int) -> None:
-        """Landmark ``landmark_id`` was observed in frame k (a factor was added or held)."""
+        """Landmark ``landmark_id`` was observed in frame k (a factor was added or held).
+
+        Only landmarks that take part (``is_created``) are tracked.
+        """
+        if not self._is_created(landmark_id):
+            return
         kept = self._registry.resolve(landmark_id)
         self._frames.setdefault(kept, set()).add(k)
         self._order.setdefault(kept, len(self._order))
