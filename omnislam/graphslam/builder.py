@@ -141,6 +141,10 @@ class LandmarkRegistry:
         """Landmarks merged into another."""
         return len(self._merged_into)
 
+    def row(self, landmark_id: int) -> int:
+        """The row of ``landmark_id`` in ``xy`` (insertion order)."""
+        return self._row[landmark_id]
+
     def id_at(self, row: int) -> int:
         """The id of the landmark in ``row`` (insertion order)."""
         return self._ids[row]

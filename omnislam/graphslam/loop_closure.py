@@ -133,7 +133,16 @@ class LandmarkMerger:
         if not local or len(active) < 2:
             return []
         self.checks += 1
-        xy = {lid: np.asarray(self._session.point2(fx.landmark_key(lid))) for lid in active}
+        cached = self._registry.xy  # positions at insertion or last refresh: a coarse filter
+        xy: dict[int, np.ndarray] = {}
+
+        def position(lid: int) -> np.ndarray:
+            """iSAM2's estimate of a landmark (read once per check, the cache refreshed)."""
+            if lid not in xy:
+                xy[lid] = np.asarray(self._session.point2(fx.landmark_key(lid)))
+                cached[self._registry.row(lid)] = xy[lid]
+            return xy[lid]
+
         loose = np.sqrt(4.0 * self._gates.new_landmark)
         candidates: dict[int, list[int]] = {}
         for b in local:
@@ -141,12 +150,16 @@ class LandmarkMerger:
                 np.linalg.eigvalsh(self._session.marginal_covariance(fx.landmark_key(b)))[-1]
             )
             reach = loose * (2.0 * spread + self._config.association_landmark_sigma_m)
+            # only landmarks whose cached position is within 3x the reach are read from iSAM2
+            # (one back-substitution each): the cache is at most one loop's correction stale
+            coarse = cached[self._registry.row(b)]
             near = [
                 a
                 for a in active
                 if self._order[a] < self._order[b]
+                and np.hypot(*(cached[self._registry.row(a)] - coarse)) <= 3.0 * reach
                 and not (self._frames[a] & self._frames[b])
-                and np.hypot(*(xy[a] - xy[b])) <= reach
+                and np.hypot(*(position(a) - position(b))) <= reach
             ]
             if near:
                 candidates[b] = near
