@@ -44,6 +44,8 @@ class SightingCounts:
         sightings_gated: bearings of mapped landmarks rejected by the outlier gate.
         sightings_over_budget: bearings of tracks left out by the per-image landmark budget.
         tentative: the tentative stage of the association.
+        landmarks_merged: landmarks merged into another by the loop closure (``loop_closure.py``).
+        loop_closures: loop closures accepted (each merged one or more landmarks).
     """
 
     landmarks: int
@@ -55,6 +57,8 @@ class SightingCounts:
     sightings_gated: int = 0
     sightings_over_budget: int = 0
     tentative: TentativeStats = field(default_factory=TentativeStats)
+    landmarks_merged: int = 0
+    loop_closures: int = 0
 
 
 class GraphBuilder(Protocol):
@@ -97,6 +101,7 @@ class LandmarkRegistry:
         self._row: dict[int, int] = {}
         self._ids: list[int] = []
         self._xy = np.zeros((64, 2))
+        self._merged_into: dict[int, int] = {}  # retired landmark -> the one it was merged into
 
     def __len__(self) -> int:
         return len(self._ids)
@@ -114,6 +119,31 @@ class LandmarkRegistry:
         self._xy[row] = point_w[:2]
         self._row[landmark_id] = row
         self._ids.append(landmark_id)
+
+    def retire(self, landmark_id: int, kept: int) -> None:
+        """``landmark_id`` was merged into ``kept`` (``loop_closure.py``): its variable stays in
+        the graph, tied to ``kept``, but the association no longer offers it and the map does
+        not list it."""
+        self._merged_into[landmark_id] = kept
+
+    def active(self, landmark_id: int) -> bool:
+        """True for a landmark in the graph that was not merged into another."""
+        return landmark_id in self._row and landmark_id not in self._merged_into
+
+    def resolve(self, landmark_id: int) -> int:
+        """The landmark that ``landmark_id`` stands for now (itself unless merged)."""
+        while landmark_id in self._merged_into:
+            landmark_id = self._merged_into[landmark_id]
+        return landmark_id
+
+    @property
+    def retired(self) -> int:
+        """Landmarks merged into another."""
+        return len(self._merged_into)
+
+    def row(self, landmark_id: int) -> int:
+        """The row of ``landmark_id`` in ``xy`` (insertion order)."""
+        return self._row[landmark_id]
 
     def id_at(self, row: int) -> int:
         """The id of the landmark in ``row`` (insertion order)."""

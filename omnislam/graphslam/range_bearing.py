@@ -40,6 +40,7 @@ from omnislam.graphslam.builder import LandmarkRegistry, SightingCounts
 from omnislam.graphslam.config import AssociationTest, GraphSLAMConfig
 from omnislam.graphslam.joint_state import joint_state
 from omnislam.graphslam.landmark_init import ConsistentInsertion
+from omnislam.graphslam.loop_closure import LandmarkMerger
 from omnislam.graphslam.poses import PlanarPoses
 from omnislam.graphslam.session import ISAM2Session
 from omnislam.graphslam.tentative import TentativeLandmarks, TentativeStats
@@ -95,6 +96,11 @@ class RangeBearingGraph:
         )
         self._next_created_id = CREATED_ID_BASE
         self._created = self._associated = self._ambiguous = self._jointly_rejected = 0
+        self._merger = (
+            LandmarkMerger(config, session, self._registry, lambda lid: lid >= CREATED_ID_BASE)
+            if config.loop_closure
+            else None
+        )
 
     def add(
         self, k: int, sightings: RangeBearing, guess_w: np.ndarray, graph: Any, values: Any
@@ -104,6 +110,8 @@ class RangeBearingGraph:
         unknown = ids == UNKNOWN_ID
         created: set[int] = set()
         points_w = covariances_w = np.zeros((0, 2))
+        if unknown.any() and self._merger is not None and k > 0:
+            self._merger.check(k, graph)
         if unknown.any() and self._window is not None:
             rows = np.flatnonzero(unknown)
             waiting = _subset(sightings, rows)
@@ -143,6 +151,8 @@ class RangeBearingGraph:
             if lid == UNKNOWN_ID:  # rejected, ambiguous, or waiting in the association window
                 continue
             factor = fx.bearing_range_2d(k, lid, b, r, self._noise.diagonal(s_b, s_r))
+            if self._merger is not None:
+                self._merger.seen(lid, k)
             if lid in self._registry:
                 graph.add(factor)
                 self._in_graph[lid] += 1
@@ -224,6 +234,8 @@ class RangeBearingGraph:
                 self._associated += 1
             noise = self._noise.diagonal(rb.sigma_bearing_rad[i], rb.sigma_range_m[i])
             factor = fx.bearing_range_2d(k, lid, rb.bearings_rad[i], rb.ranges_m[i], noise)
+            if self._merger is not None:
+                self._merger.seen(lid, k)
             if lid in self._registry:
                 graph.add(factor)
                 self._in_graph[lid] += 1
@@ -313,6 +325,7 @@ class RangeBearingGraph:
         )
         radius = sightings.ranges_m[rows].max() + 3.0 * np.sqrt(self._gates.new_landmark) * spread
         near = np.flatnonzero(np.hypot(*(cached - guess_w[:2]).T) <= radius)
+        near = near[[self._registry.active(self._registry.id_at(r)) for r in near.tolist()]]
         for row in near.tolist():  # refresh only these positions from iSAM2
             key = fx.landmark_key(self._registry.id_at(row))
             if self._session.exists(key):
@@ -370,24 +383,34 @@ class RangeBearingGraph:
         return covariances
 
     def landmark_ids(self) -> np.ndarray:
-        """(M,) ids of the landmarks in the graph, ascending."""
-        return self._registry.sorted_ids()
+        """(M,) ids of the landmarks in the graph, ascending (not those merged into another)."""
+        ids = self._registry.sorted_ids()
+        return ids[[self._registry.active(i) for i in ids.tolist()]]
 
     def landmarks(self, values: Any) -> np.ndarray:
-        """(M, 3) the ``Point2`` landmarks of ``values`` with z = 0 [m]."""
+        """(M, 3) the ``Point2`` landmarks of ``values`` with z = 0 [m], ``landmark_ids`` order.
+
+        A landmark merged into another (``loop_closure.py``) keeps its variable, tied to the
+        other by a merging factor; it is left out.
+        """
         points = gtsam.utilities.extractPoint2(values).reshape(-1, 2)
+        ids = self._registry.sorted_ids()
+        if len(ids) == len(points):
+            points = points[[self._registry.active(i) for i in ids.tolist()]]
         return np.column_stack([points, np.zeros(len(points))])
 
     def counts(self) -> SightingCounts:
         """Counts so far."""
         return SightingCounts(
-            landmarks=len(self._registry),
+            landmarks=len(self._registry) - self._registry.retired,
             insertion=self._consistent.stats(),
             landmarks_created=self._created,
             sightings_associated=self._associated,
             sightings_ambiguous=self._ambiguous,
             sightings_gated=self._rejected + self._consistent.rejected + self._jointly_rejected,
             tentative=self._tentative.stats() if self._tentative is not None else TentativeStats(),
+            landmarks_merged=0 if self._merger is None else self._merger.merged,
+            loop_closures=0 if self._merger is None else self._merger.loop_closures,
         )
 
 

@@ -269,7 +269,11 @@ class WindowAssociation:
                 d2 = mahalanobis2(points_w, covs_w, cached[near], fixed)
                 close = near[d2.min(axis=0) <= loose]
                 mapped = [self._registry.id_at(int(r)) for r in close]
-                mapped = [i for i in mapped if self._session.exists(fx.landmark_key(i))]
+                mapped = [
+                    i
+                    for i in mapped
+                    if self._registry.active(i) and self._session.exists(fx.landmark_key(i))
+                ]
         tentative: list[int] = []
         if self._tentative is not None and len(self._tentative):
             ids, xy, tcovs = self._tentative.candidates()
