@@ -70,8 +70,13 @@ class EKFSLAMConfig:
             track outside this chi-square quantile (2 dof) is an outlier (a feature track that
             jumped to another point) and is skipped.
         landmarks_per_image: omni bearings: the per-image landmark budget of
-            ``core.track_budget`` (graphslam's 40); 0: every track. Each landmark adds three rows
-            and columns to P and each sighting an O(n^2) update.
+            ``core.track_budget`` (graphslam's is 40); 0: every track. Each landmark adds three
+            rows and columns to P and each sighting an O(n^2) update. 30 since the front end's
+            keypoint budget (~115 bearings per lab40 image instead of ~226, shorter tracks, so
+            more admissions): with 40 lab40's state grew from 619 to 1197 landmarks and the
+            replay to 16.5 s (< 20x real time); 30 gives 8.2 s and ATE / landmark RMSE 3.08 /
+            17.7 cm against 3.26 / 18.8 (demo 2.96 / 6.4 against 2.71 / 9.1 cm, loop150 21.6 /
+            41.1 against 23.5 / 42.8 cm; docs/results.md, session 7).
     """
 
     motion_noise: MotionNoise = field(default_factory=MotionNoise)
@@ -90,7 +95,7 @@ class EKFSLAMConfig:
     bearing_min_sightings: int = 3
     bearing_min_parallax_deg: float = 3.0
     bearing_gate_probability: float = 0.999
-    landmarks_per_image: int = 40
+    landmarks_per_image: int = 30
 
     def __post_init__(self) -> None:
         if not 0.0 < self.gate_probability < 1.0:
