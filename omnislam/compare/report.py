@@ -49,6 +49,7 @@ from omnislam.compare.metrics import Alignment, AteResult, ate
 from omnislam.compare.run_metrics import RunMetrics, read_run_metrics
 from omnislam.compare.rundir import (
     CONFIG,
+    ESTIMATOR_INFO,
     GRAPH_G2O,
     METRICS,
     RunConfig,
@@ -325,6 +326,42 @@ def _detail_rows(cells: Sequence[ReportCell]) -> tuple[list[str], list[list[Cell
                     Num(f"{len(ok)} ({failed} failed)") if failed else Num(f"{len(ok)}", len(ok))
                 )
         rows.append(row)
+    return header, rows
+
+
+#: the association decisions an estimator's ``estimator_info.json`` may count, by the report's
+#: column: the first of the keys that the record holds (graphslam, EKF-SLAM's range-bearing and
+#: omni filters, FastSLAM name them differently)
+ASSOCIATION_COUNTS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("landmarks", ("landmarks",)),
+    ("created", ("landmarks_created", "created")),
+    ("associated", ("sightings_associated", "associated")),
+    ("ambiguous", ("sightings_ambiguous", "ambiguous")),
+    ("gated (rejected)", ("sightings_gated", "gated")),
+    ("tentative dropped", ("tentative_dropped",)),
+    ("merged", ("landmarks_merged",)),
+    ("loop closures", ("loop_closures",)),
+)
+
+
+def association_rows(cells: Sequence[ReportCell]) -> tuple[list[str], list[list[Cell]]]:
+    """One row per run whose ``estimator_info.json`` counts association decisions (the
+    ``ASSOCIATION_COUNTS`` besides ``landmarks``; none: no rows), in the cells' order."""
+    header = ["estimator", "seed", *(name for name, _ in ASSOCIATION_COUNTS)]
+    rows: list[list[Cell]] = []
+    for cell in cells:
+        if not cell.ok or cell.run_dir is None or not (cell.run_dir / ESTIMATOR_INFO).is_file():
+            continue
+        try:
+            info = json.loads((cell.run_dir / ESTIMATOR_INFO).read_text())
+        except (OSError, ValueError) as exc:
+            raise DataError(f"{cell.run_dir / ESTIMATOR_INFO}: not readable JSON ({exc})") from exc
+        values = [next((info[k] for k in keys if isinstance(info.get(k), int)), None)
+                  for _, keys in ASSOCIATION_COUNTS]
+        if all(v is None for v in values[1:]):
+            continue
+        rows.append([cell.column, "–" if cell.seed is None else str(cell.seed),
+                     *(Num("–") if v is None else Num(str(v), v) for v in values)])
     return header, rows
 
 
@@ -1110,6 +1147,23 @@ def _write_into(
                 rows,
             )
         )
+        association_header, association = association_rows(group)
+        if association:
+            table(
+                make_table(
+                    f"{slug(dataset)}-association",
+                    f"{dataset}: association decisions per run (estimator_info.json)",
+                    association_header,
+                    association,
+                )
+            )
+            para(
+                "Association decisions as each estimator counts them (estimator_info.json): "
+                "landmarks in the final map, landmarks created by the association, sightings "
+                "associated with a landmark, left out as ambiguous, rejected by a gate, "
+                "tentative landmarks dropped, landmarks merged by a loop closure and loop "
+                "closures; '–' where the estimator does not count it."
+            )
         for c in group:
             if not c.ok:
                 para(f"Failed: {c.cell_id}: {c.error}")

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from room_log import write_room_log
+from small_mrclam import write_small_mrclam
 
 import omnislam
 from omnislam.compare import provenance
@@ -240,3 +241,29 @@ def test_latex_escape_and_provenance_never_fail(tmp_path, monkeypatch):
     assert provenance.cpu_model(tmp_path / "no-cpuinfo")  # falls back, never raises
     (tmp_path / "cpuinfo").write_text("processor\t: 0\nmodel name\t: Test CPU 9000\n")
     assert provenance.cpu_model(tmp_path / "cpuinfo") == "Test CPU 9000"
+
+
+def test_the_report_shows_each_runs_association_counts(tmp_path):
+    """Issue 16: every association decision an estimator counts (estimator_info.json) is in the
+    report, one row per run, for the estimators that count any (not dead reckoning): a small
+    MR.CLAM folder with the barcodes hidden, so the back ends associate on their own."""
+    data = write_small_mrclam(tmp_path / "MRCLAM_Small")
+    grid = {"name": "assoc",
+            "datasets": [{"dataset": str(data), "label": "small",
+                          "options": {"association": "unknown"}}],
+            "estimators": ["deadreckoning", "graphslam", "ekfslam"], "seeds": [0]}
+    results = tmp_path / "results"
+    run_grid(parse_grid(json.dumps(grid), tmp_path / "grid.yaml"), results, SerialExecutor)
+    write_report(results, tmp_path / "report", FAST)
+    header, rows = md_tables((tmp_path / "report" / "report.md").read_text())["small-association"]
+    assert header[:6] == ["estimator", "seed", "landmarks", "created", "associated", "ambiguous"]
+    by_estimator = {row[0]: dict(zip(header, row, strict=True)) for row in rows}
+    assert set(by_estimator) == {"graphslam", "ekfslam"}
+    for name, row in by_estimator.items():
+        (cell,) = (results / "cells").glob(f"*__{name}__*")
+        info = json.loads((cell / "estimator_info.json").read_text())
+        assert row["landmarks"] == str(info["landmarks"])
+        created = info.get("landmarks_created", info.get("created"))
+        associated = info.get("sightings_associated", info.get("associated"))
+        assert row["created"] == str(created) and row["associated"] == str(associated)
+        assert int(row["created"]) > 0 and int(row["associated"]) > 0  # landmarks seen again
