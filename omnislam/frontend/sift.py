@@ -177,7 +177,8 @@ class SiftExtractor:
     def buckets(self, shape: tuple[int, ...], mask: np.ndarray | None) -> np.ndarray:
         """(H, W) bucket of every pixel for the keypoint budget (``scale_space.budget_buckets``
         over the mask, else the whole image), computed once per mask."""
-        if self._buckets is None or self._buckets[0] is not mask:
+        if (self._buckets is None or self._buckets[0] is not mask
+                or self._buckets[1].shape != tuple(shape[:2])):
             region = np.ones(shape[:2], dtype=np.uint8) if mask is None else mask
             self._buckets = (mask, budget_buckets(region, self.config.budget_bands,
                                                   self.config.budget_sectors))

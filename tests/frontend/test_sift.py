@@ -153,3 +153,10 @@ def test_pycolmap_backend_gives_comparable_features(omni_image):
     u = np.round(features.pixels[:, 0]).astype(int)
     v = np.round(features.pixels[:, 1]).astype(int)
     assert np.all(mask[v, u] > 0)
+
+
+def test_buckets_follow_the_image_size_without_a_mask():
+    extractor = SiftExtractor(dataclasses.replace(OMNI_THESIS, features_per_kpx=0.5))
+    assert extractor.buckets((60, 80), None).shape == (60, 80)
+    big = extractor.buckets((90, 120), None)
+    assert big.shape == (90, 120) and big.max() + 1 == 32
