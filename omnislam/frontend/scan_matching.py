@@ -42,7 +42,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from omnislam._optional import require
-from omnislam.core.se import se2_from_matrix, se2_to_matrix, wrap_angle
+from omnislam.core.se import (
+    se2_compose,
+    se2_from_matrix,
+    se2_inverse,
+    se2_to_matrix,
+    se2_transform_points,
+    wrap_angle,
+)
 from omnislam.frontend.config import LaserOdometryConfig
 
 
@@ -253,8 +260,6 @@ def laser_odometry(
     Returns:
         The LaserOdometry.
     """
-    from omnislam.core.se import se2_compose, se2_inverse, se2_transform_points
-
     n = odometry_r.shape[0]
     deltas = np.array(odometry_r, dtype=float, copy=True)
     covs = np.full((n, 3, 3), np.nan)
@@ -296,10 +301,7 @@ def laser_odometry(
 
 
 def _voxel(points: np.ndarray, size_m: float) -> np.ndarray:
-    """One point per occupied ``size_m`` cell: the mean of the cell's points."""
-    cells = np.floor(points / size_m).astype(np.int64)
-    _, inverse, counts = np.unique(cells, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.reshape(-1)
-    out = np.zeros((counts.shape[0], 2))
-    np.add.at(out, inverse, points)
-    return out / counts[:, None]
+    """One point per occupied ``size_m`` cell, the mean of the cell's points (open3d's
+    ``voxel_down_sample`` on the points at z = 0; its grid starts at the points' lower bound)."""
+    thinned = _cloud(require("open3d"), points).voxel_down_sample(size_m)  # type: ignore[attr-defined]
+    return np.asarray(thinned.points)[:, :2]

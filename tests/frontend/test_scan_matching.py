@@ -183,3 +183,14 @@ def test_the_log_carries_the_laser_odometry_to_slam_estimators_not_to_dead_recko
     )
     assert no_laser.odometry_source == "wheel"
     np.testing.assert_array_equal(no_laser.frames[3].odometry.delta, wheels[3])
+
+
+def test_the_submap_thinning_keeps_one_mean_point_per_cell():
+    from omnislam.frontend.scan_matching import _voxel
+
+    # two clusters far smaller than a cell and a metre apart (wherever the grid is anchored)
+    points = np.array([[0.0, 0.0], [0.02, 0.02], [1.0, 1.0], [1.02, 1.01], [1.01, 1.02]])
+    thinned = _voxel(points, 0.1)
+    order = np.argsort(thinned[:, 0])
+    expected = [points[:2].mean(axis=0), points[2:].mean(axis=0)]
+    np.testing.assert_allclose(thinned[order], expected, atol=1e-9)
