@@ -29,7 +29,12 @@ Datasets (``--datasets``, groups or names):
         [--datasets mrclam victoria carmen] [--estimators deadreckoning graphslam fastslam1
         fastslam2 ekfslam] [--seeds 0] [--line-landmarks feet|corners] [--wheel-odometry]
         [--synthetic /path/loop150-render] [--omni /path/demo-render /path/lab40-render]
-        [--diagnose]
+        [--diagnose] [--set KEY=VALUE ...]
+
+``--set`` options reach every run but dead reckoning's (name the estimators that take them
+with ``--estimators``, e.g. ``--estimators deadreckoning fastslam1 fastslam2 --set
+stated_odometry_noise=false``). The particle filters' cells print the mean, the std and the
+median over the seeds.
 
 ``--diagnose`` prints, for each CARMEN log, how repeatable each kind of laser landmark is:
 every sighting projected into the world with the corrected poses, the distance to the nearest
@@ -209,7 +214,16 @@ def main() -> None:
         help="CARMEN: state the odometry noise fitted to the corrected poses "
         "(registry.CARMEN_ODOMETRY_NOISE)",
     )
+    parser.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="an option for every run but dead reckoning's (repeatable)",
+    )
     args = parser.parse_args()
+    overrides = dict(item.split("=", 1) for item in args.overrides)
     rows = cells(args)
     if args.diagnose:
         for _, dataset, _, carmen in rows:
@@ -241,6 +255,8 @@ def main() -> None:
                     used = dict(options)
                     if estimator == "deadreckoning":  # uses no sightings: no modality
                         used.pop("modality", None)
+                    else:
+                        used.update(overrides)
                     try:
                         record = execute_run(RunSpec(dataset, estimator, seed, used, log))
                         metrics = evaluate_run(record)
@@ -264,7 +280,7 @@ def main() -> None:
         at = columns.index("deadreckoning") + 1 if "deadreckoning" in columns else 0
         columns.insert(at, LASER_ALONE)
     print("\nATE [m] / landmark RMSE [m] / landmarks (mean over seeds for the particle filters; "
-          "+- the std over seeds)")
+          "+- the std over seeds, [median])")
     print("| dataset | " + " | ".join(columns) + " |")
     print("|---|" + "---|" * len(columns))
     for label, _, _, _ in rows:
@@ -277,7 +293,10 @@ def main() -> None:
             ate = np.mean([v[0] for v in values])
             lms = [v[1] for v in values if v[1] is not None]
             lm = f"{np.mean(lms):.3f}" if lms else "-"
-            spread = f" +- {np.std([v[0] for v in values]):.2f}" if len(values) > 1 else ""
+            spread = ""
+            if len(values) > 1:
+                ates = [v[0] for v in values]
+                spread = f" +- {np.std(ates):.2f} [{np.median(ates):.3f}]"
             parts.append(
                 f"{ate:.3f}{spread} / {lm} / {round(np.mean([v[2] for v in values]))}"
             )

@@ -40,6 +40,9 @@ class SequenceInfo:
         calibration: the sequence's camera rig (``omnislam.camera.CameraRig``) when it has
             images, for estimators that express pixel thresholds as angles (the UKF); else None.
         facts: the sequence's ``info`` mapping (free-form, for logging).
+        odometry_source: where the frames' odometry comes from: ``"wheel"`` (the dataset's) or
+            ``"laser"`` (the front end's scan matching, ``ObservationLog.odometry_source``,
+            with a covariance measured per step).
     """
 
     name: str
@@ -53,6 +56,7 @@ class SequenceInfo:
     prior_map: PriorMap | None = None
     calibration: object | None = None
     facts: Mapping[str, str] = field(default_factory=dict)
+    odometry_source: str = "wheel"
 
 
 #: factory(info, options, rng) -> Estimator

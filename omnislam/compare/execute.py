@@ -197,6 +197,7 @@ def execute_run(
     if reference or log is not None:  # computing them (when not cached) is not the run's memory
         reset_peak_rss()
     replay = None
+    laser = False
     if log is None:
         frames = list(sequence.frame_inputs())
     else:
@@ -214,7 +215,7 @@ def execute_run(
         perturbed, reassigned = reassign_ids(iter(frames), wrong_fraction, perturb_rng)
         frames = list(perturbed)
 
-    info = sequence_info(sequence, frames)
+    info = sequence_info(sequence, frames, "laser" if laser else "wheel")
     known = info.known_association
     modality = resolve_estimator_modality(spec.estimator, info, estimator_options)
     track_truth = False
@@ -270,7 +271,9 @@ def execute_run(
     return RunRecord(config, estimate, step_s, ground_truth, attachments)
 
 
-def sequence_info(sequence: Any, frames: list[Any]) -> SequenceInfo:
+def sequence_info(
+    sequence: Any, frames: list[Any], odometry_source: str = "wheel"
+) -> SequenceInfo:
     """What the estimators are told about a run (``estimators.SequenceInfo``), from the frames
     as fed: their modalities, whether every range-bearing sighting carries a true id, the
     sightings' first sigmas, the rig, the prior map.
@@ -279,6 +282,8 @@ def sequence_info(sequence: Any, frames: list[Any]) -> SequenceInfo:
         sequence: the loaded Sequence.
         frames: the FrameInputs the estimator will step through (a front-end log's, with the
             loader's own sighting ids: ``_own_sighting_ids``).
+        odometry_source: ``"laser"`` when the frames carry the log's laser odometry, else
+            ``"wheel"``.
     """
     from omnislam.estimators import SequenceInfo
 
@@ -298,6 +303,7 @@ def sequence_info(sequence: Any, frames: list[Any]) -> SequenceInfo:
         prior_map=sequence.prior_map,
         calibration=sequence.calibration,
         facts=sequence.info,
+        odometry_source=odometry_source,
     )
 
 

@@ -36,6 +36,34 @@ class Variant(Enum):
     FASTSLAM2 = "fastslam2"
 
 
+class StatedOdometryNoise(Enum):
+    """Where FastSLAM draws a step's pose noise from when the frame's odometry states its own
+    covariance (``Odometry.covariance``); frames without one always use the alpha model.
+
+    AUTO: from the stated covariance when the odometry is *measured* per step -- the front
+        end's laser odometry (``SequenceInfo.odometry_source == "laser"``: scans registered by
+        ICP, covariance from the point-to-line Hessian, calibrated against the corrected CARMEN
+        poses to a median NEES of 1.9-2.3 for chi-square(3)'s 2.37) -- and from the alpha model
+        (``motion_noise``) when it is wheel odometry, whose stated covariance, where a loader
+        gives one, is a nominal formula of the step (MR.CLAM's frame-to-frame fit, CARMEN's
+        ``odometry_noise``) and carries nothing the alphas do not. The default.
+    ON: from the stated covariance whatever the odometry's source (``--set
+        stated_odometry_noise=true``).
+    OFF: always from the alpha model (``--set stated_odometry_noise=false``).
+    """
+
+    AUTO = "auto"
+    ON = "true"
+    OFF = "false"
+
+    def resolve(self, odometry_source: str) -> bool:
+        """Whether a filter whose frames carry odometry from ``odometry_source`` ("wheel" or
+        "laser", ``ObservationLog.odometry_source``) samples from a stated covariance."""
+        if self is StatedOdometryNoise.AUTO:
+            return odometry_source == "laser"
+        return self is StatedOdometryNoise.ON
+
+
 class StoreKind(Enum):
     """How each particle's landmark EKFs are stored.
 
@@ -169,16 +197,25 @@ class FastSLAMConfig:
         motion_noise: alpha coefficients of thesis eqs. 4.40-4.41, from which the factories
             (``make_fastslam``) build the ``OdometryMotionModel`` (default
             ``DEFAULT_MOTION_NOISE``: twice the simulator's, to cover systematic drift).
-        stated_odometry_noise: True: where a frame's odometry states its covariance
-            (``Odometry.covariance``: MR.CLAM, CARMEN logs with ``odometry_noise``, gtsam's
-            victoria_park.txt), poses are sampled from it (``core.motion.StatedOdometryMotion``:
-            additive on the delta in the previous pose's frame, as the graph and EKF-SLAM use
-            it) instead of from ``motion_noise``. Default False: measured on MR.CLAM 6 (robots
-            1-5, seeds 0-2, ``benchmarks/fastslam_mrclam.py --set stated_odometry_noise=true``)
-            fastslam2's median ATE grows from 0.203 to 0.345 m with the loader's 2 s steps
-            (0.271 -> 0.602 m with frames at sighting times only): the stated noise (fitted
-            frame to frame, 1.3-7x the alphas) spreads the particles wider than the sightings
-            can sort out, and the proposal follows the sightings' per-robot biases.
+        stated_odometry_noise: where a frame's odometry states its covariance
+            (``Odometry.covariance``: the front end's laser odometry, MR.CLAM, CARMEN logs with
+            ``odometry_noise``, gtsam's victoria_park.txt), whether poses are sampled from it
+            (``core.motion.StatedOdometryMotion``: additive on the delta in the previous pose's
+            frame, as the graph and EKF-SLAM use it) instead of from ``motion_noise``
+            (``StatedOdometryNoise``). Default AUTO: yes for laser odometry (a covariance
+            measured per step), no for wheel odometry. Measured on the CARMEN logs (laser
+            odometry, seeds 0-2, ``benchmarks/ekfslam_accuracy.py --datasets carmen-intel
+            carmen-aces``) fastslam1 / fastslam2 median ATE intel 0.90 / 0.64 m and aces 2.92 /
+            1.84 m, against 7.10 / 7.31 m and 6.78 / 7.17 m from the alphas (``--set
+            stated_odometry_noise=false``), which are far wider than the registration's error
+            and leave the few, ambiguous laser landmarks to sort the particles. On MR.CLAM 6
+            (wheel odometry with a stated frame-to-frame fit; robots 1-5, seeds 0-2,
+            ``benchmarks/fastslam_mrclam.py --set stated_odometry_noise=true``) sampling the
+            stated noise makes fastslam2's median ATE grow from 0.203 to 0.345 m with the
+            loader's 2 s steps (0.271 -> 0.602 m with frames at sighting times only): that
+            noise (1.3-7x the alphas) spreads the particles wider than the sightings can sort
+            out, and the proposal follows the sightings' per-robot biases; AUTO leaves MR.CLAM
+            on the alphas.
         likelihood_temper: FastSLAM 1.0 only: its importance factor is p(z | x)^t (thesis eq.
             4.47 raised to t; for the Mahalanobis term the same as weighing with R / t), the
             tempered likelihood of annealed importance sampling (Neal 2001). 1.0 (default):
@@ -251,7 +288,7 @@ class FastSLAMConfig:
     variant: Variant = Variant.FASTSLAM1
     n_particles: int = 100
     motion_noise: MotionNoise = DEFAULT_MOTION_NOISE
-    stated_odometry_noise: bool = False
+    stated_odometry_noise: StatedOdometryNoise = StatedOdometryNoise.AUTO
     resample_ess_fraction: float = 0.5
     likelihood_temper: float = 1.0
     resampling: ResamplingScheme = ResamplingScheme.SYSTEMATIC

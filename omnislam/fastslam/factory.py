@@ -22,15 +22,24 @@ def make_fastslam(
     modality: Modality,
     rng: np.random.Generator,
     initial_pose: np.ndarray | None = None,
+    odometry_source: str = "wheel",
 ) -> FastSLAM:
     """A FastSLAM of ``config`` on ``modality``, its motion model built from
-    ``config.motion_noise`` (the thesis's odometry model, eqs. 4.38-4.44).
+    ``config.motion_noise`` (the thesis's odometry model, eqs. 4.38-4.44); ``odometry_source``
+    ("wheel" or "laser") as ``FastSLAM`` takes it.
 
     Raises:
         ConfigError: a modality FastSLAM does not consume.
     """
     motion = OdometryMotionModel(config.motion_noise)
-    return FastSLAM(config, rng, modality=modality, motion=motion, initial_pose=initial_pose)
+    return FastSLAM(
+        config,
+        rng,
+        modality=modality,
+        motion=motion,
+        initial_pose=initial_pose,
+        odometry_source=odometry_source,
+    )
 
 
 def _config(variant: Variant, info: object, options: Mapping[str, str]) -> FastSLAMConfig:
@@ -57,7 +66,8 @@ def _make(
     variant: Variant, info: object, options: Mapping[str, str], rng: np.random.Generator
 ) -> FastSLAM:
     modality = getattr(info, "modality", None)
-    return make_fastslam(_config(variant, info, options), modality, rng)
+    source = getattr(info, "odometry_source", "wheel")
+    return make_fastslam(_config(variant, info, options), modality, rng, odometry_source=source)
 
 
 def check_fastslam1_options(options: Mapping[str, str]) -> None:

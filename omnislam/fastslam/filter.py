@@ -94,6 +94,8 @@ class FastSLAMInfo:
         frames: frames consumed.
         frames_with_sightings: frames that carried sightings of the modality (mapped and
             weighed; the others only predicted).
+        frames_stated_odometry: frames whose pose noise was drawn from the odometry's stated
+            covariance (``config.stated_odometry_noise``), not from the alpha model.
         resample_count: resamplings so far.
         last_ess: effective sample size after the last update (thesis eq. 4.51).
         landmark_slots: landmarks known to any particle (slots).
@@ -121,6 +123,7 @@ class FastSLAMInfo:
     particles: int
     frames: int
     frames_with_sightings: int
+    frames_stated_odometry: int
     resample_count: int
     last_ess: float
     landmark_slots: int
@@ -147,6 +150,10 @@ class FastSLAM:
             ``Modality.BEARINGS_3D``), resolved by the shared rule (``core.modality``).
         motion: the motion model (``OdometryMotionModel``, or any ``MotionModel``).
         initial_pose: (3,) [x, y, theta] of the first frame; the map is anchored there.
+        odometry_source: where the frames' odometry comes from, ``"wheel"`` (the dataset's)
+            or ``"laser"`` (the front end's scan matching, ``ObservationLog.odometry_source``);
+            with ``config.stated_odometry_noise`` AUTO it decides whether a stated odometry
+            covariance is sampled (``StatedOdometryNoise.resolve``).
 
     Raises:
         ConfigError: a modality FastSLAM does not consume, or a bad initial pose.
@@ -160,11 +167,15 @@ class FastSLAM:
         modality: Modality,
         motion: MotionModel,
         initial_pose: np.ndarray | None = None,
+        odometry_source: str = "wheel",
     ) -> None:
+        if odometry_source not in ("wheel", "laser"):
+            raise ConfigError(f"unknown odometry source {odometry_source!r}: wheel or laser")
         self.config = config
         self.name = config.name
         self._rng = rng
         self._motion = motion
+        self._sample_stated = config.stated_odometry_noise.resolve(odometry_source)
         kernels = resolve_kernels(config.kernels)
         self._mapper = make_mapper(modality, config, kernels)
         pose = np.zeros(3) if initial_pose is None else np.asarray(initial_pose, dtype=float)
@@ -210,6 +221,7 @@ class FastSLAM:
         self._frames = 0
         self._frames_with_sightings = 0
         self._proposal_gated = 0
+        self._frames_stated = 0
 
     # -- read-only views ----------------------------------------------------------------------
 
@@ -248,8 +260,9 @@ class FastSLAM:
         sightings = self._mapper.read(frame)
         particles = self._particles
         stated = None
-        if frame.odometry.covariance is not None and self.config.stated_odometry_noise:
+        if frame.odometry.covariance is not None and self._sample_stated:
             stated = StatedOdometryMotion(delta, frame.odometry.covariance)
+            self._frames_stated += 1
         motion = self._motion if stated is None else stated
         if sightings is None:
             particles.poses = motion.sample(particles.poses, delta, self._rng)
@@ -324,6 +337,7 @@ class FastSLAM:
             particles=len(self._particles),
             frames=self._frames,
             frames_with_sightings=self._frames_with_sightings,
+            frames_stated_odometry=self._frames_stated,
             resample_count=self.resample_count,
             last_ess=self.last_ess,
             landmark_slots=self._slots.n_slots,

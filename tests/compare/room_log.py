@@ -28,15 +28,16 @@ def _ray_to_walls(x: float, y: float, angles: np.ndarray) -> np.ndarray:
     return np.minimum(tx, ty)
 
 
-def write_room_log(path: Path, frames: int = 60, seed: int = 0) -> Path:
-    """Write a corrected CARMEN log of a loop in the room (see the module docstring)."""
+def write_room_log(path: Path, frames: int = 60, seed: int = 0, beams: int = BEAMS) -> Path:
+    """Write a corrected CARMEN log of a loop in the room (see the module docstring), with
+    ``beams`` beams per scan."""
     path.parent.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     t = np.linspace(0.0, 2.0 * np.pi, frames, endpoint=False)
     truth = np.column_stack(
         [5.0 + 3.0 * np.cos(t), 4.0 + 2.5 * np.sin(t), t + np.pi / 2.0]
     )  # an ellipse, heading along it
-    beam_angles = -np.pi / 2 + np.arange(BEAMS) * np.pi / BEAMS
+    beam_angles = -np.pi / 2 + np.arange(beams) * np.pi / beams
     lines = []
     for k, pose in enumerate(truth):
         stamp = 1.0 + k
@@ -50,10 +51,10 @@ def write_room_log(path: Path, frames: int = 60, seed: int = 0) -> Path:
             raw = se2_compose(truth[k - 1], noisy)
             lines.append(f"ODOM {raw[0]:.6f} {raw[1]:.6f} {raw[2]:.6f} 0 0 0 {stamp:.3f} h {stamp}")
         ranges = _ray_to_walls(pose[0], pose[1], pose[2] + beam_angles)
-        ranges = np.minimum(ranges + rng.normal(0.0, 0.01, BEAMS), MAX_RANGE_M)
+        ranges = np.minimum(ranges + rng.normal(0.0, 0.01, beams), MAX_RANGE_M)
         r = " ".join(f"{v:.3f}" for v in ranges)
         p = f"{pose[0]:.6f} {pose[1]:.6f} {pose[2]:.6f}"
-        lines.append(f"FLASER {BEAMS} {r} {p} {p} {stamp:.3f} h {stamp}")
+        lines.append(f"FLASER {beams} {r} {p} {p} {stamp:.3f} h {stamp}")
         lines.append(f"ODOM {p} 0 0 0 0 h 0")  # reset to the corrected pose (corrected log)
     path.write_text("\n".join(lines) + "\n")
     return path

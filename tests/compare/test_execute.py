@@ -145,3 +145,23 @@ def test_a_loader_option_hiding_ids_reaches_the_estimator_through_the_shared_log
     assert info["demo"]["sightings"] == info["demo-noids"]["sightings"] > 0
     assert info["demo"]["ambiguous"] == info["demo"]["gated"] == 0  # ids: nothing to decide
     assert info["demo-noids"]["tentative_created"] > 0  # it associated by itself
+
+
+def test_fastslam_samples_the_laser_odometrys_covariance_by_default(tmp_path):
+    """A laser log's odometry (scan matching, a covariance per step) reaches FastSLAM as laser
+    odometry: by default (``stated_odometry_noise`` auto) its poses are drawn from the stated
+    covariance of every matched step; dead reckoning's wheels and an explicit ``false`` are not."""
+    pytest.importorskip("open3d")
+    from room_log import write_room_log
+
+    # 180 beams: the walls' RANSAC lines give the front end landmarks to sight
+    room_log = write_room_log(tmp_path / "data" / "room.log", beams=180)
+
+    def stated_frames(options: dict[str, str]) -> int:
+        record = execute_run(RunSpec(str(room_log), "fastslam2", 0, options))
+        return json.loads(record.attachments[ESTIMATOR_INFO])["frames_stated_odometry"]
+
+    matched = stated_frames({})
+    assert matched > 0.8 * 60  # the room's scans register almost every step
+    assert stated_frames({"stated_odometry_noise": "false"}) == 0
+    assert stated_frames({"stated_odometry_noise": "true"}) == matched

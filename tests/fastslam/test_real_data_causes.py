@@ -1,7 +1,8 @@
 """FastSLAM on real logs (#21): a stated odometry covariance and the per-particle outlier gate.
 
 * With ``stated_odometry_noise`` the particles spread as a frame's ``Odometry.covariance``
-  says (``core.motion.StatedOdometryMotion``), not as the alpha model would.
+  says (``core.motion.StatedOdometryMotion``), not as the alpha model would; by default (AUTO)
+  they do so for laser odometry (a covariance measured per step) and not for wheel odometry.
 * With ``outlier_gate_probability`` < 1, a misread sighting (an id that names a landmark
   metres away, MR.CLAM's misread barcodes) neither moves the landmark nor refines the FastSLAM
   2.0 proposal, on the numpy path and the compiled kernels alike.
@@ -14,7 +15,13 @@ import pytest
 
 from omnislam.core.modality import Modality
 from omnislam.core.types import FrameInput, Odometry, RangeBearing
-from omnislam.fastslam import FastSLAMConfig, Kernels, Variant, make_fastslam
+from omnislam.fastslam import (
+    FastSLAMConfig,
+    Kernels,
+    StatedOdometryNoise,
+    Variant,
+    make_fastslam,
+)
 from omnislam.fastslam import kernels as kernel_module
 
 #: a stated covariance unlike anything the alpha model gives for the step: wide sideways
@@ -23,9 +30,16 @@ STEP = np.array([0.5, 0.0, 0.0])
 KERNELS = [Kernels.NUMPY] + ([Kernels.NUMBA] if kernel_module.available() else [])
 
 
-def _spread(variant: Variant, stated: bool, with_sighting: bool) -> np.ndarray:
+def _spread(
+    variant: Variant,
+    stated: StatedOdometryNoise,
+    with_sighting: bool,
+    odometry_source: str = "wheel",
+) -> np.ndarray:
     config = FastSLAMConfig(variant=variant, n_particles=4000, stated_odometry_noise=stated)
-    slam = make_fastslam(config, Modality.RANGE_BEARING_2D, np.random.default_rng(3))
+    slam = make_fastslam(
+        config, Modality.RANGE_BEARING_2D, np.random.default_rng(3), odometry_source=odometry_source
+    )
     # a first sighting of a landmark: no established landmark, so FastSLAM 2.0 samples from
     # the motion model too (``proposal_sampling``)
     rb = RangeBearing(np.array([7]), np.array([2.0]), np.array([0.3]), 0.05, 0.01)
@@ -37,18 +51,40 @@ def _spread(variant: Variant, stated: bool, with_sighting: bool) -> np.ndarray:
         )
     )
     poses = slam.particles.poses
+    assert slam.info().frames_stated_odometry == int(stated.resolve(odometry_source))
     return np.cov((poses - [0.5, 0.0, 0.0]).T)
 
 
 @pytest.mark.parametrize("variant", list(Variant))
 @pytest.mark.parametrize("with_sighting", [False, True])
 def test_particles_follow_a_stated_odometry_covariance(variant, with_sighting):
-    cov = _spread(variant, True, with_sighting)
+    cov = _spread(variant, StatedOdometryNoise.ON, with_sighting)
     # 4000 draws: a variance is within ~2.2 % (1 sigma), a correlation within ~0.016
     np.testing.assert_allclose(np.diag(cov), np.diag(STATED), rtol=0.1)
     assert cov[1, 2] / np.sqrt(cov[1, 1] * cov[2, 2]) == pytest.approx(0.5, abs=0.06)
     # without the option the alphas decide: almost no sideways spread for a straight step
-    assert _spread(variant, False, with_sighting)[1, 1] < 0.1 * STATED[1, 1]
+    assert _spread(variant, StatedOdometryNoise.OFF, with_sighting, "laser")[1, 1] < (
+        0.1 * STATED[1, 1]
+    )
+
+
+@pytest.mark.parametrize("variant", list(Variant))
+def test_by_default_laser_odometry_is_sampled_from_its_covariance_and_wheels_are_not(variant):
+    assert FastSLAMConfig().stated_odometry_noise is StatedOdometryNoise.AUTO
+    laser = _spread(variant, StatedOdometryNoise.AUTO, True, "laser")
+    np.testing.assert_allclose(np.diag(laser), np.diag(STATED), rtol=0.1)
+    # wheel odometry with a stated (nominal) covariance keeps the alpha model
+    assert _spread(variant, StatedOdometryNoise.AUTO, True, "wheel")[1, 1] < 0.1 * STATED[1, 1]
+
+
+def test_an_unknown_odometry_source_is_refused():
+    from omnislam.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="odometry source"):
+        make_fastslam(
+            FastSLAMConfig(), Modality.RANGE_BEARING_2D, np.random.default_rng(0),
+            odometry_source="gps",
+        )
 
 
 def _frame(index: int, rng_range: float, landmark: int = 7) -> FrameInput:
