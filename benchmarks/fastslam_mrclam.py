@@ -51,8 +51,8 @@ def run(dataset: str, estimator: str, seed: int, options: dict[str, str]):
     return record, metrics, (json.loads(info) if info else None), cpu_s
 
 
-def graphslam_online_ate(dataset: str, loader: dict[str, str]) -> float:
-    """ATE of iSAM2's newest pose after every step (its causal, filter-like read-out)."""
+def graphslam_online_trajectory(dataset: str, loader: dict[str, str]) -> Trajectory:
+    """iSAM2's newest pose after every step (its causal, filter-like read-out)."""
     sequence = load_dataset(resolve(dataset), loader)
     config = GraphSLAMConfig()
     graph = GraphSLAM(
@@ -62,7 +62,13 @@ def graphslam_online_ate(dataset: str, loader: dict[str, str]) -> float:
     for frame in sequence.frame_inputs():
         graph.step(frame)
         newest.append(graph.newest_pose())
-    trajectory = Trajectory.from_se2(sequence.stamps_s, np.array(newest))
+    return Trajectory.from_se2(sequence.stamps_s, np.array(newest))
+
+
+def graphslam_online_ate(dataset: str, loader: dict[str, str]) -> float:
+    """ATE of iSAM2's newest pose after every step (its causal, filter-like read-out)."""
+    sequence = load_dataset(resolve(dataset), loader)
+    trajectory = graphslam_online_trajectory(dataset, loader)
     return ate(trajectory, sequence.ground_truth.trajectory, Alignment.SE2).rmse_m
 
 

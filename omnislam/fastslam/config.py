@@ -216,6 +216,10 @@ class FastSLAMConfig:
             noise (1.3-7x the alphas) spreads the particles wider than the sightings can sort
             out, and the proposal follows the sightings' per-robot biases; AUTO leaves MR.CLAM
             on the alphas.
+        compose_gaps: frames without sightings compose their odometry and its covariance into
+            one Gaussian step (``gap.py``) instead of sampling each; the next frame with
+            sightings samples the whole gap (FastSLAM 1.0) or refines it by its sightings (2.0),
+            so a particle that drifted over a gap can be moved back by the whole gap's spread.
         likelihood_temper: FastSLAM 1.0 only: its importance factor is p(z | x)^t (thesis eq.
             4.47 raised to t; for the Mahalanobis term the same as weighing with R / t), the
             tempered likelihood of annealed importance sampling (Neal 2001). 1.0 (default):
@@ -289,6 +293,7 @@ class FastSLAMConfig:
     n_particles: int = 100
     motion_noise: MotionNoise = DEFAULT_MOTION_NOISE
     stated_odometry_noise: StatedOdometryNoise = StatedOdometryNoise.AUTO
+    compose_gaps: bool = False
     resample_ess_fraction: float = 0.5
     likelihood_temper: float = 1.0
     resampling: ResamplingScheme = ResamplingScheme.SYSTEMATIC

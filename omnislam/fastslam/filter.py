@@ -46,6 +46,7 @@ from omnislam.fastslam.config import (
 from omnislam.fastslam.dense_store import DenseLandmarkStore
 from omnislam.fastslam.diversity import DiversityLog
 from omnislam.fastslam.existence import ExistenceIndex
+from omnislam.fastslam.gap import ComposedGap
 from omnislam.fastslam.kernels import resolve as resolve_kernels
 from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkBlock, LandmarkStore
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
@@ -176,6 +177,8 @@ class FastSLAM:
         self._rng = rng
         self._motion = motion
         self._sample_stated = config.stated_odometry_noise.resolve(odometry_source)
+        # a gap is composed only with a motion model that states a step's covariance
+        self._gap = ComposedGap() if config.compose_gaps and hasattr(motion, "covariance") else None
         kernels = resolve_kernels(config.kernels)
         self._mapper = make_mapper(modality, config, kernels)
         pose = np.zeros(3) if initial_pose is None else np.asarray(initial_pose, dtype=float)
@@ -264,12 +267,20 @@ class FastSLAM:
             stated = StatedOdometryMotion(delta, frame.odometry.covariance)
             self._frames_stated += 1
         motion = self._motion if stated is None else stated
+        gap = self._gap
         if sightings is None:
-            particles.poses = motion.sample(particles.poses, delta, self._rng)
+            if gap is not None:
+                particles.poses = gap.extend(particles.poses, delta, self._step_cov(delta, stated))
+            else:
+                particles.poses = motion.sample(particles.poses, delta, self._rng)
             self._history.record(frame.stamp_s, particles)
             return
         self._frames_with_sightings += 1
         previous = particles.poses
+        if gap is not None and gap.open:
+            # the whole gap and this step as one Gaussian motion (``gap.py``)
+            previous, delta, stated = gap.close(delta, self._step_cov(delta, stated))
+            motion = stated
         if self.config.variant is Variant.FASTSLAM1:
             poses = motion.sample(previous, delta, self._rng)
             pairs = self._association.pairs(sightings, poses, None, particles.weights)
@@ -360,6 +371,13 @@ class FastSLAM:
         Optional: ids are otherwise given slots when first seen. Returns their slots.
         """
         return self._slots.slots_for_ids(np.asarray(ids, dtype=np.int64))
+
+    def _step_cov(self, delta: np.ndarray, stated: StatedOdometryMotion | None) -> np.ndarray:
+        """(3, 3) covariance of one odometry delta: the stated one being sampled, else the
+        motion model's (``OdometryMotionModel.covariance``)."""
+        if stated is not None:
+            return stated.covariance
+        return self._motion.covariance(delta)  # type: ignore[attr-defined]
 
     # -- mapping -------------------------------------------------------------------------------
 

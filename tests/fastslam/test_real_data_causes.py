@@ -134,3 +134,33 @@ def test_the_gate_agrees_on_both_paths(variant):
     np.testing.assert_allclose(a.estimate().landmarks_w, b.estimate().landmarks_w, atol=1e-9)
     assert a.info().sightings_gated == b.info().sightings_gated
     assert a.info().proposal_sightings_gated == b.info().proposal_sightings_gated
+
+
+@pytest.mark.parametrize("variant", list(Variant))
+def test_a_gap_without_sightings_is_sampled_as_one_composed_step(variant):
+    """``compose_gaps``: the gap's frames report the composed mean (no sampling), and the frame
+    with the next sighting draws the whole gap's motion with its composed covariance."""
+    from omnislam.core.motion import OdometryMotionModel
+    from omnislam.core.se import se2_compose, se2_compose_jacobians
+    from omnislam.fastslam.config import DEFAULT_MOTION_NOISE
+
+    config = FastSLAMConfig(variant=variant, n_particles=4000, compose_gaps=True)
+    slam = make_fastslam(config, Modality.RANGE_BEARING_2D, np.random.default_rng(4))
+    step = np.array([0.4, 0.0, 0.15])
+    for k in range(5):
+        slam.step(FrameInput(index=k, odometry=Odometry(step, stamp_s=float(k))))
+        assert np.ptp(slam.particles.poses, axis=0).max() == 0.0  # composed, not sampled
+    # a first sighting: nothing to refine the proposal with (``_spread`` above)
+    rb = RangeBearing(np.array([7]), np.array([2.0]), np.array([0.3]), 0.05, 0.01)
+    slam.step(FrameInput(index=5, odometry=Odometry(step, stamp_s=5.0), range_bearing=rb))
+    model = OdometryMotionModel(DEFAULT_MOTION_NOISE)
+    delta, cov = np.zeros(3), np.zeros((3, 3))
+    for _ in range(6):
+        J_a, J_b = se2_compose_jacobians(delta, step)
+        cov = J_a @ cov @ J_a.T + J_b @ model.covariance(step) @ J_b.T
+        delta = se2_compose(delta, step)
+    poses = slam.particles.poses
+    np.testing.assert_allclose(poses.mean(axis=0), delta, atol=0.01)
+    # 4000 draws: a variance is within ~2.2 % (1 sigma)
+    np.testing.assert_allclose(np.diag(np.cov(poses.T)), np.diag(cov), rtol=0.1)
+    assert slam.info().frames == 6 and slam.info().frames_with_sightings == 1
