@@ -33,6 +33,8 @@ a pose per odometry step, every track), ``batch`` (``graphslam-batch`` with the 
 ``whole`` (iSAM2 over the whole graph at every key frame instead of the default fixed-lag
 smoother), ``wheel-scale`` (the odometry's scale, without the floor points'), ``online-scale``
 (each odometry factor at the floor scale known when it was added, also in the final estimate),
+``raw-pairs-scale`` (the final floor scale from the floor pairs over the raw odometry, not
+re-estimated over the graph's trajectory: session 7's default),
 ``true-scale`` (the odometry at its true scale from the first frame, computed from the ground
 truth: a diagnostic of how much of the error is the floor scale's).
 """
@@ -83,6 +85,7 @@ VARIANTS: dict[str, tuple[str, dict[str, str]]] = {
     "whole": ("graphslam", {"online_lag_key_frames": "none"}),
     "wheel-scale": ("graphslam", {"floor_scale": "false"}),
     "online-scale": ("graphslam", {"floor_scale_final": "false"}),
+    "raw-pairs-scale": ("graphslam", {"floor_scale_refine": "false"}),
     # the odometry's true translation scale from the first frame (a diagnostic: the graph's
     # error without the floor scale's; ``true_odometry_scale``)
     "true-scale": ("graphslam", {"known_odometry_scale": "truth"}),

@@ -91,6 +91,9 @@ class FloorScale:
         self._pairs = 0
         self._scale = 1.0
         self._inliers = 0
+        self._frames = 0
+        # every frame's floor candidates (frame, track ids, floor points, sigmas), for refined()
+        self._candidates: list[tuple[int, list[int], np.ndarray, list[float]]] = []
 
     @property
     def scale(self) -> float:
@@ -110,6 +113,7 @@ class FloorScale:
     def observe(self, raw_delta: np.ndarray, bearings: Bearings | None) -> None:
         """Consume one frame: its raw odometry delta, then its bearings (None: none)."""
         self._pose = se2_compose(self._pose, np.asarray(raw_delta, dtype=float))
+        self._frames += 1
         if bearings is None or len(bearings) == 0:
             return
         u = bearings.unit_vectors_r
@@ -120,16 +124,49 @@ class FloorScale:
         ids = bearings.landmark_ids[down].tolist()
         depth = self._h / -u[:, 2]
         points = u[:, :2] * depth[:, None]
-        sigmas = self._h * bearings.sigmas_rad[down] / u[:, 2] ** 2  # h sigma / sin^2(delta)
+        sigmas = (self._h * bearings.sigmas_rad[down] / u[:, 2] ** 2).tolist()  # h sigma / sin^2
+        self._candidates.append((self._frames - 1, ids, points, sigmas))
+        if self._add(ids, points, sigmas):
+            self._estimate()
+
+    def refined(self, poses: np.ndarray) -> FloorScale:
+        """The same floor points paired over an estimated trajectory instead of the raw odometry.
+
+        ``poses`` (N, 3) [x, y, theta]: every frame observed so far, as a graph built with the
+        odometry at some scale estimates them. Its pairs measure what *that* trajectory's
+        translations must be multiplied by (its ``scale``, 1 when fewer than ``MIN_PAIRS``
+        agree): near 1 once the graph is at the floor's scale. Over 5-15 cm the odometry's
+        per-step noise spreads the raw pairs' scales by ~16 % (lab40), the graph's trajectory,
+        held by the bearings of every landmark, far less -- this is the graph's final floor
+        scale (``GraphSLAMConfig.floor_scale_refine``).
+
+        Raises:
+            ValueError: ``poses`` does not hold one pose per frame observed.
+        """
+        poses = np.asarray(poses, dtype=float)
+        if poses.shape != (self._frames, 3):
+            raise ValueError(f"poses must be ({self._frames}, 3), got {poses.shape}")
+        again = FloorScale(self._h)
+        again._max_uz = self._max_uz
+        again._frames = self._frames
         changed = False
-        for lid, point, sigma in zip(ids, points, sigmas.tolist(), strict=True):
+        for frame, ids, points, sigmas in self._candidates:
+            again._pose = poses[frame]
+            changed |= again._add(ids, points, sigmas)
+        if changed:
+            again._estimate()
+        return again
+
+    def _add(self, ids: list[int], points: np.ndarray, sigmas: list[float]) -> bool:
+        """One frame's floor candidates at the current pose; True if a usable pair changed."""
+        changed = False
+        for lid, point, sigma in zip(ids, points, sigmas, strict=True):
             first = self._first.get(lid)
             if first is None:
                 self._first[lid] = (self._pose.copy(), point, sigma)
                 continue
             changed |= self._pair(lid, first, point, sigma)
-        if changed:
-            self._estimate()
+        return changed
 
     def _pair(
         self, lid: int, first: tuple[np.ndarray, np.ndarray, float], point: np.ndarray, sigma: float

@@ -51,6 +51,11 @@ from omnislam.graphslam.vertical_lines import VerticalLinesGraph
 
 gtsam = require("gtsam")
 
+#: ``floor_scale_refine``: re-solves of the final estimate at most, and the correction below
+#: which the final floor scale is kept (lab40: the first correction is ~0.5 %, the second <0.01 %)
+FINAL_SCALE_ROUNDS = 3
+FINAL_SCALE_TOLERANCE = 1e-4
+
 __all__ = ["CREATED_ID_BASE", "GraphSLAM", "GraphSLAMInfo"]
 
 
@@ -91,9 +96,10 @@ class GraphSLAMInfo:
             sightings (clutter).
         tentative_sightings_dropped: sightings dropped with them.
         tentative_pending: such landmarks still waiting.
-        odometry_scale: the factor the odometry's translations are multiplied by now (omni
-            bearings with ``GraphSLAMConfig.floor_scale``: from the floor points; else 1).
-        floor_pairs: floor-point pairs supporting ``odometry_scale`` (0: the scale is 1).
+        odometry_scale: the factor the odometry's translations are multiplied by (omni
+            bearings with ``GraphSLAMConfig.floor_scale``: from the floor points -- the final
+            estimate's scale once it has been read, else the online one; else 1).
+        floor_pairs: floor-point pairs supporting the online floor scale (0: the scale is 1).
         online_factors_skipped: omni with ``GraphSLAMConfig.online_lag_key_frames``: factors on
             variables the fixed-lag smoother had marginalised (in the full graph only).
         online_restarts: restarts of the fixed-lag smoother after a failed marginalisation.
@@ -196,6 +202,7 @@ class GraphSLAM:
             self._floor = FloorScale(self.config.sensor_height_m)
         self._stamps: list[float] = []
         self._frame_scale: list[float] = []  # floor scale each frame's odometry was added at
+        self._final_scale: tuple[int, float] | None = None  # (frames, the final estimate's scale)
         self._odometry_factors: dict[int, int] = {}  # key-frame row -> its between-factor's index
         self._frames = 0
         self._other_streams_ignored = 0
@@ -289,11 +296,33 @@ class GraphSLAM:
                 and isinstance(self._session, FixedLagSession))
 
     def _rescale_final(self) -> None:
-        """Give the final estimate every odometry translation at the current floor scale: the
-        between-factors rebuilt with their translations times ``final / scale at the time``,
-        the frames between key frames likewise (``PoseChain.rescale``)."""
+        """Give the final estimate every odometry translation at the run's final floor scale:
+        the between-factors rebuilt with their translations times ``final / scale at the time``,
+        the frames between key frames likewise (``PoseChain.rescale``).
+
+        With ``floor_scale_refine`` the final scale is then re-estimated from the floor pairs
+        over the graph's own trajectory (``FloorScale.refined``) and the final estimate re-solved
+        at it, up to ``FINAL_SCALE_ROUNDS`` times until the correction is within
+        ``FINAL_SCALE_TOLERANCE`` (cached per number of frames)."""
         assert self._floor is not None and isinstance(self._session, FixedLagSession)
+        if self._final_scale is not None and self._final_scale[0] == self._frames:
+            self._apply_final_scale(self._final_scale[1])
+            return
         final = self._floor.scale
+        self._apply_final_scale(final)
+        if self.config.floor_scale_refine and isinstance(self._floor, FloorScale):
+            for _ in range(FINAL_SCALE_ROUNDS):
+                planar, _ = self._poses.trajectory(self._session.estimate(), self._frames)
+                correction = self._floor.refined(planar).scale
+                if abs(correction - 1.0) <= FINAL_SCALE_TOLERANCE:
+                    break
+                final *= correction
+                self._apply_final_scale(final)
+        self._final_scale = (self._frames, final)
+
+    def _apply_final_scale(self, final: float) -> None:
+        """The final graph's odometry at scale ``final`` (``_rescale_final``)."""
+        assert isinstance(self._session, FixedLagSession)
         ratios = final / np.asarray(self._frame_scale)
         if np.all(ratios == 1.0):
             self._poses.rescale(None)
@@ -307,6 +336,14 @@ class GraphSLAM:
             for row, index in self._odometry_factors.items()
         }
         self._session.replace_final(replacements, (final, self._frames))
+
+    def _odometry_scale(self) -> float:
+        """``GraphSLAMInfo.odometry_scale``."""
+        if self._floor is None:
+            return 1.0
+        if self._final_scale is not None and self._final_scale[0] == self._frames:
+            return self._final_scale[1]
+        return self._floor.scale
 
     def estimate(self) -> Estimate:
         """The current iSAM2 estimate: all poses, all landmarks, covariances if configured."""
@@ -357,7 +394,7 @@ class GraphSLAM:
             tentative_dropped=tentative.dropped,
             tentative_sightings_dropped=tentative.sightings_dropped,
             tentative_pending=tentative.pending,
-            odometry_scale=1.0 if self._floor is None else self._floor.scale,
+            odometry_scale=self._odometry_scale(),
             floor_pairs=0 if self._floor is None else self._floor.inliers,
             online_factors_skipped=getattr(self._session, "online_factors_skipped", 0),
             online_restarts=getattr(self._session, "online_restarts", 0),
