@@ -403,7 +403,10 @@ class LaserOdometryConfig:
         max_iterations: ICP iterations per value.
         normal_neighbours: neighbours of the 2-D PCA normals of the target.
         min_points: fewer valid points in a scan (or correspondences) rejects the match.
-        min_fitness: smallest share of the new scan's points with a correspondence.
+        min_fitness: smallest share of the new scan's points with a correspondence (0.4: a
+            turn of ~80 deg in one step leaves half of a 180-deg scan overlapping; at 0.5
+            carmen-aces' frame 169 fell back to wheels 4.4 deg off, laser odometry alone 2.48 m
+            against 1.47 m; intel unchanged).
         max_rmse_m: largest inlier RMSE.
         min_translation_information: smallest eigenvalue of the translational block of the
             point-to-line Hessian per correspondence (0.5 for two perpendicular walls equally
@@ -434,7 +437,7 @@ class LaserOdometryConfig:
     max_iterations: int = 30
     normal_neighbours: int = 6
     min_points: int = 30
-    min_fitness: float = 0.5
+    min_fitness: float = 0.4
     max_rmse_m: float = 0.1
     min_translation_information: float = 0.05
     degenerate_sigma_m: float = 0.05
