@@ -385,6 +385,12 @@ def run_frontend(
                 laser_sightings[i] = extract_laser_landmarks(
                     scans.angles_rad, ranges, scans.max_range_m, config.laser, rng, poses_dr[i]
                 )
+            if config.laser.persistence_radius_m is not None:
+                from omnislam.frontend.laser_landmarks import persistent_sightings
+
+                laser_sightings = persistent_sightings(
+                    laser_sightings, poses_dr, config.laser.persistence_radius_m
+                )
 
     keep_track = sightings >= config.tracks.min_track_length
     frames: list[FrameInput] = []
