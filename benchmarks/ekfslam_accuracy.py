@@ -14,10 +14,10 @@ Datasets (``--datasets``, groups or names):
   shared front end (no ids) and its laser odometry (scans registered by ICP,
   ``frontend.scan_matching``), which the SLAM estimators get as their odometry; dead reckoning
   stays the wheel odometry, and the column "laser odometry alone" is the log's laser odometry
-  composed without any landmark; with ``--line-landmarks corners`` the front end's lines
-  become corners instead of the tutorial's feet, with ``--wheel-odometry`` the log has no
-  laser odometry (either way a log built here, replayed to every estimator); the goal each
-  SLAM estimator <= 0.3x dead reckoning's ATE is checked; with ``--stated-odometry`` the
+  composed without any landmark; with ``--line-landmarks feet`` the front end's lines
+  become the tutorial's feet instead of corners (the default), with ``--wheel-odometry`` the
+  log has no laser odometry (either way a log built here, replayed to every estimator); the
+  goal each SLAM estimator <= 0.3x dead reckoning's ATE is checked; with ``--stated-odometry`` the
   logs state the odometry noise fitted to the corrected poses;
 * ``--synthetic RENDER ...``: synthetic laser presets (e.g. a ``loop150`` render), on their
   range-bearing sightings (``modality=range-bearing-2d``);

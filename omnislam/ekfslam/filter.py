@@ -257,6 +257,7 @@ class EKFSLAM:
             self._new_gate,
             self.config.ambiguity_margin,
         )
+        self._unsupported_loops(decisions, result.assignment, pairings)
         to_tentative: list[int] = []
         for i, row in enumerate(rows):
             if decisions[i] == Decision.PAIRED:
@@ -270,6 +271,30 @@ class EKFSLAM:
             else:
                 self._counts["gated"] += 1
         return to_tentative
+
+    def _unsupported_loops(
+        self, decisions: np.ndarray, assignment: np.ndarray, pairings: object
+    ) -> None:
+        """Mark AMBIGUOUS (in place) the pairings of a frame that would close a loop alone.
+
+        A pairing whose innovation covariance S is wider than the sighting's noise R by more
+        than ``config.loop_sigma_ratio`` (largest std of R^-1/2 S R^-1/2) pairs the robot with
+        a landmark it is no longer tied to (seen long ago, the pose uncertain by metres): its
+        gate then holds any landmark within metres, and a sighting or two cannot tell them
+        apart. Such a pairing is kept only when the frame's joint hypothesis has at least
+        ``config.loop_min_pairings`` pairings (1, the default: always).
+        """
+        paired = np.flatnonzero(decisions == Decision.PAIRED)
+        if len(paired) >= self.config.loop_min_pairings or not len(paired):
+            return
+        P = pairings.covariance  # type: ignore[attr-defined]
+        for i in paired:
+            H = pairings.jacobians[i, assignment[i]]  # type: ignore[attr-defined]
+            R = pairings.noise[i]  # type: ignore[attr-defined]
+            white = np.linalg.cholesky(np.linalg.inv(R))
+            widest = float(np.linalg.eigvalsh(white.T @ (H @ P @ H.T + R) @ white)[-1])
+            if widest > self.config.loop_sigma_ratio**2:
+                decisions[i] = Decision.AMBIGUOUS
 
     def _tentative_step(self, rows: list[int], z_all: np.ndarray, R_all: np.ndarray) -> None:
         """Match unmatched sightings to tentative landmarks (the tutorial's counter); promote a

@@ -9,8 +9,10 @@ in the robot frame from the camera's viewpoint with the angular sigma of their p
 
 A sequence with a laser and no images gets laser odometry (``scan_matching``: each scan
 registered to the last few by ICP, with a covariance; the wheel odometry where a match is
-rejected) as its frames' odometry (``ObservationLog.odometry_source == "laser"``), and the
-tutorial's feet of the perpendicular are dropped through it.
+rejected) as its frames' odometry (``ObservationLog.odometry_source == "laser"``); the laser
+landmarks are placed through it to keep only those the previous scan saw there too
+(``laser_landmarks.persistent_sightings``), and the tutorial's feet of the perpendicular, when
+asked for, are dropped through it.
 
 Because the whole sequence is processed before any estimator runs, tracks with fewer than
 ``TrackConfig.min_track_length`` sightings (features seen once, unmatched) are dropped from the
@@ -400,6 +402,12 @@ def run_frontend(
                     continue
                 laser_sightings[i] = extract_laser_landmarks(
                     scans.angles_rad, ranges, scans.max_range_m, config.laser, rng, poses_dr[i]
+                )
+            if config.laser.persistence_radius_m is not None:
+                from omnislam.frontend.laser_landmarks import persistent_sightings
+
+                laser_sightings = persistent_sightings(
+                    laser_sightings, poses_dr, config.laser.persistence_radius_m
                 )
 
     keep_track = sightings >= config.tracks.min_track_length

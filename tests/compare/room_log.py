@@ -2,7 +2,9 @@
 
 The log is a robot driving a loop in a 10 m x 8 m room; its FLASER poses are the (pseudo)
 ground truth, the ODOM chain between them carries seeded odometry noise, and the 36-beam scans
-are ray-cast against the walls. The registry reads it like the real CARMEN logs, so the runner,
+are ray-cast against the walls and four poles near the corners: the poles are the front end's
+laser landmarks (spikes), since 36 beams give no corner (two walls of at least 30 readings
+each). The registry reads it like the real CARMEN logs, so the runner,
 the metrics and the report are exercised without the real data.
 """
 
@@ -18,6 +20,9 @@ from omnislam.core.se import se2_compose
 ROOM_X, ROOM_Y = 10.0, 8.0
 BEAMS = 36
 MAX_RANGE_M = 30.0
+#: poles (x, y) [m] of radius POLE_RADIUS_M, 1.5 m from two walls each
+POLES = ((1.5, 1.5), (8.5, 1.5), (8.5, 6.5), (1.5, 6.5))
+POLE_RADIUS_M = 0.15
 
 
 def _ray_to_walls(x: float, y: float, angles: np.ndarray) -> np.ndarray:
@@ -25,7 +30,13 @@ def _ray_to_walls(x: float, y: float, angles: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         tx = np.where(c > 0, (ROOM_X - x) / c, np.where(c < 0, -x / c, np.inf))
         ty = np.where(s > 0, (ROOM_Y - y) / s, np.where(s < 0, -y / s, np.inf))
-    return np.minimum(tx, ty)
+    ranges = np.minimum(tx, ty)
+    for px, py in POLES:  # ray-circle intersections
+        b = c * (px - x) + s * (py - y)
+        disc = b**2 - ((px - x) ** 2 + (py - y) ** 2 - POLE_RADIUS_M**2)
+        hit = (disc >= 0) & (b > 0)
+        ranges = np.where(hit, np.minimum(ranges, b - np.sqrt(np.maximum(disc, 0.0))), ranges)
+    return ranges
 
 
 def write_room_log(path: Path, frames: int = 60, seed: int = 0, beams: int = BEAMS) -> Path:

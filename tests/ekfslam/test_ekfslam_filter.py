@@ -170,6 +170,7 @@ def test_tentative_landmark_seen_once_is_dropped():
         {"gate_probability": "1.5"},
         {"gate_probability": "abc"},
         {"min_sightings": "0"},
+        {"loop_min_pairings": "0"},
         {"tentative_window_frames": "0"},
         {"known_gate_probability": "0"},
         {"motion_noise.a_vv": "-1"},
@@ -244,3 +245,41 @@ def test_a_young_landmark_is_gated_wider_than_a_well_observed_one(rng, sigmas, g
     run(plain, frames)
     assert plain.info().gated == 1  # the plain gate drops it
     assert young.info().gated == int(gated_young)
+
+
+def test_a_loop_closed_by_one_sighting_is_dropped_by_three_kept():
+    """With the pose a metre uncertain (S 20x wider than R), one sighting inside an old
+    landmark's gate is no evidence (``loop_min_pairings``: carmen-aces, docs/results.md); three
+    jointly compatible ones are; the default (1) keeps the lone pairing."""
+    from omnislam.core.types import FrameInput, Odometry, RangeBearing
+
+    landmarks = np.array([[3.0, 0.0], [0.0, 3.0], [-3.0, 0.0]])
+
+    def seen(points):
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        r = np.hypot(points[:, 0], points[:, 1])
+        b = np.arctan2(points[:, 1], points[:, 0])
+        return RangeBearing(np.full(len(r), -1), r, b, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
+
+    lost = np.diag([1.0, 1.0, 0.05**2])  # the odometry since: a metre of uncertainty
+    frames = [
+        FrameInput(index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=seen(landmarks)),
+        # the robot has not moved; one sighting of something 0.8 m beside landmark 0
+        FrameInput(index=1, odometry=Odometry(np.zeros(3), 1.0, lost),
+                   range_bearing=seen([3.0, 0.8])),
+    ]
+    assert EKFSLAMConfig().loop_min_pairings == 1
+    for min_pairings, moved in ((3, False), (1, True)):
+        ekf = EKFSLAM(
+            EKFSLAMConfig(min_sightings=1, loop_min_pairings=min_pairings, loop_sigma_ratio=10.0)
+        )
+        run(ekf, frames)
+        assert ekf.state.n_landmarks == 3
+        assert (np.linalg.norm(ekf.state.pose[:2]) > 0.3) == moved
+        if not moved:
+            assert ekf.info().ambiguous == 1
+            # three sightings of the old landmarks together close the loop
+            ekf.step(FrameInput(index=2, odometry=Odometry(np.zeros(3), 2.0, np.eye(3) * 1e-6),
+                                range_bearing=seen(landmarks)))
+            assert ekf.info().associated == 3
+            assert np.sqrt(ekf.state.pose_cov[0, 0]) < 0.2

@@ -90,6 +90,22 @@ def test_a_corridor_is_degenerate_and_keeps_the_wheel_odometry_along_it():
     assert np.sqrt(match.covariance[1, 1]) < 0.05
 
 
+def test_a_sharp_turn_with_under_half_of_the_scan_overlapping_is_accepted():
+    # carmen-aces frame 169 turns 78 deg in one step: about half of the 180-deg scan still sees
+    # what the previous one saw, the wheels are 4.4 deg off; the right match must not fall back
+    rng = np.random.default_rng(9)
+    a = np.array([3.0, 3.0, 0.0])
+    motion = np.array([0.1, -0.3, -1.75])
+    target = points(cast(a, ROOM, 0.01, rng))
+    source = points(cast(se2_compose(a, motion), ROOM, 0.01, rng))
+    guess = motion + np.array([0.1, 0.1, np.deg2rad(-4.4)])
+    match = match_scans(source, target, guess, LaserOdometryConfig())
+    assert match.fitness < 0.5
+    assert match.reason is Reason.ACCEPTED
+    assert np.hypot(*(match.delta[:2] - motion[:2])) < 0.03
+    assert abs(wrap_angle(match.delta[2] - motion[2])) < np.deg2rad(0.3)
+
+
 def test_a_poor_fit_falls_back_to_the_wheel_odometry():
     rng = np.random.default_rng(8)
     target = points(cast((0.0, 0.0, 0.0), CORRIDOR, 0.01, rng))
