@@ -224,11 +224,6 @@ def _prepare_in_worker(i: int) -> PreparedImage:
     return dataclasses.replace(_WORKER(i), in_worker=True)
 
 
-def _worker_ready() -> bool:
-    """A no-op task: done once a worker has started (``_prepared``)."""
-    return _WORKER is not None
-
-
 def _picklable(*objects: Any) -> bool:
     try:
         pickle.dumps(objects)
@@ -243,10 +238,8 @@ def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipeline
 
     Pipelined, up to ``LOOKAHEAD`` images are prepared ahead in ``WORKERS`` processes while
     this one tracks (threads would not overlap: the preparation is mostly numpy calls that
-    hold the GIL; measured in the README). A spawned worker takes ~0.7 s to start (importing
-    OpenCV, scipy and the front end), so until the first one is ready this process prepares
-    the images itself (the demo's 59 images: a fifth of the run). A sequence whose image
-    loader cannot be sent to another process is prepared here, one image at a time.
+    hold the GIL; measured in the README). A sequence whose image loader cannot be sent to
+    another process is prepared here, one image at a time.
     """
     rig = sequence.calibration
     if (not pipelined or multiprocessing.current_process().daemon  # may not have children
@@ -259,17 +252,8 @@ def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipeline
     with ProcessPoolExecutor(max_workers=WORKERS, mp_context=context,
                              initializer=_start_worker,
                              initargs=(sequence.image_loader, rig, config)) as pool:
-        ready = pool.submit(_worker_ready)
-        queue = iter(frames)
-        local: _ImagePreparer | None = None
-        while not ready.done():
-            i = next(queue, None)
-            if i is None:
-                return
-            if local is None:
-                local = _ImagePreparer(sequence.image_loader, rig, config)
-            yield i, local(i)
         pending: collections.deque = collections.deque()
+        queue = iter(frames)
         for i in itertools.islice(queue, LOOKAHEAD):
             pending.append((i, pool.submit(_prepare_in_worker, i)))
         while pending:
