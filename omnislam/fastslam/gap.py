@@ -6,7 +6,7 @@ at the next sighting FastSLAM 2.0's proposal (thesis eqs. 4.45-4.46, Montemerlo 
 refines the pose by the last step's motion noise only: a particle that drifted over the gap can
 be moved by the sightings no further than one step's spread. Composing the gap instead -- the
 deltas d_1..d_k in the robot frame of the pose at the gap's start, D = d_1 (+) ... (+) d_k, with
-the linearised covariance C_k = J_a C_{k-1} J_a^T + J_b Q_k J_b^T (``se.se2_compose_jacobians``;
+the linearised covariance C_k = J_a C_{k-1} J_a^T + J_b Q_k J_b^T (``core.motion.compose_odometry``;
 Q_k the step's own covariance, Thrun et al. 2005 Table 7.1) -- gives the motion from the pose
 sampled at the last sighting to the pose of the next one as one Gaussian: the next frame samples
 it (FastSLAM 1.0) or refines it by its sightings (2.0) with the whole gap's uncertainty. This
@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from omnislam.core.motion import StatedOdometryMotion
-from omnislam.core.se import se2_compose, se2_compose_jacobians
+from omnislam.core.motion import StatedOdometryMotion, compose_odometry
+from omnislam.core.se import se2_compose
 
 
 class ComposedGap:
@@ -61,11 +61,12 @@ class ComposedGap:
     def composed(
         self, delta_r: np.ndarray, covariance: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """(D (+) delta_r, J_a C J_a^T + J_b Q J_b^T): the gap extended by one step."""
-        delta_r = np.asarray(delta_r, dtype=float)
-        J_a, J_b = se2_compose_jacobians(self.delta, delta_r)
-        cov = J_a @ self.covariance @ J_a.T + J_b @ np.asarray(covariance, dtype=float) @ J_b.T
-        return se2_compose(self.delta, delta_r), 0.5 * (cov + cov.T)
+        """(D (+) delta_r, J_a C J_a^T + J_b Q J_b^T): the gap extended by one step
+        (``core.motion.compose_odometry``)."""
+        return compose_odometry(
+            self.delta, self.covariance, np.asarray(delta_r, dtype=float),
+            np.asarray(covariance, dtype=float),
+        )
 
     def close(
         self, delta_r: np.ndarray, covariance: np.ndarray
