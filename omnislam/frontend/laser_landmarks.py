@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.types import UNKNOWN_ID, RangeBearing
 from omnislam.frontend.config import LaserLandmarkConfig, LineLandmarks
 
@@ -244,9 +245,8 @@ def persistent_sightings(
     previous_w = np.zeros((0, 2))
     for i in sorted(sightings):
         s = sightings[i]
-        x, y, th = poses_w[i]
-        a = th + s.bearings_rad
-        world = np.column_stack([x + s.ranges_m * np.cos(a), y + s.ranges_m * np.sin(a)])
+        world, _, _ = RangeBearing2D().inverse(
+            poses_w[i], np.column_stack([s.ranges_m, s.bearings_rad]))
         if previous_w.shape[0] and world.shape[0]:
             gap = np.linalg.norm(world[:, None, :] - previous_w[None, :, :], axis=2).min(axis=1)
             keep = gap <= radius_m
