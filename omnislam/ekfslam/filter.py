@@ -217,8 +217,6 @@ class EKFSLAM:
             self._counts["associated"] += 1
         if unknown_rows:
             unmatched += self._joint_step(unknown_rows, z_all, R_all, used)
-        if len(sightings):
-            state.symmetrise()
         # Passo 3: new landmarks, from the pose corrected by this frame's updates
         for row, landmark_id in new_known:
             self._add_landmark(z_all[row], R_all[row], landmark_id)
@@ -247,7 +245,7 @@ class EKFSLAM:
             return list(rows)
         cols = np.concatenate([np.arange(3), (3 + 2 * free[:, None] + np.arange(2)).ravel()])
         pairings = frame_pairings(
-            state.pose, state.cov[np.ix_(cols, cols)], state.landmarks[free], z, R, self.model
+            state.pose, state.block(cols), state.landmarks[free], z, R, self.model
         )
         result = jcbb(pairings, self.config.gate_probability)
         decisions = decide(

@@ -20,52 +20,29 @@ touch only what the sparse structure of the models requires:
   landmark l = g(x_r, z) enters with the Jacobians J_xr and J_z of "As jacobianas específicas do
   SLAM": P_ll = J_xr P_rr J_xr^T + J_z R J_z^T, P_lx = J_xr P_rx. O(n).
 
+P is stored as its **upper triangle** only (entries P_ij with j >= i of the preallocated
+array; the lower triangle is never read): the corrections of ``update`` / ``update_batch`` are
+symmetric rank-2k products that BLAS's ``dsyr2k`` computes on one triangle in place
+(``core.symmetric_update``), half the arithmetic of the full product and no mirroring pass,
+and P is exactly symmetric by construction. Reads go through ``block`` / ``columns`` (a
+symmetric sub-block or whole columns gathered from the triangle); ``cov`` is a full copy.
+
 All angles are in radians; the robot heading stays wrapped to [-pi, pi).
 """
 
 from __future__ import annotations
-
-import functools
 
 import numpy as np
 
 from omnislam.core.measurement import MeasurementModel, RangeBearing2D
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.se import se2_compose_jacobians, wrap_angle
+from omnislam.core.symmetric_update import symmetric_from_upper, syr2k_upper
 
 #: dimension of the robot pose block
 POSE_DIM = 3
 #: dimension of one landmark block of the 2-D (range-bearing) filter
 LANDMARK_DIM = 2
-
-
-#: rows of P per panel of ``subtract_symmetric`` and per tile of ``symmetrise``
-PANEL_ROWS = 256
-
-
-def subtract_symmetric(P: np.ndarray, U: np.ndarray, V: np.ndarray) -> None:
-    """P <- P - U V^T in place, for a product known to leave P symmetric (a covariance
-    correction): only the upper triangle is computed, panel by panel of ``PANEL_ROWS`` rows
-    (about half of the (d x r)(r x d) product), and mirrored, so P stays exactly symmetric.
-
-    Args:
-        P: (d, d) symmetric, C-contiguous rows (a view of the state's P).
-        U, V: (d, r).
-    """
-    d = P.shape[0]
-    for start in range(0, d, PANEL_ROWS):
-        stop = min(start + PANEL_ROWS, d)
-        P[start:stop, start:] -= U[start:stop] @ V[start:].T
-        tile = P[start:stop, start:stop]
-        lower = _strict_lower(stop - start)
-        tile[lower] = tile.T[lower]
-        P[stop:, start:stop] = P[start:stop, stop:].T
-
-
-@functools.lru_cache(maxsize=8)
-def _strict_lower(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """``np.tril_indices(n, -1)``, made once per size (it cost as much as the mirroring)."""
-    return np.tril_indices(n, -1)
 
 
 def landmark_columns(slot: int, landmark_dim: int = LANDMARK_DIM) -> slice:
@@ -120,9 +97,39 @@ class SlamGaussian:
 
     @property
     def cov(self) -> np.ndarray:
-        """(3 + dim n, 3 + dim n) view of P (writes change the state)."""
+        """(3 + dim n, 3 + dim n) copy of P, made whole from its upper triangle, O(n^2)."""
         d = self.dim
-        return self._P[:d, :d]
+        return symmetric_from_upper(self._P[:d, :d])
+
+    @cov.setter
+    def cov(self, P: np.ndarray) -> None:
+        """Replace P (its upper triangle is stored; it should be symmetric)."""
+        d = self.dim
+        P = np.asarray(P, dtype=float)
+        if P.shape != (d, d):
+            raise ValueError(f"P must be ({d}, {d}), got {P.shape}")
+        self._P[:d, :d] = np.triu(P)
+
+    def block(self, idx: np.ndarray) -> np.ndarray:
+        """(m, m) the symmetric sub-block P[idx][:, idx] for state indices ``idx`` (any order),
+        each entry read from the stored triangle: P_ij = P[min(i, j), max(i, j)]."""
+        idx = np.asarray(idx, dtype=int)
+        return self._P[np.minimum.outer(idx, idx), np.maximum.outer(idx, idx)]
+
+    def columns(self, idx: np.ndarray) -> np.ndarray:
+        """(3 + dim n, m) the whole columns P[:, idx], O(n m): rows up to each index from the
+        column, the rest from the row (P_ij = P_ji)."""
+        idx = np.asarray(idx, dtype=int)
+        d = self.dim
+        below = np.arange(d)[:, None] > idx[None, :]
+        return np.where(below, self._P[idx, :d].T, self._P[:d, idx])
+
+    def _robot_rows(self) -> np.ndarray:
+        """(3, 3 + dim n) copy of the robot's rows of P (its 3 x 3 block made whole)."""
+        d = self.dim
+        rows = self._P[:POSE_DIM, :d].copy()
+        rows[:, :POSE_DIM] = self.block(np.arange(POSE_DIM))
+        return rows
 
     @property
     def pose(self) -> np.ndarray:
@@ -132,7 +139,7 @@ class SlamGaussian:
     @property
     def pose_cov(self) -> np.ndarray:
         """(3, 3) copy of P_rr."""
-        return self._P[:POSE_DIM, :POSE_DIM].copy()
+        return self.block(np.arange(POSE_DIM))
 
     @property
     def landmarks(self) -> np.ndarray:
@@ -145,7 +152,7 @@ class SlamGaussian:
         k, span = self.landmark_dim, np.arange(self.landmark_dim)
         rows = POSE_DIM + k * slots[:, None, None] + span[None, :, None]
         cols = POSE_DIM + k * slots[:, None, None] + span[None, None, :]
-        return self._P[rows, cols]
+        return self._P[np.minimum(rows, cols), np.maximum(rows, cols)]
 
     # -- Passo 1: prediction --------------------------------------------------------------------
 
@@ -163,7 +170,7 @@ class SlamGaussian:
         Sigma_u the log's own covariance when given, else ``motion.covariance`` (thesis 4.41
         linearised). Then (tutorial, with its A P A corrected to A P A^T):
 
-            P_rr' = A P_rr A^T + Q,    P_rm' = A P_rm,    P_mr' = P_rm'^T.
+            P_rr' = A P_rr A^T + Q,    P_rm' = A P_rm    (P_mr' = P_rm'^T is not stored).
 
         Args:
             motion: the odometry motion model.
@@ -179,11 +186,9 @@ class SlamGaussian:
         d = self.dim
         P = self._P
         if d > POSE_DIM:
-            cross = A @ P[:POSE_DIM, POSE_DIM:d]
-            P[:POSE_DIM, POSE_DIM:d] = cross
-            P[POSE_DIM:d, :POSE_DIM] = cross.T
-        P_rr = A @ P[:POSE_DIM, :POSE_DIM] @ A.T + J_u @ sigma_u @ J_u.T
-        P[:POSE_DIM, :POSE_DIM] = 0.5 * (P_rr + P_rr.T)
+            P[:POSE_DIM, POSE_DIM:d] = A @ P[:POSE_DIM, POSE_DIM:d]
+        P_rr = A @ self.pose_cov @ A.T + J_u @ sigma_u @ J_u.T
+        P[:POSE_DIM, :POSE_DIM] = np.triu(0.5 * (P_rr + P_rr.T))
         self._x[:POSE_DIM] = motion.apply(pose, components)
 
     # -- Passo 2: update ------------------------------------------------------------------------
@@ -212,7 +217,7 @@ class SlamGaussian:
 
     def innovation_covariance(self, Hs: np.ndarray, idx: np.ndarray, R: np.ndarray) -> np.ndarray:
         """S = H P H^T + R from the 3 + dim relevant rows and columns of P (tutorial "Passo 2")."""
-        return Hs @ self._P[np.ix_(idx, idx)] @ Hs.T + R
+        return Hs @ self.block(idx) @ Hs.T + R
 
     def update(
         self, slot: int, z: np.ndarray, R: np.ndarray, model: MeasurementModel | None = None
@@ -222,13 +227,15 @@ class SlamGaussian:
         K = P H^T S^-1, X' = X + K (z - h), and the Joseph form
 
             P' = (I - K H) P (I - K H)^T + K R K^T
-               = P - K (P H^T)^T - (P H^T - K S) K^T,
+               = P - K (P H^T)^T - (P H^T - K S) K^T
+               = P - (K B^T + B K^T),    B = P H^T - K S / 2,
 
-        the exact expansion for any gain K, using (I - K H) P H^T = P H^T - K (S - R). With the
-        optimal K the second term is zero up to rounding; keeping it is what makes the Joseph
-        form insensitive (to first order) to rounding errors in K. P H^T is gathered from the
-        3 + dim columns of the robot and the landmark; the correction is one (d x 2k)(2k x d)
-        product. The caller symmetrises P (``symmetrise``) once per frame.
+        the exact expansion for any gain K, using (I - K H) P H^T = P H^T - K (S - R) and S
+        symmetric. With the optimal K, P H^T - K S is zero up to rounding; keeping it is what
+        makes the Joseph form insensitive (to first order) to rounding errors in K. P H^T is
+        gathered from the 3 + dim columns of the robot and the landmark; the correction is
+        one symmetric rank-2k product on P's upper triangle (``core.symmetric_update``), so P
+        stays exactly symmetric.
 
         Args:
             slot: landmark slot.
@@ -241,15 +248,13 @@ class SlamGaussian:
         """
         nu, Hs, idx = self.innovation(slot, z, model)
         d = self.dim
-        P = self._P[:d, :d]
-        PHt = P[:, idx] @ Hs.T  # (d, 2)
+        PHt = self.columns(idx) @ Hs.T  # (d, k)
         S = Hs @ PHt[idx] + R
+        S = 0.5 * (S + S.T)
         K = PHt @ np.linalg.inv(S)
         self._x[:d] += K @ nu
         self._x[2] = wrap_angle(self._x[2])
-        U = np.concatenate([K, PHt - K @ S], axis=1)  # (d, 2k)
-        V = np.concatenate([PHt, K], axis=1)  # (d, 2k)
-        P -= U @ V.T
+        syr2k_upper(self._P[:d, :d], K, PHt - 0.5 * (K @ S))
         return nu, S
 
     def update_batch(
@@ -259,12 +264,10 @@ class SlamGaussian:
 
         The stacked H (mk x d) has non-zeros only in the robot's and each sighted landmark's
         columns; P H^T is gathered from those columns (d x mk), S = H P H^T + blockdiag(R) and
-        the Joseph-form correction of ``update`` is one (d x 2mk)(2mk x d) product: the same
-        O(m n^2) as m sequential updates, but one pass over P instead of m (the omni filter's
-        ~40 bearings per image). Equal to m sequential updates up to the relinearisation
-        between them (exact for a linear model). The corrected P is exactly symmetric
-        (``subtract_symmetric``: its upper triangle computed, mirrored), so no ``symmetrise``
-        is needed after it.
+        the Joseph-form correction of ``update`` is one symmetric rank-2mk product on P's upper
+        triangle: the same O(m n^2) as m sequential updates, but one pass over P instead of m
+        (the omni filter's ~40 bearings per image). Equal to m sequential updates up to the
+        relinearisation between them (exact for a linear model).
 
         Args:
             slots: (m,) distinct landmark slots.
@@ -281,14 +284,16 @@ class SlamGaussian:
         cols = POSE_DIM + dim_l * slots[:, None] + np.arange(dim_l)[None, :]  # (m, dim_l)
         z_hat, H_r, H_l = model.predict(self._x[:POSE_DIM], self._x[cols])
         nu = model.residual(np.asarray(z, dtype=float), z_hat).reshape(m * k_dim)
-        P = self._P[:d, :d]
-        # P H^T = P[:, robot] H_r^T + P[:, landmark_i] H_l,i^T, one (d, k) block per sighting
-        PHt = np.einsum("dr,mkr->dmk", P[:, :POSE_DIM], H_r)
-        PHt += np.einsum("dmj,mkj->dmk", P[:, cols], H_l)
-        PHt = PHt.reshape(d, m * k_dim)
+        # H = [H_r | the blocks H_l,i in the sighted landmarks' columns]; as matrix products
+        # (BLAS), with the landmark part block-diagonal: (m dim_l, m k)
+        H_r = H_r.reshape(m * k_dim, POSE_DIM)
+        H_l_t = np.zeros((m * dim_l, m * k_dim))
+        for i in range(m):
+            H_l_t[i * dim_l : (i + 1) * dim_l, i * k_dim : (i + 1) * k_dim] = H_l[i].T
+        # P H^T = P[:, robot] H_r^T + P[:, landmarks] blockdiag(H_l,i^T), (d, mk)
+        PHt = self._robot_rows().T @ H_r.T + self.columns(cols.ravel()) @ H_l_t
         # H P H^T from the rows of P H^T that H touches
-        HPHt = np.einsum("mkr,rn->mkn", H_r, PHt[:POSE_DIM])
-        HPHt += np.einsum("mkj,mjn->mkn", H_l, PHt[cols])
+        HPHt = H_r @ PHt[:POSE_DIM] + H_l_t.T @ PHt[cols.ravel()]
         S = HPHt.reshape(m * k_dim, m * k_dim)
         for i in range(m):
             S[i * k_dim : (i + 1) * k_dim, i * k_dim : (i + 1) * k_dim] += R[i]
@@ -296,26 +301,7 @@ class SlamGaussian:
         K = np.linalg.solve(S, PHt.T).T  # P H^T S^-1 (S symmetric)
         self._x[:d] += K @ nu
         self._x[2] = wrap_angle(self._x[2])
-        U = np.concatenate([K, PHt - K @ S], axis=1)
-        V = np.concatenate([PHt, K], axis=1)
-        subtract_symmetric(P, U, V)
-
-    def symmetrise(self) -> None:
-        """P <- (P + P^T) / 2: removes the rounding asymmetry of the sequential updates.
-
-        Tile by tile (``PANEL_ROWS`` square), so no transposed copy of the whole of P is made
-        (it cost as much as the sum itself); each element is the same (P_ij + P_ji) * 0.5.
-        """
-        d = self.dim
-        P = self._P[:d, :d]
-        for i in range(0, d, PANEL_ROWS):
-            rows = slice(i, min(i + PANEL_ROWS, d))
-            for j in range(i, d, PANEL_ROWS):
-                cols = slice(j, min(j + PANEL_ROWS, d))
-                tile = P[rows, cols] + P[cols, rows].T
-                tile *= 0.5
-                P[rows, cols] = tile
-                P[cols, rows] = tile.T
+        syr2k_upper(self._P[:d, :d], K, PHt - 0.5 * (K @ S))
 
     # -- Passo 3: augmentation ------------------------------------------------------------------
 
@@ -343,11 +329,10 @@ class SlamGaussian:
         landmark, J_xr, J_z = inverse(self._x[:POSE_DIM], np.asarray(z, dtype=float))
         d, k = self.dim, self.landmark_dim
         P = self._P
-        cross = J_xr @ P[:POSE_DIM, :d]  # (k, d) = P_lx
-        P[d : d + k, :d] = cross
-        P[:d, d : d + k] = cross.T
-        P_ll = J_xr @ P[:POSE_DIM, d : d + k] + J_z @ R @ J_z.T  # J_xr P_rl = J_xr P_rr J_xr^T
-        P[d : d + k, d : d + k] = 0.5 * (P_ll + P_ll.T)
+        cross = J_xr @ self._robot_rows()  # (k, d) = P_lx
+        P[:d, d : d + k] = cross.T  # the new landmark's columns above the diagonal
+        P_ll = J_xr @ cross[:, :POSE_DIM].T + J_z @ R @ J_z.T  # J_xr P_rr J_xr^T + J_z R J_z^T
+        P[d : d + k, d : d + k] = np.triu(0.5 * (P_ll + P_ll.T))
         self._x[d : d + k] = landmark
         self.n_landmarks += 1
         return self.n_landmarks - 1
@@ -382,9 +367,9 @@ class SlamGaussian:
         lm = self._x[POSE_DIM + LANDMARK_DIM * slots[:, None] + np.arange(2)[None, :]]
         z_hat, H_r, H_l = self.model.predict(self._x[:POSE_DIM], lm)
         nu = self.model.residual(np.asarray(z, dtype=float)[None, :], z_hat)
-        P_rr = self._P[:POSE_DIM, :POSE_DIM]
+        P_rr = self.pose_cov
         cols = POSE_DIM + LANDMARK_DIM * slots[:, None] + np.arange(2)[None, :]  # (m, 2)
-        P_ri = np.moveaxis(self._P[:POSE_DIM][:, cols], 0, 1)  # (m, 3, 2)
+        P_ri = np.moveaxis(self._P[:POSE_DIM][:, cols], 0, 1)  # (m, 3, 2), above the diagonal
         P_ii = self.landmark_covariances(slots)
         cross = H_r @ P_ri @ np.swapaxes(H_l, -1, -2)
         S = (

@@ -44,7 +44,7 @@ def random_state_3d(rng: np.random.Generator, n: int = 4) -> SlamGaussian:
         state.augment(z, np.eye(3) * 0.01, init)
     d = state.dim
     M = rng.standard_normal((d, d)) * 0.1
-    state.cov[...] = M @ M.T + 0.01 * np.eye(d)
+    state.cov = M @ M.T + 0.01 * np.eye(d)
     return state
 
 

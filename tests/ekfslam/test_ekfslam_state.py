@@ -23,7 +23,7 @@ def random_state(rng: np.random.Generator, n: int = N_LANDMARKS) -> SlamGaussian
         state.augment(np.array([rng.uniform(2, 6), rng.uniform(-np.pi, np.pi)]), np.eye(2) * 0.01)
     d = state.dim
     M = rng.standard_normal((d, d)) * 0.1
-    state.cov[...] = M @ M.T + 0.01 * np.eye(d)
+    state.cov = M @ M.T + 0.01 * np.eye(d)
     return state
 
 
@@ -97,9 +97,7 @@ def test_sparse_update_equals_dense_joseph_ekf(rng):
         state.update(slot, z, R)
         np.testing.assert_allclose(state.mean, x, rtol=0, atol=ORACLE_ATOL)
         np.testing.assert_allclose(state.cov, P, rtol=0, atol=ORACLE_ATOL)
-    state.symmetrise()
-    assert np.array_equal(state.cov, state.cov.T)
-    np.testing.assert_allclose(state.cov, 0.5 * (P + P.T), rtol=0, atol=ORACLE_ATOL)
+        assert np.array_equal(state.cov, state.cov.T)  # stored as one triangle
 
 
 def test_mahalanobis_of_all_landmarks_equals_dense_innovation(rng):
@@ -155,30 +153,14 @@ def test_covariance_stays_symmetric_psd_over_10000_steps():
     assert worst >= -1e-12, f"P lost positive semi-definiteness: min/max eigenvalue {worst}"
 
 
-@pytest.mark.parametrize("d", [7, 256, 600])
-def test_tiled_symmetrise_is_the_mean_with_the_transpose_bit_for_bit(d):
-    from omnislam.ekfslam.state import POSE_DIM
-
-    rng = np.random.default_rng(d)
-    state = SlamGaussian(np.zeros(3), np.eye(3), capacity=(d - POSE_DIM) // 2 + 1)
-    state.n_landmarks = (d - POSE_DIM) // 2
-    P = rng.standard_normal(state.cov.shape)
-    state.cov[...] = P
-    state.symmetrise()
-    assert np.array_equal(state.cov, (P + P.T) * 0.5)
-
-
-@pytest.mark.parametrize("d", [9, 256, 700])
-def test_subtract_symmetric_is_the_upper_triangle_of_the_product_mirrored(d):
-    from omnislam.ekfslam.state import subtract_symmetric
-
-    rng = np.random.default_rng(d)
-    M = rng.standard_normal((d, d))
-    P = M @ M.T
-    G = rng.standard_normal((d, 6))
-    S = np.diag(rng.uniform(0.5, 2.0, 6))
-    U, V = G @ S, G  # U V^T = G S G^T: symmetric
-    expected = P - U @ V.T
-    subtract_symmetric(P, U, V)
+def test_block_and_columns_read_the_stored_triangle_as_the_whole_matrix(rng):
+    state = random_state(rng)
+    P = state.cov
     assert np.array_equal(P, P.T)
-    np.testing.assert_allclose(P, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+    idx = np.array([7, 0, 4, 12, 2])  # any order, below and above each other
+    assert np.array_equal(state.block(idx), P[np.ix_(idx, idx)])
+    assert np.array_equal(state.columns(idx), P[:, idx])
+    assert np.array_equal(state.pose_cov, P[:3, :3])
+    slots = np.array([4, 1])
+    expected = np.stack([P[3 + 2 * s : 5 + 2 * s, 3 + 2 * s : 5 + 2 * s] for s in slots])
+    assert np.array_equal(state.landmark_covariances(slots), expected)
