@@ -139,10 +139,11 @@ def prepare(name: str, folder: str, log: str | None, frames: int | None) -> Repl
     """Render the preset into ``folder`` if missing, get its log, load everything once."""
     path = Path(folder)
     if not (path / "meta.json").is_file():
-        from omnislam.datasets.synthetic import render_preset
+        from omnislam.datasets.synthetic import cli_synth
 
         print(f"rendering {name} into {path} ...", file=sys.stderr, flush=True)
-        render_preset(name, path)
+        render = argparse.Namespace(preset=name, out=str(path), seed=0, frames=None, backend=None)
+        cli_synth(render)  # what `omnislam dataset synth NAME --out DIR` runs
     sequence = load_dataset(str(path))
     if log is None:
         log = str(frontend_log_for(sequence, str(path), cache_dir() / LOGS, progress=True))
