@@ -5,8 +5,8 @@ observation streams it consumes, whether this installation can run it, its prese
 ``--set KEY=VALUE`` option with its default and meaning, read from the estimator's
 configuration dataclass and the ``Attributes:`` section of its docstring
 (``omnislam.options.describe_options``), so the list cannot drift from the code. The options
-the harness takes for every estimator (``modality``, ``prior_map``, ``wrong_id_fraction``) end
-the list.
+the harness takes for every estimator (``modality``, ``prior_map``, ``wrong_id_fraction``,
+``clutter_per_frame``) end the list.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ FROM_THE_DATA = {
 def harness_options() -> dict[str, tuple[str, str]]:
     """Options the harness (``compare.execute``) takes for every estimator:
     key -> (what it takes, meaning)."""
-    from omnislam.compare.perturb import WRONG_ID_OPTION
+    from omnislam.compare.perturb import CLUTTER_OPTION, WRONG_ID_OPTION
     from omnislam.compare.prior import PRIOR_MAP_OPTION
     from omnislam.core.modality import MODALITY_OPTION, Modality
 
@@ -38,6 +38,10 @@ def harness_options() -> dict[str, tuple[str, str]]:
         WRONG_ID_OPTION: (
             "float",
             "re-label this fraction of the sightings with another landmark's id before the run.",
+        ),
+        CLUTTER_OPTION: (
+            "float",
+            "add this many false range-bearing detections per frame (Poisson mean), without ids.",
         ),
     }
 

@@ -6,8 +6,8 @@ RUN_DIR is replaced only with ``--overwrite``. Progress (frames done, rate, ETA)
 stderr. A dataset with images replays the shared front end's log: ``--log LOG`` (written by
 ``omnislam frontend``), or the log computed once and cached
 (``omnislam.compare.execute.frontend_log_for``). ``--set`` keys that the dataset's loader
-accepts (e.g. ``robot=3``) go to the loader; ``modality``, ``prior_map`` and
-``wrong_id_fraction`` to the harness; the others to the estimator.
+accepts (e.g. ``robot=3``) go to the loader; ``modality``, ``prior_map``,
+``wrong_id_fraction`` and ``clutter_per_frame`` to the harness; the others to the estimator.
 """
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="loader, harness (modality=NAME, prior_map=RUN_DIR, wrong_id_fraction=F) or "
-        "estimator option (repeatable; `omnislam estimators` lists them)",
+        help="loader, harness (modality=NAME, prior_map=RUN_DIR, wrong_id_fraction=F, "
+        "clutter_per_frame=R) or estimator option (repeatable; `omnislam estimators` lists them)",
     )
     p.add_argument(
         "--log",

@@ -34,7 +34,14 @@ import numpy as np
 
 from omnislam._files import NPZ_ERRORS, make_public, safe_name
 from omnislam.compare.cache import LOGS, cache_dir
-from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction, reassign_ids
+from omnislam.compare.perturb import (
+    CLUTTER_OPTION,
+    WRONG_ID_OPTION,
+    add_clutter,
+    parse_clutter_rate,
+    parse_fraction,
+    reassign_ids,
+)
 from omnislam.compare.prior import PRIOR_MAP_OPTION, prior_map_from_run_dir
 from omnislam.compare.reference import reference_for
 from omnislam.compare.rundir import ATTACHMENTS, ESTIMATOR_INFO, RunConfig, RunRecord
@@ -60,7 +67,8 @@ class RunSpec:
         seed: random seed (None: fresh entropy).
         options: ``--set`` options; keys the dataset's loader accepts go to the loader,
             ``wrong_id_fraction`` to the harness (``compare.perturb``: re-label that fraction
-            of the sightings with wrong ids), the others to the estimator.
+            of the sightings with wrong ids), so is ``clutter_per_frame`` (add that many false
+            range-bearing detections per frame, on average), the others to the estimator.
         log: a front-end ObservationLog to replay instead of the dataset's own sightings
             (the hook of the shared front end). None: a dataset with images replays the
             cached log of ``frontend_log_for``; one without keeps its own sightings.
@@ -136,6 +144,7 @@ def check_spec(spec: RunSpec, *, rendered: bool = True) -> None:
         loader_keys = frozenset(FORMATS[fmt].options)
     options = dict(spec.options)
     parse_fraction(options.pop(WRONG_ID_OPTION, "0"))
+    parse_clutter_rate(options.pop(CLUTTER_OPTION, "0"))
     prior_run = options.pop(PRIOR_MAP_OPTION, None)
     if prior_run is not None and not (Path(prior_run) / CONFIG).is_file():
         raise ConfigError(f"{PRIOR_MAP_OPTION}={prior_run}: not a RUN_DIR folder")
@@ -182,6 +191,7 @@ def execute_run(
     loader_keys = resolved.option_names()
     options = dict(spec.options)
     wrong_fraction = parse_fraction(options.pop(WRONG_ID_OPTION, "0"))
+    clutter_rate = parse_clutter_rate(options.pop(CLUTTER_OPTION, "0"))
     prior_run = options.pop(PRIOR_MAP_OPTION, None)
     dataset_options = {k: v for k, v in options.items() if k in loader_keys}
     estimator_options = {k: v for k, v in options.items() if k not in loader_keys}
@@ -214,8 +224,12 @@ def execute_run(
         perturb_rng = np.random.default_rng(np.random.SeedSequence(spec.seed).spawn(1)[0])
         perturbed, reassigned = reassign_ids(iter(frames), wrong_fraction, perturb_rng)
         frames = list(perturbed)
-
+    # what the data is (ids, sigmas) is told before the clutter, which is a fault injected
     info = sequence_info(sequence, frames, "laser" if laser else "wheel")
+    clutter_added = 0
+    if clutter_rate > 0:
+        clutter_rng = np.random.default_rng(np.random.SeedSequence(spec.seed).spawn(2)[1])
+        frames, clutter_added = add_clutter(frames, clutter_rate, clutter_rng)
     known = info.known_association
     modality = resolve_estimator_modality(spec.estimator, info, estimator_options)
     track_truth = False
@@ -263,6 +277,8 @@ def execute_run(
         frontend_config_hash=None if log is None else _log_config_hash(log),
         wrong_id_fraction=wrong_fraction,
         sightings_reassigned=reassigned,
+        clutter_per_frame=clutter_rate,
+        clutter_added=clutter_added,
         modality=None if modality is None else modality.value,
         prior_map=prior_run,
         stages_wall_s=stages_wall_s,

@@ -489,6 +489,7 @@ overrides:                      # option sets: an estimator they apply to runs o
   - {{n_particles: 30, estimators: [fs1]}}    #   override (on top of its own options) instead
   - {{n_particles: 300, estimators: [fs1]}}   #   of once; `estimators` limits where one applies
   # - {{wrong_id_fraction: 0.05}}             # (names or labels); harness options apply to all
+  # - {{clutter_per_frame: 0.5}}              #   (false detections per frame, without ids)
 
 evaluation:                     # how every cell is scored (optional)
 {evaluation_text}

@@ -6,9 +6,14 @@ confuses two features of one image would (a frame that saw a single landmark bor
 id from the whole input). A sighting re-labelled this way is a gross outlier for its new
 landmark: robust kernels and consistency gates must cope with it.
 
-``execute_run`` applies it when a run is given the harness option ``wrong_id_fraction``
-(``omnislam run ... --set wrong_id_fraction=0.2``); the draw uses its own random stream
-derived from the run's seed, so the estimator's stream is the same with and without it.
+``add_clutter`` adds false range-bearing detections without ids (clutter) to every frame whose
+range-bearing sensor reported, a Poisson number per frame, uniform over the span of the data's
+own sightings: the robustness of unknown association to detections that are no landmark.
+
+``execute_run`` applies them when a run is given the harness options ``wrong_id_fraction``
+(``omnislam run ... --set wrong_id_fraction=0.2``) and ``clutter_per_frame`` (``--set
+clutter_per_frame=0.5``); each draw uses its own random stream derived from the run's seed, so
+the estimator's stream is the same with and without them.
 """
 
 from __future__ import annotations
@@ -104,3 +109,80 @@ def _relabel(
     new = ids.copy()
     new[picked] = distinct[(own + offset) % len(distinct)]
     return new, len(picked)
+
+
+#: the ``--set`` key that asks ``execute_run`` for false detections added to the sightings
+CLUTTER_OPTION = "clutter_per_frame"
+
+
+def parse_clutter_rate(text: str) -> float:
+    """The value of ``clutter_per_frame``: a finite number >= 0 (false detections per frame)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise ConfigError(f"{CLUTTER_OPTION} must be a number, got {text!r}") from None
+    return _checked_rate(value)
+
+
+def _checked_rate(value: float) -> float:
+    if not (np.isfinite(value) and value >= 0.0):
+        raise ConfigError(f"{CLUTTER_OPTION} must be a finite number >= 0, got {value}")
+    return float(value)
+
+
+def add_clutter(
+    frames: Iterable[FrameInput], rate: float, rng: np.random.Generator
+) -> tuple[list[FrameInput], int]:
+    """Add false range-bearing detections (clutter) without ids to the frames that have
+    range-bearing sightings: a detector firing on passing objects, each seen once.
+
+    Every frame whose range-bearing sensor reported (``range_bearing`` not None, even with no
+    sighting) gets a Poisson(``rate``) number of detections, uniform in range and bearing over
+    the span the data's own sightings cover (the sensor's reach and field of view), with the
+    median of the data's stated sigmas, and ``UNKNOWN_ID``: the estimators must tell them from
+    landmarks by their association (a tentative stage, an existence index), not by an id.
+
+    Args:
+        frames: the frames to perturb (not modified).
+        rate: mean false detections per frame, >= 0.
+        rng: random generator of the draw.
+
+    Returns:
+        (new frames, number of false detections added).
+
+    Raises:
+        ConfigError: a positive rate on frames without any range-bearing sighting.
+    """
+    rate = _checked_rate(rate)
+    frames = list(frames)
+    if rate == 0.0:
+        return frames, 0
+    sensed = [f.range_bearing for f in frames if f.range_bearing is not None]
+    seen = [rb for rb in sensed if len(rb)]
+    if not seen:
+        raise ConfigError(f"{CLUTTER_OPTION}: the data has no range-bearing sightings")
+    ranges = np.concatenate([rb.ranges_m for rb in seen])
+    bearings = np.concatenate([rb.bearings_rad for rb in seen])
+    sigma_range = float(np.median(np.concatenate([rb.sigma_range_m for rb in seen])))
+    sigma_bearing = float(np.median(np.concatenate([rb.sigma_bearing_rad for rb in seen])))
+    low_r, high_r = float(ranges.min()), float(ranges.max())
+    low_b, high_b = float(bearings.min()), float(bearings.max())
+    out: list[FrameInput] = []
+    added = 0
+    for frame in frames:
+        rb = frame.range_bearing
+        n = 0 if rb is None else int(rng.poisson(rate))
+        if n == 0:
+            out.append(frame)
+            continue
+        added += n
+        clutter = replace(
+            rb,
+            landmark_ids=np.concatenate([rb.landmark_ids, np.full(n, UNKNOWN_ID)]),
+            ranges_m=np.concatenate([rb.ranges_m, rng.uniform(low_r, high_r, n)]),
+            bearings_rad=np.concatenate([rb.bearings_rad, rng.uniform(low_b, high_b, n)]),
+            sigma_range_m=np.concatenate([rb.sigma_range_m, np.full(n, sigma_range)]),
+            sigma_bearing_rad=np.concatenate([rb.sigma_bearing_rad, np.full(n, sigma_bearing)]),
+        )
+        out.append(replace(frame, range_bearing=clutter))
+    return out, added

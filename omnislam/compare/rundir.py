@@ -88,6 +88,9 @@ class RunConfig:
         wrong_id_fraction: the harness re-labelled this fraction of the sightings with another
             landmark's id before the run (``compare.perturb``; 0 = the sightings as given).
         sightings_reassigned: how many sightings that re-labelled.
+        clutter_per_frame: the harness added this many false range-bearing detections per
+            frame on average, without ids (``compare.perturb.add_clutter``; 0 = none).
+        clutter_added: how many it added.
         modality: the observation stream the estimator consumed (``core.modality``), None for
             one that uses no sightings.
         prior_map: the RUN_DIR whose landmarks were the prior map (``--set prior_map=``), or
@@ -117,6 +120,8 @@ class RunConfig:
     frontend_config_hash: str | None = None
     wrong_id_fraction: float = 0.0
     sightings_reassigned: int = 0
+    clutter_per_frame: float = 0.0
+    clutter_added: int = 0
     modality: str | None = None
     prior_map: str | None = None
     images: int | None = None

@@ -56,7 +56,12 @@ from omnislam.compare.channel import ProgressChannel, StepReporter
 from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
 from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.compare.grid import Cell, Grid, column_label
-from omnislam.compare.perturb import WRONG_ID_OPTION, parse_fraction
+from omnislam.compare.perturb import (
+    CLUTTER_OPTION,
+    WRONG_ID_OPTION,
+    parse_clutter_rate,
+    parse_fraction,
+)
 from omnislam.compare.prior import PRIOR_MAP_OPTION
 from omnislam.compare.renders import RenderSpec
 from omnislam.compare.run_metrics import (
@@ -242,6 +247,7 @@ def _matches(cell_dir: Path, cell: Cell) -> bool:
     wanted = dict(spec.options)
     try:
         wrong_fraction = parse_fraction(wanted.pop(WRONG_ID_OPTION, "0"))
+        clutter_rate = parse_clutter_rate(wanted.pop(CLUTTER_OPTION, "0"))
     except ConfigError:
         return False
     if config.prior_map != wanted.pop(PRIOR_MAP_OPTION, None):
@@ -259,6 +265,7 @@ def _matches(cell_dir: Path, cell: Cell) -> bool:
         and config.seed == spec.seed
         and options == wanted
         and config.wrong_id_fraction == wrong_fraction
+        and config.clutter_per_frame == clutter_rate
     )
 
 

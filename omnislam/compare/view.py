@@ -170,6 +170,11 @@ def _sightings_source(
             f"the run re-labelled {config.wrong_id_fraction:g} of the sightings; they are "
             "shown as the data has them"
         )
+    if config.clutter_per_frame:
+        notes.append(
+            f"the run added {config.clutter_added} false detections "
+            f"({config.clutter_per_frame:g} per frame); they are not shown"
+        )
     return sequence, frames, log
 
 

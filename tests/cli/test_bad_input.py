@@ -527,6 +527,13 @@ def _(tmp, fx):
     )
 
 
+@case("run-clutter-per-frame")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "graphslam", "--set", "clutter_per_frame=-1"), (
+        "clutter_per_frame"
+    )
+
+
 @case("run-unknown-modality")
 def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "graphslam", "--set", "modality=telepathy"), "telepathy"

@@ -79,6 +79,7 @@ def test_estimators_one_line_per_option_with_its_meaning(capsys):
     line = next(x for x in out.splitlines() if x.strip().startswith("n_particles="))
     assert line.split()[0] == "n_particles=100" and "[int]" in line and "particles" in line
     assert "modality" in out and "prior_map" in out and "wrong_id_fraction" in out
+    assert "clutter_per_frame" in out
     assert main(["estimators", "kalmanator"]) == 2
     assert "kalmanator" in capsys.readouterr().err
 

@@ -1,4 +1,4 @@
-"""Wrong ids on purpose (compare.perturb) and the harness option that applies them."""
+"""Wrong ids and clutter on purpose (compare.perturb) and the harness options that apply them."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.perturb import reassign_ids
+from omnislam.compare.perturb import add_clutter, reassign_ids
 from omnislam.core.types import UNKNOWN_ID, Bearings, FrameInput, Odometry, RangeBearing
 from omnislam.errors import ConfigError
 
@@ -101,3 +101,70 @@ def test_the_harness_option_relabels_sightings_and_records_it(shared_data):
     )
     with pytest.raises(ConfigError, match="wrong_id_fraction"):
         execute_run(RunSpec("mrclam6-r1", "deadreckoning", options={"wrong_id_fraction": "x"}))
+
+
+def test_clutter_is_poisson_per_sensed_frame_unlabelled_and_inside_the_datas_span(rng):
+    clean = frames(400, rng)
+    clean[7] = FrameInput(7, clean[7].odometry, bearings=clean[7].bearings)  # no range sensor
+    ranges = rng.uniform(2.0, 9.0, 3)
+    clean[3] = FrameInput(
+        3,
+        clean[3].odometry,
+        range_bearing=RangeBearing(np.array([1, 2, 3]), ranges, [-0.5, 0.2, 1.1], 0.3, 0.02),
+    )
+    cluttered, added = add_clutter(clean, 0.5, np.random.default_rng(4))
+    per_frame = []
+    for before, after in zip(clean, cluttered, strict=True):
+        assert after.odometry is before.odometry and after.bearings is before.bearings
+        if before.range_bearing is None:
+            assert after.range_bearing is None
+            continue
+        a, b = before.range_bearing, after.range_bearing
+        k = len(a)
+        np.testing.assert_array_equal(b.landmark_ids[:k], a.landmark_ids)  # kept, in front
+        np.testing.assert_array_equal(b.ranges_m[:k], a.ranges_m)
+        extra = len(b) - k
+        per_frame.append(extra)
+        assert np.all(b.landmark_ids[k:] == UNKNOWN_ID)
+        assert np.all((b.ranges_m[k:] >= 1.0) & (b.ranges_m[k:] <= ranges.max()))
+        assert np.all((b.bearings_rad[k:] >= -0.5) & (b.bearings_rad[k:] <= 1.1))
+        np.testing.assert_array_equal(b.sigma_range_m[k:], 0.1)  # the data's median sigma
+        np.testing.assert_array_equal(b.sigma_bearing_rad[k:], 0.01)
+    assert sum(per_frame) == added and len(per_frame) == 399
+    assert 0.4 < np.mean(per_frame) < 0.6  # Poisson(0.5) over 399 frames: sd 0.035
+    assert 0.32 < np.mean(np.array(per_frame) == 0) < 0.9  # e^-0.5 = 0.61 frames without any
+    again, _ = add_clutter(clean, 0.5, np.random.default_rng(4))
+    for a, b in zip(cluttered, again, strict=True):
+        if a.range_bearing is not None:
+            np.testing.assert_array_equal(a.range_bearing.ranges_m, b.range_bearing.ranges_m)
+    same, none = add_clutter(clean, 0.0, np.random.default_rng(4))
+    assert none == 0 and all(a is b for a, b in zip(same, clean, strict=True))
+
+
+@pytest.mark.parametrize("rate", [-0.1, float("nan"), float("inf")])
+def test_a_clutter_rate_that_is_not_a_finite_non_negative_number_is_refused(rate, rng):
+    with pytest.raises(ConfigError, match="clutter_per_frame"):
+        add_clutter(frames(3, rng), rate, np.random.default_rng(0))
+
+
+def test_clutter_needs_range_bearing_sightings(rng):
+    bearings_only = [FrameInput(f.index, f.odometry, bearings=f.bearings) for f in frames(3, rng)]
+    with pytest.raises(ConfigError, match="no range-bearing sightings"):
+        add_clutter(bearings_only, 0.5, np.random.default_rng(0))
+
+
+def test_the_harness_option_adds_clutter_and_records_it(shared_data):
+    clean = execute_run(RunSpec("mrclam6-r1", "deadreckoning", seed=3))
+    noisy = execute_run(
+        RunSpec("mrclam6-r1", "deadreckoning", seed=3, options={"clutter_per_frame": "0.5"})
+    )
+    assert clean.config.clutter_per_frame == 0.0 and clean.config.clutter_added == 0
+    assert noisy.config.clutter_per_frame == 0.5
+    sensed = noisy.config.frames  # every MR.CLAM frame carries its (maybe empty) sightings
+    assert abs(noisy.config.clutter_added - 0.5 * sensed) < 5 * np.sqrt(0.5 * sensed)
+    assert "clutter_per_frame" not in noisy.config.estimator_options
+    np.testing.assert_array_equal(
+        clean.estimate.trajectory.poses_w, noisy.estimate.trajectory.poses_w
+    )
+    with pytest.raises(ConfigError, match="clutter_per_frame"):
+        execute_run(RunSpec("mrclam6-r1", "deadreckoning", options={"clutter_per_frame": "x"}))

@@ -1,0 +1,127 @@
+"""Clutter: false detections without ids added to the sightings, every back end with its defaults.
+
+Issue 16's clutter goal: with 0.5 false detections per frame added, the map stays within 10 %
+of the true landmark count and the ATE within 1.5x of the clean run. A cell is what
+
+    omnislam run DATASET --estimator E --seed S --out R --set association=unknown \\
+        [--set clutter_per_frame=0.5]
+    omnislam evaluate R --json
+
+reports (``execute_run`` / ``evaluate_run``): the harness option ``clutter_per_frame``
+(``compare.perturb.add_clutter``) adds a Poisson number of range-bearing detections per frame,
+uniform over the span of the data's own sightings (range, bearing), with the data's median
+sigmas and no id, from its own random stream (the estimator's is the same with and without).
+The ids of the real sightings are hidden too (``association=unknown``): clutter is only told
+apart by the association. Every estimator runs with its defaults (one set for every dataset).
+
+Printed per dataset and estimator: ATE clean and cluttered and their ratio, the landmarks
+mapped clean and cluttered against the true count, the false detections added, the
+association counts of ``estimator_info.json`` where the estimator reports them, and whether
+the goal holds. Cells are cached as JSON under ``--cache`` (``--fresh`` ignores it)::
+
+    PYTHONPATH=. OMNISLAM_DATA=../shared/data .venv/bin/python benchmarks/clutter.py
+        [--datasets mrclam6-r3 mrclam6-r4] [--estimators graphslam ekfslam fastslam2]
+        [--rate 0.5] [--seed 0] [--cache runs/clutter] [--fresh]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from omnislam.compare.evaluation import evaluate_run
+from omnislam.compare.execute import RunSpec, execute_run
+from omnislam.compare.rundir import ESTIMATOR_INFO
+
+#: association counters read from ``estimator_info.json`` (graphslam's, ekfslam's, FastSLAM's)
+COUNT_KEYS = (
+    "landmarks_created",
+    "tentative_dropped",
+    "created",
+    "gated",
+    "pruned",
+    "landmarks_pruned",
+)
+#: the goal: landmark count within this fraction of the truth, ATE within this ratio
+COUNT_TOLERANCE = 0.10
+ATE_RATIO = 1.5
+
+
+def cell(dataset: str, estimator: str, seed: int, rate: float, cache: Path | None) -> dict:
+    """ATE, landmarks and association counts of one run (from the cache if there)."""
+    name = f"{dataset}_{estimator}_s{seed}_clutter{rate:g}.json"
+    path = cache / name if cache is not None else None
+    if path is not None and path.exists():
+        return json.loads(path.read_text())
+    options = {"association": "unknown"}
+    if rate > 0:
+        options["clutter_per_frame"] = repr(rate)
+    print(
+        f"  running {dataset} {estimator} seed {seed} clutter {rate:g} ...",
+        file=sys.stderr,
+        flush=True,
+    )
+    start = time.process_time()
+    record = execute_run(RunSpec(dataset, estimator, seed, options))
+    cpu_s = time.process_time() - start
+    metrics = evaluate_run(record)
+    info = json.loads(record.attachments.get(ESTIMATOR_INFO, b"{}") or b"{}")
+    out = {
+        "ate_m": metrics.ate.rmse_m,
+        "landmarks": metrics.landmarks.estimated,
+        "truth": metrics.landmarks.truth,
+        "added": record.config.clutter_added,
+        "counts": {key: info[key] for key in COUNT_KEYS if key in info},
+        "cpu_s": cpu_s,
+    }
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(out, indent=1))
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--datasets", nargs="+", default=["mrclam6-r3", "mrclam6-r4"])
+    parser.add_argument("--estimators", nargs="+", default=["graphslam", "ekfslam", "fastslam2"])
+    parser.add_argument("--rate", type=float, default=0.5, help="false detections per frame")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--cache", type=Path, default=Path("runs/clutter"))
+    parser.add_argument("--fresh", action="store_true", help="ignore cached cells")
+    args = parser.parse_args()
+    cache = None if args.fresh else args.cache
+    print(
+        "| dataset | estimator | ATE clean [m] | ATE clutter [m] | ratio | landmarks clean / "
+        "clutter (true) | added | counts with clutter | goal |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    met_all = True
+    for dataset in args.datasets:
+        for estimator in args.estimators:
+            clean = cell(dataset, estimator, args.seed, 0.0, cache)
+            noisy = cell(dataset, estimator, args.seed, args.rate, cache)
+            ratio = noisy["ate_m"] / clean["ate_m"]
+            truth = noisy["truth"]
+            count_ok = truth is not None and abs(noisy["landmarks"] - truth) <= max(
+                1, COUNT_TOLERANCE * truth
+            )
+            met = count_ok and ratio <= ATE_RATIO
+            met_all &= met
+            counts = " ".join(f"{k}={v}" for k, v in noisy["counts"].items()) or "-"
+            print(
+                f"| {dataset} | {estimator} | {clean['ate_m']:.3f} | {noisy['ate_m']:.3f} | "
+                f"{ratio:.2f} | {clean['landmarks']} / {noisy['landmarks']} ({truth}) | "
+                f"{noisy['added']} | {counts} | {'met' if met else 'NOT met'} |",
+                flush=True,
+            )
+    print(
+        f"goal (clutter {args.rate:g} per frame: landmarks within {COUNT_TOLERANCE:.0%} of the "
+        f"truth, ATE <= {ATE_RATIO}x the clean run's): {'met' if met_all else 'NOT met'}"
+    )
+
+
+if __name__ == "__main__":
+    main()
