@@ -261,10 +261,11 @@ class FastSLAMConfig:
             pose [m] (a coarse gate that keeps association O(nearby landmarks)).
         association_exclusive: unknown sightings of one frame are associated under mutual
             exclusion (``association._exclusive_choice``): per particle, no landmark takes two
-            of them. Off by default: on Victoria Park a particle gave one landmark two of a
-            frame's sightings in 262 of 7230 frames (fastslam2, seed 0), and excluding that
-            changed the ATE within the seed spread (docs/results.md, issue 16's FastSLAM
-            paragraph).
+            of them. Off by default: on Victoria Park (a particle gave one landmark two of a
+            frame's sightings in 262 of 7230 frames) it takes fastslam2's median ATE over seeds
+            0-2 from 9.44 to 4.93 m, but on MR.CLAM 6 without ids (seed 0) it is worse on four
+            of five robots with more landmarks on all, and CARMEN was not measured
+            (docs/results.md, "Victoria Park: FastSLAM against GPS").
         bearing_gate_probability: 3-D only: a bearing innovation whose squared Mahalanobis
             distance exceeds the chi-square quantile of this probability (degrees of freedom = the
             measurement's dimension) is an outlier -- a feature track that jumped to another
