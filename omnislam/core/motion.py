@@ -40,6 +40,16 @@ class MotionNoise:
         a_ww: rotation std per radian of rotation.
         min_sigma: (3,) floor of the stds of (rot1, trans, rot2) [rad, m, rad], so that a robot
             standing still still has a (small) positive-definite covariance.
+        reference_step_m: None (default): eq. 4.41 for every step. Else d0 [m], the step
+            length at which the alphas hold: a step that translates further than d0 gets eq.
+            4.41's stds times sqrt(d0 / |trans|) (``OdometryMotionModel.component_sigmas``), so
+            its variances grow *linearly* with its length, as n steps of d0 would add up, and as
+            odometry errors that accumulate with the distance travelled do (Siegwart &
+            Nourbakhsh 2004 sec. 5.2.4: wheel-travel variances proportional to the distance;
+            Chong & Kleeman 1997). Eq. 4.41 alone is not step-size invariant: n pieces of a
+            motion sum to 1/n of one step's variance, so alphas set at 10 Hz and 3 cm steps are
+            sqrt(n) times too wide on a log whose frames lie n times further apart. Steps up to
+            d0 keep eq. 4.41.
     """
 
     a_vv: float = 0.05
@@ -47,10 +57,13 @@ class MotionNoise:
     a_wv: float = 0.01
     a_ww: float = 0.05
     min_sigma: tuple[float, float, float] = (1e-4, 1e-4, 1e-4)
+    reference_step_m: float | None = None
 
     def __post_init__(self) -> None:
         if min(self.a_vv, self.a_vw, self.a_wv, self.a_ww) < 0 or min(self.min_sigma) < 0:
             raise ValueError("motion noise coefficients must be non-negative")
+        if self.reference_step_m is not None and not self.reference_step_m > 0:
+            raise ValueError("reference_step_m must be None or positive")
 
 
 class MotionModel(Protocol):
@@ -107,7 +120,16 @@ class OdometryMotionModel:
         )
 
     def component_sigmas(self, components: np.ndarray) -> np.ndarray:
-        """Standard deviations of (rot1, trans, rot2) [..., 3], thesis eq. 4.41 (magnitudes)."""
+        """Standard deviations of (rot1, trans, rot2) [..., 3] (magnitudes), thesis eq. 4.41:
+
+            sigma_rot1 = a_ww |rot1| + a_vw |trans|
+            sigma_trans = a_wv (|rot1| + |rot2|) + a_vv |trans|
+            sigma_rot2 = a_ww |rot2| + a_vw |trans|,
+
+        each multiplied by sqrt(d0 / |trans|) when ``noise.reference_step_m`` = d0 is set and
+        |trans| > d0 (variances linear in the step's length beyond d0); floored at
+        ``noise.min_sigma``.
+        """
         n = self.noise
         c = np.abs(np.asarray(components, dtype=float))
         if c.shape == (3,):
@@ -121,6 +143,9 @@ class OdometryMotionModel:
             ],
             axis=-1,
         )
+        if n.reference_step_m is not None:
+            d0 = n.reference_step_m
+            sigma *= np.sqrt(d0 / np.maximum(trans, d0))[..., None]
         return np.maximum(sigma, np.asarray(n.min_sigma))
 
     def sample_delta(
@@ -266,10 +291,13 @@ def _component_sigmas_one(
 ) -> tuple[float, float, float]:
     """``OdometryMotionModel.component_sigmas`` of one (|rot1|, |trans|, |rot2|), on floats."""
     floor_rot1, floor_trans, floor_rot2 = n.min_sigma
+    d0 = n.reference_step_m
+    # the scale of a step longer than d0, as the array path computes it (1.0 up to d0)
+    scale = 1.0 if d0 is None or not trans > d0 else float(np.sqrt(d0 / trans))
     return (
-        _maximum(n.a_ww * rot1 + n.a_vw * trans, floor_rot1),
-        _maximum(n.a_wv * (rot1 + rot2) + n.a_vv * trans, floor_trans),
-        _maximum(n.a_ww * rot2 + n.a_vw * trans, floor_rot2),
+        _maximum((n.a_ww * rot1 + n.a_vw * trans) * scale, floor_rot1),
+        _maximum((n.a_wv * (rot1 + rot2) + n.a_vv * trans) * scale, floor_trans),
+        _maximum((n.a_ww * rot2 + n.a_vw * trans) * scale, floor_rot2),
     )
 
 

@@ -33,15 +33,22 @@ class SightingAssociation:
         margin_m: unknown sightings are compared with the landmarks whose last known position
             lies within the largest sighting range plus this margin of the mean pose [m].
         log_p0: log-likelihood threshold below which a particle creates a new landmark.
+        exclusive: one landmark explains at most one sighting of a frame (mutual exclusion).
     """
 
     def __init__(
-        self, registry: SlotRegistry, store: LandmarkStore, margin_m: float, log_p0: float
+        self,
+        registry: SlotRegistry,
+        store: LandmarkStore,
+        margin_m: float,
+        log_p0: float,
+        exclusive: bool = False,
     ) -> None:
         self._registry = registry
         self._store = store
         self._margin_m = margin_m
         self._log_p0 = log_p0
+        self._exclusive = exclusive
         self._model = RangeBearing2D()
 
     def pairs(
@@ -103,6 +110,7 @@ class SightingAssociation:
             sightings.R[unknown],
             self._model,
             self._log_p0,
+            self._exclusive,
         )
         new = choice == NEW_LANDMARK  # (P, K_u)
         wanted = np.flatnonzero(new.any(axis=0))
@@ -134,12 +142,16 @@ def maximum_likelihood_association(
     R: np.ndarray,
     model: MeasurementModel,
     log_p0: float,
+    exclusive: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Associate K sightings with C candidate landmarks in each of P particles.
 
     The likelihood of sighting k under landmark c is N(z_k; h(x, mu_c), S) with
     S = H_m Sigma_c H_m^T + R_k, plus H_x P H_x^T when the pose is still uncertain (FastSLAM 2.0
-    associates before sampling, with the motion prediction's covariance P).
+    associates before sampling, with the motion prediction's covariance P). Each sighting takes
+    its likeliest landmark (Montemerlo 2003 ch. 4), or, with ``exclusive``, the frame's
+    sightings are assigned greedily so that no landmark takes two of them
+    (``_exclusive_choice``).
 
     Args:
         poses: (P, 3) particle poses (sampled, or the predicted means for FastSLAM 2.0).
@@ -150,6 +162,7 @@ def maximum_likelihood_association(
         z: (K, k) sightings; R: (K, k, k) their noise.
         model: measurement model.
         log_p0: log-likelihood threshold for a new landmark.
+        exclusive: enforce mutual exclusion within the frame.
 
     Returns:
         choice (P, K): candidate index, or ``NEW_LANDMARK``; and log_likelihood (P, K) of the
@@ -168,7 +181,47 @@ def maximum_likelihood_association(
     S_inv, logdet = inverse_and_logdet(S)
     log_likelihood = gaussian_log_likelihood(y, S_inv, logdet)
     log_likelihood = np.where(landmark_valid[:, None, :], log_likelihood, -np.inf)
+    if exclusive and k > 1:
+        return _exclusive_choice(log_likelihood, log_p0)
     best = np.argmax(log_likelihood, axis=2)
     best_ll = np.take_along_axis(log_likelihood, best[..., None], axis=2)[..., 0]
     new = best_ll < log_p0
     return np.where(new, NEW_LANDMARK, best), np.where(new, log_p0, best_ll)
+
+
+def _exclusive_choice(log_likelihood: np.ndarray, log_p0: float) -> tuple[np.ndarray, np.ndarray]:
+    """Greedy maximum-likelihood assignment under mutual exclusion, per particle.
+
+    Each particle takes its likeliest remaining (sighting, landmark) pair, removes that sighting
+    and that landmark from its remaining choices, and repeats while a pair above log p0 is left;
+    the sightings left over start new landmarks. Two sightings of one frame are two objects (one
+    laser scan does not see a trunk twice), so one landmark explains at most one of them
+    (the mutual exclusion constraint of Montemerlo 2003 ch. 4, in the greedy form of the
+    assignment).
+
+    Args:
+        log_likelihood: (P, K, C) log N(z_k; h(x, mu_c), S), -inf where not a candidate.
+        log_p0: the new-landmark threshold.
+
+    Returns:
+        choice (P, K) and log-likelihood (P, K) as ``maximum_likelihood_association``.
+    """
+    p, k, c = log_likelihood.shape
+    remaining = log_likelihood.copy()
+    choice = np.full((p, k), NEW_LANDMARK)
+    chosen_ll = np.full((p, k), log_p0)
+    rows = np.arange(p)
+    for _ in range(min(k, c)):
+        flat = remaining.reshape(p, k * c)
+        best = np.argmax(flat, axis=1)
+        best_ll = flat[rows, best]
+        take = best_ll >= log_p0
+        if not take.any():
+            break
+        who = rows[take]
+        sighting, landmark = np.divmod(best[take], c)
+        choice[who, sighting] = landmark
+        chosen_ll[who, sighting] = best_ll[take]
+        remaining[who, sighting, :] = -np.inf
+        remaining[who, :, landmark] = -np.inf
+    return choice, chosen_ll

@@ -197,6 +197,14 @@ class FastSLAMConfig:
         motion_noise: alpha coefficients of thesis eqs. 4.40-4.41, from which the factories
             (``make_fastslam``) build the ``OdometryMotionModel`` (default
             ``DEFAULT_MOTION_NOISE``: twice the simulator's, to cover systematic drift).
+            ``motion_noise.reference_step_m=0.03`` (off by default) scales a step longer than
+            3 cm (the simulator's step) so that its variance grows linearly with its length
+            (``core.motion.MotionNoise``): on Victoria Park (0.62 m frames; the default alphas
+            4.4x wider there than the odometry's measured error against GPS) fastslam2's median
+            ATE over seeds 0-2 falls from 9.44 to 2.58 m, but on MR.CLAM 6 with ids (2 cm
+            steps, longer ones across sighting gaps) from 0.203 to 0.233 m and fastslam1's r1
+            from 0.30 to 0.52 m: worse beyond the seed spread, so it is not the default
+            (docs/results.md, "Victoria Park: FastSLAM against GPS").
         stated_odometry_noise: where a frame's odometry states its covariance
             (``Odometry.covariance``: the front end's laser odometry, MR.CLAM, CARMEN logs with
             ``odometry_noise``, gtsam's victoria_park.txt), whether poses are sampled from it
@@ -251,6 +259,13 @@ class FastSLAMConfig:
         association_margin_m: unknown sightings are only compared with landmarks whose last
             known position lies within the largest sighting range plus this margin of the mean
             pose [m] (a coarse gate that keeps association O(nearby landmarks)).
+        association_exclusive: unknown sightings of one frame are associated under mutual
+            exclusion (``association._exclusive_choice``): per particle, no landmark takes two
+            of them. Off by default: on Victoria Park (a particle gave one landmark two of a
+            frame's sightings in 262 of 7230 frames) it takes fastslam2's median ATE over seeds
+            0-2 from 9.44 to 4.93 m, but on MR.CLAM 6 without ids (seed 0) it is worse on four
+            of five robots with more landmarks on all, and CARMEN was not measured
+            (docs/results.md, "Victoria Park: FastSLAM against GPS").
         bearing_gate_probability: 3-D only: a bearing innovation whose squared Mahalanobis
             distance exceeds the chi-square quantile of this probability (degrees of freedom = the
             measurement's dimension) is an outlier -- a feature track that jumped to another
@@ -305,6 +320,7 @@ class FastSLAMConfig:
     min_parallax_deg: float = 3.0
     new_landmark_log_likelihood: float = -6.0
     association_margin_m: float = 3.0
+    association_exclusive: bool = False
     bearing_gate_probability: float = 0.999
     outlier_gate_probability: float = 1.0
     proposal_update: ProposalUpdateMode = ProposalUpdateMode.SEQUENTIAL

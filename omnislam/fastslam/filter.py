@@ -207,6 +207,7 @@ class FastSLAM:
             self._store,
             config.association_margin_m,
             config.new_landmark_log_likelihood,
+            config.association_exclusive,
         )
         self._proposal = ProposalSampler(self._mapper, config.proposal_update, motion, rng, kernels)
         self._existence = (

@@ -131,6 +131,41 @@ def test_known_pose_prediction_moments_match_sampling(rng):
 def test_negative_coefficients_rejected():
     with pytest.raises(ValueError):
         MotionNoise(a_vv=-0.1)
+    with pytest.raises(ValueError):
+        MotionNoise(reference_step_m=0.0)
+
+
+STEP_INVARIANT = OdometryMotionModel(
+    MotionNoise(a_vv=0.08, a_vw=0.02, a_wv=0.01, a_ww=0.06, reference_step_m=0.03)
+)
+
+
+@pytest.mark.parametrize("components", [[0.2, 0.03, -0.1], [0.1, 0.01, 0.0], [0.5, 0.0, 0.3]])
+def test_steps_up_to_the_reference_keep_eq_4_41(components):
+    c = np.array(components)
+    np.testing.assert_array_equal(STEP_INVARIANT.component_sigmas(c), MODEL.component_sigmas(c))
+
+
+@pytest.mark.parametrize("pieces", [2, 5, 20])
+def test_beyond_the_reference_a_motion_gets_the_same_variance_however_it_is_cut(pieces):
+    """n pieces of a 1.2 m motion (each >= d0) sum to one step's variance; eq. 4.41 alone sums
+    them to 1/n of it."""
+    whole = np.array([0.3, 1.2, -0.1])
+    piece = whole / pieces
+    invariant = [STEP_INVARIANT.component_sigmas(c) ** 2 for c in (whole, piece)]
+    np.testing.assert_allclose(pieces * invariant[1], invariant[0], rtol=1e-12)
+    thesis = [MODEL.component_sigmas(c) ** 2 for c in (whole, piece)]
+    np.testing.assert_allclose(pieces * thesis[1], thesis[0] / pieces, rtol=1e-12)
+    # the whole step: eq. 4.41 times d0 / |trans| in variance
+    np.testing.assert_allclose(invariant[0], thesis[0] * 0.03 / 1.2, rtol=1e-12)
+
+
+def test_step_invariant_sigmas_agree_on_the_scalar_and_vector_paths(rng):
+    components = rng.normal(size=(50, 3)) * [0.3, 0.5, 0.3]
+    vector = STEP_INVARIANT.component_sigmas(components)
+    scalar = np.array([STEP_INVARIANT.component_sigmas(c) for c in components])
+    np.testing.assert_allclose(vector, scalar, rtol=1e-14)
+    assert np.all(STEP_INVARIANT.component_sigmas(np.zeros(3)) > 0), "standing still: the floor"
 
 
 def test_composed_odometry_covariance_matches_sampled_composition(rng):

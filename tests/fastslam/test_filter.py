@@ -164,6 +164,43 @@ def test_unknown_association(variant):
     assert np.mean(ates) < ATE_FRACTION_OF_DEAD_RECKONING * np.mean(dead_reckoning)
 
 
+def test_exclusive_association_gives_a_landmark_at_most_one_sighting_of_a_frame():
+    """Mutual exclusion (``association_exclusive``): a first frame maps one tree; the next frame
+    sees it and a second tree 0.3 m beside it. Without exclusion both sightings fit the one
+    landmark (its range-bearing noise is wide) and no landmark is added; with it, the likelier
+    sighting takes the landmark and the other starts a new one, in every particle."""
+    first = RangeBearing(np.array([UNKNOWN_ID]), np.array([5.0]), np.array([0.0]), 0.5, 0.05)
+    second = RangeBearing(
+        np.array([UNKNOWN_ID, UNKNOWN_ID]), np.array([5.0, 5.3]), np.array([0.0, 0.0]), 0.5, 0.05
+    )
+    counts = {}
+    for exclusive in (False, True):
+        for variant in Variant:
+            config = _config(variant, 10).with_(association_exclusive=exclusive)
+            slam = _slam(config, 0)
+            slam.step(FrameInput(0, Odometry(np.zeros(3), 0.0), range_bearing=first))
+            slam.step(FrameInput(1, Odometry(np.zeros(3), 0.1), range_bearing=second))
+            counts[exclusive, variant] = slam.info().landmarks
+    assert all(counts[False, v] == 1 for v in Variant)
+    assert all(counts[True, v] == 2 for v in Variant)
+
+
+def test_exclusive_choice_is_a_greedy_assignment():
+    """Per particle: the best pair first, then the best pair among what is left; a sighting
+    whose remaining pairs are all below log p0 becomes a new landmark."""
+    from omnislam.fastslam.association import NEW_LANDMARK, _exclusive_choice
+
+    ll = np.array(
+        [
+            [[-1.0, -2.0], [-1.5, -9.0], [-0.5, -20.0]],  # sighting 2 takes 0, 0 takes 1, 1 new
+            [[-1.0, -2.0], [-3.0, -1.5], [-20.0, -20.0]],  # 0 -> 0, 1 -> 1, 2 new
+        ]
+    )
+    choice, chosen = _exclusive_choice(ll, log_p0=-6.0)
+    np.testing.assert_array_equal(choice, [[1, NEW_LANDMARK, 0], [0, 1, NEW_LANDMARK]])
+    np.testing.assert_array_equal(chosen, [[-2.0, -6.0, -0.5], [-1.0, -1.5, -6.0]])
+
+
 def test_a_frame_may_mix_known_and_unknown_ids():
     """Known ids map to their slots, an unknown sighting gets a new landmark: both mapped."""
     frame = FrameInput(
