@@ -26,15 +26,10 @@ table resumes; ``--fresh`` ignores the cache::
 from __future__ import annotations
 
 import argparse
-import json
-import time
 from pathlib import Path
 
 import numpy as np
-
-from omnislam.compare.evaluation import evaluate_run
-from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.rundir import ESTIMATOR_INFO
+from harness_cells import run_cell
 
 #: the association counters read from ``estimator_info.json`` when present (graphslam's,
 #: ekfslam's, FastSLAM's names)
@@ -58,26 +53,9 @@ TRUE_LANDMARKS = 15
 def cell(dataset: str, estimator: str, seed: int, unknown: bool, cache: Path | None) -> dict:
     """ATE, landmark count and association counts of one run (from the cache if there)."""
     name = f"{dataset}_{estimator}_s{seed}_{'unknown' if unknown else 'ids'}.json"
-    path = cache / name if cache is not None else None
-    if path is not None and path.exists():
-        return json.loads(path.read_text())
     options = {"association": "unknown"} if unknown else {}
-    start = time.process_time()
-    record = execute_run(RunSpec(dataset, estimator, seed, options))
-    cpu_s = time.process_time() - start
-    metrics = evaluate_run(record)
-    info = json.loads(record.attachments.get(ESTIMATOR_INFO, b"{}") or b"{}")
-    out = {
-        "ate_m": metrics.ate.rmse_m,
-        "landmarks": metrics.landmarks.estimated,
-        "landmark_rmse_m": metrics.landmarks.rmse_m,
-        "counts": {key: info[key] for key in COUNT_KEYS if key in info},
-        "cpu_s": cpu_s,
-    }
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(out, indent=1))
-    return out
+    path = None if cache is None else cache / name
+    return run_cell(dataset, estimator, seed, options, path, COUNT_KEYS)
 
 
 def main() -> None:

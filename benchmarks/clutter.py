@@ -27,14 +27,9 @@ the goal holds. Cells are cached as JSON under ``--cache`` (``--fresh`` ignores 
 from __future__ import annotations
 
 import argparse
-import json
-import sys
-import time
 from pathlib import Path
 
-from omnislam.compare.evaluation import evaluate_run
-from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.rundir import ESTIMATOR_INFO
+from harness_cells import run_cell
 
 #: association counters read from ``estimator_info.json`` (graphslam's, ekfslam's, FastSLAM's)
 COUNT_KEYS = (
@@ -53,34 +48,11 @@ ATE_RATIO = 1.5
 def cell(dataset: str, estimator: str, seed: int, rate: float, cache: Path | None) -> dict:
     """ATE, landmarks and association counts of one run (from the cache if there)."""
     name = f"{dataset}_{estimator}_s{seed}_clutter{rate:g}.json"
-    path = cache / name if cache is not None else None
-    if path is not None and path.exists():
-        return json.loads(path.read_text())
     options = {"association": "unknown"}
     if rate > 0:
         options["clutter_per_frame"] = repr(rate)
-    print(
-        f"  running {dataset} {estimator} seed {seed} clutter {rate:g} ...",
-        file=sys.stderr,
-        flush=True,
-    )
-    start = time.process_time()
-    record = execute_run(RunSpec(dataset, estimator, seed, options))
-    cpu_s = time.process_time() - start
-    metrics = evaluate_run(record)
-    info = json.loads(record.attachments.get(ESTIMATOR_INFO, b"{}") or b"{}")
-    out = {
-        "ate_m": metrics.ate.rmse_m,
-        "landmarks": metrics.landmarks.estimated,
-        "truth": metrics.landmarks.truth,
-        "added": record.config.clutter_added,
-        "counts": {key: info[key] for key in COUNT_KEYS if key in info},
-        "cpu_s": cpu_s,
-    }
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(out, indent=1))
-    return out
+    path = None if cache is None else cache / name
+    return run_cell(dataset, estimator, seed, options, path, COUNT_KEYS)
 
 
 def main() -> None:

@@ -28,14 +28,10 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import time
 from pathlib import Path
 
 import numpy as np
-
-from omnislam.compare.evaluation import evaluate_run
-from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.rundir import ESTIMATOR_INFO
+from harness_cells import run_cell
 
 DATASET = "victoria-park"
 PARTICLE_FILTERS = ("fastslam1", "fastslam2")
@@ -61,24 +57,7 @@ def cell(estimator: str, seed: int, options: dict[str, str], cache: Path | None)
     """ATE, landmark count and counters of one run (from the cache if there)."""
     key = hashlib.sha1(json.dumps(sorted(options.items())).encode()).hexdigest()[:10]
     path = None if cache is None else cache / f"{estimator}_s{seed}_{key}.json"
-    if path is not None and path.exists():
-        return json.loads(path.read_text())
-    start = time.process_time()
-    record = execute_run(RunSpec(DATASET, estimator, seed, options))
-    cpu_s = time.process_time() - start
-    metrics = evaluate_run(record)
-    info = json.loads(record.attachments.get(ESTIMATOR_INFO, b"{}") or b"{}")
-    out = {
-        "ate_m": metrics.ate.rmse_m,
-        "landmarks": len(record.estimate.landmark_ids),
-        "counts": {k: info[k] for k in COUNT_KEYS if k in info},
-        "cpu_s": cpu_s,
-        "options": options,
-    }
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(out, indent=1))
-    return out
+    return run_cell(DATASET, estimator, seed, options, path, COUNT_KEYS)
 
 
 def main() -> None:
