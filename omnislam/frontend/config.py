@@ -353,9 +353,11 @@ class LaserLandmarkConfig:
             median 3.1-3.7 cm apart below 2 m and 4.5-6.7 cm at 2-9 m, nearly independent of
             the range, where 1 % and 1 deg give 1-2 cm at 1-2 m: under the range-proportional
             model alone the squared Mahalanobis distance of intel's pairs within 1 m has a
-            median of 3.6 (chi-square(2): 1.39), 0.46 with the floor of 3 cm. Over ten seeds
-            on carmen-aces it takes the FastSLAMs' median ATE from 2.45 / 2.16 m to 1.81 / 1.62
-            m (docs/results.md). 0: the tutorial's range-proportional noise only.
+            median of 3.6 (chi-square(2): 1.39), 0.46 with the floor of 3 cm. On carmen-aces
+            (seeds 0-9, two front-end logs) FastSLAM 2.0's median ATE goes from 2.16 / 2.52 m
+            to 1.62 / 1.95 m, FastSLAM 1.0's from 2.45 / 1.82 m to 1.81 / 2.11 m, the graph's
+            from 0.81 / 1.04 to 0.80 / 0.80 m; intel is unchanged within the seeds' spread
+            (docs/results.md). 0: the tutorial's range-proportional noise only.
         line_landmarks: ``corners`` (default: intersections of two lines that both reach
             them, points fixed in the world) or ``feet`` (the tutorial's feet of the
             perpendicular from the odometry origin, which slide along the walls as the odometry
