@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from omnislam.core.types import UNKNOWN_ID
 from omnislam.frontend.config import LaserLandmarkConfig, LineLandmarks
@@ -131,3 +132,56 @@ def test_the_default_laser_landmarks_are_persistent_corners_and_spikes():
     config = LaserLandmarkConfig()
     assert config.line_landmarks is LineLandmarks.CORNERS
     assert config.persistence_radius_m == 0.2
+
+
+def _cartesian_covariances(ranges_m, bearings_rad, sigma_range_m, sigma_bearing_rad):
+    """(K, 2, 2) covariance J diag(sigma_r^2, sigma_b^2) J^T of each sighting's point in the
+    robot frame, J the Jacobian of (r cos b, r sin b)."""
+    c, s = np.cos(bearings_rad), np.sin(bearings_rad)
+    J = np.stack(
+        [np.stack([c, -ranges_m * s], axis=-1), np.stack([s, ranges_m * c], axis=-1)], axis=1
+    )
+    D = np.zeros((len(ranges_m), 2, 2))
+    D[:, 0, 0], D[:, 1, 1] = sigma_range_m**2, sigma_bearing_rad**2
+    return J @ D @ np.swapaxes(J, 1, 2)
+
+
+def test_the_noise_floor_adds_an_isotropic_position_covariance_at_every_range():
+    """``sighting_noise``: the floor s0 adds exactly s0^2 I to the Cartesian covariance of a
+    sighting, near or far; without it the noise is the tutorial's (1 % of the range, at least
+    1 cm; 1 deg)."""
+    from omnislam.frontend.laser_landmarks import MIN_SIGMA_RANGE_M, sighting_noise
+
+    ranges = np.array([0.4, 1.0, 3.0, 8.0])
+    bearings = np.array([-1.2, 0.0, 0.7, 2.5])
+    plain = LaserLandmarkConfig(sigma_floor_m=0.0)
+    sr0, sb0 = sighting_noise(ranges, plain)
+    np.testing.assert_allclose(sr0, np.maximum(0.01 * ranges, MIN_SIGMA_RANGE_M))
+    np.testing.assert_allclose(sb0, 0.0175)
+    floored = LaserLandmarkConfig(sigma_floor_m=0.03)
+    sr, sb = sighting_noise(ranges, floored)
+    added = _cartesian_covariances(ranges, bearings, sr, sb) - _cartesian_covariances(
+        ranges, bearings, sr0, sb0
+    )
+    expected = np.broadcast_to(0.03**2 * np.eye(2), added.shape)
+    np.testing.assert_allclose(added, expected, atol=1e-12)
+    # a near sighting's position std is the floor's, not 1 % of 0.4 m
+    assert np.sqrt(sr[0] ** 2 + (ranges[0] * sb[0]) ** 2) > np.sqrt(2) * 0.03
+
+
+def test_extracted_sightings_carry_the_floored_noise(rng):
+    """The sightings of a scan carry ``sighting_noise`` of their ranges, the default floor
+    included; a negative floor is refused."""
+    from omnislam.errors import ConfigError
+    from omnislam.frontend.laser_landmarks import sighting_noise
+
+    angles, ranges = _room_scan()
+    config = LaserLandmarkConfig()
+    assert config.sigma_floor_m == 0.03
+    sightings = extract_laser_landmarks(angles, ranges, 30.0, config, rng)
+    assert len(sightings)
+    sr, sb = sighting_noise(sightings.ranges_m, config)
+    np.testing.assert_allclose(sightings.sigma_range_m, sr)
+    np.testing.assert_allclose(sightings.sigma_bearing_rad, sb)
+    with pytest.raises(ConfigError, match="sigma_floor_m"):
+        LaserLandmarkConfig(sigma_floor_m=-0.01)
