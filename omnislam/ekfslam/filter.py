@@ -186,13 +186,11 @@ class EKFSLAM:
                     if all(landmark_id != other for _, other in new_known):
                         new_known.append((row, landmark_id))
                     continue
-                if np.isfinite(self._known_gate):
-                    d2, _ = state.mahalanobis_all(z, R, np.array([slot]))
-                    young = self._sightings[slot] < self.config.known_gate_min_sightings
-                    if d2[0] > self._known_gate * (YOUNG_GATE_FACTOR if young else 1.0):
-                        self._counts["gated"] += 1
-                        continue
-                state.update(slot, z, R)
+                young = self._sightings[slot] < self.config.known_gate_min_sightings
+                gate = self._known_gate * (YOUNG_GATE_FACTOR if young else 1.0)
+                if state.update(slot, z, R, gate=gate) is None:
+                    self._counts["gated"] += 1
+                    continue
                 self._sightings[slot] += 1
                 self._counts["associated"] += 1
                 continue

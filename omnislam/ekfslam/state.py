@@ -220,8 +220,13 @@ class SlamGaussian:
         return Hs @ self.block(idx) @ Hs.T + R
 
     def update(
-        self, slot: int, z: np.ndarray, R: np.ndarray, model: MeasurementModel | None = None
-    ) -> tuple[np.ndarray, np.ndarray]:
+        self,
+        slot: int,
+        z: np.ndarray,
+        R: np.ndarray,
+        model: MeasurementModel | None = None,
+        gate: float = np.inf,
+    ) -> tuple[np.ndarray, np.ndarray] | None:
         """Correct the state with one sighting of landmark ``slot`` (tutorial "Passo 2"), O(n^2).
 
         K = P H^T S^-1, X' = X + K (z - h), and the Joseph form
@@ -242,16 +247,22 @@ class SlamGaussian:
             z: (k,) measured, e.g. (range [m], bearing [rad]).
             R: (k, k) sighting noise covariance.
             model: the sighting's measurement model (the state's default when None).
+            gate: an outlier gate on nu^T S^-1 nu: a sighting beyond it leaves the state as it
+                is (the innovation and S of the test are the update's own, computed once).
 
         Returns:
-            (nu, S): the innovation (k,) and its covariance (k, k) before the update.
+            (nu, S): the innovation (k,) and its covariance (k, k) before the update; None when
+            the gate rejected the sighting.
         """
         nu, Hs, idx = self.innovation(slot, z, model)
         d = self.dim
         PHt = self.columns(idx) @ Hs.T  # (d, k)
         S = Hs @ PHt[idx] + R
         S = 0.5 * (S + S.T)
-        K = PHt @ np.linalg.inv(S)
+        S_inv = np.linalg.inv(S)
+        if np.isfinite(gate) and float(nu @ S_inv @ nu) > gate:
+            return None
+        K = PHt @ S_inv
         self._x[:d] += K @ nu
         self._x[2] = wrap_angle(self._x[2])
         syr2k_upper(self._P[:d, :d], K, PHt - 0.5 * (K @ S))

@@ -164,3 +164,23 @@ def test_block_and_columns_read_the_stored_triangle_as_the_whole_matrix(rng):
     slots = np.array([4, 1])
     expected = np.stack([P[3 + 2 * s : 5 + 2 * s, 3 + 2 * s : 5 + 2 * s] for s in slots])
     assert np.array_equal(state.landmark_covariances(slots), expected)
+
+
+def test_a_gated_update_tests_its_own_innovation_and_leaves_a_rejected_sighting_out(rng):
+    state = random_state(rng)
+    R = np.diag([0.05, 0.01]) ** 2
+    lm = state.mean[3 + 2 * 2 : 5 + 2 * 2]
+    rel = lm - state.mean[:2]
+    z = np.array([np.hypot(*rel) + 0.05, np.arctan2(rel[1], rel[0]) - state.mean[2]])
+    d2, _ = state.mahalanobis_all(z, R, np.array([2]))
+    x, P = state.mean.copy(), state.cov
+    assert state.update(2, z, R, gate=0.999 * d2[0]) is None  # just beyond the gate
+    assert np.array_equal(state.mean, x) and np.array_equal(state.cov, P)
+    gated = state.update(2, z, R, gate=1.001 * d2[0])  # just inside it: the plain update
+    plain = random_state(np.random.default_rng(0))
+    plain.mean[:] = x
+    plain.cov = P
+    expected = plain.update(2, z, R)
+    assert gated is not None and expected is not None
+    np.testing.assert_array_equal(state.mean, plain.mean)
+    np.testing.assert_array_equal(state.cov, plain.cov)
