@@ -121,8 +121,10 @@ class SlamGaussian:
         column, the rest from the row (P_ij = P_ji)."""
         idx = np.asarray(idx, dtype=int)
         d = self.dim
-        below = np.arange(d)[:, None] > idx[None, :]
-        return np.where(below, self._P[idx, :d].T, self._P[:d, idx])
+        out = self._P[:d, idx]  # a copy; right above and on the diagonal
+        for t, j in enumerate(idx.tolist()):
+            out[j + 1 :, t] = self._P[j, j + 1 : d]  # below it: row j
+        return out
 
     def _robot_rows(self) -> np.ndarray:
         """(3, 3 + dim n) copy of the robot's rows of P (its 3 x 3 block made whole)."""
@@ -212,7 +214,7 @@ class SlamGaussian:
         cols = landmark_columns(slot, self.landmark_dim)
         z_hat, H_r, H_l = model.predict(self._x[:POSE_DIM], self._x[cols])
         Hs = np.concatenate([H_r, H_l], axis=-1)
-        idx = np.r_[0:POSE_DIM, cols.start : cols.stop]
+        idx = np.array([*range(POSE_DIM), *range(cols.start, cols.stop)])
         return model.residual(z, z_hat), Hs, idx
 
     def innovation_covariance(self, Hs: np.ndarray, idx: np.ndarray, R: np.ndarray) -> np.ndarray:
