@@ -17,6 +17,7 @@ Windows need GPS at the three frames and chords of at least ``MIN_CHORD_M``.
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 
 import numpy as np
 
@@ -31,12 +32,12 @@ MAX_SAMPLED_WINDOWS = 150
 
 
 def _scaled(noise: MotionNoise, factor: float) -> MotionNoise:
-    return MotionNoise(
+    return replace(
+        noise,
         a_vv=noise.a_vv * factor,
         a_vw=noise.a_vw * factor,
         a_wv=noise.a_wv * factor,
         a_ww=noise.a_ww * factor,
-        min_sigma=noise.min_sigma,
     )
 
 
@@ -44,13 +45,7 @@ MODELS = {
     "FastSLAM default (x2 the simulator's)": DEFAULT_MOTION_NOISE,
     "the simulator's (x0.5)": _scaled(DEFAULT_MOTION_NOISE, 0.5),
     "x0.25 of the default": _scaled(DEFAULT_MOTION_NOISE, 0.25),
-    "default, reference_step_m=0.03": MotionNoise(
-        a_vv=DEFAULT_MOTION_NOISE.a_vv,
-        a_vw=DEFAULT_MOTION_NOISE.a_vw,
-        a_wv=DEFAULT_MOTION_NOISE.a_wv,
-        a_ww=DEFAULT_MOTION_NOISE.a_ww,
-        reference_step_m=0.03,
-    ),
+    "default, reference_step_m=0.03": replace(DEFAULT_MOTION_NOISE, reference_step_m=0.03),
 }
 
 
