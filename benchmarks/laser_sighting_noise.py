@@ -74,9 +74,8 @@ def consecutive_pairs(dataset: str, log_path: str | None) -> list[tuple[np.ndarr
 def world_covariance(r: float, b_w: float, config: LaserLandmarkConfig) -> np.ndarray:
     """(2, 2) covariance of a sighting's world point: range r, world bearing b_w."""
     sr, sb = sighting_noise(np.array([r]), config)
-    c, s = np.cos(b_w), np.sin(b_w)
-    J = np.array([[c, -r * s], [s, r * c]])
-    return J @ np.diag([sr[0] ** 2, sb[0] ** 2]) @ J.T
+    _, _, J_z = RangeBearing2D().inverse(np.zeros(3), np.array([r, b_w]))  # heading 0: world
+    return J_z @ np.diag([sr[0] ** 2, sb[0] ** 2]) @ J_z.T
 
 
 def report(dataset: str, log_path: str | None, floors: list[float]) -> None:
