@@ -26,7 +26,7 @@ Reports, on the synthetic omni dataset, with the default configuration (vertical
   calibrated);
 - ``--variants``: the same quality and CPU figures (per stage) for the scale-space choices of
   ``SiftConfig.first_octave`` (doubled with OpenCV's default upscale, doubled with the exact
-  one, native, none), for native with 2 layers per octave, without the keypoint budget
+  one, native, halved, none), for native with 2 layers per octave, without the keypoint budget
   (``SiftConfig.features_per_kpx``) or with it going to the whole ring's strongest instead of
   being shared out over rings x sectors, and for the general
   8-point RANSAC instead of the planar one, sequentially, one run each (``--variant NAME``
@@ -79,6 +79,8 @@ def variants(config: FrontendConfig) -> dict[str, FrontendConfig]:
             sift, first_octave=FirstOctave.DOUBLED, precise_upscale=True)),
         "native (default)": dataclasses.replace(config, sift=dataclasses.replace(
             sift, first_octave=FirstOctave.NATIVE)),
+        "halved": dataclasses.replace(config, sift=dataclasses.replace(
+            sift, first_octave=FirstOctave.HALVED)),
         "none": dataclasses.replace(config, sift=dataclasses.replace(
             sift, first_octave=FirstOctave.NONE)),
         "native, 2 layers per octave": dataclasses.replace(config, sift=dataclasses.replace(

@@ -95,8 +95,8 @@ def _octave(base: np.ndarray, sigma: float, layers: int, span: int, step_px: int
     return Octave(gaussian, dog, step_px, sigma, index)
 
 
-def build_scale_space(grey: np.ndarray, sigma: float, layers: int, *, fine: bool
-                      ) -> tuple[Octave, ...]:
+def build_scale_space(grey: np.ndarray, sigma: float, layers: int, *, fine: bool,
+                      halved: bool = False) -> tuple[Octave, ...]:
     """Lowe's Gaussian/DoG pyramid with the doubled first octave replaced (thesis 4.1.1).
 
     Without ``fine`` these are Lowe's octaves 0, 1, ... (OpenCV's, VLFeat's first_octave 0):
@@ -104,27 +104,37 @@ def build_scale_space(grey: np.ndarray, sigma: float, layers: int, *, fine: bool
     every second pixel. With ``fine`` the scales ``sigma / 2 .. sigma`` of Lowe's doubled
     octave -1 are sampled at the image's own pixels: octaves -1 and 0 become one octave of
     2N + 3 images at the image's resolution (blur ``sigma / 2 * k^i``; its images N..2N + 2
-    are octave 0's), and octave 1 starts from its image 2N.
+    are octave 0's), and octave 1 starts from its image 2N. With ``halved`` too, octave -1 keeps
+    its own N + 3 images at the image's resolution and octaves 0, 1... follow at 2, 4...
+    pixels, each from the previous one's image N (blur ``sigma / 2`` in its own pixels, half
+    Lowe's sampling density: the pyramid of a SIFT of sigma / 2 on the undoubled image).
 
     Args:
         grey: (H, W) uint8 grey image.
         sigma: Lowe's sigma (1.6): the base blur of octave 0 [px].
         layers: N, scales per octave (k = 2^(1/N)).
         fine: sample octave -1 at the image's resolution.
+        halved: with ``fine``, sample octave 0 on at half the previous octave's pixels.
     """
     cv2 = require("cv2")
     image = grey.astype(np.float32) * np.float32(1.0 / 255.0)
     first = sigma / 2 if fine else sigma
     blur = math.sqrt(max(first**2 - INPUT_SIGMA**2, 0.01))
     base = cv2.GaussianBlur(image, (0, 0), blur, sigmaY=blur)
-    octaves = [_octave(base, first, layers, 2 * layers if fine else layers, 1, -1 if fine else 0)]
-    for o in range(1, n_octaves(*grey.shape)):
+    halved = fine and halved
+    octaves = [_octave(base, first, layers, 2 * layers if fine and not halved else layers, 1,
+                       -1 if fine else 0)]
+    # halved: octaves 0, 1... follow at 2, 4... pixels, each with base blur sigma / 2 in its
+    # own pixels (Lowe's sigma at the previous octave's spacing)
+    sigma_o = first if halved else sigma
+    for o in range(1, n_octaves(*grey.shape) + int(halved)):
         previous = octaves[-1].gaussian[-3]  # blur 2 sigma in the previous octave's pixels
         # every second pixel, floor(W / 2) of them (OpenCV's INTER_NEAREST halving)
         base = previous[::2, ::2][: previous.shape[0] // 2, : previous.shape[1] // 2]
         if min(base.shape) <= 2 * IMAGE_BORDER + 2:
             break
-        octaves.append(_octave(np.ascontiguousarray(base), sigma, layers, layers, 1 << o, o))
+        octaves.append(_octave(np.ascontiguousarray(base), sigma_o, layers, layers, 1 << o,
+                               o - int(halved)))
     return tuple(octaves)
 
 
@@ -372,6 +382,7 @@ def detect_keypoints(
     contrast_threshold: float,
     edge_threshold: float,
     fine: bool = True,
+    halved: bool = False,
     max_keypoints: int = 0,
     buckets: np.ndarray | None = None,
 ) -> Detections:
@@ -385,6 +396,8 @@ def detect_keypoints(
         contrast_threshold: C on |D(x^)| for images in [0, 1] (thesis eq. 4.9).
         edge_threshold: R, the principal-curvature ratio (thesis eq. 4.15).
         fine: detect at the scales sigma / 2 .. sigma too, on the image's own pixels.
+        halved: with ``fine``, octave 0 on at half the previous octave's pixels
+            (``build_scale_space``).
         max_keypoints: keep only this many of the strongest detections (by ``response``;
             0 = all). The budget is applied before the orientations are computed: only the
             strongest located keypoints get an orientation histogram, and the strongest
@@ -408,7 +421,7 @@ def detect_keypoints(
     octave_mask = full_mask
     threshold = 0.5 * contrast_threshold  # candidates: half the final contrast threshold
     located: list[tuple[Octave, _Refined]] = []
-    for octave in build_scale_space(grey, sigma, layers, fine=fine):
+    for octave in build_scale_space(grey, sigma, layers, fine=fine, halved=halved):
         if full_mask is not None and octave.step_px > 1:
             # a pixel of the octave stands for step^2 image pixels: detect where any may
             octave_mask = cv2.dilate(octave_mask, np.ones((3, 3), np.uint8))[::2, ::2]

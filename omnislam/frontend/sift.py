@@ -215,7 +215,8 @@ class SiftExtractor:
         found = detect_keypoints(
             grey, mask, sigma=cfg.sigma, layers=cfg.n_octave_layers,
             contrast_threshold=cfg.contrast_threshold, edge_threshold=cfg.edge_threshold,
-            fine=cfg.first_octave is FirstOctave.NATIVE, max_keypoints=min(limits, default=0),
+            fine=cfg.first_octave in (FirstOctave.NATIVE, FirstOctave.HALVED),
+            halved=cfg.first_octave is FirstOctave.HALVED, max_keypoints=min(limits, default=0),
             buckets=self.buckets(grey.shape, mask) if limits == [self.budget(grey.shape, mask)]
             else None)
         if cfg.max_features:  # strongest first
@@ -228,8 +229,9 @@ class SiftExtractor:
         # apart (on lab40's first 150 images this left track precision and triangulation
         # error unchanged and took a quarter off SIFT's time, against describing octaves
         # >= 0 on their own pyramid by a second SIFT)
-        describer = self._sift_fine if cfg.first_octave is FirstOctave.NATIVE else self._sift
-        offset = 1 if cfg.first_octave is FirstOctave.NATIVE else 0
+        native = cfg.first_octave in (FirstOctave.NATIVE, FirstOctave.HALVED)
+        describer = self._sift_fine if native else self._sift
+        offset = 1 if native else 0
         _, descriptors = describer.compute(grey, found.keypoints(offset))
         return Features(
             pixels=np.column_stack([found.x, found.y]),

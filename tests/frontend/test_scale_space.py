@@ -35,19 +35,22 @@ def _blob(centre: tuple[float, float], sigma: float, size: int = 96) -> np.ndarr
     return np.round(200.0 - 150.0 * np.exp(-d2 / (2 * sigma**2))).astype(np.uint8)
 
 
-@pytest.mark.parametrize(("sigma", "fine"), [(1.3, True), (2.5, True), (5.0, False)])
-def test_a_gaussian_blob_is_found_at_its_centre_and_scale(sigma, fine):
+@pytest.mark.parametrize(("sigma", "fine", "halved"), [
+    (1.3, True, False), (2.5, True, False), (5.0, False, False), (1.3, True, True),
+    (2.5, True, True), (5.0, True, True)])
+def test_a_gaussian_blob_is_found_at_its_centre_and_scale(sigma, fine, halved):
     """A Gaussian blob of std s is a DoG extremum at its centre. Its scale: the centre value
     of D(sigma) = G(k sigma) - G(sigma) applied to it, ~ 1/(s^2 + sigma^2) - 1/(s^2 +
     k^2 sigma^2), peaks at sigma = s / sqrt(k); and the detector treats the image as already
     blurred by 0.5 px (Lowe 2004 sec. 3.3), so the blob acts as one of std sqrt(s^2 - 0.25)."""
     centre = (47.3, 44.8)
-    found = detect_keypoints(_blob(centre, sigma), None, fine=fine, **SIFT)
+    found = detect_keypoints(_blob(centre, sigma), None, fine=fine, halved=halved, **SIFT)
     assert len(found) >= 1
     best = int(np.argmax(found.response))
-    # located to a small fraction of its scale (octaves are sampled in proportion to it)
+    # located to a small fraction of its scale (octaves are sampled in proportion to it;
+    # halved ones twice as sparsely)
     error = np.hypot(found.x[best] - centre[0], found.y[best] - centre[1])
-    assert error < 0.02 + 0.02 * found.sigma[best]
+    assert error < 0.02 + (0.04 if halved else 0.02) * found.sigma[best]
     k = 2.0 ** (1.0 / SIFT["layers"])
     expected = np.sqrt(sigma**2 - 0.25) / np.sqrt(k)
     assert found.sigma[best] == pytest.approx(expected, rel=0.05)
@@ -67,6 +70,21 @@ def test_the_fine_octave_spans_octaves_minus_one_and_zero_at_the_image_resolutio
     assert second.index == 1 and second.step_px == 2 and second.gaussian.shape[1:] == (32, 40)
     plain = build_scale_space(image, 1.6, 3, fine=False)
     assert plain[0].index == 0 and plain[0].gaussian.shape == (6, 64, 80)
+
+
+def test_halved_octaves_each_sample_half_the_previous_ones_pixels():
+    """``halved``: octave -1 alone at the image's resolution, then Lowe's octaves 0, 1... at
+    2, 4... pixels, each starting from blur sigma / 2 in its own pixels, down to the same
+    smallest octave as the merged layout."""
+    image = np.zeros((64, 80), dtype=np.uint8)
+    octaves = build_scale_space(image, 1.6, 3, fine=True, halved=True)
+    assert [o.index for o in octaves] == list(range(-1, len(octaves) - 1))
+    assert [o.step_px for o in octaves] == [2 ** i for i in range(len(octaves))]
+    assert all(o.sigma_px == 0.8 and o.extrema_layers == 3 for o in octaves)
+    assert octaves[0].gaussian.shape == (6, 64, 80)
+    assert octaves[1].gaussian.shape == (6, 32, 40)
+    merged = build_scale_space(image, 1.6, 3, fine=True)
+    assert octaves[-1].gaussian.shape == merged[-1].gaussian.shape
 
 
 @pytest.fixture(scope="module")
@@ -98,6 +116,28 @@ def test_octaves_from_zero_agree_with_opencv(omni_grey):
     assert regular.sum() > 50
     assert same.mean() > 0.8
     assert np.median(d[same]) < 0.05
+
+
+def test_halved_octaves_agree_with_opencv_at_half_the_sigma(omni_grey):
+    """The halved layout is the pyramid of a SIFT of sigma / 2 on the undoubled image:
+    OpenCV's octaves 0, 1, ... of ``SIFT(sigma=0.8)`` (it doubles only for its octave -1),
+    as the descriptor of every native layout uses it. Most of OpenCV's keypoints there are
+    detected at the same position and size."""
+    grey, mask = omni_grey
+    sift = cv2.SIFT_create(0, 3, 0.06, 2.0, 0.8, enable_precise_upscale=True)
+    keypoints = sift.detect(grey, mask)
+    octave = np.array([(k.octave & 255) - 256 * ((k.octave & 255) >= 128) for k in keypoints])
+    xy = np.array([k.pt for k in keypoints])[octave >= 0]
+    size = np.array([k.size for k in keypoints])[octave >= 0]
+    found = detect_keypoints(grey, mask, fine=True, halved=True, **SIFT)
+    d, j = cKDTree(np.column_stack([found.x, found.y])).query(xy)
+    same = (d < SAME_POSITION_PX) & (np.abs(2 * found.sigma[j] / size - 1) < SAME_SIZE)
+    assert xy.shape[0] > 50
+    # measured 0.70 (OpenCV's octave 0 starts from its doubled image, not bit-identical)
+    assert same.mean() > 0.6
+    assert np.median(d[same]) < 0.1
+    # the same layout labels octaves as Lowe's: -1 at the image's pixels, 0 at every second
+    assert set(np.unique(found.octave)) >= {-1, 0}
 
 
 def test_the_native_fine_octave_finds_what_opencv_finds_on_the_doubled_image(omni_grey):
