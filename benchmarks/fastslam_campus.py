@@ -18,8 +18,9 @@ wall-clock time (its steps and final estimate)::
 Every run replays one front-end log of the folder with no image processed (``run_frontend(...,
 max_images=0)``, written to a temporary folder): the wheel odometry and the pole sightings,
 which is what the shared front end's log of a render carries in its range-bearing stream (laser
-odometry and laser landmarks are off on renders, ``frontend.config``) without its ~15 CPU-min of
-SIFT tracks, which no estimator here reads (``modality=range-bearing-2d``).
+odometry and laser landmarks are off on renders, ``frontend.config``) without its image front
+end (SIFT tracks of the ~2 500 images, in worker processes), which no estimator here reads
+(``modality=range-bearing-2d``).
 """
 
 from __future__ import annotations
