@@ -18,7 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from omnislam.core.compatibility import Decision, decide, jcbb
+from omnislam.core.compatibility import (
+    Decision,
+    Pairings,
+    decide_on_kept_support,
+    innovation_widening,
+)
 from omnislam.core.gating import YOUNG_GATE_FACTOR, chi_square_gate
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.motion import OdometryMotionModel
@@ -245,13 +250,13 @@ class EKFSLAM:
         pairings = frame_pairings(
             state.pose, state.block(cols), state.landmarks[free], z, R, self.model
         )
-        result = jcbb(pairings, self.config.gate_probability)
-        decisions = decide(
-            result,
-            pairings.groups,
+        result, decisions = decide_on_kept_support(
+            pairings,
+            self.config.gate_probability,
             self._gate,
             self._new_gate,
             self.config.ambiguity_margin,
+            self.config.support_sigma_ratio,
         )
         self._unsupported_loops(decisions, result.assignment, pairings)
         to_tentative: list[int] = []
@@ -269,7 +274,7 @@ class EKFSLAM:
         return to_tentative
 
     def _unsupported_loops(
-        self, decisions: np.ndarray, assignment: np.ndarray, pairings: object
+        self, decisions: np.ndarray, assignment: np.ndarray, pairings: Pairings
     ) -> None:
         """Mark AMBIGUOUS (in place) the pairings of a frame that would close a loop alone.
 
@@ -283,13 +288,8 @@ class EKFSLAM:
         paired = np.flatnonzero(decisions == Decision.PAIRED)
         if len(paired) >= self.config.loop_min_pairings or not len(paired):
             return
-        P = pairings.covariance  # type: ignore[attr-defined]
         for i in paired:
-            H = pairings.jacobians[i, assignment[i]]  # type: ignore[attr-defined]
-            R = pairings.noise[i]  # type: ignore[attr-defined]
-            white = np.linalg.cholesky(np.linalg.inv(R))
-            widest = float(np.linalg.eigvalsh(white.T @ (H @ P @ H.T + R) @ white)[-1])
-            if widest > self.config.loop_sigma_ratio**2:
+            if innovation_widening(pairings, i, assignment[i]) > self.config.loop_sigma_ratio:
                 decisions[i] = Decision.AMBIGUOUS
 
     def _tentative_step(self, rows: list[int], z_all: np.ndarray, R_all: np.ndarray) -> None:

@@ -32,11 +32,23 @@ to fine. The match is
 to the increment's own parameters (x, y, theta) and widened by independent stds ``min_sigma``
 + ``sigma_per_m`` x the distance travelled + ``sigma_per_rad`` x the rotation (the config
 docstring gives the values and the NEES they reach).
+
+**Determinism.** open3d (0.20, oneTBB) parallelises the ICP's correspondence search and its
+``J^T J`` / ``J^T r`` sums across threads, whose work stealing merges the threads' partial sums in
+an order that varies from run to run: the same scans then give increments that differ in the
+last bits, and through the submap (placed with the laser odometry itself) the whole chain
+drifts apart (two ``omnislam frontend carmen-aces`` runs: 439 of 440 increments differ, up to
+1.7 cm). The registration and the submap thinning therefore run with open3d limited to one
+thread (``open3d.utility.set_max_threads``; the previous limit restored afterwards), which
+makes them bit-reproducible at little cost for a scan's few hundred points (aces' 440 scans,
+interleaved runs on a loaded 2-core machine: 2.1-2.5 s on one thread, 1.4-2.4 s on two).
 """
 
 from __future__ import annotations
 
 import enum
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,6 +136,25 @@ def _cloud(o3d: object, points: np.ndarray, normals: np.ndarray | None = None) -
     return cloud
 
 
+@contextmanager
+def _one_thread(o3d: object) -> Iterator[None]:
+    """Limit open3d to one thread inside the block (module docstring, "Determinism").
+
+    An open3d without ``set_max_threads`` (older releases parallelised with OpenMP) is left as
+    it is: there ``OMP_NUM_THREADS=1`` gives the same guarantee.
+    """
+    utility = o3d.utility  # type: ignore[attr-defined]
+    if not hasattr(utility, "set_max_threads") or utility.get_max_threads() == 1:
+        yield  # (changing the limit rebuilds TBB's arena: ~2 ms, so a sequence sets it once)
+        return
+    previous = utility.get_max_threads()
+    utility.set_max_threads(1)
+    try:
+        yield
+    finally:
+        utility.set_max_threads(previous)
+
+
 def _left_to_delta(delta: np.ndarray) -> np.ndarray:
     """Jacobian of the increment's (x, y, theta) w.r.t. a left perturbation (dx, dy, dtheta)
     applied in the previous frame: ``exp(xi) * T`` moves the translation by ``dtheta x t``."""
@@ -161,13 +192,14 @@ def match_scans(
     init = np.eye(4)
     init[:2, :2], init[:2, 3] = transform[:2, :2], transform[:2, 2]
     result = None
-    for distance in config.correspondence_distances_m:  # coarse to fine
-        result = registration.registration_icp(
-            src, tgt, distance, init,
-            registration.TransformationEstimationPointToPlane(),
-            registration.ICPConvergenceCriteria(max_iteration=config.max_iterations),
-        )
-        init = np.asarray(result.transformation)
+    with _one_thread(o3d):  # bit-reproducible sums (module docstring)
+        for distance in config.correspondence_distances_m:  # coarse to fine
+            result = registration.registration_icp(
+                src, tgt, distance, init,
+                registration.TransformationEstimationPointToPlane(),
+                registration.ICPConvergenceCriteria(max_iteration=config.max_iterations),
+            )
+            init = np.asarray(result.transformation)
     assert result is not None
     T = np.asarray(result.transformation)
     planar = np.eye(3)
@@ -272,36 +304,39 @@ def laser_odometry(
     pose = np.zeros(3)  # laser-odometry chain pose of the previous scanned frame
     pending = np.zeros(3)  # wheel motion since the previous scanned frame
     skipped = 0  # frames without a scan since then
-    for i in range(n):
-        if i > 0:
-            pending = se2_compose(pending, odometry_r[i])
-        if np.all(np.isnan(ranges_m[i])):
-            skipped += 1
-            continue
-        points = scan_points(angles_rad, ranges_m[i], max_range_m, config)
-        if history and i > 0:
-            previous_pose = history[-1][0]
-            world = np.concatenate([pts for _, pts in history[-config.submap_scans:]])
-            target = se2_transform_points(se2_inverse(previous_pose), world)
-            if config.submap_radius_m is not None:
-                target = target[np.hypot(target[:, 0], target[:, 1]) <= config.submap_radius_m]
-            if config.submap_voxel_m > 0 and len(history) > 1:
-                target = _voxel(target, config.submap_voxel_m)
-            match = match_scans(points, target, pending, config)
-            reasons[i] = match.reason.value
-            if match.accepted and skipped == 0:  # one frame's increment, not several
-                deltas[i], covs[i], accepted[i] = match.delta, match.covariance, True
-            step = match.delta if match.accepted else pending
-            pose = se2_compose(previous_pose, step)
-        history.append((pose.copy(), se2_transform_points(pose, points)))
-        del history[: -max(config.submap_scans, 1)]
-        pending = np.zeros(3)
-        skipped = 0
+    with _one_thread(require("open3d")):  # once for the whole chain (_one_thread)
+        for i in range(n):
+            if i > 0:
+                pending = se2_compose(pending, odometry_r[i])
+            if np.all(np.isnan(ranges_m[i])):
+                skipped += 1
+                continue
+            points = scan_points(angles_rad, ranges_m[i], max_range_m, config)
+            if history and i > 0:
+                previous_pose = history[-1][0]
+                world = np.concatenate([pts for _, pts in history[-config.submap_scans:]])
+                target = se2_transform_points(se2_inverse(previous_pose), world)
+                if config.submap_radius_m is not None:
+                    target = target[np.hypot(target[:, 0], target[:, 1]) <= config.submap_radius_m]
+                if config.submap_voxel_m > 0 and len(history) > 1:
+                    target = _voxel(target, config.submap_voxel_m)
+                match = match_scans(points, target, pending, config)
+                reasons[i] = match.reason.value
+                if match.accepted and skipped == 0:  # one frame's increment, not several
+                    deltas[i], covs[i], accepted[i] = match.delta, match.covariance, True
+                step = match.delta if match.accepted else pending
+                pose = se2_compose(previous_pose, step)
+            history.append((pose.copy(), se2_transform_points(pose, points)))
+            del history[: -max(config.submap_scans, 1)]
+            pending = np.zeros(3)
+            skipped = 0
     return LaserOdometry(deltas, covs, accepted, tuple(reasons))
 
 
 def _voxel(points: np.ndarray, size_m: float) -> np.ndarray:
     """One point per occupied ``size_m`` cell, the mean of the cell's points (open3d's
     ``voxel_down_sample`` on the points at z = 0; its grid starts at the points' lower bound)."""
-    thinned = _cloud(require("open3d"), points).voxel_down_sample(size_m)  # type: ignore[attr-defined]
+    o3d = require("open3d")
+    with _one_thread(o3d):
+        thinned = _cloud(o3d, points).voxel_down_sample(size_m)  # type: ignore[attr-defined]
     return np.asarray(thinned.points)[:, :2]

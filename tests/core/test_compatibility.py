@@ -7,7 +7,16 @@ import itertools
 import numpy as np
 import pytest
 
-from omnislam.core.compatibility import UNPAIRED, Decision, Pairings, decide, jcbb, joint_gates
+from omnislam.core.compatibility import (
+    UNPAIRED,
+    Decision,
+    Pairings,
+    decide,
+    decide_on_kept_support,
+    innovation_widening,
+    jcbb,
+    joint_gates,
+)
 from omnislam.core.gating import chi_square_gate
 
 #: D2 of the search and of the direct stacked solve agree to this (relative)
@@ -188,3 +197,47 @@ def test_a_pairing_jcbb_leaves_out_is_rejected_not_new():
         result, pairings.groups, chi_square_gate(0.99, 2), chi_square_gate(0.9999, 2)
     )
     np.testing.assert_array_equal(decisions, [Decision.PAIRED, Decision.PAIRED, Decision.REJECTED])
+
+
+def test_a_kept_pairing_that_leaned_on_a_dropped_one_is_tested_again_alone():
+    gate, new_gate = chi_square_gate(0.99, 2), chi_square_gate(0.9999, 2)
+    # a pose 3 m uncertain, two sightings 1 m apart: {0 -> a, 1 -> b} fits exactly, {0 -> a,
+    # 1 -> c} nearly (c is 5 cm from b), so sighting 1 is ambiguous; alone, sighting 0 fits d
+    # better than a, and only the pair {a, b} made a its landmark (carmen-aces frame 221)
+    a, b, c, d = [2.0, 0.0], [3.0, 0.0], [3.0, 0.05], [1.5, 0.0]
+    sightings = np.array([[0.0, 0.0], [1.0, 0.0]])
+    pairings = translation_pairings(sightings, np.array([a, b, c, d]), 3.0, 0.05)
+    result = jcbb(pairings, 0.99)
+    np.testing.assert_array_equal(result.assignment, [0, 1])
+    plain = decide(result, pairings.groups, gate, new_gate, 4.6)
+    np.testing.assert_array_equal(plain, [Decision.PAIRED, Decision.AMBIGUOUS])
+    widening = innovation_widening(pairings, 0, 0)
+    np.testing.assert_allclose(widening, np.sqrt(3.0**2 + 0.05**2) / 0.05, rtol=1e-12)
+    again, decisions = decide_on_kept_support(pairings, 0.99, gate, new_gate, 4.6, 20.0)
+    np.testing.assert_array_equal(again.assignment, result.assignment)
+    np.testing.assert_array_equal(decisions, [Decision.AMBIGUOUS, Decision.AMBIGUOUS])
+    # a pairing narrower than the ratio is not held to it: plain decide
+    _, narrow = decide_on_kept_support(pairings, 0.99, gate, new_gate, 4.6, widening + 1.0)
+    np.testing.assert_array_equal(narrow, plain)
+    # a pose 0.5 m uncertain (still 50 times the noise): alone, sighting 0 takes a by a
+    # margin (b and c lie 1.3 m off), so its pairing stands
+    near = translation_pairings(
+        sightings, np.array([[0.3, 0.0], [1.3, 0.0], [1.3, 0.01]]), 0.5, 0.01
+    )
+    assert innovation_widening(near, 0, 0) > 20.0
+    _, kept = decide_on_kept_support(near, 0.99, gate, new_gate, 4.6, 20.0)
+    np.testing.assert_array_equal(kept, [Decision.PAIRED, Decision.AMBIGUOUS])
+
+
+def test_kept_support_changes_nothing_when_decide_drops_nothing(rng):
+    gate, new_gate = chi_square_gate(0.99, 2), chi_square_gate(0.9999, 2)
+    for _ in range(20):
+        pairings = random_pairings(rng, 3, 4, 5)
+        result = jcbb(pairings, 0.99)
+        plain = decide(result, pairings.groups, gate, new_gate, 4.6)
+        _, decisions = decide_on_kept_support(pairings, 0.99, gate, new_gate, 4.6, 1.0)
+        dropped = (result.assignment != UNPAIRED) & (plain != Decision.PAIRED)
+        if not dropped.any():
+            np.testing.assert_array_equal(decisions, plain)
+        else:  # it only ever drops more
+            assert np.all(decisions[plain != Decision.PAIRED] == plain[plain != Decision.PAIRED])

@@ -210,3 +210,41 @@ def test_the_submap_thinning_keeps_one_mean_point_per_cell():
     order = np.argsort(thinned[:, 0])
     expected = [points[:2].mean(axis=0), points[2:].mean(axis=0)]
     np.testing.assert_allclose(thinned[order], expected, atol=1e-9)
+
+
+def test_registration_runs_on_one_open3d_thread_and_repeats_bit_for_bit(monkeypatch):
+    # open3d's multi-threaded sums merge in a run-dependent order (scan_matching docstring,
+    # "Determinism"); two threads here rarely differ on a synthetic room, so the test checks
+    # both the cause (one thread inside every ICP call, the caller's limit restored) and the
+    # effect (identical increments and covariances over repeated registrations)
+    import open3d as o3d
+
+    if not hasattr(o3d.utility, "set_max_threads"):
+        pytest.skip("this open3d has no thread limit (OpenMP builds: OMP_NUM_THREADS=1)")
+    registration = o3d.pipelines.registration
+    icp = registration.registration_icp
+    threads_seen = []
+
+    def spy(*args, **kwargs):
+        threads_seen.append(o3d.utility.get_max_threads())
+        return icp(*args, **kwargs)
+
+    monkeypatch.setattr(registration, "registration_icp", spy)
+    rng = np.random.default_rng(5)
+    a = np.array([2.0, 1.5, 0.3])
+    motion = np.array([0.4, -0.05, 0.15])
+    target = points(cast(a, ROOM, 0.02, rng))
+    source = points(cast(se2_compose(a, motion), ROOM, 0.02, rng))
+    guess = motion + np.array([0.05, -0.03, np.deg2rad(2.0)])
+    o3d.utility.set_max_threads(0)  # the automatic default: every core
+    automatic = o3d.utility.get_max_threads()
+    try:
+        matches = [match_scans(source, target, guess, LaserOdometryConfig()) for _ in range(10)]
+        assert o3d.utility.get_max_threads() == automatic
+    finally:
+        o3d.utility.set_max_threads(0)
+    assert threads_seen and set(threads_seen) == {1}
+    assert matches[0].reason is Reason.ACCEPTED
+    for match in matches[1:]:
+        np.testing.assert_array_equal(match.delta, matches[0].delta)
+        np.testing.assert_array_equal(match.covariance, matches[0].covariance)
