@@ -110,6 +110,7 @@ FORMATS: dict[DatasetFormat, FormatSpec] = {
             "association": Association.parse,
             "sigma_range_m": _positive_float,
             "sigma_bearing_rad": _positive_float,
+            "odometry_sigma_theta_rad": _positive_float,
         },
     ),
     DatasetFormat.CARMEN: FormatSpec(

@@ -87,3 +87,15 @@ def test_registry_passes_the_noise_options_to_the_loader():
     first = next(rb for rb in seq.range_bearing if rb is not None)
     assert first.sigma_bearing_rad[0] == pytest.approx(0.06)
     assert first.sigma_range_m[0] == pytest.approx(np.sqrt(0.4))
+
+
+@needs_file
+def test_stated_odometry_heading_noise_can_be_overridden():
+    file_noise = load_gtsam_victoria(GTSAM_FILE)
+    restated = load_gtsam_victoria(GTSAM_FILE, odometry_sigma_theta_rad=0.014)
+    assert np.array_equal(file_noise.odometry_r, restated.odometry_r)
+    assert np.allclose(restated.odometry_covariance_r[1:, 2, 2], 0.014**2)
+    assert np.array_equal(
+        file_noise.odometry_covariance_r[:, :2, :2], restated.odometry_covariance_r[:, :2, :2]
+    )
+    assert restated.info["odometry_sigmas"] == "0.01 0.002 0.014"
