@@ -15,7 +15,8 @@ is a *wrong pairing*. Printed per dataset:
   (9.2) the estimate itself holds them apart;
 * the merges of the loop closure, each marked right or wrong by the hidden ids.
 
-The estimator runs with its defaults; ``--set key=value`` overrides them (as ``omnislam run``).
+The estimator runs with its defaults; ``--set key=value`` overrides them, or the loader's options
+(e.g. ``sigma_bearing_rad``), as ``omnislam run`` does.
 The decision hook wraps ``RangeBearingGraph._add_decided`` of this process only::
 
     PYTHONPATH=. OMNISLAM_DATA=../shared/data .venv/bin/python benchmarks/association_diagnosis.py
@@ -42,8 +43,11 @@ GATE_99 = 9.21
 
 def diagnose(dataset: str, options: dict[str, str]) -> None:
     """Run, score and print one dataset (see the module docstring)."""
-    labelled = {f.index: f.range_bearing for f in load_dataset(resolve(dataset), {}).frame_inputs()}
-    sequence = load_dataset(resolve(dataset), {"association": "unknown"})
+    resolved = resolve(dataset)
+    loader = {k: v for k, v in options.items() if k in resolved.option_names()}
+    options = {k: v for k, v in options.items() if k not in loader}
+    labelled = {f.index: f.range_bearing for f in load_dataset(resolved, loader).frame_inputs()}
+    sequence = load_dataset(resolved, {**loader, "association": "unknown"})
     frames = list(sequence.frame_inputs())
     decided: list[tuple[int, int, int, str]] = []  # (frame, hidden id, landmark or -1, decision)
     original = range_bearing.RangeBearingGraph._add_decided
@@ -93,10 +97,23 @@ def diagnose(dataset: str, options: dict[str, str]) -> None:
     for lid in active:
         mapped_as[name[lid]].append(lid)
     base = range_bearing.CREATED_ID_BASE
-    print(f"\n{dataset} {options or ''}")
+    print(f"\n{dataset} {loader or ''} {options or ''}")
     print(
         f"  decisions: {dict(counts)}; wrong pairings {len(wrong)} "
         f"(first frames {sorted({k for k, *_ in wrong})[:12]})"
+    )
+    # named after the sighting that started it, a landmark is wrong from its first foreign pairing
+    # on (the majority name above blames a landmark's first sightings once another tree's
+    # sightings outnumber them)
+    creator = {lid: t for _, t, lid, d in decided if d == Decision.NEW.name}
+    first = [
+        (k, t, creator.get(lid, t))
+        for k, t, lid, d in decided
+        if d == Decision.PAIRED.name and creator.get(lid, t) != t
+    ]
+    print(
+        f"  pairings with a landmark started by another hidden id: {len(first)}; the first "
+        + ", ".join(f"frame {k}: {t} given {c}'s" for k, t, c in first[:6])
     )
     print(
         f"  landmarks in the map {len(active)} for {len(mapped_as)} true ones; true landmarks "

@@ -133,6 +133,9 @@ def load_gtsam_victoria(
     *,
     association: Association = Association.KNOWN,
     name: str | None = None,
+    sigma_range_m: float | None = None,
+    sigma_bearing_rad: float | None = None,
+    odometry_sigma_theta_rad: float | None = None,
 ) -> Sequence:
     """Load gtsam's ``victoria_park.txt`` (or any file in that format) as a Sequence.
 
@@ -140,6 +143,12 @@ def load_gtsam_victoria(
         path: the file; None finds gtsam's copy.
         association: KNOWN keeps the file's landmark ids, UNKNOWN hides them.
         name: sequence name (default: the file's stem).
+        sigma_range_m, sigma_bearing_rad: sighting noise given to the estimators instead of the
+            file's (``--set sigma_range_m=... --set sigma_bearing_rad=...``, as for the raw
+            ``victoria-park``); None keeps the file's, gtsam's ``load2D`` conversion. The
+            reference (``compare.reference``) is always the optimum with the file's noise.
+        odometry_sigma_theta_rad: heading std of every odometry step given to the estimators
+            instead of the file's [rad] (the translation sigmas stay the file's); None keeps it.
 
     Returns:
         The Sequence: one frame per pose of the odometry chain (stamp = pose index), each frame's
@@ -171,10 +180,17 @@ def load_gtsam_victoria(
             f"a sighting refers to pose {bad}, which is not in the odometry chain", path
         )
     stamps = np.arange(len(pose_ids), dtype=float)
+    if odometry_sigma_theta_rad is not None:
+        sigmas = sigmas.copy()
+        sigmas[:, 2] = odometry_sigma_theta_rad
     odometry = np.vstack([np.zeros(3), deltas])
     # the file gives each sighting its own sigma; gtsam's LANDMARK records all share one
     sigma_range = float(np.median(sightings[:, 4])) if len(sightings) else 1.0
     sigma_bearing = float(np.median(sightings[:, 5])) if len(sightings) else 1.0
+    if sigma_range_m is not None:
+        sigma_range = sigma_range_m
+    if sigma_bearing_rad is not None:
+        sigma_bearing = sigma_bearing_rad
     ids = sightings[:, 1].astype(np.int64)
     range_bearing = group_sightings(
         stamps,

@@ -106,7 +106,12 @@ FORMATS: dict[DatasetFormat, FormatSpec] = {
     DatasetFormat.GTSAM_GRAPH: FormatSpec(
         "omnislam.datasets.gtsam_victoria:is_gtsam_graph_file",
         "omnislam.datasets.gtsam_victoria:load_gtsam_victoria",
-        {"association": Association.parse},
+        {
+            "association": Association.parse,
+            "sigma_range_m": _positive_float,
+            "sigma_bearing_rad": _positive_float,
+            "odometry_sigma_theta_rad": _positive_float,
+        },
     ),
     DatasetFormat.CARMEN: FormatSpec(
         "omnislam.datasets.carmen:is_carmen_log",

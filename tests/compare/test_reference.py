@@ -179,3 +179,21 @@ def test_runs_on_a_gtsam_graph_are_scored_against_the_lm_optimum(prefix, associa
         plain = evaluate_run(execute_run(RunSpec(str(prefix), "graphslam", options=options)))
         assert plain.ate.rmse_m < 0.02
         assert plain.landmarks.matched == 52
+
+
+def test_restated_noise_leaves_the_reference_the_optimum_of_the_files_noise(prefix):
+    """The loader options that restate the noise change what the run sees, not what it is
+    scored against: the reference stays the optimum of the file's own stated noise."""
+    from omnislam.datasets.gtsam_victoria import load_gtsam_victoria
+    from omnislam.datasets.registry import DatasetFormat
+
+    restated = load_gtsam_victoria(
+        prefix, sigma_range_m=0.25, sigma_bearing_rad=0.05, odometry_sigma_theta_rad=0.014
+    )
+    truth, name = ref.reference_for(DatasetFormat.GTSAM_GRAPH, prefix, restated)
+    assert name == ref.REFERENCE_LM_OPTIMUM
+    poses, _ = independent_lm(prefix)  # gtsam's load2D: the file's noise
+    np.testing.assert_allclose(truth.trajectory.se2[:, :2], poses[:, :2], atol=OPTIMUM_TOL_M)
+    # while the optimum of the restated noise is elsewhere
+    moved = ref.compute_lm_reference(restated)
+    assert np.abs(moved.poses_w[:, :2] - poses[:, :2]).max() > 10 * OPTIMUM_TOL_M

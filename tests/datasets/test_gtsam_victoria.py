@@ -57,3 +57,45 @@ def test_bad_input(tmp_path, text, message):
     with pytest.raises(DataError, match=message) as info:
         load_gtsam_victoria(path)
     assert str(info.value).startswith(str(path))
+
+
+@needs_file
+def test_stated_sighting_noise_can_be_overridden_and_the_rest_is_unchanged():
+    file_noise = load_gtsam_victoria(GTSAM_FILE)
+    restated = load_gtsam_victoria(GTSAM_FILE, sigma_range_m=0.25, sigma_bearing_rad=0.05)
+    pairs = [
+        (a, b)
+        for a, b in zip(file_noise.range_bearing, restated.range_bearing, strict=True)
+        if a is not None
+    ]
+    assert len(pairs) == 3331
+    for a, b in pairs:
+        assert np.all(b.sigma_range_m == 0.25)
+        assert np.all(b.sigma_bearing_rad == 0.05)
+        assert np.array_equal(a.ranges_m, b.ranges_m)
+        assert np.array_equal(a.bearings_rad, b.bearings_rad)
+        assert np.array_equal(a.landmark_ids, b.landmark_ids)
+    assert np.array_equal(file_noise.odometry_covariance_r, restated.odometry_covariance_r)
+    assert restated.info["sigma_bearing_rad"] == "0.05"
+
+
+@needs_file
+def test_registry_passes_the_noise_options_to_the_loader():
+    from omnislam.datasets.registry import load_dataset, resolve
+
+    seq = load_dataset(resolve("victoria-park-gtsam"), {"sigma_bearing_rad": "0.06"})
+    first = next(rb for rb in seq.range_bearing if rb is not None)
+    assert first.sigma_bearing_rad[0] == pytest.approx(0.06)
+    assert first.sigma_range_m[0] == pytest.approx(np.sqrt(0.4))
+
+
+@needs_file
+def test_stated_odometry_heading_noise_can_be_overridden():
+    file_noise = load_gtsam_victoria(GTSAM_FILE)
+    restated = load_gtsam_victoria(GTSAM_FILE, odometry_sigma_theta_rad=0.014)
+    assert np.array_equal(file_noise.odometry_r, restated.odometry_r)
+    assert np.allclose(restated.odometry_covariance_r[1:, 2, 2], 0.014**2)
+    assert np.array_equal(
+        file_noise.odometry_covariance_r[:, :2, :2], restated.odometry_covariance_r[:, :2, :2]
+    )
+    assert restated.info["odometry_sigmas"] == "0.01 0.002 0.014"
