@@ -139,8 +139,10 @@ class TrajectoryMode(Enum):
     WEIGHTED_MEAN: per step, the weighted mean of the particles (circular mean of the heading)
         with their weighted covariance. O(1) memory per step.
     BEST_ANCESTRY: the path of the current best particle, traced back through the resampling
-        ancestry (the FastSLAM path posterior sample). Stores every particle's pose at every
-        step: O(P) memory per step.
+        ancestry (the FastSLAM path posterior sample), with each step's weighted second moment
+        of the particle set about that path's pose as its covariance (the mean read-out's
+        covariance plus the offset's outer product, ``PathHistory.covariances_about``). Stores
+        every particle's pose at every step: O(P) memory per step.
     """
 
     WEIGHTED_MEAN = "weighted_mean"

@@ -316,7 +316,8 @@ class FastSLAM:
         """
         best = self._particles.best()
         if self.config.trajectory is TrajectoryMode.BEST_ANCESTRY:
-            trajectory, pose_covariances = self._history.ancestry_trajectory(best), None
+            trajectory = self._history.ancestry_trajectory(best)
+            pose_covariances = self._history.covariances_about(trajectory.se2)
         else:
             trajectory, pose_covariances = self._history.mean_trajectory()
         if self._store.n_landmarks == 0:
