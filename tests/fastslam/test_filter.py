@@ -201,6 +201,52 @@ def test_exclusive_choice_is_a_greedy_assignment():
     np.testing.assert_array_equal(chosen, [[-2.0, -6.0, -0.5], [-1.0, -1.5, -6.0]])
 
 
+def _one_tree_frames(seen_in_second: bool):
+    """Three frames 0.5 m apart seeing one tree (unknown id) 5 m ahead; the second frame's
+    sighting left out when not ``seen_in_second``."""
+    frames = []
+    for k in range(3):
+        ranges = np.array([5.0 - 0.5 * k])
+        sighting = RangeBearing(np.array([UNKNOWN_ID]), ranges, np.array([0.02]), 0.1, 0.01)
+        seen = k != 1 or seen_in_second
+        delta = np.array([0.5 if k else 0.0, 0.0, 0.0])
+        frames.append(
+            FrameInput(k, Odometry(delta, float(k)), range_bearing=sighting if seen else None)
+        )
+    return frames
+
+
+@pytest.mark.parametrize("confirm", [1, 2])
+def test_a_tentative_landmark_neither_weighs_nor_refines_the_proposal(confirm):
+    """``confirm_sightings=2``: the first re-sighting of a landmark without id updates it but
+    leaves FastSLAM 1.0's particles equally weighted (every particle gets p0), and FastSLAM 2.0
+    draws from the motion model as in a frame without sightings; the next re-sighting weighs.
+    With 1 (the default) the first re-sighting already weighs and refines."""
+    one = _config(Variant.FASTSLAM1, 20, confirm_sightings=confirm)
+    slam = _slam(one, 5)
+    frames = _one_tree_frames(seen_in_second=True)
+    spread = []
+    for frame in frames:
+        slam.step(frame)
+        spread.append(np.ptp(slam.particles.log_weights) if slam.resample_count == 0 else None)
+        assert slam.estimate().landmark_ids.size == 1  # always the same landmark
+    assert spread[0] == 0.0  # a new landmark: p0 in every particle
+    assert (spread[1] == 0.0) == (confirm == 2)
+    assert spread[2] is None or spread[2] > 0.0
+    two = _config(Variant.FASTSLAM2, 20, confirm_sightings=confirm)
+    seen, blind = _slam(two, 5), _slam(two, 5)
+    for frame_seen, frame_blind in zip(frames[:2], _one_tree_frames(seen_in_second=False)[:2]):
+        seen.step(frame_seen)
+        blind.step(frame_blind)
+    same = np.array_equal(seen.particles.poses, blind.particles.poses)
+    assert same == (confirm == 2)
+
+
+def test_confirm_sightings_must_be_positive():
+    with pytest.raises(ConfigError):
+        FastSLAMConfig(confirm_sightings=0)
+
+
 def test_a_frame_may_mix_known_and_unknown_ids():
     """Known ids map to their slots, an unknown sighting gets a new landmark: both mapped."""
     frame = FrameInput(
