@@ -235,7 +235,8 @@ def test_a_tentative_landmark_neither_weighs_nor_refines_the_proposal(confirm):
     assert spread[2] is None or spread[2] > 0.0
     two = _config(Variant.FASTSLAM2, 20, confirm_sightings=confirm)
     seen, blind = _slam(two, 5), _slam(two, 5)
-    for frame_seen, frame_blind in zip(frames[:2], _one_tree_frames(seen_in_second=False)[:2]):
+    blind_frames = _one_tree_frames(seen_in_second=False)
+    for frame_seen, frame_blind in zip(frames[:2], blind_frames[:2], strict=True):
         seen.step(frame_seen)
         blind.step(frame_blind)
     same = np.array_equal(seen.particles.poses, blind.particles.poses)
