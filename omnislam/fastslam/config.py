@@ -139,8 +139,10 @@ class TrajectoryMode(Enum):
     WEIGHTED_MEAN: per step, the weighted mean of the particles (circular mean of the heading)
         with their weighted covariance. O(1) memory per step.
     BEST_ANCESTRY: the path of the current best particle, traced back through the resampling
-        ancestry (the FastSLAM path posterior sample). Stores every particle's pose at every
-        step: O(P) memory per step.
+        ancestry (the FastSLAM path posterior sample), with each step's weighted second moment
+        of the particle set about that path's pose as its covariance (the mean read-out's
+        covariance plus the offset's outer product, ``PathHistory.covariances_about``). Stores
+        every particle's pose at every step: O(P) memory per step.
     """
 
     WEIGHTED_MEAN = "weighted_mean"
@@ -266,6 +268,18 @@ class FastSLAMConfig:
             0-2 from 9.44 to 4.93 m, but on MR.CLAM 6 without ids (seed 0) it is worse on four
             of five robots with more landmarks on all, and CARMEN was not measured
             (docs/results.md, "Victoria Park: FastSLAM against GPS").
+        confirm_sightings: a landmark of unknown association (a sighting without id that a
+            particle made a new landmark) is tentative until that particle has seen it this
+            many times, the first sighting included (the provisional landmarks of Montemerlo
+            2003 ch. 4; the thesis's existence index, sec. 5.1.2, counts the same sightings): a
+            sighting paired with a tentative landmark updates it but neither refines the
+            FastSLAM 2.0 proposal nor weighs with its innovation likelihood -- its weight
+            factor is p0, a new landmark's -- so a landmark born of a spurious or wrongly
+            chained sighting cannot select particles until it is confirmed. Landmarks with ids
+            are never tentative. 1 (default): every landmark counts from its first
+            re-sighting. Measured on carmen-aces (one front-end log, seeds 0-9, median ATE
+            fastslam1 / fastslam2): 1.93 / 1.81 m at 1, 1.96 / 2.37 m at 2, fastslam2 1.86 m
+            at 3 -- no gain, so it stays off (docs/results.md, "CARMEN aces, fifth attempt").
         bearing_gate_probability: 3-D only: a bearing innovation whose squared Mahalanobis
             distance exceeds the chi-square quantile of this probability (degrees of freedom = the
             measurement's dimension) is an outlier -- a feature track that jumped to another
@@ -321,6 +335,7 @@ class FastSLAMConfig:
     new_landmark_log_likelihood: float = -6.0
     association_margin_m: float = 3.0
     association_exclusive: bool = False
+    confirm_sightings: int = 1
     bearing_gate_probability: float = 0.999
     outlier_gate_probability: float = 1.0
     proposal_update: ProposalUpdateMode = ProposalUpdateMode.SEQUENTIAL
@@ -341,6 +356,8 @@ class FastSLAMConfig:
             raise ConfigError("resample_ess_fraction must be in [0, 1]")
         if self.min_parallax_deg < 0 or self.association_margin_m < 0:
             raise ConfigError("min_parallax_deg and association_margin_m must be non-negative")
+        if self.confirm_sightings < 1:
+            raise ConfigError("confirm_sightings must be >= 1")
         if self.triangulated_ray_reuse < 1.0:
             raise ConfigError("triangulated_ray_reuse must be >= 1")
         if not 0.0 < self.bearing_gate_probability <= 1.0:

@@ -58,7 +58,7 @@ from omnislam.fastslam.resampling import (
     stratified_resample,
     systematic_resample,
 )
-from omnislam.fastslam.sightings import Pairs, Sightings
+from omnislam.fastslam.sightings import Pairs, Sightings, tentative_pairs
 from omnislam.fastslam.slot_registry import SlotRegistry
 
 _RESAMPLERS = {
@@ -209,7 +209,9 @@ class FastSLAM:
             config.new_landmark_log_likelihood,
             config.association_exclusive,
         )
-        self._proposal = ProposalSampler(self._mapper, config.proposal_update, motion, rng, kernels)
+        self._proposal = ProposalSampler(
+            self._mapper, config.proposal_update, motion, rng, kernels, config.confirm_sightings
+        )
         self._existence = (
             None
             if config.existence is None
@@ -295,6 +297,10 @@ class FastSLAM:
             )
             poses, log_factors, gathered = draw.poses, draw.log_factors, draw.block
             self._proposal_gated += draw.gated
+            if draw.tentative.any():  # a tentative landmark's sighting weighs as a new one
+                log_factors = log_factors + self.config.new_landmark_log_likelihood * np.bincount(
+                    pairs.particle[draw.tentative], minlength=len(particles)
+                )
         particles.poses = poses
         log_factors += self._update_landmarks(poses, sightings, pairs, gathered)
         if self._existence is not None:
@@ -316,7 +322,8 @@ class FastSLAM:
         """
         best = self._particles.best()
         if self.config.trajectory is TrajectoryMode.BEST_ANCESTRY:
-            trajectory, pose_covariances = self._history.ancestry_trajectory(best), None
+            trajectory = self._history.ancestry_trajectory(best)
+            pose_covariances = self._history.covariances_about(trajectory.se2)
         else:
             trajectory, pose_covariances = self._history.mean_trajectory()
         if self._store.n_landmarks == 0:
@@ -417,13 +424,28 @@ class FastSLAM:
         weigh = self.config.variant is Variant.FASTSLAM1
         for r in range(rounds):
             if rounds == 1:
-                who, slots, obs = pairs.particle, pairs.slot, pairs.obs
-                block = gathered if gathered is not None else self._store.gather(who, slots)
+                these = pairs
             else:
                 rows = np.flatnonzero(rank == r)
-                who, slots, obs = pairs.particle[rows], pairs.slot[rows], pairs.obs[rows]
+                these = Pairs(
+                    pairs.particle[rows], pairs.slot[rows], pairs.obs[rows], pairs.new_unknown[rows]
+                )
+            who, slots, obs = these.particle, these.slot, these.obs
+            if rounds == 1 and gathered is not None:
+                block = gathered
+            else:
                 block = self._store.gather(who, slots)
+            tentative = None
+            if weigh and self.config.confirm_sightings > 1:
+                tentative = tentative_pairs(
+                    these, sightings, block.existence, self.config.confirm_sightings
+                )
             log_likelihood = self._mapper.update(block, poses[who], sightings, obs)
+            if tentative is not None and tentative.any():
+                # a tentative landmark's sighting weighs as a new landmark's (p0)
+                log_likelihood = np.where(
+                    tentative, self.config.new_landmark_log_likelihood, log_likelihood
+                )
             if weigh:
                 temper = self.config.likelihood_temper
                 if temper != 1.0:

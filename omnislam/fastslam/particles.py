@@ -139,6 +139,23 @@ class PathHistory:
             path[t] = self._poses[t][index]
         return Trajectory.from_se2(np.array(self._stamps), path)
 
+    def covariances_about(self, path: np.ndarray) -> np.ndarray:
+        """(N, 3, 3) each step's weighted second moment of the particle set about ``path``.
+
+        E[(x - a)(x - a)^T] = Sigma + (mu - a)(mu - a)^T per step (mu, Sigma the recorded
+        weighted mean and covariance, a the reported pose; heading residual wrapped): the
+        filtered uncertainty of a pose the filter reports away from its weighted mean, so a
+        reported path gets the spread it came from plus its own offset from the mean.
+
+        Args:
+            path: (N, 3) the reported poses [m, m, rad], one per recorded step.
+        """
+        means = np.array(self._means).reshape(-1, 3)
+        covs = np.array(self._covs).reshape(-1, 3, 3)
+        offset = means - np.asarray(path, dtype=float).reshape(-1, 3)
+        offset[:, 2] = wrap_angle(offset[:, 2])
+        return covs + offset[:, :, None] * offset[:, None, :]
+
     def lineages(self) -> np.ndarray:
         """(N,) for every recorded step, how many distinct particles of that step the current
         set's paths pass through (1: every current path shares that pose).

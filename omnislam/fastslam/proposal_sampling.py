@@ -25,7 +25,7 @@ from omnislam.fastslam.config import ProposalUpdateMode
 from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkBlock, LandmarkStore
 from omnislam.fastslam.mapper import LandmarkMapper
 from omnislam.fastslam.proposal import _JITTER, joint_proposal, refine_proposal, sample_poses
-from omnislam.fastslam.sightings import Pairs, Sightings
+from omnislam.fastslam.sightings import Pairs, Sightings, tentative_pairs
 
 
 @dataclass(frozen=True, slots=True)
@@ -39,12 +39,15 @@ class ProposalDraw:
         gated: (particle, sighting) pairs the validation gate kept out of the proposal.
         block: the landmarks of all the pairs as gathered for the proposal (not modified), for
             the landmark update to reuse.
+        tentative: (N,) the pairs kept out of the proposal because their landmark is
+            tentative (``sightings.tentative_pairs``); their weight factor is the caller's.
     """
 
     poses: np.ndarray
     log_factors: np.ndarray
     gated: int
     block: LandmarkBlock
+    tentative: np.ndarray
 
 
 class ProposalSampler:
@@ -55,6 +58,8 @@ class ProposalSampler:
         mode: sequential or joint refinement.
         motion: the motion model (particles without usable sightings sample from it).
         rng: the filter's random generator.
+        confirm_sightings: landmarks of unknown association seen fewer times are tentative and
+            do not refine the proposal (``FastSLAMConfig.confirm_sightings``).
     """
 
     def __init__(
@@ -64,8 +69,10 @@ class ProposalSampler:
         motion: MotionModel,
         rng: np.random.Generator,
         kernels: object | None = None,
+        confirm_sightings: int = 1,
     ) -> None:
         self._mapper = mapper
+        self._confirm = confirm_sightings
         self._mode = mode
         self._motion = motion
         self._rng = rng
@@ -124,7 +131,8 @@ class ProposalSampler:
         p = len(previous)
         model, gate = self._mapper.proposal_model, self._mapper.proposal_gate
         block = store.gather(pairs.particle, pairs.slot)
-        usable = (block.status == ESTIMATED) & ~pairs.new_unknown
+        tentative = tentative_pairs(pairs, sightings, block.existence, self._confirm)
+        usable = (block.status == ESTIMATED) & ~pairs.new_unknown & ~tentative
         usable = self._mapper.proposal_landmarks(block, pairs, usable)
         refined = np.zeros(p, dtype=bool)
         gated = 0
@@ -187,7 +195,7 @@ class ProposalSampler:
         if plain.any():
             model = self._motion if motion is None else motion
             poses[plain] = model.sample(previous[plain], delta_r, self._rng)
-        return ProposalDraw(poses, log_factors, gated, block)
+        return ProposalDraw(poses, log_factors, gated, block, tentative)
 
     def _refine_compiled(
         self,

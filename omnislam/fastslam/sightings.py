@@ -75,3 +75,27 @@ class Pairs:
         rank = np.empty(n, dtype=np.int64)
         rank[order] = np.arange(n) - group_start
         return rank
+
+
+def tentative_pairs(
+    pairs: Pairs, sightings: Sightings, existence: np.ndarray, confirm_sightings: int
+) -> np.ndarray:
+    """Which pairs address a tentative landmark (``FastSLAMConfig.confirm_sightings``).
+
+    A landmark of unknown association that its particle has seen fewer than
+    ``confirm_sightings`` times before this frame is tentative; a landmark's ``existence``
+    counts its sightings, the first included (``LandmarkBlock.existence``, thesis 5.1.2; net
+    of the existence index's decrements when that is on).
+
+    Args:
+        pairs: the frame's N pairs; sightings: the frame's sightings.
+        existence: (N,) the addressed landmarks' existence counts before this frame's update.
+        confirm_sightings: sightings that confirm a landmark (1: none is tentative).
+
+    Returns:
+        (N,) bool, False for new landmarks and for sightings with ids.
+    """
+    if confirm_sightings <= 1:
+        return np.zeros(pairs.particle.size, dtype=bool)
+    unknown = sightings.ids[pairs.obs] < 0
+    return unknown & ~pairs.new_unknown & (existence < confirm_sightings)

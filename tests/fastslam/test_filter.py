@@ -201,6 +201,53 @@ def test_exclusive_choice_is_a_greedy_assignment():
     np.testing.assert_array_equal(chosen, [[-2.0, -6.0, -0.5], [-1.0, -1.5, -6.0]])
 
 
+def _one_tree_frames(seen_in_second: bool):
+    """Three frames 0.5 m apart seeing one tree (unknown id) 5 m ahead; the second frame's
+    sighting left out when not ``seen_in_second``."""
+    frames = []
+    for k in range(3):
+        ranges = np.array([5.0 - 0.5 * k])
+        sighting = RangeBearing(np.array([UNKNOWN_ID]), ranges, np.array([0.02]), 0.1, 0.01)
+        seen = k != 1 or seen_in_second
+        delta = np.array([0.5 if k else 0.0, 0.0, 0.0])
+        frames.append(
+            FrameInput(k, Odometry(delta, float(k)), range_bearing=sighting if seen else None)
+        )
+    return frames
+
+
+@pytest.mark.parametrize("confirm", [1, 2])
+def test_a_tentative_landmark_neither_weighs_nor_refines_the_proposal(confirm):
+    """``confirm_sightings=2``: the first re-sighting of a landmark without id updates it but
+    leaves FastSLAM 1.0's particles equally weighted (every particle gets p0), and FastSLAM 2.0
+    draws from the motion model as in a frame without sightings; the next re-sighting weighs.
+    With 1 (the default) the first re-sighting already weighs and refines."""
+    one = _config(Variant.FASTSLAM1, 20, confirm_sightings=confirm)
+    slam = _slam(one, 5)
+    frames = _one_tree_frames(seen_in_second=True)
+    spread = []
+    for frame in frames:
+        slam.step(frame)
+        spread.append(np.ptp(slam.particles.log_weights) if slam.resample_count == 0 else None)
+        assert slam.estimate().landmark_ids.size == 1  # always the same landmark
+    assert spread[0] == 0.0  # a new landmark: p0 in every particle
+    assert (spread[1] == 0.0) == (confirm == 2)
+    assert spread[2] is None or spread[2] > 0.0
+    two = _config(Variant.FASTSLAM2, 20, confirm_sightings=confirm)
+    seen, blind = _slam(two, 5), _slam(two, 5)
+    blind_frames = _one_tree_frames(seen_in_second=False)
+    for frame_seen, frame_blind in zip(frames[:2], blind_frames[:2], strict=True):
+        seen.step(frame_seen)
+        blind.step(frame_blind)
+    same = np.array_equal(seen.particles.poses, blind.particles.poses)
+    assert same == (confirm == 2)
+
+
+def test_confirm_sightings_must_be_positive():
+    with pytest.raises(ConfigError):
+        FastSLAMConfig(confirm_sightings=0)
+
+
 def test_a_frame_may_mix_known_and_unknown_ids():
     """Known ids map to their slots, an unknown sighting gets a new landmark: both mapped."""
     frame = FrameInput(
@@ -239,11 +286,37 @@ def test_best_ancestry_trajectory_is_a_particle_path():
     config = _config(Variant.FASTSLAM2, 10, trajectory=TrajectoryMode.BEST_ANCESTRY)
     slam, estimate = _run(scenario, config, 3)
     assert len(estimate.trajectory) == 80
-    assert estimate.pose_covariances is None
     np.testing.assert_allclose(
         estimate.trajectory.se2[-1], slam.particles.poses[slam.particles.best()], atol=1e-9
     )
     assert _ate(estimate, scenario) < 1.0
+
+
+def test_best_ancestry_covariance_is_the_particles_spread_about_the_reported_pose():
+    """The reported pose's covariance is the weighted second moment of the particles about it,
+    which contains the weighted covariance about the mean: never tighter than the mean's
+    read-out. Checked at the last step against the particle set itself, which is the recorded
+    one when the filter never resamples."""
+    scenario = make_scenario(1, steps=80)
+    kept = _config(
+        Variant.FASTSLAM2, 10, trajectory=TrajectoryMode.BEST_ANCESTRY, resample_ess_fraction=0.0
+    )
+    slam, estimate = _run(scenario, kept, 3)
+    particles = slam.particles
+    d = particles.poses - estimate.trajectory.se2[-1]
+    d[:, 2] = (d[:, 2] + np.pi) % (2 * np.pi) - np.pi
+    covs = estimate.pose_covariances
+    assert covs.shape == (80, 3, 3)
+    np.testing.assert_allclose(covs[-1], (d * particles.weights[:, None]).T @ d, rtol=1e-5)
+    # with resampling: the mean read-out's covariances plus the offsets' outer products
+    ancestry = _config(Variant.FASTSLAM2, 10, trajectory=TrajectoryMode.BEST_ANCESTRY)
+    _, estimate = _run(scenario, ancestry, 3)
+    _, mean_estimate = _run(
+        scenario, _config(Variant.FASTSLAM2, 10, trajectory=TrajectoryMode.WEIGHTED_MEAN), 3
+    )
+    extra = estimate.pose_covariances - mean_estimate.pose_covariances
+    assert np.all(np.linalg.eigvalsh(extra) > -1e-12)  # offset's outer product, PSD
+    assert np.any(np.trace(extra, axis1=1, axis2=2) > 0)  # the path leaves the mean somewhere
 
 
 def test_existence_index_deletes_a_phantom_landmark():
