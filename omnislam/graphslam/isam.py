@@ -103,6 +103,9 @@ class GraphSLAMInfo:
         online_factors_skipped: omni with ``GraphSLAMConfig.online_lag_key_frames``: factors on
             variables the fixed-lag smoother had marginalised (in the full graph only).
         online_restarts: restarts of the fixed-lag smoother after a failed marginalisation.
+        online_landmarks_held_out: landmarks a restart of the fixed-lag smoother left out of
+            its window, held there by fewer than two bearings (``session.FixedLagSession``);
+            they are in the final estimate.
         landmarks_merged: landmarks started by the association found to duplicate an older one
             and merged into it (``loop_closure.py``; not counted in ``landmarks``).
         loop_closures: loop closures accepted (each merged one or more landmarks).
@@ -135,6 +138,7 @@ class GraphSLAMInfo:
     floor_pairs: int = 0
     online_factors_skipped: int = 0
     online_restarts: int = 0
+    online_landmarks_held_out: int = 0
     landmarks_merged: int = 0
     loop_closures: int = 0
 
@@ -398,6 +402,7 @@ class GraphSLAM:
             floor_pairs=0 if self._floor is None else self._floor.inliers,
             online_factors_skipped=getattr(self._session, "online_factors_skipped", 0),
             online_restarts=getattr(self._session, "online_restarts", 0),
+            online_landmarks_held_out=getattr(self._session, "online_landmarks_held_out", 0),
             landmarks_merged=counts.landmarks_merged,
             loop_closures=counts.loop_closures,
         )

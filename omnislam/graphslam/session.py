@@ -178,6 +178,29 @@ class ISAM2Session:
         return int(self._isam.treeNnz())
 
 
+#: a landmark enters the fixed-lag smoother only with at least this many measurement factors
+#: (bearings) there; its weak prior does not count (``FixedLagSession``)
+MIN_ONLINE_MEASUREMENTS = 2
+
+
+def _is_landmark(key: int) -> bool:
+    """Omni sessions: poses are ``x`` symbols (Pose3), everything else a landmark (Point3)."""
+    return gtsam.Symbol(key).chr() != ord("x")
+
+
+def _underdetermined_landmarks(factors: list[Any], candidates: set[int]) -> set[int]:
+    """The landmarks of ``candidates`` that ``factors`` hold by fewer than
+    ``MIN_ONLINE_MEASUREMENTS`` measurement factors (factors on more than one variable)."""
+    counts = {key: 0 for key in candidates if _is_landmark(key)}
+    for factor in factors:
+        keys = [int(k) for k in factor.keys()]
+        if len(keys) > 1:
+            for key in keys:
+                if key in counts:
+                    counts[key] += 1
+    return {key for key, count in counts.items() if count < MIN_ONLINE_MEASUREMENTS}
+
+
 class FixedLagSession:
     """A fixed-lag smoother for the online estimate, the whole graph for the final one.
 
@@ -195,6 +218,15 @@ class FixedLagSession:
     smoother on the window -- its variables at their newest estimates, every factor among them,
     and a prior at its estimate on the window's oldest pose for the marginalised past --
     (counted, ``online_restarts``).
+
+    A restart leaves out of the window every landmark that fewer than
+    ``MIN_ONLINE_MEASUREMENTS`` measurement factors hold there (counted,
+    ``online_landmarks_held_out``): a track inserted long after its first sightings, whose
+    viewpoints the smoother has already marginalised, enters with one bearing and its weak
+    prior, which leave its depth at 1/sigma^2 = 0.01 against ~1e6 across the ray -- GTSAM's
+    Cholesky reports that as an indeterminate system (lab40 seed 1, frame 2195), and a restart
+    that kept the landmark met it again. Like a factor on a marginalised variable, its factors
+    stay in the full graph only, its value is the final estimate's starting point.
 
     Reads during the run (the newest pose, the viewpoints of held-back sightings) are the
     smoother's estimate, or for marginalised variables their estimate when they left it.
@@ -219,6 +251,7 @@ class FixedLagSession:
         self._updates = 0
         self._skipped = 0
         self._restarts = 0
+        self._held_out = 0
         self._final: Any = None  # LM solution, until the next update
         self._replace: dict[int, Any] = {}  # factors the final graph has instead (replace_final)
         self._final_graph: Any = None  # the whole graph with them
@@ -289,10 +322,19 @@ class FixedLagSession:
         """A fresh smoother on ``window`` (see the class docstring)."""
         self._restarts += 1
         self._smoother = self._new_smoother()
+        inside = [
+            self._all_factors.at(i) for i in range(self._all_factors.size())
+            if all(int(k) in window for k in self._all_factors.at(i).keys())
+        ]
+        held_out = _underdetermined_landmarks(inside, window)
+        self._held_out += len(held_out)
+        window = window - held_out
+        for key in held_out:  # kept for the final estimate
+            if not self._last.exists(key):
+                self._last.insert(key, values.atPoint3(key))
         factors = gtsam.NonlinearFactorGraph()
-        for i in range(self._all_factors.size()):
-            factor = self._all_factors.at(i)
-            if all(int(k) in window for k in factor.keys()):
+        for factor in inside:
+            if held_out.isdisjoint(int(k) for k in factor.keys()):
                 factors.push_back(factor)
         initial = gtsam.Values()
         stamps = gtsam.FixedLagSmootherKeyTimestampMap()
@@ -391,6 +433,11 @@ class FixedLagSession:
     def online_restarts(self) -> int:
         """Smoother restarts after a failed marginalisation (class docstring)."""
         return self._restarts
+
+    @property
+    def online_landmarks_held_out(self) -> int:
+        """Landmarks left out of the smoother, too weakly held there (class docstring)."""
+        return self._held_out
 
     @property
     def online_factors_skipped(self) -> int:
