@@ -32,7 +32,15 @@ SUITE = REPO / "benchmarks" / "grids" / "suite.yaml"
 def subset_grid(
     text: str, datasets: set[str] | None, estimators: set[str] | None, seeds: set[int] | None
 ) -> dict:
-    """The suite's grid restricted to dataset labels, estimator labels and seeds."""
+    """The suite's grid restricted to dataset labels, estimator labels and seeds.
+
+    Every cell of the subset is a cell of the suite with the same label, options and seed. An
+    estimator whose prior map comes from another (``prior_map: {from: LABEL}``) brings that
+    estimator along on the datasets it runs on: its cells are the map's source (reused when
+    already computed). Seeds filter where they apply: a synthetic dataset's own seeds (its worlds),
+    an estimator's own seeds (on recorded data), the grid's seeds for the other estimators on
+    recorded data; an estimator or dataset left without a seed runs nowhere.
+    """
     grid = yaml.safe_load(text)
 
     def label(entry: object, key: str) -> str:
@@ -43,27 +51,57 @@ def subset_grid(
     def keep_seeds(values: list[int]) -> list[int]:
         return [s for s in values if seeds is None or s in seeds]
 
+    def source(entry: object) -> str | None:
+        options = entry.get("options", {}) if isinstance(entry, dict) else {}
+        prior = options.get("prior_map") if isinstance(options, dict) else None
+        return str(prior["from"]) if isinstance(prior, dict) and "from" in prior else None
+
+    every = [label(e, "estimator") for e in grid["estimators"]]
+    sources = {label(e, "estimator"): source(e) for e in grid["estimators"]}
+    wanted = set(every) if estimators is None else set(estimators)
+    wanted |= {sources[name] for name in list(wanted) if sources.get(name)}
+    grid_seeds = keep_seeds(grid.get("seeds", [0]))
+    own_seeds = {
+        label(e, "estimator"): keep_seeds(e["seeds"])
+        for e in grid["estimators"]
+        if isinstance(e, dict) and "seeds" in e
+    }
+
+    def runs_on_recorded(name: str) -> bool:
+        return bool(own_seeds[name]) if name in own_seeds else bool(grid_seeds)
+
     kept = []
     for entry in grid["datasets"]:
         if datasets is not None and label(entry, "dataset") not in datasets:
             continue
-        if isinstance(entry, dict):
-            entry = dict(entry)
-            if "seeds" in entry:
-                entry["seeds"] = keep_seeds(entry["seeds"])
-            if estimators is not None and "estimators" in entry:
-                entry["estimators"] = [e for e in entry["estimators"] if e in estimators]
+        entry = dict(entry) if isinstance(entry, dict) else {"dataset": entry}
+        names = [n for n in entry.get("estimators", every) if n in wanted]
+        if "seeds" in entry:  # a synthetic preset: its seeds are its worlds, for every estimator
+            entry["seeds"] = keep_seeds(entry["seeds"])
+            if not entry["seeds"]:
+                continue
+        else:
+            names = [n for n in names if runs_on_recorded(n)]
+        # a prior map's source runs wherever its consumer does, and only there if not wanted
+        names += [sources[n] for n in names if sources.get(n) and sources[n] not in names]
+        if not names:
+            continue
+        if "estimators" in entry or set(names) != set(every):
+            entry["estimators"] = [n for n in every if n in names]
         kept.append(entry)
     grid["datasets"] = kept
+    used = {n for entry in kept for n in entry.get("estimators", every)}
     chosen = []
     for entry in grid["estimators"]:
-        if estimators is not None and label(entry, "estimator") not in estimators:
+        name = label(entry, "estimator")
+        if name not in used:
             continue
-        if isinstance(entry, dict) and "seeds" in entry:
-            entry = {**entry, "seeds": keep_seeds(entry["seeds"])}
+        if isinstance(entry, dict) and name in own_seeds and own_seeds[name]:
+            entry = {**entry, "seeds": own_seeds[name]}
         chosen.append(entry)
     grid["estimators"] = chosen
-    grid["seeds"] = keep_seeds(grid.get("seeds", [0]))
+    if grid_seeds:
+        grid["seeds"] = grid_seeds
     grid["name"] = f"{grid.get('name', 'suite')} (subset)"
     return grid
 

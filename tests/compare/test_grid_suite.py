@@ -196,3 +196,54 @@ def test_the_suite_grid_runs_every_estimator_where_it_can_with_one_configuration
     poles = {c.dataset_label for c in by_estimator["ekfslam-poles"]}
     assert poles == synthetic | synthetic_noids | {d for d in real | noids if "mrclam" in d}
     assert len(suite.cells) == 280 + 5 * 3 * 2 + 5 * 3 + 10
+
+
+def _suite_times():
+    import importlib.util
+
+    path = REPO / "benchmarks" / "suite_times.py"
+    spec = importlib.util.spec_from_file_location("suite_times", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize(
+    ("datasets", "estimators", "seeds"),
+    [
+        ({"lab40"}, {"graphslam", "graphslam-batch"}, {1}),  # no recorded data left: grid seeds
+        ({"victoria-park"}, {"fastslam2", "ekfslam", "ukf-graphmap"}, None),  # needs graphslam
+        (None, None, {1}),  # seed 1: worlds 1 and the stochastic estimators' seed 1 only
+        ({"carmen-aces", "demo"}, {"fastslam1", "ukf"}, {0, 2}),
+    ],
+)
+def test_a_subset_of_the_suite_is_the_suites_cells_that_match_and_the_maps_they_need(
+    shared_data, datasets, estimators, seeds
+):
+    suite = load_grid(SUITE)
+    text = _suite_times().subset_grid(SUITE.read_text(), datasets, estimators, seeds)
+    import yaml
+
+    subset = parse_grid(yaml.safe_dump(text), SUITE)
+
+    def key(cell):
+        options = tuple(sorted((k, repr(v)) for k, v in cell.spec.options.items()))
+        return cell.dataset_label, cell.estimator_label, cell.spec.seed, options, cell.prior_from
+
+    everything = {key(c): c for c in suite.cells}
+    chosen = {key(c) for c in subset.cells}
+    assert chosen <= set(everything)  # nothing that is not a suite cell
+
+    def wanted(cell):
+        return (
+            (datasets is None or cell.dataset_label in datasets)
+            and (estimators is None or cell.estimator_label in estimators)
+            and (seeds is None or cell.spec.seed in seeds)
+        )
+
+    matching = {k for k, c in everything.items() if wanted(c)}
+    assert matching and matching <= chosen  # every matching cell
+    sources = {everything[k].prior_from for k in matching if everything[k].prior_from}
+    names = {f"{k[0]}__{k[1]}__s{k[2]}" for k in chosen}
+    assert sources <= names  # the cells their prior maps come from
+    assert chosen - matching == {k for k in chosen if f"{k[0]}__{k[1]}__s{k[2]}" in sources}
