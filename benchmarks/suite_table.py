@@ -7,10 +7,12 @@
 report``. It reads two tables the report writes -- ``tables/ate-rmse.csv`` (ATE RMSE per dataset
 and estimator, mean and standard deviation over seeds) and ``tables/verdict.csv`` (per dataset
 the best estimator by median ATE over seeds, dead reckoning excluded, the runner-up and whether
-the margin is within the seed spread) -- and rewrites the block of the README between
-``<!-- suite-table:begin -->`` and ``<!-- suite-table:end -->``: no number in that block is
-typed by hand. ``--check`` rewrites nothing and exits 1 when the block is not what the report
-gives (for CI, after the report changed).
+the margin is within the seed spread, dead reckoning's median) -- and rewrites the block of the
+README between ``<!-- suite-table:begin -->`` and ``<!-- suite-table:end -->``: no number in
+that block is typed by hand. The last column names the best estimator with its median, its
+margin over the next, and says when dead reckoning's median is lower still. ``--check``
+rewrites nothing and exits 1 when the block is not what the report gives (for CI, after the
+report changed).
 """
 
 from __future__ import annotations
@@ -43,6 +45,17 @@ class Verdict:
     runner_up: str
     margin_percent: float | None
     within_spread: str
+    best_median: float | None = None
+    baseline_median: float | None = None
+
+    @property
+    def behind_baseline(self) -> bool:
+        """Dead reckoning's median is below the best estimator's: no estimator beats it."""
+        return (
+            self.best_median is not None
+            and self.baseline_median is not None
+            and self.best_median > self.baseline_median
+        )
 
 
 def _read_csv(path: Path) -> tuple[list[str], list[dict[str, str]]]:
@@ -84,6 +97,8 @@ def read_verdicts(report: Path) -> dict[str, Verdict]:
                     row["runner-up"],
                     _number(row["margin [%]"]),
                     row["within seed spread"],
+                    _number(row["best median [m]"]),
+                    _number(row["dead reckoning median [m]"]),
                 )
         except KeyError as exc:
             raise SuiteTableError(f"{report / VERDICT_TABLE}: no column {exc}") from None
@@ -99,7 +114,9 @@ def suite_table(report: str | Path) -> str:
     estimators = [h for h in header[2:] if not h.endswith(" std")]
     verdicts = read_verdicts(report)
     lines = [
-        "| dataset | ground truth | " + " | ".join(estimators) + " | best (margin over next) |",
+        "| dataset | ground truth | "
+        + " | ".join(estimators)
+        + " | best: median over seeds (margin over next) |",
         "|---|---|" + "---|" * len(estimators) + "---|",
     ]
     for row in rows:
@@ -110,14 +127,21 @@ def suite_table(report: str | Path) -> str:
             cells.append(f"**{text}**" if verdict is not None and verdict.best == name else text)
         if verdict is None:
             best = "–"
-        elif not verdict.runner_up:  # the only estimator besides dead reckoning
-            best = f"{verdict.best} (only one ranked)"
         else:
-            margin = (
-                f"{verdict.margin_percent:.0f} %" if verdict.margin_percent is not None else "?"
-            )
-            best = f"{verdict.best} ({margin} over {verdict.runner_up or '–'}"
-            best += "; within seed spread)" if verdict.within_spread == "yes" else ")"
+            best = verdict.best
+            if verdict.best_median is not None:
+                best += f" {verdict.best_median:.3g}"
+            if not verdict.runner_up:  # the only estimator besides dead reckoning
+                best += " (only one ranked"
+            else:
+                margin = (
+                    f"{verdict.margin_percent:.0f} %" if verdict.margin_percent is not None else "?"
+                )
+                best += f" ({margin} over {verdict.runner_up}"
+                best += "; within seed spread" if verdict.within_spread == "yes" else ""
+            if verdict.behind_baseline:
+                best += f"; dead reckoning's {verdict.baseline_median:.3g} is lower"
+            best += ")"
         lines.append(
             f"| {row['dataset']} | {row['ground truth']} | " + " | ".join(cells) + f" | {best} |"
         )
