@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from omnislam._progress import Progress
     from omnislam.compare.grid import Grid
     from omnislam.compare.grid_progress import GridProgress
-    from omnislam.compare.runner import CellOutcome, CellProgress
+    from omnislam.compare.runner import CellOutcome, CellProgress, PrepareProgress
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -53,7 +53,7 @@ class DemoProgress:
         if self._grid is not None:
             self._grid.on_outcome(outcome)
 
-    def on_progress(self, progress: CellProgress) -> None:
+    def on_progress(self, progress: CellProgress | PrepareProgress) -> None:
         if self._grid is not None:
             self._grid.on_progress(progress)
 

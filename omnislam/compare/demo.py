@@ -26,6 +26,7 @@ from omnislam.compare.runner import (
     CellOutcome,
     CellProgress,
     GridResult,
+    PrepareProgress,
     local_executor_factory,
     run_grid,
 )
@@ -106,7 +107,7 @@ def run_demo(
     seed: int = 0,
     workers: int | None = None,
     on_outcome: Callable[[CellOutcome], None] | None = None,
-    on_progress: Callable[[CellProgress], None] | None = None,
+    on_progress: Callable[[CellProgress | PrepareProgress], None] | None = None,
     on_grid: Callable[[Grid], None] | None = None,
     report_step: Callable[[str, int, int], None] | None = None,
 ) -> DemoResult:

@@ -382,7 +382,11 @@ def log_file_name(dataset: str) -> str:
 
 
 def frontend_log_for(
-    sequence: Any, dataset: str, folder: Path, progress: bool = False
+    sequence: Any,
+    dataset: str,
+    folder: Path,
+    progress: bool = False,
+    on_image: Callable[[int, int], None] | None = None,
 ) -> Path | None:
     """The shared front end's log of a dataset with images or laser scans, computed once.
 
@@ -391,7 +395,8 @@ def frontend_log_for(
     vertical lines from the images, landmarks from the laser scans (merged with the loader's own
     range-bearing sightings). The grid runner calls it once per dataset so that every cell
     replays the same observations; ``omnislam run`` without ``--log`` calls it too, so a run and
-    a grid cell measure the same experiment.
+    a grid cell measure the same experiment. ``on_image`` is called with (images done, images
+    to do) while the front end runs (``frontend.pipeline.run_frontend``).
 
     Returns:
         The log's path, or None for a dataset with neither (its own sightings are used).
@@ -410,7 +415,7 @@ def frontend_log_for(
             flush=True,
         )
     path.parent.mkdir(parents=True, exist_ok=True)
-    cached_frontend(sequence, path, progress=progress, pipelined=True)
+    cached_frontend(sequence, path, progress=progress, pipelined=True, on_image=on_image)
     return path
 
 
@@ -477,23 +482,33 @@ def _own_sighting_ids(sequence: Any, frames: list[Any], log: str | Path) -> list
     return out
 
 
-def cache_track_truth(sequence: Any, log: str | Path, progress: bool = False) -> None:
+def cache_track_truth(
+    sequence: Any,
+    log: str | Path,
+    progress: bool = False,
+    on_image: Callable[[int, int], None] | None = None,
+) -> None:
     """Compute the true points of a log's tracks into the cache next to it, once.
 
     The grid runner calls it in its own process before the cells start, so that workers running
-    cells of the same log read the cache instead of each computing it (``_with_track_truth``).
-    Nothing to do for a sequence without per-pixel ground truth.
+    cells of the same log read the cache instead of each computing it (``_with_track_truth``;
+    ``on_image`` is called with (images done, images to do)). Nothing to do for a sequence
+    without per-pixel ground truth.
     """
     if sequence.point_map_loader is None:
         return
     from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
 
     replay = load_observation_log(Path(log), dataset_id=dataset_fingerprint(sequence))
-    _with_track_truth(sequence, replay, Path(log), progress=progress)
+    _with_track_truth(sequence, replay, Path(log), progress=progress, on_image=on_image)
 
 
 def _with_track_truth(
-    sequence: Any, replay: Any, log: Path, progress: bool = False
+    sequence: Any,
+    replay: Any,
+    log: Path,
+    progress: bool = False,
+    on_image: Callable[[int, int], None] | None = None,
 ) -> tuple[GroundTruth, bool]:
     """Ground truth whose landmarks are the true points of the front end's tracks.
 
@@ -532,6 +547,16 @@ def _with_track_truth(
             for f, px in zip(replay.frames, replay.pixels, strict=True)
         )
         label = f"true points of the tracks of {log.name}"
+        done = 0
+
+        def advance() -> None:
+            nonlocal done
+            done += 1
+            if bar is not None:
+                bar.advance()
+            if on_image is not None:
+                on_image(done, images)
+
         with Progress(label, images, "img") if progress else nullcontext() as bar:
             camera = getattr(sequence.calibration, "camera", None)
             if sequence.pixel_points_loader is not None and camera is not None:
@@ -540,8 +565,7 @@ def _with_track_truth(
                 def pixel_points_of(index: int, rows: np.ndarray, cols: np.ndarray
                                     ) -> np.ndarray:
                     points = sequence.pixel_points_loader(index, rows, cols)
-                    if bar is not None:
-                        bar.advance()
+                    advance()
                     return points
 
                 shape = (int(camera.height), int(camera.width))
@@ -550,8 +574,7 @@ def _with_track_truth(
 
                 def points_w_of(index: int) -> np.ndarray:
                     points = sequence.point_map_loader(index)
-                    if bar is not None:
-                        bar.advance()
+                    advance()
                     return points
 
                 sightings = true_sightings(replay, points_w_of)

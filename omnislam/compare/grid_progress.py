@@ -5,6 +5,11 @@ and keeps one ``omnislam._progress.Progress`` up to date::
 
     compare: 2/7 cells, 410/2471 frames (17%), 61 frames/s, ETA 0:34 - graphslam 120/353, ...
 
+Datasets being prepared on a worker (a synthetic preset rendered, the shared front end run) are
+named on the line first, with their stage and images done (``runner.PrepareProgress``)::
+
+    compare: 0/27 cells, 0 frames - campus1500 s0 rendering 412/2497, campus1500 s1 simulating
+
 The counts are this invocation's work: reused cells are counted as finished cells but not as
 frames, so the rate and ETA measure what is being computed. A cell not started yet is assumed
 to have as many frames as a started cell of the same dataset (until one has started, the total
@@ -17,7 +22,7 @@ from dataclasses import dataclass
 
 from omnislam._progress import Progress
 from omnislam.compare.grid import Grid, column_label
-from omnislam.compare.runner import CellOutcome, CellProgress, CellStatus
+from omnislam.compare.runner import CellOutcome, CellProgress, CellStatus, PrepareProgress
 
 #: at most this many running cells are named on the line
 SHOWN_RUNNING = 3
@@ -44,13 +49,23 @@ class GridProgress:
         self._finished: dict[str, int] = {}  # cell id -> frames computed (0: reused / failed)
         self._reused = 0
         self._running: dict[str, _Running] = {}
+        self._preparing: dict[str, _Running] = {}  # dataset -> its preparation
         self._frames_of: dict[str, int] = {}  # dataset -> frames of one of its runs
         self._label = label
         # made at the first event, after the runner's front-end stage has printed its own lines
         self._progress: Progress | None = None
 
-    def on_progress(self, progress: CellProgress) -> None:
+    def on_progress(self, progress: CellProgress | PrepareProgress) -> None:
         """``run_grid``'s ``on_progress``."""
+        if isinstance(progress, PrepareProgress):
+            if progress.stage == "done":
+                self._preparing.pop(progress.dataset, None)
+            else:
+                self._preparing[progress.dataset] = _Running(
+                    progress.label, progress.stage, progress.done, progress.total
+                )
+            self._refresh()
+            return
         cell = progress.cell
         if progress.total > 0:
             self._frames_of[cell.spec.dataset] = progress.total
@@ -109,13 +124,15 @@ class GridProgress:
             total = done
         reused = f" ({self._reused} reused)" if self._reused else ""
         note = f"{len(self._finished)}/{len(self._cells)} cells{reused}"
-        shown = list(self._running.values())[:SHOWN_RUNNING]
+        active = [*self._preparing.values(), *self._running.values()]
         doing = ", ".join(
-            f"{r.label} {r.done}/{r.total}" if r.stage == "running" else f"{r.label} {r.stage}"
-            for r in shown
+            f"{r.label} {r.done}/{r.total}"
+            if r.stage == "running"
+            else f"{r.label} {r.stage}" + (f" {r.done}/{r.total}" if r.total > 0 else "")
+            for r in active[:SHOWN_RUNNING]
         )
-        if len(self._running) > SHOWN_RUNNING:
-            doing += f" (+{len(self._running) - SHOWN_RUNNING} more)"
+        if len(active) > SHOWN_RUNNING:
+            doing += f" (+{len(active) - SHOWN_RUNNING} more)"
         if self._progress is None:
             self._progress = Progress(self._label, total, "frame")
         self._progress.set_total(total)

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import ast
 import hashlib
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 from functools import lru_cache
 from pathlib import Path
@@ -146,10 +147,14 @@ def render_spec(preset: str, seed: int, images: int | None = None) -> RenderSpec
     return RenderSpec(preset, seed, images, backend, digest.hexdigest()[:12])
 
 
-def ensure_render(spec: RenderSpec, path: str | Path) -> bool:
+def ensure_render(
+    spec: RenderSpec, path: str | Path, on_step: Callable[[str, int, int], None] | None = None
+) -> bool:
     """Render ``spec`` into ``path`` unless a complete render is there; True when it rendered.
 
     The writer renames a finished folder into place, so a folder that is there is complete.
+    ``on_step(stage, done, total)`` hears "simulating" (0 of 0) and then "rendering" with the
+    images written of the images to write.
     """
     from omnislam.datasets.synthetic import PRESETS, is_synthetic_folder
     from omnislam.datasets.synthetic.simulate import simulate
@@ -158,6 +163,14 @@ def ensure_render(spec: RenderSpec, path: str | Path) -> bool:
     path = Path(path)
     if is_synthetic_folder(path):
         return False
+    if on_step is not None:
+        on_step("simulating", 0, 0)
     sim = simulate(PRESETS[spec.preset], spec.seed, max_images=spec.images, backend=spec.backend)
-    write_synthetic(path, sim, backend=spec.backend, overwrite=True)
+    images = len(sim.image_frames)
+
+    def written(count: int) -> None:
+        if on_step is not None:
+            on_step("rendering", count, images)
+
+    write_synthetic(path, sim, backend=spec.backend, overwrite=True, progress=written)
     return True

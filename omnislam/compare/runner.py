@@ -54,7 +54,7 @@ from omnislam._progress import say
 from omnislam.compare.cache import LOGS
 from omnislam.compare.channel import ProgressChannel, StepReporter
 from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
-from omnislam.compare.execute import RunSpec, execute_run
+from omnislam.compare.execute import RunSpec, StepCallback, execute_run
 from omnislam.compare.grid import Cell, Grid, column_label
 from omnislam.compare.perturb import (
     CLUTTER_OPTION,
@@ -90,6 +90,8 @@ CELL_TIME = "cell_time.json"
 DEFAULT_MAX_ATTEMPTS = 3
 #: seconds the runner waits for a task before it passes on the workers' progress
 PROGRESS_POLL_S = 0.25
+#: channel keys of dataset preparations start with this (cell ids never do)
+PREPARE_KEY = "prepare:"
 
 #: columns of results.csv before the metrics (``CSV_FIELDS`` of ``compare.run_metrics``)
 CSV_LABELS = ("cell", "dataset", "estimator", "override", "seed", "status")
@@ -138,6 +140,26 @@ class CellProgress:
     """
 
     cell: Cell
+    stage: str
+    done: int
+    total: int
+
+
+@dataclass(frozen=True, slots=True)
+class PrepareProgress:
+    """What the preparation of a dataset is doing (``prepare_dataset``, sent by its worker).
+
+    Attributes:
+        dataset: the dataset (``RunSpec.dataset``).
+        label: how to name it: the preset and seed of a render, else the dataset's label.
+        stage: "simulating", "rendering", "front end", "track truth"; "done" when it finished
+            (or failed).
+        done: images done in the stage.
+        total: images of the stage (0 where nothing is counted).
+    """
+
+    dataset: str
+    label: str
     stage: str
     done: int
     total: int
@@ -369,7 +391,11 @@ class Prepared:
 
 
 def prepare_dataset(
-    dataset: str, render: RenderSpec | None, logs_dir: str, track_truth: bool = False
+    dataset: str,
+    render: RenderSpec | None,
+    logs_dir: str,
+    track_truth: bool = False,
+    on_step: StepCallback | None = None,
 ) -> Prepared:
     """Make what every cell of a dataset needs, once; runs on a worker.
 
@@ -382,6 +408,8 @@ def prepare_dataset(
     computed into the cache here, once, not by each of its cells; so do the true points of the
     log's tracks (``execute.cache_track_truth``) when ``track_truth`` (some cell of the dataset
     consumes bearings-3d), so the workers running its cells read them from the cache.
+    ``on_step(stage, done, total)`` hears what takes time: "simulating", "rendering" (images),
+    "front end" (images), "track truth" (images).
     """
     import time
 
@@ -400,15 +428,21 @@ def prepare_dataset(
 
     truth_path = log_path.with_name(log_path.name + ".truth.npz")
     wall, cpu = time.perf_counter(), time.process_time()
-    rendered = ensure_render(render, dataset) if render is not None else False
+
+    def counting(stage: str) -> Callable[[int, int], None] | None:
+        if on_step is None:
+            return None
+        return lambda done, total: on_step(stage, done, total)
+
+    rendered = ensure_render(render, dataset, on_step) if render is not None else False
     resolved = resolve(dataset)
     sequence = load_dataset(resolved)
     reference_for(resolved.format, resolved.path, sequence)
     before, truth_before = stamp(log_path), stamp(truth_path)
-    log = frontend_log_for(sequence, dataset, Path(logs_dir))
+    log = frontend_log_for(sequence, dataset, Path(logs_dir), on_image=counting("front end"))
     truth_computed = False
     if log is not None and track_truth:
-        cache_track_truth(sequence, log)
+        cache_track_truth(sequence, log, on_image=counting("track truth"))
         truth_computed = stamp(truth_path) != truth_before  # unchanged: cached or no truth
     computed = log is not None and stamp(log_path) != before
     return Prepared(
@@ -487,7 +521,7 @@ def run_grid(
     *,
     max_attempts: int = DEFAULT_MAX_ATTEMPTS,
     on_outcome: Callable[[CellOutcome], None] | None = None,
-    on_progress: Callable[[CellProgress], None] | None = None,
+    on_progress: Callable[[CellProgress | PrepareProgress], None] | None = None,
     reuse: bool = True,
 ) -> GridResult:
     """Run every cell of ``grid`` not already finished in ``out_dir``.
@@ -589,7 +623,7 @@ class _GridRun:
         executor_factory: Callable[[], Executor],
         max_attempts: int,
         finish: Callable[[CellOutcome], None],
-        on_progress: Callable[[CellProgress], None] | None = None,
+        on_progress: Callable[[CellProgress | PrepareProgress], None] | None = None,
         *,
         reuse: bool = True,
     ) -> None:
@@ -609,6 +643,7 @@ class _GridRun:
         self.on_progress = on_progress
         self.reuse = reuse
         self.channel: ProgressChannel | None = None
+        self.announced: set[str] = set()  # datasets whose preparation progress was passed on
 
     # -- submission ----------------------------------------------------------------------
     def _submit(self, kind: str, key: str, fn: Callable[..., object], *args: object) -> None:
@@ -631,6 +666,7 @@ class _GridRun:
         track_truth = any(
             Modality.BEARINGS_3D in ESTIMATORS[c.spec.estimator].modalities for c in cells
         )
+        reporter = self.channel.reporter(PREPARE_KEY + dataset) if self.channel else None
         self._submit(
             "prepare",
             dataset,
@@ -639,7 +675,14 @@ class _GridRun:
             cells[0].render,
             str(self.logs_dir),
             track_truth,
+            reporter,
         )
+
+    def _prepare_label(self, dataset: str) -> str:
+        cell = next(c for c in self.grid.cells if c.spec.dataset == dataset)
+        if cell.render is not None:
+            return f"{cell.render.preset} s{cell.render.seed}"
+        return cell.dataset_label
 
     def _submit_cell(self, cell: Cell) -> None:
         reporter = self.channel.reporter(cell.cell_id) if self.channel is not None else None
@@ -651,7 +694,22 @@ class _GridRun:
         if self.channel is None or self.on_progress is None:
             return
         running = {key for kind, key in self.running.values() if kind == "cell"} | {finishing}
+        preparing = {key for kind, key in self.running.values() if kind == "prepare"}
         for message in self.channel.drain():
+            if message.key.startswith(PREPARE_KEY):
+                dataset = message.key.removeprefix(PREPARE_KEY)
+                if dataset in preparing:  # not one that has finished meanwhile
+                    self.announced.add(dataset)
+                    self.on_progress(
+                        PrepareProgress(
+                            dataset,
+                            self._prepare_label(dataset),
+                            message.stage,
+                            message.done,
+                            message.total,
+                        )
+                    )
+                continue
             cell = self.by_id.get(message.key)
             # a message that arrives after its cell was collected (the channel's reader thread
             # lags under load) would count the cell's frames a second time: dropped
@@ -728,6 +786,9 @@ class _GridRun:
     def _collect(self, future: Future) -> None:
         kind, key = self.running.pop(future)
         attempts = self.attempts[(kind, key)]
+        if kind == "prepare" and key in self.announced and self.on_progress is not None:
+            self.announced.discard(key)
+            self.on_progress(PrepareProgress(key, self._prepare_label(key), "done", 0, 0))
         try:
             result = future.result()
         except OmnislamError as exc:  # deterministic: bad option, estimator failure

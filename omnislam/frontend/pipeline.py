@@ -28,7 +28,7 @@ import itertools
 import multiprocessing
 import pickle
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -271,6 +271,7 @@ def run_frontend(
     max_images: int | None = None,
     progress: bool = False,
     pipelined: bool = False,
+    on_image: Callable[[int, int], None] | None = None,
 ) -> ObservationLog:
     """Run the front end over a Sequence.
 
@@ -286,6 +287,8 @@ def run_frontend(
             either way (a test). The processes are spawned: a script calling this must guard
             its top level with ``if __name__ == "__main__":``. This process and the workers
             keep freed memory for the next image (``reuse_freed_memory``).
+        on_image: called with (images done, images to do) after each image (the grid runner's
+            progress from a worker).
 
     Returns:
         The ObservationLog; ``stats`` holds counts, and wall-clock (``seconds_<stage>``) and
@@ -341,6 +344,8 @@ def run_frontend(
                 lines[i] = image.lines
             if bar is not None:
                 bar.advance()
+            if on_image is not None:
+                on_image(len(raw), int(processed.size))
         if bar is not None:
             bar.close()
         sightings = tracker.sightings
@@ -458,9 +463,11 @@ def cached_frontend(
     rng: np.random.Generator | None = None,
     progress: bool = False,
     pipelined: bool = False,
+    on_image: Callable[[int, int], None] | None = None,
 ) -> ObservationLog:
     """Load the log at ``path`` if it was built from this sequence and configuration, else
-    run the front end (``run_frontend``, ``pipelined`` or not) and write it there.
+    run the front end (``run_frontend``, ``pipelined`` or not, ``on_image`` called after each
+    image) and write it there.
     """
     config = config if config is not None else FrontendConfig()
     path = Path(path)
@@ -470,6 +477,8 @@ def cached_frontend(
                                         config_hash=log_key(config))
         except StaleLogError:
             pass
-    log = run_frontend(sequence, config, rng=rng, progress=progress, pipelined=pipelined)
+    log = run_frontend(
+        sequence, config, rng=rng, progress=progress, pipelined=pipelined, on_image=on_image
+    )
     save_observation_log(log, path)
     return log

@@ -313,3 +313,58 @@ def test_a_progress_message_that_arrives_after_its_cell_was_stored_is_dropped(
             assert p.cell.cell_id not in stored, f"{p.cell.cell_id}: {p.stage} after it was stored"
     assert len(stored) == 4
     assert len(delivered_late) >= 3  # the late messages did arrive: they were dropped
+
+
+def test_a_datasets_render_and_front_end_report_their_images_before_its_cells_start(
+    tmp_path, monkeypatch
+):
+    # the suite's campus1500 renders for ~15 min per seed: the progress line must say so
+    from omnislam.compare.runner import PrepareProgress
+
+    monkeypatch.setenv("OMNISLAM_CACHE", str(tmp_path / "cache"))  # not rendered before
+    path = tmp_path / "grid.yaml"
+    path.write_text(
+        "datasets: [{synthetic: demo, images: 2, seeds: [3]}, data/room_a.log]\n"
+        "estimators: [deadreckoning]\n"
+    )
+    write_room_log(tmp_path / "data" / "room_a.log", frames=30, seed=1)
+    seen = []
+    run_grid(load_grid(path), tmp_path / "out", SerialExecutor, on_progress=seen.append)
+    prepared = [p for p in seen if isinstance(p, PrepareProgress)]
+    assert {p.label for p in prepared} == {"demo s3"}  # the room log has nothing to prepare
+    stages = [p.stage for p in prepared]
+    assert stages[0] == "simulating" and stages[-1] == "done"
+    rendering = [(p.done, p.total) for p in prepared if p.stage == "rendering"]
+    assert rendering and rendering[-1] == (2, 2)  # the last image is always sent
+    front_end = [(p.done, p.total) for p in prepared if p.stage == "front end"]
+    assert front_end and front_end[-1][1] == 2
+    order = [stages.index(s) for s in ("simulating", "rendering", "front end", "done")]
+    assert order == sorted(order)
+    # the preparation ends before the dataset's cell reports anything
+    first_cell = next(
+        i
+        for i, p in enumerate(seen)
+        if not isinstance(p, PrepareProgress) and p.cell.dataset_label == "demo"
+    )
+    assert seen.index(prepared[-1]) < first_cell
+
+
+def test_the_progress_line_names_a_dataset_being_prepared_until_it_is_done(
+    tmp_path, monkeypatch, capsys
+):
+    from omnislam import _progress
+    from omnislam.compare.grid_progress import GridProgress
+    from omnislam.compare.runner import PrepareProgress
+
+    monkeypatch.setenv(_progress.ENABLE_VARIABLE, "1")
+    monkeypatch.setenv(_progress.INTERVAL_VARIABLE, "0")
+    grid = load_grid(make_grid(tmp_path))
+    line = GridProgress(grid)
+    line.on_progress(PrepareProgress("x", "campus1500 s1", "rendering", 412, 2497))
+    line.on_progress(PrepareProgress("y", "carmen-aces", "front end", 0, 0))
+    err = capsys.readouterr().err
+    assert "campus1500 s1 rendering 412/2497, carmen-aces front end" in err
+    line.on_progress(PrepareProgress("x", "campus1500 s1", "done", 0, 0))
+    line.on_progress(PrepareProgress("y", "carmen-aces", "done", 0, 0))
+    line.close()
+    assert "campus1500" not in capsys.readouterr().err
