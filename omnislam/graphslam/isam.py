@@ -49,7 +49,7 @@ from omnislam.graphslam.floor_points import (
     floor_landmarks,
     odometry_ratio,
 )
-from omnislam.graphslam.floor_scale import MIN_PAIRS, FloorScale, KnownScale
+from omnislam.graphslam.floor_scale import MAX_SCALE, MIN_PAIRS, FloorScale, KnownScale
 from omnislam.graphslam.poses import PlanarPoses, PoseChain, ViewpointPoses
 from omnislam.graphslam.range_bearing import CREATED_ID_BASE, RangeBearingGraph
 from omnislam.graphslam.session import FixedLagSession, ISAM2Session
@@ -402,7 +402,8 @@ class GraphSLAM:
             if previous is not None and previous[1] != log_ratio:
                 step = log_ratio * (np.log(final) - previous[0]) / (previous[1] - log_ratio)
             previous = (float(np.log(final)), log_ratio)
-            final = float(final * np.exp(step))
+            # a secant through two nearly equal ratios must not throw the scale away
+            final = float(final * np.exp(np.clip(step, -np.log(MAX_SCALE), np.log(MAX_SCALE))))
         return final
 
     def _apply_final_scale(self, final: float) -> None:
