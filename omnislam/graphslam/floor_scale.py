@@ -91,6 +91,7 @@ class FloorScale:
         self._pairs = 0
         self._scale = 1.0
         self._inliers = 0
+        self._mode = np.nan  # log of the floor's mode once estimated
         self._frames = 0
         # every frame's floor candidates (frame, track ids, floor points, sigmas), for refined()
         self._candidates: list[tuple[int, list[int], np.ndarray, list[float]]] = []
@@ -109,6 +110,19 @@ class FloorScale:
     def pairs(self) -> int:
         """Tracks with a usable pair (floor-consistent across the baseline) so far."""
         return self._pairs
+
+    def floor_tracks(self) -> np.ndarray:
+        """(M,) ids of the tracks whose pair supports the floor's mode, ascending (none while
+        the scale is 1): the tracks taken to lie on the floor."""
+        if not self._inliers:
+            return np.zeros(0, dtype=np.int64)
+        ids = np.array(list(self._row), dtype=np.int64)
+        rows = np.array(list(self._row.values()), dtype=np.int64)
+        s, sigma = self._s[rows], self._sigma[rows]
+        usable = np.isfinite(sigma) & (s > 0)
+        log_s = np.log(np.where(usable, s, 1.0))
+        inlier = usable & (np.abs(log_s - self._mode) <= MODE_WINDOW * MODE_BANDWIDTH)
+        return np.sort(ids[inlier])
 
     def observe(self, raw_delta: np.ndarray, bearings: Bearings | None) -> None:
         """Consume one frame: its raw odometry delta, then its bearings (None: none)."""
@@ -229,6 +243,7 @@ class FloorScale:
             return
         self._scale = float(np.exp(mode))
         self._inliers = int(inlier.sum())
+        self._mode = mode
 
 
 class KnownScale:
@@ -248,6 +263,19 @@ class KnownScale:
     def inliers(self) -> int:
         """No floor pairs: 0."""
         return 0
+
+    def floor_tracks(self) -> np.ndarray:
+        """(M,) ids of the tracks whose pair supports the floor's mode, ascending (none while
+        the scale is 1): the tracks taken to lie on the floor."""
+        if not self._inliers:
+            return np.zeros(0, dtype=np.int64)
+        ids = np.array(list(self._row), dtype=np.int64)
+        rows = np.array(list(self._row.values()), dtype=np.int64)
+        s, sigma = self._s[rows], self._sigma[rows]
+        usable = np.isfinite(sigma) & (s > 0)
+        log_s = np.log(np.where(usable, s, 1.0))
+        inlier = usable & (np.abs(log_s - self._mode) <= MODE_WINDOW * MODE_BANDWIDTH)
+        return np.sort(ids[inlier])
 
     def observe(self, raw_delta: np.ndarray, bearings: Bearings | None) -> None:
         """Nothing to learn."""

@@ -36,14 +36,20 @@ import numpy as np
 from omnislam._optional import require
 from omnislam.core.modality import Modality
 from omnislam.core.motion import OdometryMotionModel
-from omnislam.core.types import Estimate, FrameInput, Trajectory
+from omnislam.core.types import UNKNOWN_ID, Estimate, FrameInput, Trajectory
 from omnislam.errors import ConfigError, EstimationError
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam.bearings_3d import Bearings3DGraph
 from omnislam.graphslam.builder import GraphBuilder
 from omnislam.graphslam.config import GraphSLAMConfig, PoseVariables
 from omnislam.graphslam.export import G2O_ATTACHMENT, format_g2o
-from omnislam.graphslam.floor_scale import FloorScale, KnownScale
+from omnislam.graphslam.floor_points import (
+    FloorLandmarks,
+    Sightings,
+    floor_landmarks,
+    odometry_ratio,
+)
+from omnislam.graphslam.floor_scale import MAX_SCALE, MIN_PAIRS, FloorScale, KnownScale
 from omnislam.graphslam.poses import PlanarPoses, PoseChain, ViewpointPoses
 from omnislam.graphslam.range_bearing import CREATED_ID_BASE, RangeBearingGraph
 from omnislam.graphslam.session import FixedLagSession, ISAM2Session
@@ -55,6 +61,10 @@ gtsam = require("gtsam")
 #: which the final floor scale is kept (lab40: the first correction is ~0.5 %, the second <0.01 %)
 FINAL_SCALE_ROUNDS = 3
 FINAL_SCALE_TOLERANCE = 1e-4
+#: ``floor_landmarks``: floor tracks the joint solve needs (fewer: ``floor_scale_refine``), and
+#: its solves at most (lab40: the secant meets the tolerance at the third)
+MIN_FLOOR_LANDMARKS = MIN_PAIRS
+FLOOR_SCALE_ROUNDS = 5
 
 __all__ = ["CREATED_ID_BASE", "GraphSLAM", "GraphSLAMInfo"]
 
@@ -100,6 +110,8 @@ class GraphSLAMInfo:
             bearings with ``GraphSLAMConfig.floor_scale``: from the floor points -- the final
             estimate's scale once it has been read, else the online one; else 1).
         floor_pairs: floor-point pairs supporting the online floor scale (0: the scale is 1).
+        floor_landmarks: floor tracks in the final estimate's joint solve
+            (``GraphSLAMConfig.floor_landmarks``; 0: not used).
         online_factors_skipped: omni with ``GraphSLAMConfig.online_lag_key_frames``: factors on
             variables the fixed-lag smoother had marginalised (in the full graph only).
         online_restarts: restarts of the fixed-lag smoother after a failed marginalisation.
@@ -136,6 +148,7 @@ class GraphSLAMInfo:
     tentative_pending: int = 0
     odometry_scale: float = 1.0
     floor_pairs: int = 0
+    floor_landmarks: int = 0
     online_factors_skipped: int = 0
     online_restarts: int = 0
     online_landmarks_held_out: int = 0
@@ -208,6 +221,8 @@ class GraphSLAM:
         self._frame_scale: list[float] = []  # floor scale each frame's odometry was added at
         self._final_scale: tuple[int, float] | None = None  # (frames, the final estimate's scale)
         self._odometry_factors: dict[int, int] = {}  # key-frame row -> its between-factor's index
+        self._sightings: dict[int, Sightings] = {}  # per image, for floor_landmarks
+        self._floor_graph: FloorLandmarks | None = None  # the final graph's floor landmarks
         self._frames = 0
         self._other_streams_ignored = 0
         self._between_keys = 0  # sightings of frames that got no pose variable
@@ -233,6 +248,11 @@ class GraphSLAM:
         )
         self._stamps.append(frame.stamp_s)
         self._frames += 1
+        if seen and self._joins_floor:
+            known = used.landmark_ids != UNKNOWN_ID
+            self._sightings[k] = Sightings(
+                used.landmark_ids[known], used.unit_vectors_r[known], used.sigmas_rad[known]
+            )
         if not key:  # its odometry waits for the next key frame's between-factor
             self._poses.add(k, None, None, key=False)
             if seen:
@@ -299,21 +319,37 @@ class GraphSLAM:
         return (self._floor is not None and self.config.floor_scale_final
                 and isinstance(self._session, FixedLagSession))
 
+    @property
+    def _joins_floor(self) -> bool:
+        """Whether the final estimate may solve for the floor tracks jointly
+        (``GraphSLAMConfig.floor_landmarks``)."""
+        return (self._rescales_final and self.config.floor_landmarks
+                and isinstance(self._floor, FloorScale))
+
     def _rescale_final(self) -> None:
         """Give the final estimate every odometry translation at the run's final floor scale:
         the between-factors rebuilt with their translations times ``final / scale at the time``,
         the frames between key frames likewise (``PoseChain.rescale``).
 
-        With ``floor_scale_refine`` the final scale is then re-estimated from the floor pairs
-        over the graph's own trajectory (``FloorScale.refined``) and the final estimate re-solved
-        at it, up to ``FINAL_SCALE_ROUNDS`` times until the correction is within
-        ``FINAL_SCALE_TOLERANCE`` (cached per number of frames)."""
+        With ``floor_landmarks`` and at least ``MIN_FLOOR_LANDMARKS`` floor tracks, the floor
+        tracks then join the final graph (``floor_points.py``) and the final scale is the one at
+        which its solution agrees with its odometry (``_joint_floor_scale``). Otherwise, with
+        ``floor_scale_refine``, the final scale is re-estimated from the floor pairs over the
+        graph's own trajectory (``FloorScale.refined``) and the final estimate re-solved at it,
+        up to ``FINAL_SCALE_ROUNDS`` times until the correction is within
+        ``FINAL_SCALE_TOLERANCE``. Cached per number of frames."""
         assert self._floor is not None and isinstance(self._session, FixedLagSession)
         if self._final_scale is not None and self._final_scale[0] == self._frames:
             self._apply_final_scale(self._final_scale[1])
             return
         final = self._floor.scale
+        self._floor_graph = None
         self._apply_final_scale(final)
+        if self._joins_floor:
+            self._floor_graph = self._floor_landmarks()
+            if self._floor_graph is not None:
+                self._final_scale = (self._frames, self._joint_floor_scale(final))
+                return
         if self.config.floor_scale_refine and isinstance(self._floor, FloorScale):
             for _ in range(FINAL_SCALE_ROUNDS):
                 planar, _ = self._poses.trajectory(self._session.estimate(), self._frames)
@@ -324,11 +360,59 @@ class GraphSLAM:
                 self._apply_final_scale(final)
         self._final_scale = (self._frames, final)
 
+    def _floor_landmarks(self) -> FloorLandmarks | None:
+        """The floor tracks for the final graph (``floor_points.py``), classified by the pairs
+        over the final estimate's trajectory without them; None when fewer than
+        ``MIN_FLOOR_LANDMARKS``."""
+        assert isinstance(self._floor, FloorScale)
+        start = self._session.estimate()
+        planar, _ = self._poses.trajectory(start, self._frames)
+        tracks = self._floor.refined(planar).floor_tracks()
+        if len(tracks) < MIN_FLOOR_LANDMARKS:
+            return None
+        mapped_w = {
+            lid: np.asarray(start.atPoint3(fx.landmark_key(lid)))
+            for lid in self._graph.landmark_ids().tolist()
+        }
+        floor = floor_landmarks(
+            tracks, self._sightings, planar, self._poses.key_frames, mapped_w,
+            self.config.sensor_height_m,
+            fx.planar_prior_noise(self.config.planar_sigma_m, self.config.planar_sigma_rad),
+        )
+        return floor if len(floor.tracks) >= MIN_FLOOR_LANDMARKS else None
+
+    def _joint_floor_scale(self, final: float) -> float:
+        """The odometry scale at which the final estimate with the floor landmarks agrees with
+        its own odometry (``floor_points.odometry_ratio`` = 1), where the odometry no longer
+        pulls the map's scale and the floor tracks' height priors set it: the secant method
+        on the log of the scale from the online floor scale, at most ``FLOOR_SCALE_ROUNDS``
+        solves, until the ratio is within ``FINAL_SCALE_TOLERANCE`` of 1."""
+        previous: tuple[float, float] | None = None
+        for _ in range(FLOOR_SCALE_ROUNDS):
+            self._apply_final_scale(final)
+            keyed = self._poses.key_poses(self._graph_values(self._session.estimate()))
+            poses_w = dict(zip(self._poses.key_frames, keyed, strict=True))
+            odometry = [
+                self._poses.odometry_factor_inputs(row)[:3] for row in self._odometry_factors
+            ]
+            log_ratio = float(np.log(odometry_ratio(poses_w, odometry)))
+            if abs(log_ratio) <= FINAL_SCALE_TOLERANCE:
+                break
+            step = log_ratio
+            if previous is not None and previous[1] != log_ratio:
+                step = log_ratio * (np.log(final) - previous[0]) / (previous[1] - log_ratio)
+            previous = (float(np.log(final)), log_ratio)
+            # a secant through two nearly equal ratios must not throw the scale away
+            final = float(final * np.exp(np.clip(step, -np.log(MAX_SCALE), np.log(MAX_SCALE))))
+        return final
+
     def _apply_final_scale(self, final: float) -> None:
-        """The final graph's odometry at scale ``final`` (``_rescale_final``)."""
+        """The final graph's odometry at scale ``final`` (``_rescale_final``), with the floor
+        landmarks when there are (``_floor_graph``)."""
         assert isinstance(self._session, FixedLagSession)
         ratios = final / np.asarray(self._frame_scale)
-        if np.all(ratios == 1.0):
+        floor = self._floor_graph
+        if np.all(ratios == 1.0) and floor is None:
             self._poses.rescale(None)
             self._session.replace_final({}, final)
             return
@@ -339,7 +423,26 @@ class GraphSLAM:
                                     config.planar_sigma_m, config.planar_sigma_rad)
             for row, index in self._odometry_factors.items()
         }
-        self._session.replace_final(replacements, (final, self._frames))
+        if floor is None:
+            self._session.replace_final(replacements, (final, self._frames))
+            return
+        extra = gtsam.NonlinearFactorGraph(floor.factors)
+        for frame in floor.frames:  # the new viewpoints' odometry, at this scale
+            key_frame, delta, cov = self._poses.offset_factor_inputs(frame)
+            extra.add(fx.between_pose3(key_frame, frame, delta, cov, config.planar_sigma_m,
+                                       config.planar_sigma_rad))
+        self._session.replace_final(replacements, (final, self._frames, "floor"), extra,
+                                    floor.values)
+
+    def _graph_values(self, values: Any) -> Any:
+        """``values`` without the floor landmarks' new variables (``_floor_graph``)."""
+        if self._floor_graph is None:
+            return values
+        graph_values = gtsam.Values(values)
+        for key in self._floor_graph.keys:
+            if graph_values.exists(key):
+                graph_values.erase(key)
+        return graph_values
 
     def _odometry_scale(self) -> float:
         """``GraphSLAMInfo.odometry_scale``."""
@@ -400,6 +503,7 @@ class GraphSLAM:
             tentative_pending=tentative.pending,
             odometry_scale=self._odometry_scale(),
             floor_pairs=0 if self._floor is None else self._floor.inliers,
+            floor_landmarks=0 if self._floor_graph is None else len(self._floor_graph.tracks),
             online_factors_skipped=getattr(self._session, "online_factors_skipped", 0),
             online_restarts=getattr(self._session, "online_restarts", 0),
             online_landmarks_held_out=getattr(self._session, "online_landmarks_held_out", 0),
@@ -433,6 +537,7 @@ class GraphSLAM:
     ) -> Estimate:
         """Estimate record from ``values``; covariances from ``marginal_covariance(key)``."""
         n = self._frames
+        values = self._graph_values(values)
         planar, poses_w = self._poses.trajectory(values, n)
         landmarks_w = self._graph.landmarks(values)
         ids = self._graph.landmark_ids()  # the key order of values

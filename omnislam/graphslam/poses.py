@@ -261,6 +261,20 @@ class PoseChain(abc.ABC):
         return (self._key_frames[row - 1], self._key_frames[row], delta,
                 self._odometry_covariance(delta, cov, self._key_steps[row]))
 
+    def offset_factor_inputs(self, frame: int) -> tuple[int, np.ndarray, np.ndarray]:
+        """(key frame, delta, between-factor covariance) of the odometry from a frame's key
+        frame to the frame (a frame without a pose variable of its own), with ``rescale``'s
+        ratio applied: what a between-factor into a pose variable of that frame would measure.
+        """
+        if not 0 <= frame < len(self._frame_key):
+            raise ValueError(f"no frame {frame}")
+        (delta,), (cov,) = self._scaled_odometry(
+            np.asarray(self._frame_offset[frame])[None],
+            np.asarray(self._frame_offset_cov[frame])[None], np.array([frame]))
+        steps = frame - self._key_frames[self._frame_key[frame]]
+        return (self._key_frames[self._frame_key[frame]], delta,
+                self._odometry_covariance(delta, cov, steps))
+
     def frame_poses(self, key_poses_w: np.ndarray) -> np.ndarray:
         """(N, 4, 4) every frame's pose from the key frames' (K, 4, 4) and the odometry.
 

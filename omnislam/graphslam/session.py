@@ -254,6 +254,9 @@ class FixedLagSession:
         self._held_out = 0
         self._final: Any = None  # LM solution, until the next update
         self._replace: dict[int, Any] = {}  # factors the final graph has instead (replace_final)
+        self._extra: Any = None  # factors only the final graph has (replace_final) ...
+        self._extra_values: Any = None  # ... and the starting points of their new variables
+        self._warm: Any = None  # the previous final estimate, the next one's start (extras)
         self._final_graph: Any = None  # the whole graph with them
         self._marginals: Any = None  # gtsam.Marginals at it
 
@@ -296,25 +299,40 @@ class FixedLagSession:
         self._last.insert_or_assign(window)
         self._alive = {int(k) for k in window.keys()}
 
-    def replace_final(self, replacements: dict[int, Any], token: object) -> None:
+    def replace_final(
+        self,
+        replacements: dict[int, Any],
+        token: object,
+        extra: Any = None,
+        extra_values: Any = None,
+    ) -> None:
         """The final estimate's graph: the run's factors with those at the given indices (in the
-        order added) replaced. ``token`` names the replacements: the same token as the last
-        call keeps the cached estimate. The online smoother is not touched."""
+        order added) replaced, and the factors ``extra`` (``gtsam.NonlinearFactorGraph``)
+        added, whose variables not in the run start at ``extra_values`` (``gtsam.Values``).
+        ``token`` names the replacements and extras: the same token as the last call keeps the
+        cached estimate. With extras, LM starts from the previous final estimate where it has
+        one (a re-solve at another odometry scale moves little). The online smoother is not
+        touched."""
         if token == getattr(self, "_replace_token", None) and self._final_graph is not None:
             return
         self._replace_token = token
         self._replace = dict(replacements)
+        self._warm = self._final if extra is not None else None
+        self._extra = extra
+        self._extra_values = extra_values
         self._final = self._marginals = self._final_graph = None
 
     def final_factors(self) -> Any:
         """The whole graph the final estimate optimises (``replace_final``)."""
         if self._final_graph is None:
-            if not self._replace:
+            if not self._replace and self._extra is None:
                 self._final_graph = self._all_factors
             else:
                 graph = gtsam.NonlinearFactorGraph(self._all_factors)
                 for index, factor in self._replace.items():
                     graph.replace(index, factor)
+                if self._extra is not None:
+                    graph.push_back(self._extra)
                 self._final_graph = graph
         return self._final_graph
 
@@ -386,9 +404,17 @@ class FixedLagSession:
         if self._final is None:
             from omnislam.graphslam.batch import optimize_batch
 
+            start = self._last
+            if self._extra is not None:
+                start = gtsam.Values(self._last)
+                if self._extra_values is not None:
+                    start.insert_or_assign(self._extra_values)
+                if self._warm is not None:
+                    start.update(self._warm)
+                    self._warm = None
             self._final = optimize_batch(
                 self.final_factors(),
-                self._last,
+                start,
                 self._config.batch_max_iterations,
                 self._config.batch_relative_error_tol,
             ).values
