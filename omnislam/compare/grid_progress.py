@@ -34,6 +34,7 @@ class _Running:
     stage: str
     done: int
     total: int
+    counted: bool = False  # its count is shown in every stage (a dataset's preparation)
 
 
 class GridProgress:
@@ -62,7 +63,7 @@ class GridProgress:
                 self._preparing.pop(progress.dataset, None)
             else:
                 self._preparing[progress.dataset] = _Running(
-                    progress.label, progress.stage, progress.done, progress.total
+                    progress.label, progress.stage, progress.done, progress.total, counted=True
                 )
             self._refresh()
             return
@@ -128,7 +129,7 @@ class GridProgress:
         doing = ", ".join(
             f"{r.label} {r.done}/{r.total}"
             if r.stage == "running"
-            else f"{r.label} {r.stage}" + (f" {r.done}/{r.total}" if r.total > 0 else "")
+            else f"{r.label} {r.stage}" + (f" {r.done}/{r.total}" if r.counted and r.total else "")
             for r in active[:SHOWN_RUNNING]
         )
         if len(active) > SHOWN_RUNNING:
