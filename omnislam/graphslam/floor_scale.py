@@ -265,17 +265,8 @@ class KnownScale:
         return 0
 
     def floor_tracks(self) -> np.ndarray:
-        """(M,) ids of the tracks whose pair supports the floor's mode, ascending (none while
-        the scale is 1): the tracks taken to lie on the floor."""
-        if not self._inliers:
-            return np.zeros(0, dtype=np.int64)
-        ids = np.array(list(self._row), dtype=np.int64)
-        rows = np.array(list(self._row.values()), dtype=np.int64)
-        s, sigma = self._s[rows], self._sigma[rows]
-        usable = np.isfinite(sigma) & (s > 0)
-        log_s = np.log(np.where(usable, s, 1.0))
-        inlier = usable & (np.abs(log_s - self._mode) <= MODE_WINDOW * MODE_BANDWIDTH)
-        return np.sort(ids[inlier])
+        """No floor tracks: (0,)."""
+        return np.zeros(0, dtype=np.int64)
 
     def observe(self, raw_delta: np.ndarray, bearings: Bearings | None) -> None:
         """Nothing to learn."""

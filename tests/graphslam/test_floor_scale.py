@@ -19,7 +19,7 @@ from omnislam.core.se import se2_between, wrap_angle
 from omnislam.core.types import Bearings, FrameInput, Odometry
 from omnislam.errors import ConfigError
 from omnislam.graphslam import GraphSLAM, GraphSLAMConfig
-from omnislam.graphslam.floor_scale import FloorScale
+from omnislam.graphslam.floor_scale import FloorScale, KnownScale
 from omnislam.graphslam.session import FixedLagSession
 
 WHEEL_SCALE = 1.03  # the odometry says 3% more than was driven
@@ -294,6 +294,8 @@ def test_a_known_odometry_scale_replaces_the_floor_points():
     for frame in frames:
         known.step(frame)
     assert known.info().odometry_scale == 1 / WHEEL_SCALE and known.info().floor_pairs == 0
+    assert known.info().floor_landmarks == 0  # no floor tracks join its final estimate either
+    assert KnownScale(1.0).floor_tracks().shape == (0,)
     assert _ate_scale(known.estimate(), poses) == pytest.approx(1.0, abs=2e-3)
     with pytest.raises(ConfigError, match="known_odometry_scale"):
         GraphSLAMConfig(known_odometry_scale=0.0)
