@@ -541,8 +541,10 @@ def run_grid(
         max_attempts: submissions per task when its worker is lost.
         on_outcome: called with every cell's outcome as it is known (progress bars).
         on_progress: called in this process with what running cells are doing, frames
-            stepped included, as their workers report it (``channel``; workers on another
-            machine report nothing until their cell is done).
+            stepped included (``CellProgress``), and with what a dataset's preparation is doing,
+            images rendered or through the front end (``PrepareProgress``; "done" when it
+            ends), as their workers report it (``channel``; workers on another machine report
+            nothing until their task is done).
         reuse: keep the cells ``out_dir`` already holds for this grid (resume); False computes
             every cell again (each replaces its old folder atomically when done) and removes
             the cell folders of cells the grid no longer has.
