@@ -37,7 +37,9 @@ from typing import Any
 import numpy as np
 
 from omnislam._optional import require
+from omnislam.core.se import se2_transform_points, se3_inverse
 from omnislam.graphslam import factors as fx
+from omnislam.graphslam.floor_scale import floor_points_r
 
 gtsam = require("gtsam")
 
@@ -117,20 +119,24 @@ def floor_landmarks(
     Returns:
         The ``FloorLandmarks``; empty when no floor track keeps two sightings.
     """
-    floor = set(np.asarray(floor_tracks).tolist())
+    floor = np.asarray(floor_tracks)
     keys = set(key_frames)
     per_track: dict[int, list[tuple[int, np.ndarray, float, np.ndarray, float]]] = {}
     for frame, seen in sightings.items():
-        for lid, ray, sigma in zip(
-            seen.ids.tolist(), seen.rays_s, seen.sigmas_rad.tolist(), strict=True
+        down = np.isin(seen.ids, floor) & (seen.rays_s[:, 2] < 0)
+        if not down.any():
+            continue
+        rays, sigmas = seen.rays_s[down], seen.sigmas_rad[down]
+        points_r, sigmas_m = floor_points_r(rays, sigmas, height_m)
+        points_w = se2_transform_points(planar_w[frame], points_r)
+        for lid, ray, sigma, point, sigma_m in zip(
+            seen.ids[down].tolist(),
+            rays,
+            sigmas.tolist(),
+            points_w,
+            sigmas_m.tolist(),
+            strict=True,
         ):
-            if lid not in floor or ray[2] >= 0:
-                continue
-            x, y, theta = planar_w[frame]
-            c, s = np.cos(theta), np.sin(theta)
-            p = ray[:2] * (height_m / -ray[2])  # floor_scale.py: h u_xy / -u_z
-            point = np.array([x + c * p[0] - s * p[1], y + s * p[0] + c * p[1]])
-            sigma_m = height_m * sigma / ray[2] ** 2
             per_track.setdefault(lid, []).append((frame, ray, sigma, point, sigma_m))
     factors = gtsam.NonlinearFactorGraph()
     values = gtsam.Values()
@@ -222,7 +228,7 @@ def odometry_ratio(
     """
     num = den = 0.0
     for i, j, delta in odometry:
-        iTj = np.linalg.inv(key_poses_w[i]) @ key_poses_w[j]
+        iTj = se3_inverse(key_poses_w[i]) @ key_poses_w[j]
         num += float(iTj[:2, 3] @ delta[:2])
         den += float(delta[:2] @ delta[:2])
     return num / den if den > 0 else 1.0

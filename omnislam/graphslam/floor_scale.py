@@ -66,6 +66,25 @@ MODE_WINDOW = 2.0
 MIN_PAIRS = 20
 
 
+def floor_points_r(
+    unit_vectors_r: np.ndarray, sigmas_rad: np.ndarray, height_m: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bearings pointing below the horizon intersected with the floor (module docstring).
+
+    Args:
+        unit_vectors_r: (M, 3) unit bearings in the robot frame, u_z < 0.
+        sigmas_rad: (M,) their angular stds [rad].
+        height_m: the viewpoint's height above the floor [m].
+
+    Returns:
+        (M, 2) floor points in the robot frame, ``h u_xy / -u_z`` [m], and (M,) their radial
+        stds ``h sigma / sin^2(depression)`` [m].
+    """
+    u = np.asarray(unit_vectors_r, dtype=float)
+    depth = height_m / -u[:, 2]
+    return u[:, :2] * depth[:, None], height_m * np.asarray(sigmas_rad) / u[:, 2] ** 2
+
+
 class FloorScale:
     """Online estimate of the odometry's translation scale from floor points (module docstring).
 
@@ -136,9 +155,8 @@ class FloorScale:
             return
         u = u[down]
         ids = bearings.landmark_ids[down].tolist()
-        depth = self._h / -u[:, 2]
-        points = u[:, :2] * depth[:, None]
-        sigmas = (self._h * bearings.sigmas_rad[down] / u[:, 2] ** 2).tolist()  # h sigma / sin^2
+        points, sigmas_m = floor_points_r(u, bearings.sigmas_rad[down], self._h)
+        sigmas = sigmas_m.tolist()
         self._candidates.append((self._frames - 1, ids, points, sigmas))
         if self._add(ids, points, sigmas):
             self._estimate()
