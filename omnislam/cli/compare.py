@@ -127,7 +127,12 @@ def run(args: argparse.Namespace) -> int:
                         threads_per_worker=1,
                         processes=True,
                         dashboard_address=None,
-                        silence_logs=logging.ERROR,  # not its shutdown chatter
+                        # its shutdown chatter: a worker's heartbeat racing the scheduler's
+                        # close is logged at ERROR with a traceback (CI, 3 Dec 2026); a failed
+                        # task reaches the runner as an exception and fails its cell visibly
+                        silence_logs=logging.INFO
+                        if getattr(args, "verbose", False)
+                        else logging.CRITICAL,
                     )
                 )
                 address = cluster.scheduler_address
