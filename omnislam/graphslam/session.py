@@ -217,7 +217,9 @@ class FixedLagSession:
     fixed-lag bugs upstream, borglab/gtsam#1890, #2474): the session then restarts the
     smoother on the window -- its variables at their newest estimates, every factor among them,
     and a prior at its estimate on the window's oldest pose for the marginalised past --
-    (counted, ``online_restarts``).
+    (counted, ``online_restarts``). The window is that of the failed update after its
+    marginalisation: a restart that still held the variables leaving the lag marginalised them
+    in its own first update and could fail the same way (campus1500 seed 1, frame 23330).
 
     A restart leaves out of the window every landmark that fewer than
     ``MIN_ONLINE_MEASUREMENTS`` measurement factors hold there (counted,
@@ -340,6 +342,11 @@ class FixedLagSession:
         """A fresh smoother on ``window`` (see the class docstring)."""
         self._restarts += 1
         self._smoother = self._new_smoother()
+        # the variables this update would marginalise stay out: marginalising them in the
+        # restart's own update can fail the same way (campus1500 seed 1, frame 23330)
+        newest = max(self._stamp[key] for key in window)
+        horizon = newest - (float(self._config.online_lag_key_frames) - 0.5)
+        window = {key for key in window if self._stamp[key] >= horizon}
         inside = [
             self._all_factors.at(i) for i in range(self._all_factors.size())
             if all(int(k) in window for k in self._all_factors.at(i).keys())

@@ -81,3 +81,58 @@ def test_a_restart_holds_out_a_landmark_with_one_bearing_in_its_window_and_keeps
     np.testing.assert_allclose(
         final.atPose3(fx.pose_key(9)).translation(), [1.8, 0.0, 0.0], atol=1e-6
     )
+
+
+class _Recording(_FailingAt):
+    """``_FailingAt`` whose restarted smoothers record the variables of their first update."""
+
+    def __init__(self, config: GraphSLAMConfig, fail_at: int) -> None:
+        super().__init__(config, fail_at)
+        self.restart_keys: list[int] = []
+
+    def _new_smoother(self):
+        real, outer = super()._new_smoother(), self
+
+        class Smoother:
+            def update(self, factors, values, stamps):
+                if not outer.restart_keys:
+                    outer.restart_keys = [int(k) for k in values.keys()]
+                return real.update(factors, values, stamps)
+
+            def __getattr__(self, name):
+                return getattr(real, name)
+
+        return Smoother()
+
+
+def test_a_restart_leaves_out_the_variables_its_update_would_marginalise():
+    """The failed update's variables older than the lag are not handed to the restarted
+    smoother: marginalising them in its first update failed the same way on GTSAM 4.3
+    (campus1500 seed 1, frame 23330, "Asking to remove variables ... not unused"). The run
+    goes on, and the final estimate is the chain's."""
+    lag, fail_at = 3, 7
+    config = GraphSLAMConfig(online_lag_key_frames=lag)
+    session = _Recording(config, fail_at=fail_at)
+    session.restart_keys = [-1]  # the first smoother (built in __init__) records nothing
+    step = gtsam.noiseModel.Isotropic.Sigma(6, 1e-3)
+    for k in range(10):
+        if k == fail_at:
+            session.restart_keys = []
+        graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
+        pose = fx.pose3_planar(_pose(k))
+        values.insert(fx.pose_key(k), pose)
+        if k == 0:
+            graph.add(gtsam.PriorFactorPose3(fx.pose_key(0), pose, step))
+        else:
+            between = fx.pose3_planar(_pose(k - 1)).between(pose)
+            graph.add(gtsam.BetweenFactorPose3(fx.pose_key(k - 1), fx.pose_key(k), between, step))
+        session.update(graph, values, k)
+    assert session.online_restarts == 1
+    kept = sorted(gtsam.Symbol(key).index() for key in session.restart_keys)
+    # a pose's time is its newest factor's: pose k - 1 is touched by the odometry to pose k, so
+    # at update 7 (lag 3, variables older than 7 - 2.5 leave) pose 3 (time 4) leaves, 4 stays
+    assert kept == list(range(fail_at - lag, fail_at + 1))
+    final = session.estimate()
+    np.testing.assert_allclose(
+        final.atPose3(fx.pose_key(9)).translation(), [1.8, 0.0, 0.0], atol=1e-6
+    )
