@@ -62,7 +62,7 @@ class Bearings3DGraph:
 
     def __init__(self, config: GraphSLAMConfig, poses: ViewpointPoses) -> None:
         self._config = config
-        self._noise = fx.NoiseModels(config.robust_kernel, config.kernel_threshold)
+        self._noise = fx.NoiseModels(*config.landmark_kernel(self.modality))
         self._landmarks = DelayedLandmarks(config, poses, dim=3)
         self._ignored = 0
         self._gated = 0

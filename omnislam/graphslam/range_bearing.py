@@ -71,7 +71,7 @@ class RangeBearingGraph:
         self._config = config
         self._poses = poses
         self._session = session
-        self._noise = fx.NoiseModels(config.robust_kernel, config.kernel_threshold)
+        self._noise = fx.NoiseModels(*config.landmark_kernel(self.modality))
         self._gates = Gates.from_probabilities(
             config.association_gate_probability, config.new_landmark_probability
         )

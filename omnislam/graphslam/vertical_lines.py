@@ -35,7 +35,7 @@ class VerticalLinesGraph:
     modality = Modality.VERTICAL_LINES
 
     def __init__(self, config: GraphSLAMConfig, poses: PlanarPoses) -> None:
-        self._noise = fx.NoiseModels(config.robust_kernel, config.kernel_threshold)
+        self._noise = fx.NoiseModels(*config.landmark_kernel(self.modality))
         self._landmarks = DelayedLandmarks(config, poses, dim=2)
         self._ignored = 0
 

@@ -94,8 +94,9 @@ def _run(frames, config):
 
 @pytest.mark.parametrize("seed", [3, 5])
 def test_the_joint_floor_solve_recovers_the_scale_better_than_the_pairs(seed):
-    """The pairs over the graph's trajectory leave the scale 0.082 % (seed 3) and 0.107 %
-    (seed 5) off; the floor tracks in the final solve 0.002 % and 0.078 %."""
+    """The pairs over the graph's trajectory leave the scale 0.088 % (seed 3) and 0.111 %
+    (seed 5) off; the floor tracks in the final solve 0.005 % and 0.082 % (with the bearings'
+    default Huber kernel; without it 0.082 / 0.107 % and 0.002 / 0.078 %)."""
     rng = np.random.default_rng(seed)
     frames, poses, _ = _scenario(rng)
     frames = _noisy_odometry(frames, rng)
@@ -105,7 +106,7 @@ def test_the_joint_floor_solve_recovers_the_scale_better_than_the_pairs(seed):
     pairs_error = abs(_ate_scale(pairs.estimate(), poses) - 1)
     joint_error = abs(_ate_scale(joint.estimate(), poses) - 1)
     assert pairs_error > 7e-4
-    assert joint_error < 0.75 * pairs_error and joint_error < 8e-4
+    assert joint_error < 0.75 * pairs_error and joint_error < 9e-4
     assert joint.info().floor_landmarks >= MIN_FLOOR_LANDMARKS
     assert pairs.info().floor_landmarks == 0
     # the estimate holds the graph's landmarks and poses only, and reading again is the same
