@@ -209,9 +209,9 @@ class GraphSLAMConfig:
             reports an indeterminate system, as it did on a demo seed's front-end log).
         robust_kernel: M-estimator on landmark factors (default AUTO: Huber on the omni
             bearings, none on the other modalities; ``RobustKernel``).
-        robust_threshold: kernel threshold on the whitened residual; None uses
-            ``DEFAULT_ROBUST_THRESHOLD`` of the kernel (``BEARING_HUBER_THRESHOLD`` for AUTO's
-            Huber).
+        robust_threshold: kernel threshold on the whitened residual; None uses the kernel's
+            default (``DEFAULT_ROBUST_THRESHOLD``: Huber 1.345, Cauchy 2.3849; AUTO's Huber on
+            the omni bearings 3, ``BEARING_HUBER_THRESHOLD``).
         outlier_gate_probability: chi-square probability of the outlier gate on range-bearing
             sightings of mapped landmarks with given ids (default
             ``core.gating.OUTLIER_GATE_PROBABILITY``, 0.999): the innovation at the frame's
