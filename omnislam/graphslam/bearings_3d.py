@@ -68,7 +68,9 @@ class Bearings3DGraph:
         self._gated = 0
         self._over_budget = 0
         self._budget = (
-            TrackBudget(config.landmarks_per_image) if config.landmarks_per_image > 0 else None
+            TrackBudget(config.landmarks_per_image, grace_images=config.budget_grace_images)
+            if config.landmarks_per_image > 0
+            else None
         )
         # sightings (frame, ray, sigma) of tracks not admitted (yet) by the budget
         self._waiting: dict[int, list[tuple[int, np.ndarray, float]]] = {}
@@ -85,7 +87,12 @@ class Bearings3DGraph:
         sigmas = sightings.sigmas_rad
         touched: list[int] = []
         if self._budget is not None:
-            admitted = self._budget.admit(ids[rows], rays[rows])
+            in_use = None
+            if self._config.budget_grace_images is not None:
+                in_use = np.fromiter(
+                    (lid in self._landmarks for lid in ids[rows].tolist()), bool, len(rows)
+                )
+            admitted = self._budget.admit(ids[rows], rays[rows], in_use)
             for row in rows[~admitted].tolist():
                 self._waiting.setdefault(int(ids[row]), []).append(
                     (k, rays[row], float(sigmas[row]))

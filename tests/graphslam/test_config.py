@@ -19,6 +19,7 @@ from omnislam.graphslam.config import PRESETS
         {"association_gate_probability": 0.999, "new_landmark_probability": 0.99},
         {"robust_threshold": -1.0},
         {"robust_kernel": "cauchy"},
+        {"budget_grace_images": 0},
     ],
 )
 def test_config_rejects_bad_values(overrides):

@@ -149,6 +149,30 @@ def test_track_budget_admits_up_to_the_budget_spread_over_azimuth():
     assert len(newly) == 12 and newly <= set(before.tolist())
 
 
+def test_track_budget_grace_frees_the_places_of_tracks_never_used():
+    """Budget 4: four tracks admitted that the back end never uses (far: no triangulation)
+    hold the budget for good without a grace; with a grace of 3 images they stop counting after
+    it and the next image admits four more. Tracks in use keep counting."""
+    ids, rays = _ring(8, np.arange(8))
+    unused = np.zeros(8, bool)
+    plain, graced = TrackBudget(4, sectors=4), TrackBudget(4, sectors=4, grace_images=3)
+    first = graced.admit(ids, rays, unused)
+    np.testing.assert_array_equal(first, plain.admit(ids, rays, unused))
+    assert first.sum() == 4
+    for _ in range(2):  # within the grace: nothing new
+        np.testing.assert_array_equal(graced.admit(ids, rays, unused), first)
+    np.testing.assert_array_equal(plain.admit(ids, rays, unused), first)
+    assert graced.admit(ids, rays, unused).all()  # image 4: the first four no longer count
+    assert plain.admit(ids, rays, unused).sum() == 4
+    # tracks in use count however old
+    used = TrackBudget(4, sectors=4, grace_images=1)
+    admitted = used.admit(ids, rays, np.zeros(8, bool))
+    for _ in range(3):
+        np.testing.assert_array_equal(used.admit(ids, rays, admitted.copy()), admitted)
+    with pytest.raises(ValueError, match="grace_images"):
+        TrackBudget(4, grace_images=0)
+
+
 def test_budget_keeps_the_graph_to_admitted_tracks_with_all_their_sightings(rng):
     scenario = simulate_omni(rng)
     base = dict(sensor_height_m=SENSOR_HEIGHT_M, keyframe_spacing_m=0.0)
