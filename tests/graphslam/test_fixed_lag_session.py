@@ -26,6 +26,20 @@ def _bearing(k: int, landmark_id: int, noise) -> object:
     return fx.bearing_3d(k, landmark_id, ray / np.linalg.norm(ray), noise)
 
 
+def _chain_step(k: int, noise) -> tuple[object, object]:
+    """Pose k of the straight chain: its variable, and the prior (k = 0) or the odometry from
+    pose k - 1, both exact."""
+    graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
+    pose = fx.pose3_planar(_pose(k))
+    values.insert(fx.pose_key(k), pose)
+    if k == 0:
+        graph.add(gtsam.PriorFactorPose3(fx.pose_key(0), pose, noise))
+    else:
+        between = fx.pose3_planar(_pose(k - 1)).between(pose)
+        graph.add(gtsam.BetweenFactorPose3(fx.pose_key(k - 1), fx.pose_key(k), between, noise))
+    return graph, values
+
+
 class _FailingAt(FixedLagSession):
     """A session whose smoother fails at one update, as GTSAM's did on lab40 seed 1."""
 
@@ -56,14 +70,7 @@ def test_a_restart_holds_out_a_landmark_with_one_bearing_in_its_window_and_keeps
     step = gtsam.noiseModel.Isotropic.Sigma(6, 1e-3)
     bearing_noise = gtsam.noiseModel.Isotropic.Sigma(2, BEARING_SIGMA_RAD)
     for k in range(10):
-        graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
-        pose = fx.pose3_planar(_pose(k))
-        values.insert(fx.pose_key(k), pose)
-        if k == 0:
-            graph.add(gtsam.PriorFactorPose3(fx.pose_key(0), pose, step))
-        else:
-            between = fx.pose3_planar(_pose(k - 1)).between(pose)
-            graph.add(gtsam.BetweenFactorPose3(fx.pose_key(k - 1), fx.pose_key(k), between, step))
+        graph, values = _chain_step(k, step)
         if k == 9:  # the track's insertion: sighted from poses 1 and 2 long ago, and now
             key = fx.landmark_key(7)
             start = gtsam.Point3(*(LANDMARK + np.array([0.3, -0.2, 0.1])))
@@ -118,14 +125,7 @@ def test_a_restart_leaves_out_the_variables_its_update_would_marginalise():
     for k in range(10):
         if k == fail_at:
             session.restart_keys = []
-        graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
-        pose = fx.pose3_planar(_pose(k))
-        values.insert(fx.pose_key(k), pose)
-        if k == 0:
-            graph.add(gtsam.PriorFactorPose3(fx.pose_key(0), pose, step))
-        else:
-            between = fx.pose3_planar(_pose(k - 1)).between(pose)
-            graph.add(gtsam.BetweenFactorPose3(fx.pose_key(k - 1), fx.pose_key(k), between, step))
+        graph, values = _chain_step(k, step)
         session.update(graph, values, k)
     assert session.online_restarts == 1
     kept = sorted(gtsam.Symbol(key).index() for key in session.restart_keys)
