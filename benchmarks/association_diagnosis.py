@@ -36,9 +36,28 @@ from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.estimators import make_estimator
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam import range_bearing
+from omnislam.graphslam.window_association import Decided
 
 #: chi-square 0.99 quantile, 2 dof: the loop closure's individual gate
 GATE_99 = 9.21
+
+
+def landmarks_decided(decision: Decided, next_id: int) -> list[int]:
+    """The landmark each of a frame's decided sightings went to, -1 where it was dropped.
+
+    ``next_id`` is the graph's next created id before the frame's decisions were added: NEW
+    sightings take the ids from it on, in order (``RangeBearingGraph._add_decided``).
+    """
+    landmarks = []
+    for i, d in enumerate(decision.decisions.tolist()):
+        if d == Decision.NEW:
+            lid, next_id = next_id, next_id + 1
+        elif d == Decision.PAIRED:
+            lid = int(decision.candidate_ids[i])
+        else:
+            lid = -1
+        landmarks.append(lid)
+    return landmarks
 
 
 def diagnose(dataset: str, options: dict[str, str]) -> None:
@@ -56,13 +75,8 @@ def diagnose(dataset: str, options: dict[str, str]) -> None:
         next_id = self._next_created_id
         original(self, decision, k_now, guess_w, graph, values)
         given = labelled[decision.k]
-        for i, d in enumerate(decision.decisions.tolist()):
-            if d == Decision.NEW:
-                lid, next_id = next_id, next_id + 1
-            elif d == Decision.PAIRED:
-                lid = int(decision.candidate_ids[i])
-            else:
-                lid = -1
+        landmarks = landmarks_decided(decision, next_id)
+        for i, (d, lid) in enumerate(zip(decision.decisions.tolist(), landmarks, strict=True)):
             row = np.flatnonzero(
                 (given.ranges_m == decision.sightings.ranges_m[i])
                 & (given.bearings_rad == decision.sightings.bearings_rad[i])

@@ -36,6 +36,7 @@ import argparse
 import collections
 
 import numpy as np
+from association_diagnosis import landmarks_decided
 
 from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.compare.metrics import associate, ate
@@ -85,13 +86,8 @@ class _Recorder:
         def recording_add_decided(self, decision, k_now, guess_w, graph, values):
             next_id = self._next_created_id
             add_decided(self, decision, k_now, guess_w, graph, values)
-            for i, d in enumerate(decision.decisions.tolist()):
-                if d == Decision.NEW:
-                    lid, next_id = next_id, next_id + 1
-                elif d == Decision.PAIRED:
-                    lid = int(decision.candidate_ids[i])
-                else:
-                    lid = -1
+            landmarks = landmarks_decided(decision, next_id)
+            for i, (d, lid) in enumerate(zip(decision.decisions.tolist(), landmarks, strict=True)):
                 recorder.decided.append(
                     (
                         decision.k,
