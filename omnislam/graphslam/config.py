@@ -289,7 +289,7 @@ class GraphSLAMConfig:
         batch_relative_error_tol: relative decrease of the graph error below which the final
             Levenberg-Marquardt solve stops (the fixed-lag smoother's ``estimate()`` and batch
             mode; default 1e-6, Ceres's ``function_tolerance``). At 1e-10 the final solve on
-            lab40 seeds 1 / 2 ran on for 4-7 s of CPU with the omni bearings' Huber kernel,
+            lab40 seeds 1 / 2 ran on for 7-9 s of CPU with the omni bearings' Huber kernel,
             changing the ATE and the landmark median by at most 0.01 mm; GTSAM's default
             1e-5 stopped loop150 seed 2 early (ATE 0.220 -> 0.232 m). The reference optimum
             of ``compare.reference`` keeps its own 1e-10.
