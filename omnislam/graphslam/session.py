@@ -262,14 +262,17 @@ class FixedLagSession:
         self._final_graph: Any = None  # the whole graph with them
         self._marginals: Any = None  # gtsam.Marginals at it
 
+    @property
+    def _lag(self) -> float:
+        """The smoother's lag in stamps (key-frame counts): variables older than the newest
+        stamp minus this are marginalised."""
+        return float(self._config.online_lag_key_frames) - 0.5
+
     def _new_smoother(self) -> Any:
         params = gtsam.ISAM2Params()
         params.setRelinearizeThreshold(self._config.relinearize_threshold)
         params.relinearizeSkip = self._config.relinearize_skip
-        # times are key-frame counts: variables older than the lag are marginalised
-        return gtsam.IncrementalFixedLagSmoother(
-            float(self._config.online_lag_key_frames) - 0.5, params
-        )
+        return gtsam.IncrementalFixedLagSmoother(self._lag, params)
 
     def update(self, graph: Any, values: Any, frame_index: int) -> None:
         """Add the frame's factors and variables (see ``ISAM2Session.update``)."""
@@ -345,7 +348,7 @@ class FixedLagSession:
         # the variables this update would marginalise stay out: marginalising them in the
         # restart's own update can fail the same way (campus1500 seed 1, frame 23330)
         newest = max(self._stamp[key] for key in window)
-        horizon = newest - (float(self._config.online_lag_key_frames) - 0.5)
+        horizon = newest - self._lag
         window = {key for key in window if self._stamp[key] >= horizon}
         inside = [
             self._all_factors.at(i) for i in range(self._all_factors.size())
