@@ -44,6 +44,7 @@ class ISAM2Session:
         self._fallbacks = 0
         self._reorders = 0
         self._pose3_cache: dict[int, Any] = {}  # Pose3 estimates read since the last update
+        self._reeliminate: set[int] = set()  # keys the next update re-eliminates (re-orders)
 
     def _new_isam(self, factorization: Factorization) -> Any:
         """A fresh ``gtsam.ISAM2`` factorising with ``factorization`` (AUTO starts Cholesky)."""
@@ -75,7 +76,16 @@ class ISAM2Session:
         """
         self._pose3_cache.clear()
         try:
-            result = self._isam.update(graph, values)
+            if self._reeliminate:
+                params = gtsam.ISAM2UpdateParams()
+                extra = gtsam.KeyList()
+                for key in self._reeliminate:
+                    extra.push_back(key)
+                params.extraReelimKeys = extra
+                self._reeliminate.clear()
+                result = self._isam.update(graph, values, params)
+            else:
+                result = self._isam.update(graph, values)
         except RuntimeError as exc:
             if not (
                 self._config.factorization is Factorization.AUTO
@@ -86,6 +96,12 @@ class ISAM2Session:
             return
         self._reorders += bool(result.getBatchReorderTriggered())
         self._all_factors.push_back(graph)
+
+    def reeliminate_next(self, keys: Any) -> None:
+        """Have the next ``update`` re-eliminate ``keys`` (variables in the graph) with the new
+        factors' variables: iSAM2 re-orders them into the top of the Bayes tree, so marginals
+        that involve them are read near the root afterwards (``window_association.py``)."""
+        self._reeliminate.update(int(k) for k in keys)
 
     def _rebuild_with_qr(self, graph: Any, values: Any, frame_index: int) -> None:
         """Every factor so far into a fresh QR iSAM2, at the current linearisation point."""

@@ -151,6 +151,8 @@ class WindowAssociation:
         R[:, 1, 1] = np.concatenate([w.sightings.sigma_bearing_rad for w in waiting]) ** 2
         key_from = None if newest is None else newest[2]
         mapped, tentative = self._candidates(waiting, poses, z, R, k_new, key_from)
+        if self._config.association_reorder_candidates and mapped:
+            self._session.reeliminate_next(fx.landmark_key(i) for i in mapped)
         n_old = len(oldest.sightings)
         if not mapped and not tentative:
             decisions = np.full(n_old, Decision.NEW, dtype=np.int64)
