@@ -276,7 +276,8 @@ class GraphSLAMConfig:
             the root, so its walk to the root is recomputed each frame it stays a candidate.
             Re-eliminated, it moves into the top of the tree, read there on the next frames.
             The same linear system in another order: on Victoria Park the same decisions and
-            ATE, 2x less CPU (docs/results.md, "The association's joint marginal").
+            ATE, 14 % less CPU over the run, 2x over its first half (docs/results.md, "The
+            association's joint marginal on Victoria Park").
         loop_closure: merge landmarks started by the association that duplicate older ones
             (``loop_closure.LandmarkMerger``: the local map of recently seen created landmarks
             matched against the older ones by joint compatibility of their iSAM2 estimates,

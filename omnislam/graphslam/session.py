@@ -10,6 +10,9 @@ rather than about the graph's content:
   linearisation point (the new variables at their initial guesses), to a fresh QR-factorising
   iSAM2 that the rest of the run keeps using. For that rebuild the session keeps its own copy
   of every factor added;
+* ``reeliminate_next``: variables the next update re-eliminates besides the new factors' (the
+  association's candidate landmarks, moved to the top of the Bayes tree where their marginals
+  are cheap to read);
 * the bookkeeping of what iSAM2 did (fallbacks, whole-tree re-orderings, Bayes-tree fill-in);
 * reads of the estimate: one variable (the newest pose each step; DESIGN.md: reading everything
   every step cost as much as the update), the full estimate, marginal covariances.
