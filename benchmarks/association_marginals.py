@@ -35,6 +35,7 @@ import time
 
 import numpy as np
 
+from omnislam._progress import Stages
 from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.graphslam import session as graph_session
 
@@ -150,10 +151,11 @@ def main() -> None:
     print(f"graphslam on {args.dataset} {options or ''}", flush=True)
     t = time.process_time()
     stopped = False
-    try:
-        execute_run(RunSpec(args.dataset, "graphslam", 0, options))
-    except _StopError:
-        stopped = True
+    with Stages(f"graphslam on {args.dataset}") as stages:
+        try:
+            execute_run(RunSpec(args.dataset, "graphslam", 0, options), on_step=stages)
+        except _StopError:
+            stopped = True
     _report(recorder, time.process_time() - t - recorder.probe_s, stopped)
 
 
