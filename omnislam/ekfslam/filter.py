@@ -24,7 +24,13 @@ from omnislam.core.compatibility import (
     decide_on_kept_support,
     innovation_widening,
 )
-from omnislam.core.gating import YOUNG_GATE_FACTOR, chi_square_gate
+from omnislam.core.gating import (
+    YOUNG_GATE_FACTOR,
+    GatedResightings,
+    Resighting,
+    chi_square_gate,
+    lies_on_a_landmark,
+)
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.types import UNKNOWN_ID, Estimate, FrameInput, RangeBearing, Trajectory
@@ -44,6 +50,8 @@ class EKFSLAMInfo:
         associated: sightings that updated the state (by id or through the gate).
         gated: sightings of unknown id outside every state landmark's gate (they went to the
             tentative landmarks), plus sightings with ids rejected by ``known_gate_probability``.
+        readmitted: sightings with ids the outlier gate rejected that updated the state once
+            enough re-sightings of their landmark agreed (``EKFSLAMConfig.known_gate_votes``).
         ambiguous: sightings of unknown id outside every validation gate but inside the wider
             new-landmark gate of a landmark: discarded.
         created: landmarks added to the state (augmentations).
@@ -57,6 +65,7 @@ class EKFSLAMInfo:
     sightings: int
     associated: int
     gated: int
+    readmitted: int
     ambiguous: int
     created: int
     tentative_created: int
@@ -93,6 +102,7 @@ class EKFSLAM:
         self._gate = chi_square_gate(self.config.gate_probability, 2)
         self._new_gate = chi_square_gate(self.config.new_landmark_gate_probability, 2)
         self._known_gate = chi_square_gate(self.config.known_gate_probability, 2)
+        self._resightings = GatedResightings(self._known_gate, self.config.known_gate_votes)
         self._slot_ids: list[int] = []  # landmark id of each state slot
         self._slot_of_id: dict[int, int] = {}
         self._sightings: dict[int, int] = {}  # per slot: its creation and updates by id
@@ -107,6 +117,7 @@ class EKFSLAM:
                 "sightings",
                 "associated",
                 "gated",
+                "readmitted",
                 "ambiguous",
                 "created",
                 "tentative_created",
@@ -160,6 +171,7 @@ class EKFSLAM:
             sightings=c["sightings"],
             associated=c["associated"],
             gated=c["gated"],
+            readmitted=c["readmitted"],
             ambiguous=c["ambiguous"],
             created=c["created"],
             tentative_created=c["tentative_created"],
@@ -193,9 +205,12 @@ class EKFSLAM:
                     continue
                 young = self._sightings[slot] < self.config.known_gate_min_sightings
                 gate = self._known_gate * (YOUNG_GATE_FACTOR if young else 1.0)
-                if state.update(slot, z, R, gate=gate) is None:
+                if state.update(slot, z, R, gate=gate) is None and (
+                    young or not self._readmit(slot, landmark_id, z, R)
+                ):
                     self._counts["gated"] += 1
                     continue
+                self._resightings.seen(landmark_id, self._frames)
                 self._sightings[slot] += 1
                 self._counts["associated"] += 1
                 continue
@@ -224,6 +239,28 @@ class EKFSLAM:
         for row, landmark_id in new_known:
             self._add_landmark(z_all[row], R_all[row], landmark_id)
         self._tentative_step(unmatched, z_all, R_all)
+
+    def _readmit(self, slot: int, landmark_id: int, z: np.ndarray, R: np.ndarray) -> bool:
+        """A sighting with an id the plain outlier gate rejected (its landmark past the young
+        stage): held; when enough re-sightings of its landmark agree with it
+        (``core.gating.GatedResightings``), the newest updates the state without the gate (the
+        earlier ones' poses are gone from a filter's state). A sighting whose implied point
+        lies on another landmark is a misread id: never used.
+
+        Returns:
+            True when this sighting updated the state.
+        """
+        point, _, J_z = self.model.inverse(self.state.pose[None], z[None])
+        covariance = J_z[0] @ R @ J_z[0].T
+        others = np.delete(self.state.landmarks, slot, axis=0)
+        if lies_on_a_landmark(point[0], covariance, others, self._known_gate):
+            return False
+        resighting = Resighting(self._frames, point[0], covariance, None)
+        if not self._resightings.offer(landmark_id, resighting):
+            return False
+        self.state.update(slot, z, R)
+        self._counts["readmitted"] += 1
+        return True
 
     def _joint_step(
         self, rows: list[int], z_all: np.ndarray, R_all: np.ndarray, used: set[int]

@@ -42,6 +42,9 @@ class SightingCounts:
         sightings_ambiguous: unlabelled sightings dropped between the two gates.
         sightings_ignored: sightings the builder cannot use (bearings without a track id).
         sightings_gated: bearings of mapped landmarks rejected by the outlier gate.
+        sightings_readmitted: sightings the outlier gate rejected that entered the graph once
+            enough re-sightings of their landmark agreed with them
+            (``core.gating.GatedResightings``).
         sightings_over_budget: bearings of tracks left out by the per-image landmark budget.
         tentative: the tentative stage of the association.
         landmarks_merged: landmarks merged into another by the loop closure (``loop_closure.py``).
@@ -55,6 +58,7 @@ class SightingCounts:
     sightings_ambiguous: int = 0
     sightings_ignored: int = 0
     sightings_gated: int = 0
+    sightings_readmitted: int = 0
     sightings_over_budget: int = 0
     tentative: TentativeStats = field(default_factory=TentativeStats)
     landmarks_merged: int = 0

@@ -90,6 +90,9 @@ class GraphSLAMInfo:
             every sighting of the other modalities.
         sightings_gated: bearings of mapped landmarks pointing away from them (outliers of
             the front end's association), not added to the graph.
+        sightings_readmitted: range-bearing sightings with ids the outlier gate rejected
+            that entered the graph once enough re-sightings of their landmark agreed with them
+            (a loop closed under an overconfident pose; ``core.gating.GatedResightings``).
         sightings_between_key_frames: sightings of frames that got no pose variable (omni
             images closer than ``keyframe_spacing_m`` to the newest key frame).
         key_frames: frames with a pose variable (``GraphSLAMConfig.pose_variables``).
@@ -136,6 +139,7 @@ class GraphSLAMInfo:
     sightings_ambiguous: int
     sightings_ignored: int
     sightings_gated: int = 0
+    sightings_readmitted: int = 0
     sightings_between_key_frames: int = 0
     key_frames: int = 0
     sightings_over_budget: int = 0
@@ -494,6 +498,7 @@ class GraphSLAM:
             key_frames=len(self._poses.key_frames),
             sightings_over_budget=counts.sightings_over_budget,
             sightings_gated=counts.sightings_gated,
+            sightings_readmitted=counts.sightings_readmitted,
             factorization_fallbacks=self._session.fallbacks,
             batch_reorders=self._session.batch_reorders,
             tree_nonzeros=self._session.tree_nonzeros,

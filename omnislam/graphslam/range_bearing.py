@@ -23,7 +23,13 @@ import numpy as np
 
 from omnislam._optional import require
 from omnislam.core.compatibility import Decision, Pairings
-from omnislam.core.gating import YOUNG_GATE_FACTOR, chi_square_gate
+from omnislam.core.gating import (
+    YOUNG_GATE_FACTOR,
+    GatedResightings,
+    Resighting,
+    chi_square_gate,
+    lies_on_a_landmark,
+)
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
 from omnislam.core.types import UNKNOWN_ID, RangeBearing
@@ -53,6 +59,11 @@ gtsam = require("gtsam")
 CREATED_ID_BASE = 1_000_000_000
 
 _RANGE_BEARING = RangeBearing2D()
+
+#: a gated sighting is a misread id when the point it implies lies on another landmark; the
+#: landmarks searched are those whose cached position (the insertion point, refreshed where
+#: the association reads them) lies within this distance of that point [m]
+MISREAD_RADIUS_M = 10.0
 
 
 class RangeBearingGraph:
@@ -87,6 +98,7 @@ class RangeBearingGraph:
             else None
         )
         self._rejected = 0
+        self._resightings = GatedResightings(self._outlier_gate, config.outlier_gate_votes)
         self._in_graph: dict[int, int] = {}  # landmark id -> its sightings in the graph
         self._registry = LandmarkRegistry()
         self._window = (
@@ -137,7 +149,10 @@ class RangeBearingGraph:
                 ]
             )
             gates = np.where(young, YOUNG_GATE_FACTOR * self._outlier_gate, self._outlier_gate)
-            ids[rows[~self._gate_mapped(k, rows, sightings, guess_w, gates)]] = UNKNOWN_ID
+            gated = rows[~self._gate_mapped(k, rows, sightings, guess_w, gates)]
+            for row in gated.tolist():
+                self._hold_gated(k, row, sightings, guess_w, graph)
+            ids[gated] = UNKNOWN_ID
         for i, (lid, r, b, s_r, s_b) in enumerate(
             zip(
                 ids.tolist(),
@@ -156,6 +171,7 @@ class RangeBearingGraph:
             if lid in self._registry:
                 graph.add(factor)
                 self._in_graph[lid] += 1
+                self._resightings.seen(lid, k)
                 continue
             if lid in created and self._tentative is not None:  # unlabelled: wait for more
                 row = unknown_row[i]
@@ -283,6 +299,43 @@ class RangeBearingGraph:
         self._rejected += int(np.sum(~inside))
         return inside
 
+    def _hold_gated(
+        self, k: int, row: int, sightings: RangeBearing, guess_w: np.ndarray, graph: Any
+    ) -> None:
+        """A sighting the outlier gate rejected: held, and added with the held sightings of its
+        landmark that agree with it once there are enough (``core.gating.GatedResightings``);
+        dropped for good when the point it implies lies on another landmark (a misread id)."""
+        lid = int(sightings.landmark_ids[row])
+        if self._in_graph.get(lid, 0) < self._config.outlier_gate_min_sightings:
+            return  # young, gated 10x wider already: the sighting is hundreds of sigmas off
+        r, b = float(sightings.ranges_m[row]), float(sightings.bearings_rad[row])
+        s_r, s_b = float(sightings.sigma_range_m[row]), float(sightings.sigma_bearing_rad[row])
+        points, covs = sighting_points(guess_w, *map(np.atleast_1d, (r, b, s_r, s_b)))
+        if lies_on_a_landmark(
+            points[0], covs[0], self._landmarks_near(points[0], lid), self._outlier_gate
+        ):
+            return
+        factor = fx.bearing_range_2d(k, lid, b, r, self._noise.diagonal(s_b, s_r))
+        for held in self._resightings.offer(lid, Resighting(k, points[0], covs[0], factor)):
+            graph.add(held.payload)
+            self._in_graph[lid] += 1
+            if self._merger is not None:
+                self._merger.seen(lid, held.frame)
+
+    def _landmarks_near(self, point_w: np.ndarray, other_than: int) -> np.ndarray:
+        """(M, 2) the current estimates of the active landmarks within ``MISREAD_RADIUS_M`` of
+        ``point_w`` (by their cached positions), ``other_than`` excluded."""
+        cached = self._registry.xy
+        rows = np.flatnonzero(np.hypot(*(cached - point_w).T) <= MISREAD_RADIUS_M)
+        points = []
+        for row in rows.tolist():
+            lid = self._registry.id_at(row)
+            if lid == other_than or not self._registry.active(lid):
+                continue
+            key = fx.landmark_key(lid)
+            points.append(self._session.point2(key) if self._session.exists(key) else cached[row])
+        return np.asarray(points, dtype=float).reshape(-1, 2)
+
     def _insert(self, lid: int, point_w: np.ndarray, factors: Any, graph: Any, values: Any) -> None:
         """A landmark enters the graph at ``point_w`` (2,) with its factors."""
         values.insert(fx.landmark_key(lid), gtsam.Point2(point_w))
@@ -407,7 +460,11 @@ class RangeBearingGraph:
             landmarks_created=self._created,
             sightings_associated=self._associated,
             sightings_ambiguous=self._ambiguous,
-            sightings_gated=self._rejected + self._consistent.rejected + self._jointly_rejected,
+            sightings_gated=self._rejected
+            - self._resightings.readmitted
+            + self._consistent.rejected
+            + self._jointly_rejected,
+            sightings_readmitted=self._resightings.readmitted,
             tentative=self._tentative.stats() if self._tentative is not None else TentativeStats(),
             landmarks_merged=0 if self._merger is None else self._merger.merged,
             loop_closures=0 if self._merger is None else self._merger.loop_closures,

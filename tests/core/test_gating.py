@@ -3,8 +3,15 @@
 import math
 
 import numpy as np
+import pytest
 
-from omnislam.core.gating import chi_square_gate, gate_truncated_log_likelihood
+from omnislam.core.gating import (
+    GatedResightings,
+    Resighting,
+    chi_square_gate,
+    gate_truncated_log_likelihood,
+    lies_on_a_landmark,
+)
 from omnislam.core.gaussian import log_likelihood_from_mahalanobis
 
 
@@ -33,3 +40,44 @@ def test_truncated_likelihood_is_the_gaussian_inside_and_at_the_gate_outside():
     np.testing.assert_allclose(truncated[2:], at_gate, rtol=1e-12)
     unbounded = gate_truncated_log_likelihood(log_likelihood, mahalanobis, math.inf)
     np.testing.assert_array_equal(unbounded, log_likelihood)
+
+
+def _resighting(frame: int, x: float, sigma: float = 0.05) -> Resighting:
+    return Resighting(frame, np.array([x, 0.0]), sigma**2 * np.eye(2), frame)
+
+
+def test_agreeing_gated_sightings_overrule_the_gate_once_there_are_enough():
+    held = GatedResightings(chi_square_gate(0.999, 2), votes=3, window_frames=10)
+    assert held.offer(7, _resighting(0, 1.00)) == []
+    assert held.offer(7, _resighting(1, 1.02)) == []
+    assert held.offer(8, _resighting(1, 5.00)) == []  # another landmark's: held apart
+    overruled = held.offer(7, _resighting(2, 0.99))
+    assert [r.payload for r in overruled] == [0, 1, 2]
+    assert held.readmitted == 3
+    assert held.offer(7, _resighting(3, 1.0)) == []  # they left with the overrule: start again
+
+
+def test_disagreeing_or_stale_gated_sightings_are_dropped():
+    held = GatedResightings(chi_square_gate(0.999, 2), votes=3, window_frames=10)
+    held.offer(7, _resighting(0, 1.0))
+    held.offer(7, _resighting(1, 1.0))
+    # 0.5 m away at 5 cm per point: another point, so the two held ones are dropped
+    assert held.offer(7, _resighting(2, 1.5)) == []
+    assert held.offer(7, _resighting(3, 1.5)) == []
+    assert len(held.offer(7, _resighting(4, 1.5))) == 3
+    held.offer(9, _resighting(10, 2.0))
+    held.offer(9, _resighting(11, 2.0))
+    assert held.offer(9, _resighting(25, 2.0)) == []  # the first two are older than the window
+    never = GatedResightings(chi_square_gate(0.999, 2), votes=0)
+    assert all(never.offer(1, _resighting(k, 0.0)) == [] for k in range(5))
+    with pytest.raises(ValueError, match="votes"):
+        GatedResightings(1.0, votes=-1)
+
+
+def test_a_point_lies_on_a_landmark_within_its_sighting_noise():
+    gate = chi_square_gate(0.999, 2)
+    landmarks = np.array([[0.0, 0.0], [3.0, 0.0]])
+    covariance = 0.05**2 * np.eye(2)
+    assert lies_on_a_landmark(np.array([3.1, 0.05]), covariance, landmarks, gate)
+    assert not lies_on_a_landmark(np.array([3.5, 0.0]), covariance, landmarks, gate)
+    assert not lies_on_a_landmark(np.zeros(2), covariance, np.zeros((0, 2)), gate)

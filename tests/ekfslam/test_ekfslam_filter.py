@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from biased_loop import LOOP_MOTION_NOISE, simulate_biased_loop
 from ekfslam_scenario import (
     NOISE,
     SIGMA_BEARING_RAD,
@@ -173,6 +174,7 @@ def test_tentative_landmark_seen_once_is_dropped():
         {"loop_min_pairings": "0"},
         {"tentative_window_frames": "0"},
         {"known_gate_probability": "0"},
+        {"known_gate_votes": "-1"},
         {"motion_noise.a_vv": "-1"},
         {"initial_pose_sigma": "1,2"},
     ],
@@ -283,3 +285,21 @@ def test_a_loop_closed_by_one_sighting_is_dropped_by_three_kept():
                                 range_bearing=seen(landmarks)))
             assert ekf.info().associated == 3
             assert np.sqrt(ekf.state.pose_cov[0, 0]) < 0.2
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_agreeing_re_sightings_close_a_loop_the_gate_rejected(seed):
+    """A lap under biased odometry (``tests/biased_loop.py``): with the gate alone the first
+    landmarks' re-sightings are rejected and the filter ends metres off; three agreeing ones
+    overrule it and the newest updates the state (``known_gate_votes``)."""
+    loop = simulate_biased_loop(np.random.default_rng(seed))
+    ends = {}
+    for votes in (0, 3):
+        ekf = EKFSLAM(
+            EKFSLAMConfig(motion_noise=LOOP_MOTION_NOISE, known_gate_votes=votes),
+            initial_pose_w=loop.poses_true[0],
+        )
+        ends[votes] = loop.end_error_m(run(ekf, loop.frames).trajectory.se2)
+        assert (ekf.info().readmitted > 0) == (votes > 0)
+    assert ends[0] > 2.5, ends
+    assert ends[3] < 0.35 * ends[0], ends

@@ -20,6 +20,7 @@ from omnislam.graphslam.config import PRESETS
         {"robust_threshold": -1.0},
         {"robust_kernel": "cauchy"},
         {"budget_grace_images": 0},
+        {"outlier_gate_votes": -1},
     ],
 )
 def test_config_rejects_bad_values(overrides):
