@@ -20,6 +20,7 @@ import numpy as np
 
 from omnislam.core.compatibility import (
     Decision,
+    JointAssociation,
     Pairings,
     decide_on_kept_support,
     innovation_widening,
@@ -259,6 +260,7 @@ class EKFSLAM:
             self.config.support_sigma_ratio,
         )
         self._unsupported_loops(decisions, result.assignment, pairings)
+        self._displaced_wide(decisions, result, pairings)
         to_tentative: list[int] = []
         for i, row in enumerate(rows):
             if decisions[i] == Decision.PAIRED:
@@ -290,6 +292,35 @@ class EKFSLAM:
             return
         for i in paired:
             if innovation_widening(pairings, i, assignment[i]) > self.config.loop_sigma_ratio:
+                decisions[i] = Decision.AMBIGUOUS
+
+    def _displaced_wide(
+        self, decisions: np.ndarray, result: JointAssociation, pairings: Pairings
+    ) -> None:
+        """Mark AMBIGUOUS (in place) the wide pairings that JCBB moved off their sighting's own
+        best landmark.
+
+        JCBB (Neira & Tardos 2001) takes the hypothesis with the most pairings. With the pose
+        uncertain by decimetres and degrees after a gap without sightings, the gates of every
+        landmark within a metre or two overlap, and a hypothesis that pairs all of a frame's
+        sightings with *another* group of landmarks outnumbers the right one, which pairs one
+        sighting and leaves its neighbour new (MR.CLAM robot 2, frame 194: landmarks 19 and 20
+        seen together, the map holding one landmark for both, individual D2 0.8 and 1.4; JCBB
+        paired them with 17 and 16, D2 5.1 and 4.2, 1.7 m away). A pairing whose innovation is
+        wider than its noise by more than ``config.displaced_sigma_ratio``
+        (``innovation_widening``) is dropped when its sighting is individually closer (smaller
+        D2) to a candidate that no sighting of the hypothesis takes.
+        """
+        ratio = self.config.displaced_sigma_ratio
+        if not np.isfinite(ratio):
+            return
+        paired = np.flatnonzero(decisions == Decision.PAIRED)
+        free = np.ones(pairings.candidates, dtype=bool)
+        free[result.assignment[paired]] = False
+        for i in paired:
+            m = int(result.assignment[i])
+            d2 = result.individual_d2[i]
+            if np.any(free & (d2 < d2[m])) and innovation_widening(pairings, i, m) > ratio:
                 decisions[i] = Decision.AMBIGUOUS
 
     def _tentative_step(self, rows: list[int], z_all: np.ndarray, R_all: np.ndarray) -> None:

@@ -172,6 +172,7 @@ def test_tentative_landmark_seen_once_is_dropped():
         {"min_sightings": "0"},
         {"loop_min_pairings": "0"},
         {"tentative_window_frames": "0"},
+        {"displaced_sigma_ratio": "0.5"},
         {"known_gate_probability": "0"},
         {"motion_noise.a_vv": "-1"},
         {"initial_pose_sigma": "1,2"},
@@ -283,3 +284,38 @@ def test_a_loop_closed_by_one_sighting_is_dropped_by_three_kept():
                                 range_bearing=seen(landmarks)))
             assert ekf.info().associated == 3
             assert np.sqrt(ekf.state.pose_cov[0, 0]) < 0.2
+
+
+def test_a_wide_pairing_moved_off_its_sightings_best_landmark_is_dropped():
+    """After a gap (the pose a metre uncertain) two sightings of a landmark and of a new
+    neighbour 0.17 m beside it: JCBB's most pairings take another pair of landmarks 1.2 m away
+    (MR.CLAM robot 2, frame 194, docs/results.md); ``displaced_sigma_ratio`` drops those
+    pairings, as each sighting is individually nearer a landmark no pairing takes."""
+    from omnislam.core.types import FrameInput, Odometry, RangeBearing
+
+    landmarks = np.array([[3.0, 0.0], [3.0, 1.2], [3.0, 1.37]])
+
+    def seen(points):
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        r = np.hypot(points[:, 0], points[:, 1])
+        b = np.arctan2(points[:, 1], points[:, 0])
+        return RangeBearing(np.full(len(r), -1), r, b, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
+
+    lost = np.diag([1.0, 1.0, 0.05**2])
+    frames = [
+        FrameInput(index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=seen(landmarks)),
+        # the robot has not moved: landmark 0 and something new 0.17 m beside it
+        FrameInput(
+            index=1,
+            odometry=Odometry(np.zeros(3), 1.0, lost),
+            range_bearing=seen([[3.0, 0.0], [3.0, 0.17]]),
+        ),
+    ]
+    for ratio, moved in ((np.inf, True), (EKFSLAMConfig().displaced_sigma_ratio, False)):
+        ekf = EKFSLAM(EKFSLAMConfig(min_sightings=1, displaced_sigma_ratio=ratio))
+        run(ekf, frames)
+        assert ekf.state.n_landmarks == 3
+        # the pairings with landmarks 1 and 2 throw the pose 1.2 m
+        assert (np.linalg.norm(ekf.state.pose[:2]) > 0.6) == moved
+        assert ekf.info().ambiguous == (0 if moved else 2)
+
