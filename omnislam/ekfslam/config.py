@@ -38,8 +38,18 @@ class EKFSLAMConfig:
             with landmarks seen at least N times; a landmark seen fewer times is tentative (kept
             outside the filter state) and enters the state (augmentation, "Passo 3") at its N-th
             sighting. 1: every unmatched sighting becomes a landmark at once.
-        tentative_window_frames: a tentative landmark not re-observed within this many frames
-            is dropped (a spurious detection).
+        tentative_window_m: a tentative landmark not re-observed while the robot travels this
+            far [m] (odometry path length) is dropped (a spurious detection). A distance, not a
+            count of frames, so that one default means the same on every dataset: the earlier
+            window of 20 frames was 11-13 m on Victoria Park and carmen-intel (0.57 / 0.64 m per
+            frame) but 0.4 m on MR.CLAM (0.02 m per frame), where it dropped the one far
+            sighting of landmarks 16 and 17 that robot 1 has before it reaches them, 53 s
+            later, with its pose 0.8 m / 25 deg uncertain: without them in the map, their
+            sightings paired with landmarks 14 and 15, 2 m away (ATE 2.13 m; 0.18 m with ids).
+            12 m: MR.CLAM robot 1 without ids 0.18 m, robot 5 0.11 -> 0.18 m; carmen-aces,
+            carmen-intel and Victoria Park within noise (docs/results.md, "EKF-SLAM on
+            MR.CLAM without ids"); 2-5 m throws carmen-aces (0.98 m per frame) from 1.62 to
+            3.9 m, no limit throws carmen-intel from 0.26 to 0.65 m.
         known_gate_probability: the outlier gate for sightings *with* ids: an update whose
             innovation lies outside the chi-square quantile of this probability (2 dof, under
             the filter's own S = H P H^T + R) is skipped. Default
@@ -119,7 +129,7 @@ class EKFSLAMConfig:
     gate_probability: float = 0.99
     new_landmark_gate_probability: float = 0.99999
     min_sightings: int = 2
-    tentative_window_frames: int = 20
+    tentative_window_m: float = 12.0
     known_gate_probability: float = OUTLIER_GATE_PROBABILITY
     known_gate_min_sightings: int = OUTLIER_GATE_MIN_SIGHTINGS
     association_test: str = "joint"
@@ -169,10 +179,8 @@ class EKFSLAMConfig:
                 "loop_min_pairings must be >= 1 and loop_sigma_ratio >= 1, got "
                 f"{self.loop_min_pairings}, {self.loop_sigma_ratio}"
             )
-        if self.tentative_window_frames < 1:
-            raise ConfigError(
-                f"tentative_window_frames must be >= 1, got {self.tentative_window_frames}"
-            )
+        if not self.tentative_window_m > 0:
+            raise ConfigError(f"tentative_window_m must be > 0, got {self.tentative_window_m}")
         if len(self.initial_pose_sigma) != 3 or min(self.initial_pose_sigma) < 0:
             raise ConfigError("initial_pose_sigma must be three non-negative stds")
         if self.initial_landmark_capacity < 1:

@@ -49,7 +49,8 @@ class EKFSLAMInfo:
             new-landmark gate of a landmark: discarded.
         created: landmarks added to the state (augmentations).
         tentative_created: tentative landmarks started (sightings that matched nothing).
-        tentative_dropped: tentative landmarks dropped, not re-observed within the window.
+        tentative_dropped: tentative landmarks dropped, not re-observed within the window
+            (``EKFSLAMConfig.tentative_window_m``).
         capacity: landmark slots allocated.
     """
 
@@ -99,6 +100,7 @@ class EKFSLAM:
         self._sightings: dict[int, int] = {}  # per slot: its creation and updates by id
         self._next_id = 0
         self._tentative = TentativeLandmarks()
+        self._odometer_m = 0.0  # path length of the odometry so far
         self._frames = 0
         self._stamps_s: list[float] = []
         self._poses: list[np.ndarray] = []
@@ -124,11 +126,12 @@ class EKFSLAM:
         if self._frames > 0:
             odometry = frame.odometry
             self.state.predict(self.motion, odometry.delta, odometry.covariance)
+            self._odometer_m += float(np.hypot(*odometry.delta[:2]))
         sightings = frame.range_bearing
         if sightings is not None and len(sightings):
             self._observe(sightings)
         self._counts["dropped"] += self._tentative.drop_stale(
-            self._frames, self.config.tentative_window_frames
+            self._odometer_m, self.config.tentative_window_m
         )
         self._frames += 1
         self._stamps_s.append(frame.stamp_s)
@@ -341,13 +344,13 @@ class EKFSLAM:
                 if self.config.min_sightings <= 1:
                     self._add_landmark(z, R, None)
                     continue
-                index = self._tentative.add(point, cov, self._frames)
+                index = self._tentative.add(point, cov, self._odometer_m)
                 self._counts["tentative_created"] += 1
                 taken.add(index)
                 continue
             taken.add(index)
             if (
-                self._tentative.observe(index, point, cov, self._frames)
+                self._tentative.observe(index, point, cov, self._odometer_m)
                 >= self.config.min_sightings
             ):
                 promote.append((index, row))

@@ -141,7 +141,8 @@ def test_tentative_landmark_seen_once_is_dropped():
     frames = list(scenario.frames)
     first = frames[0].range_bearing
     assert len(first)
-    ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE, min_sightings=3, tentative_window_frames=5))
+    # 5 steps of 0.3 m
+    ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE, min_sightings=3, tentative_window_m=1.5))
     # one spurious sighting far from every landmark, seen once
     from omnislam.core.types import FrameInput, RangeBearing
 
@@ -171,7 +172,7 @@ def test_tentative_landmark_seen_once_is_dropped():
         {"gate_probability": "abc"},
         {"min_sightings": "0"},
         {"loop_min_pairings": "0"},
-        {"tentative_window_frames": "0"},
+        {"tentative_window_m": "0"},
         {"displaced_sigma_ratio": "0.5"},
         {"known_gate_probability": "0"},
         {"motion_noise.a_vv": "-1"},
@@ -319,3 +320,37 @@ def test_a_wide_pairing_moved_off_its_sightings_best_landmark_is_dropped():
         assert (np.linalg.norm(ekf.state.pose[:2]) > 0.6) == moved
         assert ekf.info().ambiguous == (0 if moved else 2)
 
+
+def test_the_tentative_window_is_a_distance_travelled_not_a_count_of_frames():
+    """A landmark seen once waits outside the state while the robot travels less than
+    ``tentative_window_m`` however many frames pass (MR.CLAM: 0.02 m per frame, a landmark's
+    second sighting up to 160 s later), and is dropped once it travelled farther."""
+    from omnislam.core.types import FrameInput, Odometry, RangeBearing
+
+    def seen():
+        return RangeBearing(np.array([-1]), 3.0, 0.0, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
+
+    window = EKFSLAMConfig().tentative_window_m
+    for step_m, kept in ((0.01, True), (0.3, False)):
+        frames = [FrameInput(index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=seen())]
+        frames += [
+            FrameInput(index=k, odometry=Odometry(np.array([step_m, 0.0, 0.0]), float(k)))
+            for k in range(1, 61)  # 60 frames: 0.6 m or 18 m
+        ]
+        ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE))
+        run(ekf, frames)
+        assert (60 * step_m < window) == kept
+        assert ekf.info().tentative == int(kept)
+        assert ekf.info().tentative_dropped == int(not kept)
+        if kept:  # the second sighting, from where the robot now is, promotes it
+            ekf.step(
+                FrameInput(
+                    index=61,
+                    odometry=Odometry(np.zeros(3), 61.0),
+                    range_bearing=RangeBearing(
+                        np.array([-1]), 3.0 - 0.6, 0.0, SIGMA_RANGE_M, SIGMA_BEARING_RAD
+                    ),
+                )
+            )
+            assert ekf.state.n_landmarks == 1
+            assert np.allclose(ekf.state.landmarks[0], [3.0, 0.0], atol=0.3)
