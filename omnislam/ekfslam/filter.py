@@ -301,7 +301,7 @@ class EKFSLAM:
         self, decisions: np.ndarray, result: JointAssociation, pairings: Pairings
     ) -> None:
         """Mark AMBIGUOUS (in place) the wide pairings that JCBB moved off their sighting's own
-        best landmark.
+        best landmark, or whose landmark another sighting of the frame contests.
 
         JCBB (Neira & Tardos 2001) takes the hypothesis with the most pairings. With the pose
         uncertain by decimetres and degrees after a gap without sightings, the gates of every
@@ -313,17 +313,33 @@ class EKFSLAM:
         wider than its noise by more than ``config.displaced_sigma_ratio``
         (``innovation_widening``) is dropped when its sighting is individually closer (smaller
         D2) to a candidate that no sighting of the hypothesis takes.
+
+        With ``config.contested_sigma_ratio`` the same holds from the landmark's side: a pairing
+        wider than that is dropped when another sighting of the frame, left unpaired, is within
+        ``config.ambiguity_margin`` of its D2 to the landmark -- the frame does not tell which of
+        the two sightings the landmark is (MR.CLAM robot 1, frame 190: sightings of landmarks 17
+        and 18, 0.17 m apart, D2 8.9 and 12.1 to landmark 14, 2 m away; 17 was paired).
         """
-        ratio = self.config.displaced_sigma_ratio
-        if not np.isfinite(ratio):
+        displaced_ratio = self.config.displaced_sigma_ratio
+        contested_ratio = self.config.contested_sigma_ratio
+        if not (np.isfinite(displaced_ratio) or np.isfinite(contested_ratio)):
             return
+        d2_all = result.individual_d2
         paired = np.flatnonzero(decisions == Decision.PAIRED)
+        unpaired = np.flatnonzero(decisions != Decision.PAIRED)
         free = np.ones(pairings.candidates, dtype=bool)
         free[result.assignment[paired]] = False
         for i in paired:
             m = int(result.assignment[i])
-            d2 = result.individual_d2[i]
-            if np.any(free & (d2 < d2[m])) and innovation_widening(pairings, i, m) > ratio:
+            d2 = d2_all[i, m]
+            displaced = bool(np.any(free & (d2_all[i] < d2)))
+            contested = bool(np.any(d2_all[unpaired, m] < d2 + self.config.ambiguity_margin))
+            if not (displaced or contested):
+                continue
+            widening = innovation_widening(pairings, i, m)
+            if (displaced and widening > displaced_ratio) or (
+                contested and widening > contested_ratio
+            ):
                 decisions[i] = Decision.AMBIGUOUS
 
     def _tentative_step(self, rows: list[int], z_all: np.ndarray, R_all: np.ndarray) -> None:

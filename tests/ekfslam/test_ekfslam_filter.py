@@ -174,6 +174,7 @@ def test_tentative_landmark_seen_once_is_dropped():
         {"loop_min_pairings": "0"},
         {"tentative_window_m": "0"},
         {"displaced_sigma_ratio": "0.5"},
+        {"contested_sigma_ratio": "0"},
         {"known_gate_probability": "0"},
         {"motion_noise.a_vv": "-1"},
         {"initial_pose_sigma": "1,2"},
@@ -354,3 +355,34 @@ def test_the_tentative_window_is_a_distance_travelled_not_a_count_of_frames():
             )
             assert ekf.state.n_landmarks == 1
             assert np.allclose(ekf.state.landmarks[0], [3.0, 0.0], atol=0.3)
+
+
+def test_a_wide_pairing_contested_by_an_unpaired_sighting_is_dropped():
+    """After a gap (the pose a metre uncertain) two objects 0.5 m apart, 3.3 and 3.8 m beside
+    the one landmark of the map: the nearer inside its gate (D2 8.2 < 9.21), the other just
+    outside (10.5), so no other hypothesis pairs as many and the ambiguity margin cannot apply,
+    yet the frame does not tell which one the landmark is (MR.CLAM robot 1, frame 190: D2 8.9
+    and 12.1). ``contested_sigma_ratio`` drops the pairing instead of pulling the pose 2.8 m."""
+    from omnislam.core.types import FrameInput, Odometry, RangeBearing
+
+    def seen(points):
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        r = np.hypot(points[:, 0], points[:, 1])
+        b = np.arctan2(points[:, 1], points[:, 0])
+        return RangeBearing(np.full(len(r), -1), r, b, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
+
+    lost = np.diag([1.0, 1.0, 0.05**2])
+    frames = [
+        FrameInput(index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=seen([3.0, 0.0])),
+        FrameInput(
+            index=1,
+            odometry=Odometry(np.zeros(3), 1.0, lost),
+            range_bearing=seen([[3.0, 3.3], [3.0, 3.8]]),
+        ),
+    ]
+    for ratio, moved in ((np.inf, True), (EKFSLAMConfig().contested_sigma_ratio, False)):
+        ekf = EKFSLAM(EKFSLAMConfig(min_sightings=1, contested_sigma_ratio=ratio))
+        run(ekf, frames)
+        assert (np.linalg.norm(ekf.state.pose[:2]) > 1.0) == moved
+        assert ekf.info().associated == int(moved)
+        assert ekf.info().ambiguous == int(not moved)
