@@ -10,8 +10,8 @@ Here "nearest" is the smallest Mahalanobis distance among the gated pairs (the t
 is better than the Euclidean one it used), and a landmark seen fewer than N times is *tentative*:
 it is kept outside the filter state (``TentativeLandmarks``), matched by the same gate on world
 positions, and enters the state at its N-th sighting. A tentative landmark not re-observed
-within a window of frames is dropped. ``nearest_gated`` chooses among landmarks of the state,
-``TentativeLandmarks`` holds the others.
+while the robot travels a given distance is dropped. ``nearest_gated`` chooses among landmarks
+of the state, ``TentativeLandmarks`` holds the others.
 
 With the joint test (``EKFSLAMConfig.association_test = "joint"``, the default) the frame's
 sightings of unknown id are associated together (``core.compatibility.jcbb``, Neira & Tardos
@@ -53,7 +53,7 @@ class TentativeLandmarks:
     points_w: list[np.ndarray] = field(default_factory=list)
     covariances: list[np.ndarray] = field(default_factory=list)
     counts: list[int] = field(default_factory=list)
-    last_frame: list[int] = field(default_factory=list)
+    last_seen_m: list[float] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.counts)
@@ -71,20 +71,21 @@ class TentativeLandmarks:
             d2[list(taken)] = np.inf
         return nearest_gated(d2, gate)
 
-    def add(self, point_w: np.ndarray, cov: np.ndarray, frame: int) -> int:
-        """A new candidate seen once; returns its index."""
+    def add(self, point_w: np.ndarray, cov: np.ndarray, odometer_m: float) -> int:
+        """A new candidate seen once, with the robot's path length ``odometer_m`` then; returns
+        its index."""
         self.points_w.append(np.asarray(point_w, dtype=float))
         self.covariances.append(np.asarray(cov, dtype=float))
         self.counts.append(1)
-        self.last_frame.append(frame)
+        self.last_seen_m.append(float(odometer_m))
         return len(self.counts) - 1
 
-    def observe(self, index: int, point_w: np.ndarray, cov: np.ndarray, frame: int) -> int:
+    def observe(self, index: int, point_w: np.ndarray, cov: np.ndarray, odometer_m: float) -> int:
         """Count one more sighting of candidate ``index`` (latest point kept); returns the count."""
         self.points_w[index] = np.asarray(point_w, dtype=float)
         self.covariances[index] = np.asarray(cov, dtype=float)
         self.counts[index] += 1
-        self.last_frame[index] = frame
+        self.last_seen_m[index] = float(odometer_m)
         return self.counts[index]
 
     def remove(self, indices: list[int]) -> None:
@@ -94,12 +95,12 @@ class TentativeLandmarks:
         self.points_w = [self.points_w[i] for i in keep]
         self.covariances = [self.covariances[i] for i in keep]
         self.counts = [self.counts[i] for i in keep]
-        self.last_frame = [self.last_frame[i] for i in keep]
+        self.last_seen_m = [self.last_seen_m[i] for i in keep]
 
-    def drop_stale(self, frame: int, window: int) -> int:
-        """Drop candidates last seen more than ``window`` frames before ``frame``; returns how
-        many were dropped."""
-        stale = [i for i, last in enumerate(self.last_frame) if frame - last > window]
+    def drop_stale(self, odometer_m: float, window_m: float) -> int:
+        """Drop candidates last seen more than ``window_m`` of robot travel before
+        ``odometer_m``; returns how many were dropped."""
+        stale = [i for i, last in enumerate(self.last_seen_m) if odometer_m - last > window_m]
         if stale:
             self.remove(stale)
         return len(stale)

@@ -42,8 +42,18 @@ class EKFSLAMConfig:
             with landmarks seen at least N times; a landmark seen fewer times is tentative (kept
             outside the filter state) and enters the state (augmentation, "Passo 3") at its N-th
             sighting. 1: every unmatched sighting becomes a landmark at once.
-        tentative_window_frames: a tentative landmark not re-observed within this many frames
-            is dropped (a spurious detection).
+        tentative_window_m: a tentative landmark not re-observed while the robot travels this
+            far [m] (odometry path length) is dropped (a spurious detection). A distance, not a
+            count of frames, so that one default means the same on every dataset: the earlier
+            window of 20 frames was 11-13 m on Victoria Park and carmen-intel (0.57 / 0.64 m per
+            frame) but 0.4 m on MR.CLAM (0.02 m per frame), where it dropped the one far
+            sighting of landmarks 16 and 17 that robot 1 has before it reaches them, 53 s
+            later, with its pose 0.8 m / 25 deg uncertain: without them in the map, their
+            sightings paired with landmarks 14 and 15, 2 m away (ATE 2.13 m; 0.18 m with ids).
+            12 m: MR.CLAM robot 1 without ids 0.18 m, robot 5 0.11 -> 0.18 m; carmen-aces,
+            carmen-intel and Victoria Park within noise (docs/results.md, "EKF-SLAM on
+            MR.CLAM without ids"); 2-5 m throws carmen-aces (0.98 m per frame) from 1.62 to
+            3.9 m, no limit throws carmen-intel from 0.26 to 0.65 m.
         known_gate_probability: the outlier gate for sightings *with* ids: an update whose
             innovation lies outside the chi-square quantile of this probability (2 dof, under
             the filter's own S = H P H^T + R) is skipped. Default
@@ -91,6 +101,23 @@ class EKFSLAMConfig:
             realisation decides) but MR.CLAM robot 1 without ids from 2.13 to 2.89 m (robots 2,
             3, 5 unchanged, robot 4 0.29 -> 0.26 m; Victoria Park unchanged at a ratio of 10;
             docs/results.md): off by default.
+        displaced_sigma_ratio: with "joint", a pairing of unknown id whose innovation is wider
+            than the sighting's noise by more than this factor (``innovation_widening``) is
+            dropped as ambiguous when its sighting is individually nearer (smaller D2) to a
+            candidate landmark that no pairing of the frame takes (``EKFSLAM._displaced_wide``):
+            JCBB's most-pairings hypothesis moved it there. On MR.CLAM robot 2 without ids
+            (frame 194, after 45 s without sightings, the heading 17 deg uncertain) landmarks 19
+            and 20, mapped as one, paired with 17 and 16 1.7 m away: ATE 0.48 -> 0.36 m (0.28 m
+            with ids); robots 3-5 unchanged (within 1 mm), robot 1 2.14 -> 2.09 m; carmen-aces,
+            carmen-intel and Victoria Park unchanged: the rule never fires there. inf: off.
+        contested_sigma_ratio: with "joint", the same from the landmark's side: a pairing wider
+            than its noise by more than this factor is dropped as ambiguous when another sighting
+            of the frame, left unpaired, is within ``ambiguity_margin`` of its D2 to that
+            landmark: the frame does not tell which of the two the landmark is (MR.CLAM robot 1,
+            frame 190: sightings of 17 and 18, 0.17 m apart, D2 8.9 and 12.1 to landmark 14, 2 m
+            away). Default 20: carmen-aces 1.62 -> 1.37 m, MR.CLAM without ids robot 2 0.356 ->
+            0.352 m and robot 4 0.287 -> 0.277 m (16 landmarks for 15), robots 1, 3, 5,
+            carmen-intel and Victoria Park unchanged (it never fires on the last two). inf: off.
         ignore_ids: treat every sighting as of unknown id (nearest-neighbour association even
             when the data carry ids).
         initial_landmark_capacity: landmark slots preallocated in the state; the arrays double
@@ -120,7 +147,7 @@ class EKFSLAMConfig:
     gate_probability: float = 0.99
     new_landmark_gate_probability: float = 0.99999
     min_sightings: int = 2
-    tentative_window_frames: int = 20
+    tentative_window_m: float = 12.0
     known_gate_probability: float = OUTLIER_GATE_PROBABILITY
     known_gate_min_sightings: int = OUTLIER_GATE_MIN_SIGHTINGS
     known_gate_votes: int = RESIGHTING_VOTES
@@ -129,6 +156,8 @@ class EKFSLAMConfig:
     support_sigma_ratio: float = 20.0
     loop_sigma_ratio: float = 50.0
     loop_min_pairings: int = 1
+    displaced_sigma_ratio: float = 20.0
+    contested_sigma_ratio: float = 20.0
     ignore_ids: bool = False
     initial_landmark_capacity: int = 64
     sensor_height_m: float = 0.0
@@ -163,15 +192,18 @@ class EKFSLAMConfig:
             raise ConfigError(
                 f"support_sigma_ratio must be >= 1 (inf: off), got {self.support_sigma_ratio}"
             )
+        if self.displaced_sigma_ratio < 1 or self.contested_sigma_ratio < 1:
+            raise ConfigError(
+                "displaced_sigma_ratio and contested_sigma_ratio must be >= 1 (inf: off), got "
+                f"{self.displaced_sigma_ratio}, {self.contested_sigma_ratio}"
+            )
         if self.loop_min_pairings < 1 or self.loop_sigma_ratio < 1:
             raise ConfigError(
                 "loop_min_pairings must be >= 1 and loop_sigma_ratio >= 1, got "
                 f"{self.loop_min_pairings}, {self.loop_sigma_ratio}"
             )
-        if self.tentative_window_frames < 1:
-            raise ConfigError(
-                f"tentative_window_frames must be >= 1, got {self.tentative_window_frames}"
-            )
+        if not self.tentative_window_m > 0:
+            raise ConfigError(f"tentative_window_m must be > 0, got {self.tentative_window_m}")
         if len(self.initial_pose_sigma) != 3 or min(self.initial_pose_sigma) < 0:
             raise ConfigError("initial_pose_sigma must be three non-negative stds")
         if self.initial_landmark_capacity < 1:

@@ -20,6 +20,7 @@ import numpy as np
 
 from omnislam.core.compatibility import (
     Decision,
+    JointAssociation,
     Pairings,
     decide_on_kept_support,
     innovation_widening,
@@ -56,7 +57,8 @@ class EKFSLAMInfo:
             new-landmark gate of a landmark: discarded.
         created: landmarks added to the state (augmentations).
         tentative_created: tentative landmarks started (sightings that matched nothing).
-        tentative_dropped: tentative landmarks dropped, not re-observed within the window.
+        tentative_dropped: tentative landmarks dropped, not re-observed within the window
+            (``EKFSLAMConfig.tentative_window_m``).
         capacity: landmark slots allocated.
     """
 
@@ -108,6 +110,7 @@ class EKFSLAM:
         self._sightings: dict[int, int] = {}  # per slot: its creation and updates by id
         self._next_id = 0
         self._tentative = TentativeLandmarks()
+        self._odometer_m = 0.0  # path length of the odometry so far
         self._frames = 0
         self._stamps_s: list[float] = []
         self._poses: list[np.ndarray] = []
@@ -134,11 +137,12 @@ class EKFSLAM:
         if self._frames > 0:
             odometry = frame.odometry
             self.state.predict(self.motion, odometry.delta, odometry.covariance)
+            self._odometer_m += float(np.hypot(*odometry.delta[:2]))
         sightings = frame.range_bearing
         if sightings is not None and len(sightings):
             self._observe(sightings)
         self._counts["dropped"] += self._tentative.drop_stale(
-            self._frames, self.config.tentative_window_frames
+            self._odometer_m, self.config.tentative_window_m
         )
         self._frames += 1
         self._stamps_s.append(frame.stamp_s)
@@ -296,6 +300,7 @@ class EKFSLAM:
             self.config.support_sigma_ratio,
         )
         self._unsupported_loops(decisions, result.assignment, pairings)
+        self._displaced_wide(decisions, result, pairings)
         to_tentative: list[int] = []
         for i, row in enumerate(rows):
             if decisions[i] == Decision.PAIRED:
@@ -329,6 +334,51 @@ class EKFSLAM:
             if innovation_widening(pairings, i, assignment[i]) > self.config.loop_sigma_ratio:
                 decisions[i] = Decision.AMBIGUOUS
 
+    def _displaced_wide(
+        self, decisions: np.ndarray, result: JointAssociation, pairings: Pairings
+    ) -> None:
+        """Mark AMBIGUOUS (in place) the wide pairings that JCBB moved off their sighting's own
+        best landmark, or whose landmark another sighting of the frame contests.
+
+        JCBB (Neira & Tardos 2001) takes the hypothesis with the most pairings. With the pose
+        uncertain by decimetres and degrees after a gap without sightings, the gates of every
+        landmark within a metre or two overlap, and a hypothesis that pairs all of a frame's
+        sightings with *another* group of landmarks outnumbers the right one, which pairs one
+        sighting and leaves its neighbour new (MR.CLAM robot 2, frame 194: landmarks 19 and 20
+        seen together, the map holding one landmark for both, individual D2 0.8 and 1.4; JCBB
+        paired them with 17 and 16, D2 5.1 and 4.2, 1.7 m away). A pairing whose innovation is
+        wider than its noise by more than ``config.displaced_sigma_ratio``
+        (``innovation_widening``) is dropped when its sighting is individually closer (smaller
+        D2) to a candidate that no sighting of the hypothesis takes.
+
+        With ``config.contested_sigma_ratio`` the same holds from the landmark's side: a pairing
+        wider than that is dropped when another sighting of the frame, left unpaired, is within
+        ``config.ambiguity_margin`` of its D2 to the landmark -- the frame does not tell which of
+        the two sightings the landmark is (MR.CLAM robot 1, frame 190: sightings of landmarks 17
+        and 18, 0.17 m apart, D2 8.9 and 12.1 to landmark 14, 2 m away; 17 was paired).
+        """
+        displaced_ratio = self.config.displaced_sigma_ratio
+        contested_ratio = self.config.contested_sigma_ratio
+        if not (np.isfinite(displaced_ratio) or np.isfinite(contested_ratio)):
+            return
+        d2_all = result.individual_d2
+        paired = np.flatnonzero(decisions == Decision.PAIRED)
+        unpaired = np.flatnonzero(decisions != Decision.PAIRED)
+        free = np.ones(pairings.candidates, dtype=bool)
+        free[result.assignment[paired]] = False
+        for i in paired:
+            m = int(result.assignment[i])
+            d2 = d2_all[i, m]
+            displaced = bool(np.any(free & (d2_all[i] < d2)))
+            contested = bool(np.any(d2_all[unpaired, m] < d2 + self.config.ambiguity_margin))
+            if not (displaced or contested):
+                continue
+            widening = innovation_widening(pairings, i, m)
+            if (displaced and widening > displaced_ratio) or (
+                contested and widening > contested_ratio
+            ):
+                decisions[i] = Decision.AMBIGUOUS
+
     def _tentative_step(self, rows: list[int], z_all: np.ndarray, R_all: np.ndarray) -> None:
         """Match unmatched sightings to tentative landmarks (the tutorial's counter); promote a
         candidate into the state at its N-th sighting."""
@@ -347,13 +397,13 @@ class EKFSLAM:
                 if self.config.min_sightings <= 1:
                     self._add_landmark(z, R, None)
                     continue
-                index = self._tentative.add(point, cov, self._frames)
+                index = self._tentative.add(point, cov, self._odometer_m)
                 self._counts["tentative_created"] += 1
                 taken.add(index)
                 continue
             taken.add(index)
             if (
-                self._tentative.observe(index, point, cov, self._frames)
+                self._tentative.observe(index, point, cov, self._odometer_m)
                 >= self.config.min_sightings
             ):
                 promote.append((index, row))

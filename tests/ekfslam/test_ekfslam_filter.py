@@ -142,7 +142,8 @@ def test_tentative_landmark_seen_once_is_dropped():
     frames = list(scenario.frames)
     first = frames[0].range_bearing
     assert len(first)
-    ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE, min_sightings=3, tentative_window_frames=5))
+    # 5 steps of 0.3 m
+    ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE, min_sightings=3, tentative_window_m=1.5))
     # one spurious sighting far from every landmark, seen once
     from omnislam.core.types import FrameInput, RangeBearing
 
@@ -172,7 +173,9 @@ def test_tentative_landmark_seen_once_is_dropped():
         {"gate_probability": "abc"},
         {"min_sightings": "0"},
         {"loop_min_pairings": "0"},
-        {"tentative_window_frames": "0"},
+        {"tentative_window_m": "0"},
+        {"displaced_sigma_ratio": "0.5"},
+        {"contested_sigma_ratio": "0"},
         {"known_gate_probability": "0"},
         {"known_gate_votes": "-1"},
         {"motion_noise.a_vv": "-1"},
@@ -303,3 +306,103 @@ def test_agreeing_re_sightings_close_a_loop_the_gate_rejected(seed):
         assert (ekf.info().readmitted > 0) == (votes > 0)
     assert ends[0] > 2.5, ends
     assert ends[3] < 0.35 * ends[0], ends
+
+
+def test_a_wide_pairing_moved_off_its_sightings_best_landmark_is_dropped():
+    """After a gap (the pose a metre uncertain) two sightings of a landmark and of a new
+    neighbour 0.17 m beside it: JCBB's most pairings take another pair of landmarks 1.2 m away
+    (MR.CLAM robot 2, frame 194, docs/results.md); ``displaced_sigma_ratio`` drops those
+    pairings, as each sighting is individually nearer a landmark no pairing takes."""
+    from omnislam.core.types import FrameInput, Odometry, RangeBearing
+
+    landmarks = np.array([[3.0, 0.0], [3.0, 1.2], [3.0, 1.37]])
+
+    def seen(points):
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        r = np.hypot(points[:, 0], points[:, 1])
+        b = np.arctan2(points[:, 1], points[:, 0])
+        return RangeBearing(np.full(len(r), -1), r, b, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
+
+    lost = np.diag([1.0, 1.0, 0.05**2])
+    frames = [
+        FrameInput(index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=seen(landmarks)),
+        # the robot has not moved: landmark 0 and something new 0.17 m beside it
+        FrameInput(
+            index=1,
+            odometry=Odometry(np.zeros(3), 1.0, lost),
+            range_bearing=seen([[3.0, 0.0], [3.0, 0.17]]),
+        ),
+    ]
+    for ratio, moved in ((np.inf, True), (EKFSLAMConfig().displaced_sigma_ratio, False)):
+        ekf = EKFSLAM(EKFSLAMConfig(min_sightings=1, displaced_sigma_ratio=ratio))
+        run(ekf, frames)
+        assert ekf.state.n_landmarks == 3
+        # the pairings with landmarks 1 and 2 throw the pose 1.2 m
+        assert (np.linalg.norm(ekf.state.pose[:2]) > 0.6) == moved
+        assert ekf.info().ambiguous == (0 if moved else 2)
+
+
+def test_the_tentative_window_is_a_distance_travelled_not_a_count_of_frames():
+    """A landmark seen once waits outside the state while the robot travels less than
+    ``tentative_window_m`` however many frames pass (MR.CLAM: 0.02 m per frame, a landmark's
+    second sighting up to 160 s later), and is dropped once it travelled farther."""
+    from omnislam.core.types import FrameInput, Odometry, RangeBearing
+
+    def seen():
+        return RangeBearing(np.array([-1]), 3.0, 0.0, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
+
+    window = EKFSLAMConfig().tentative_window_m
+    for step_m, kept in ((0.01, True), (0.3, False)):
+        frames = [FrameInput(index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=seen())]
+        frames += [
+            FrameInput(index=k, odometry=Odometry(np.array([step_m, 0.0, 0.0]), float(k)))
+            for k in range(1, 61)  # 60 frames: 0.6 m or 18 m
+        ]
+        ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE))
+        run(ekf, frames)
+        assert (60 * step_m < window) == kept
+        assert ekf.info().tentative == int(kept)
+        assert ekf.info().tentative_dropped == int(not kept)
+        if kept:  # the second sighting, from where the robot now is, promotes it
+            ekf.step(
+                FrameInput(
+                    index=61,
+                    odometry=Odometry(np.zeros(3), 61.0),
+                    range_bearing=RangeBearing(
+                        np.array([-1]), 3.0 - 0.6, 0.0, SIGMA_RANGE_M, SIGMA_BEARING_RAD
+                    ),
+                )
+            )
+            assert ekf.state.n_landmarks == 1
+            assert np.allclose(ekf.state.landmarks[0], [3.0, 0.0], atol=0.3)
+
+
+def test_a_wide_pairing_contested_by_an_unpaired_sighting_is_dropped():
+    """After a gap (the pose a metre uncertain) two objects 0.5 m apart, 3.3 and 3.8 m beside
+    the one landmark of the map: the nearer inside its gate (D2 8.2 < 9.21), the other just
+    outside (10.5), so no other hypothesis pairs as many and the ambiguity margin cannot apply,
+    yet the frame does not tell which one the landmark is (MR.CLAM robot 1, frame 190: D2 8.9
+    and 12.1). ``contested_sigma_ratio`` drops the pairing instead of pulling the pose 2.8 m."""
+    from omnislam.core.types import FrameInput, Odometry, RangeBearing
+
+    def seen(points):
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        r = np.hypot(points[:, 0], points[:, 1])
+        b = np.arctan2(points[:, 1], points[:, 0])
+        return RangeBearing(np.full(len(r), -1), r, b, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
+
+    lost = np.diag([1.0, 1.0, 0.05**2])
+    frames = [
+        FrameInput(index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=seen([3.0, 0.0])),
+        FrameInput(
+            index=1,
+            odometry=Odometry(np.zeros(3), 1.0, lost),
+            range_bearing=seen([[3.0, 3.3], [3.0, 3.8]]),
+        ),
+    ]
+    for ratio, moved in ((np.inf, True), (EKFSLAMConfig().contested_sigma_ratio, False)):
+        ekf = EKFSLAM(EKFSLAMConfig(min_sightings=1, contested_sigma_ratio=ratio))
+        run(ekf, frames)
+        assert (np.linalg.norm(ekf.state.pose[:2]) > 1.0) == moved
+        assert ekf.info().associated == int(moved)
+        assert ekf.info().ambiguous == int(not moved)
