@@ -160,14 +160,20 @@ def diagnose(dataset: str, options: dict[str, str]) -> None:
             print(f"    merged {dup - base} {dict(raw[dup])} into {kept - base} {dict(raw[kept])}")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def diagnose_each(diagnose_one, description: str) -> None:
+    """The command line of a diagnosis: ``[DATASET ...] [--set KEY=VALUE ...]`` (MR.CLAM robots
+    1-5 by default), ``diagnose_one(dataset, options)`` for each dataset."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("datasets", nargs="*", default=[f"mrclam6-r{i}" for i in range(1, 6)])
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
     options = dict(item.split("=", 1) for item in args.set)
     for dataset in args.datasets:
-        diagnose(dataset, options)
+        diagnose_one(dataset, options)
+
+
+def main() -> None:
+    diagnose_each(diagnose, __doc__.splitlines()[0])
 
 
 if __name__ == "__main__":

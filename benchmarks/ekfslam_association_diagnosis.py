@@ -26,10 +26,10 @@ The estimator runs with its defaults; ``--set key=value`` overrides them (both r
 
 from __future__ import annotations
 
-import argparse
 import collections
 
 import numpy as np
+from association_diagnosis import diagnose_each
 
 from omnislam.core.compatibility import Decision
 from omnislam.core.types import FrameInput, RangeBearing
@@ -236,13 +236,7 @@ def diagnose(dataset: str, options: dict[str, str]) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("datasets", nargs="*", default=[f"mrclam6-r{i}" for i in range(1, 6)])
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
-    args = parser.parse_args()
-    options = dict(item.split("=", 1) for item in args.set)
-    for dataset in args.datasets:
-        diagnose(dataset, options)
+    diagnose_each(diagnose, __doc__.splitlines()[0])
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ from ekfslam_scenario import (
 from scipy.stats import chi2
 
 from omnislam.core.modality import Modality
-from omnislam.core.types import Estimator, Introspectable
+from omnislam.core.types import Estimator, Introspectable, RangeBearing
 from omnislam.ekfslam import EKFSLAM, EKFSLAMConfig, EKFSLAMInfo
 from omnislam.errors import ConfigError
 from omnislam.estimators import SequenceInfo, make_estimator
@@ -48,6 +48,14 @@ def run(estimator, frames):
     for frame in frames:
         estimator.step(frame)
     return estimator.estimate()
+
+
+def _unlabelled(points) -> RangeBearing:
+    """Sightings without ids of the points (K, 2) seen from the origin (robot frame = world)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    r = np.hypot(points[:, 0], points[:, 1])
+    b = np.arctan2(points[:, 1], points[:, 0])
+    return RangeBearing(np.full(len(r), -1), r, b, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
 
 
 def test_registry_builds_an_introspectable_estimator(rng):
@@ -256,22 +264,21 @@ def test_a_loop_closed_by_one_sighting_is_dropped_by_three_kept():
     """With the pose a metre uncertain (S 20x wider than R), one sighting inside an old
     landmark's gate is no evidence (``loop_min_pairings``: carmen-aces, docs/results.md); three
     jointly compatible ones are; the default (1) keeps the lone pairing."""
-    from omnislam.core.types import FrameInput, Odometry, RangeBearing
+    from omnislam.core.types import FrameInput, Odometry
 
     landmarks = np.array([[3.0, 0.0], [0.0, 3.0], [-3.0, 0.0]])
 
-    def seen(points):
-        points = np.asarray(points, dtype=float).reshape(-1, 2)
-        r = np.hypot(points[:, 0], points[:, 1])
-        b = np.arctan2(points[:, 1], points[:, 0])
-        return RangeBearing(np.full(len(r), -1), r, b, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
-
     lost = np.diag([1.0, 1.0, 0.05**2])  # the odometry since: a metre of uncertainty
     frames = [
-        FrameInput(index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=seen(landmarks)),
+        FrameInput(
+            index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=_unlabelled(landmarks)
+        ),
         # the robot has not moved; one sighting of something 0.8 m beside landmark 0
-        FrameInput(index=1, odometry=Odometry(np.zeros(3), 1.0, lost),
-                   range_bearing=seen([3.0, 0.8])),
+        FrameInput(
+            index=1,
+            odometry=Odometry(np.zeros(3), 1.0, lost),
+            range_bearing=_unlabelled([3.0, 0.8]),
+        ),
     ]
     assert EKFSLAMConfig().loop_min_pairings == 1
     for min_pairings, moved in ((3, False), (1, True)):
@@ -284,8 +291,13 @@ def test_a_loop_closed_by_one_sighting_is_dropped_by_three_kept():
         if not moved:
             assert ekf.info().ambiguous == 1
             # three sightings of the old landmarks together close the loop
-            ekf.step(FrameInput(index=2, odometry=Odometry(np.zeros(3), 2.0, np.eye(3) * 1e-6),
-                                range_bearing=seen(landmarks)))
+            ekf.step(
+                FrameInput(
+                    index=2,
+                    odometry=Odometry(np.zeros(3), 2.0, np.eye(3) * 1e-6),
+                    range_bearing=_unlabelled(landmarks),
+                )
+            )
             assert ekf.info().associated == 3
             assert np.sqrt(ekf.state.pose_cov[0, 0]) < 0.2
 
@@ -313,24 +325,20 @@ def test_a_wide_pairing_moved_off_its_sightings_best_landmark_is_dropped():
     neighbour 0.17 m beside it: JCBB's most pairings take another pair of landmarks 1.2 m away
     (MR.CLAM robot 2, frame 194, docs/results.md); ``displaced_sigma_ratio`` drops those
     pairings, as each sighting is individually nearer a landmark no pairing takes."""
-    from omnislam.core.types import FrameInput, Odometry, RangeBearing
+    from omnislam.core.types import FrameInput, Odometry
 
     landmarks = np.array([[3.0, 0.0], [3.0, 1.2], [3.0, 1.37]])
 
-    def seen(points):
-        points = np.asarray(points, dtype=float).reshape(-1, 2)
-        r = np.hypot(points[:, 0], points[:, 1])
-        b = np.arctan2(points[:, 1], points[:, 0])
-        return RangeBearing(np.full(len(r), -1), r, b, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
-
     lost = np.diag([1.0, 1.0, 0.05**2])
     frames = [
-        FrameInput(index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=seen(landmarks)),
+        FrameInput(
+            index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=_unlabelled(landmarks)
+        ),
         # the robot has not moved: landmark 0 and something new 0.17 m beside it
         FrameInput(
             index=1,
             odometry=Odometry(np.zeros(3), 1.0, lost),
-            range_bearing=seen([[3.0, 0.0], [3.0, 0.17]]),
+            range_bearing=_unlabelled([[3.0, 0.0], [3.0, 0.17]]),
         ),
     ]
     for ratio, moved in ((np.inf, True), (EKFSLAMConfig().displaced_sigma_ratio, False)):
@@ -383,21 +391,17 @@ def test_a_wide_pairing_contested_by_an_unpaired_sighting_is_dropped():
     outside (10.5), so no other hypothesis pairs as many and the ambiguity margin cannot apply,
     yet the frame does not tell which one the landmark is (MR.CLAM robot 1, frame 190: D2 8.9
     and 12.1). ``contested_sigma_ratio`` drops the pairing instead of pulling the pose 2.8 m."""
-    from omnislam.core.types import FrameInput, Odometry, RangeBearing
-
-    def seen(points):
-        points = np.asarray(points, dtype=float).reshape(-1, 2)
-        r = np.hypot(points[:, 0], points[:, 1])
-        b = np.arctan2(points[:, 1], points[:, 0])
-        return RangeBearing(np.full(len(r), -1), r, b, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
+    from omnislam.core.types import FrameInput, Odometry
 
     lost = np.diag([1.0, 1.0, 0.05**2])
     frames = [
-        FrameInput(index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=seen([3.0, 0.0])),
+        FrameInput(
+            index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=_unlabelled([3.0, 0.0])
+        ),
         FrameInput(
             index=1,
             odometry=Odometry(np.zeros(3), 1.0, lost),
-            range_bearing=seen([[3.0, 3.3], [3.0, 3.8]]),
+            range_bearing=_unlabelled([[3.0, 3.3], [3.0, 3.8]]),
         ),
     ]
     for ratio, moved in ((np.inf, True), (EKFSLAMConfig().contested_sigma_ratio, False)):
