@@ -58,6 +58,20 @@ def _unlabelled(points) -> RangeBearing:
     return RangeBearing(np.full(len(r), -1), r, b, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
 
 
+def _lost_then_seen(first, then) -> list:
+    """Two frames at rest: the points ``first`` seen, then -- the odometry between them a metre
+    uncertain, as after a long gap -- the points ``then`` (sightings without ids)."""
+    from omnislam.core.types import FrameInput, Odometry
+
+    lost = np.diag([1.0, 1.0, 0.05**2])
+    return [
+        FrameInput(index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=_unlabelled(first)),
+        FrameInput(
+            index=1, odometry=Odometry(np.zeros(3), 1.0, lost), range_bearing=_unlabelled(then)
+        ),
+    ]
+
+
 def test_registry_builds_an_introspectable_estimator(rng):
     ekf = make_estimator("ekfslam", sequence_info(), NOISE_OPTIONS, rng)
     assert isinstance(ekf, EKFSLAM) and isinstance(ekf, Estimator)
@@ -325,22 +339,11 @@ def test_a_wide_pairing_moved_off_its_sightings_best_landmark_is_dropped():
     neighbour 0.17 m beside it: JCBB's most pairings take another pair of landmarks 1.2 m away
     (MR.CLAM robot 2, frame 194, docs/results.md); ``displaced_sigma_ratio`` drops those
     pairings, as each sighting is individually nearer a landmark no pairing takes."""
-    from omnislam.core.types import FrameInput, Odometry
 
     landmarks = np.array([[3.0, 0.0], [3.0, 1.2], [3.0, 1.37]])
 
-    lost = np.diag([1.0, 1.0, 0.05**2])
-    frames = [
-        FrameInput(
-            index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=_unlabelled(landmarks)
-        ),
-        # the robot has not moved: landmark 0 and something new 0.17 m beside it
-        FrameInput(
-            index=1,
-            odometry=Odometry(np.zeros(3), 1.0, lost),
-            range_bearing=_unlabelled([[3.0, 0.0], [3.0, 0.17]]),
-        ),
-    ]
+    # the robot has not moved: landmark 0 and something new 0.17 m beside it
+    frames = _lost_then_seen(landmarks, [[3.0, 0.0], [3.0, 0.17]])
     for ratio, moved in ((np.inf, True), (EKFSLAMConfig().displaced_sigma_ratio, False)):
         ekf = EKFSLAM(EKFSLAMConfig(min_sightings=1, displaced_sigma_ratio=ratio))
         run(ekf, frames)
@@ -391,19 +394,8 @@ def test_a_wide_pairing_contested_by_an_unpaired_sighting_is_dropped():
     outside (10.5), so no other hypothesis pairs as many and the ambiguity margin cannot apply,
     yet the frame does not tell which one the landmark is (MR.CLAM robot 1, frame 190: D2 8.9
     and 12.1). ``contested_sigma_ratio`` drops the pairing instead of pulling the pose 2.8 m."""
-    from omnislam.core.types import FrameInput, Odometry
 
-    lost = np.diag([1.0, 1.0, 0.05**2])
-    frames = [
-        FrameInput(
-            index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=_unlabelled([3.0, 0.0])
-        ),
-        FrameInput(
-            index=1,
-            odometry=Odometry(np.zeros(3), 1.0, lost),
-            range_bearing=_unlabelled([[3.0, 3.3], [3.0, 3.8]]),
-        ),
-    ]
+    frames = _lost_then_seen([3.0, 0.0], [[3.0, 3.3], [3.0, 3.8]])
     for ratio, moved in ((np.inf, True), (EKFSLAMConfig().contested_sigma_ratio, False)):
         ekf = EKFSLAM(EKFSLAMConfig(min_sightings=1, contested_sigma_ratio=ratio))
         run(ekf, frames)
