@@ -82,7 +82,8 @@ class Resighting:
         frame: the frame it was taken in.
         point_w: (2,) the landmark position it implies from the frame's pose estimate [m].
         covariance_w: (2, 2) that point's covariance from the sighting noise alone [m^2].
-        payload: what the back end needs to use it later (a graph factor; a filter's z, R).
+        payload: what the back end needs to use it later (the graph: its factor; a filter,
+            which uses only the newest sighting, passes None).
     """
 
     frame: int
@@ -99,11 +100,12 @@ class GatedResightings:
     synthetic presets, 1-3 % of the distance) the pose is metres off while its covariance,
     built from a white-noise odometry model, says decimetres: on ``loop150`` (seeds 1 and 4)
     every re-sighting of the first poles at the end of the lap was gated, the loop never
-    closed, and graphslam ended 3.3 m off (0.03 m with the gate off) and EKF-SLAM 3.0 m (0.02
-    m). The sightings the gate exists for, MR.CLAM's misread barcodes, look different: a lone
-    sighting, or a barcode misread again and again while the robot looks at *another*
-    landmark, so that the point it implies lies on that landmark (robot 3, frames 611-615:
-    "20" read for landmark 11, 7.1 m from 20 and 2-6 cm from 11; robot 5, frames 1974-1977).
+    closed, and graphslam's last pose ended 3.3 m from the truth (8 mm with the gate off),
+    EKF-SLAM's 3.0 m (18 mm). The sightings the gate exists for, MR.CLAM's misread barcodes,
+    look different: a lone sighting, or a barcode misread again and again while the robot
+    looks at *another* landmark, so that the point it implies lies on that landmark (robot 3,
+    frames 611-615: "20" read for landmark 11, 7.1 m from 20 and 2-6 cm from 11; robot 5,
+    frames 1974-1977).
 
     Only a landmark whose own estimate can be trusted may overrule the gate: the callers offer
     sightings of landmarks past the young stage (``OUTLIER_GATE_MIN_SIGHTINGS`` sightings;
