@@ -149,10 +149,11 @@ class RangeBearingGraph:
                 ]
             )
             gates = np.where(young, YOUNG_GATE_FACTOR * self._outlier_gate, self._outlier_gate)
-            gated = rows[~self._gate_mapped(k, rows, sightings, guess_w, gates)]
-            for row in gated.tolist():
+            inside = self._gate_mapped(k, rows, sightings, guess_w, gates)
+            # a young landmark's gate is 10x wider already: its gated sightings never vote
+            for row in rows[~inside & ~young].tolist():
                 self._hold_gated(k, row, sightings, guess_w, graph)
-            ids[gated] = UNKNOWN_ID
+            ids[rows[~inside]] = UNKNOWN_ID
         for i, (lid, r, b, s_r, s_b) in enumerate(
             zip(
                 ids.tolist(),
@@ -302,12 +303,11 @@ class RangeBearingGraph:
     def _hold_gated(
         self, k: int, row: int, sightings: RangeBearing, guess_w: np.ndarray, graph: Any
     ) -> None:
-        """A sighting the outlier gate rejected: held, and added with the held sightings of its
-        landmark that agree with it once there are enough (``core.gating.GatedResightings``);
-        dropped for good when the point it implies lies on another landmark (a misread id)."""
+        """A sighting of a landmark past the young stage that the outlier gate rejected: held,
+        and added with the held sightings of its landmark that agree with it once there are
+        enough (``core.gating.GatedResightings``); dropped for good when the point it implies
+        lies on another landmark (a misread id)."""
         lid = int(sightings.landmark_ids[row])
-        if self._in_graph.get(lid, 0) < self._config.outlier_gate_min_sightings:
-            return  # young, gated 10x wider already: the sighting is hundreds of sigmas off
         r, b = float(sightings.ranges_m[row]), float(sightings.bearings_rad[row])
         s_r, s_b = float(sightings.sigma_range_m[row]), float(sightings.sigma_bearing_rad[row])
         points, covs = sighting_points(guess_w, *map(np.atleast_1d, (r, b, s_r, s_b)))
