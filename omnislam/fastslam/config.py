@@ -268,6 +268,21 @@ class FastSLAMConfig:
             0-2 from 9.44 to 4.93 m, but on MR.CLAM 6 without ids (seed 0) it is worse on four
             of five robots with more landmarks on all, and CARMEN was not measured
             (docs/results.md, "Victoria Park: FastSLAM against GPS").
+        resighting_spread: sightings of unknown association are compared with each landmark
+            under an innovation covariance that also holds the odometry's pose covariance
+            accumulated since that landmark was last seen, times this factor
+            (``resighting.ResightingSpread``: the motion model's step covariance -- the stated
+            one where it is sampled -- composed over the gap, Smith, Self & Cheeseman 1990),
+            the "pose uncertainty since it last saw the landmark" of issue 16: a landmark seen
+            again after a long gap stays inside the p0 gate although the particle set is far
+            narrower than its error. It enters the association decision only (not the
+            proposal, the landmark update or the weights). 0.0: off.
+        association_gate_probability: 1.0 (default): a sighting of unknown association starts
+            a new landmark when its likeliest landmark's log-likelihood is below
+            ``new_landmark_log_likelihood`` (Montemerlo 2003 sec. 3.4.1). Below 1: when no
+            landmark's squared Mahalanobis distance lies inside the chi-square quantile of this
+            probability (2 dof), and it goes to the likeliest landmark inside it otherwise
+            (``association.maximum_likelihood_association``); a new landmark still weighs p0.
         confirm_sightings: a landmark of unknown association (a sighting without id that a
             particle made a new landmark) is tentative until that particle has seen it this
             many times, the first sighting included (the provisional landmarks of Montemerlo
@@ -335,6 +350,8 @@ class FastSLAMConfig:
     new_landmark_log_likelihood: float = -6.0
     association_margin_m: float = 3.0
     association_exclusive: bool = False
+    resighting_spread: float = 0.0
+    association_gate_probability: float = 1.0
     confirm_sightings: int = 1
     bearing_gate_probability: float = 0.999
     outlier_gate_probability: float = 1.0
@@ -356,6 +373,10 @@ class FastSLAMConfig:
             raise ConfigError("resample_ess_fraction must be in [0, 1]")
         if self.min_parallax_deg < 0 or self.association_margin_m < 0:
             raise ConfigError("min_parallax_deg and association_margin_m must be non-negative")
+        if not 0.0 <= self.resighting_spread < math.inf:
+            raise ConfigError("resighting_spread must be finite and non-negative")
+        if not 0.0 < self.association_gate_probability <= 1.0:
+            raise ConfigError("association_gate_probability must be in (0, 1]")
         if self.confirm_sightings < 1:
             raise ConfigError("confirm_sightings must be >= 1")
         if self.triangulated_ray_reuse < 1.0:
