@@ -17,6 +17,7 @@ from omnislam.core.batch_linalg import inverse_and_logdet, transpose
 from omnislam.core.gaussian import log_likelihood_from_mahalanobis, mahalanobis_squared
 from omnislam.core.measurement import MeasurementModel, RangeBearing2D
 from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkStore
+from omnislam.fastslam.pose_spread import PoseSpread
 from omnislam.fastslam.resighting import ResightingSpread
 from omnislam.fastslam.sightings import Pairs, Sightings
 from omnislam.fastslam.slot_registry import SlotRegistry
@@ -40,6 +41,8 @@ class SightingAssociation:
             innovation covariance; None: the particle's pose alone (Montemerlo 2003).
         gate: the chi-square quantile of the new-landmark test, or None for log p0 alone
             (``maximum_likelihood_association``).
+        pose_spread: the filter's pose covariance relative to its maps
+            (``pose_spread.PoseSpread``), added to every particle's pose covariance, or None.
     """
 
     def __init__(
@@ -51,8 +54,10 @@ class SightingAssociation:
         exclusive: bool = False,
         spread: ResightingSpread | None = None,
         gate: float | None = None,
+        pose_spread: PoseSpread | None = None,
     ) -> None:
         self._registry = registry
+        self._pose_spread = pose_spread
         self._spread = spread
         self._gate = gate
         #: (particle, sighting) decisions on unknown sightings: matched / new landmark
@@ -113,6 +118,9 @@ class SightingAssociation:
         candidates = self._registry.near(center, radius)
         c = candidates.size
         block = self._store.gather(np.repeat(np.arange(p), c), _tiled(candidates, p))
+        if self._pose_spread is not None:
+            extra = self._pose_spread.world_frame(p)
+            pose_cov = extra if pose_cov is None else pose_cov + extra
         if self._spread is not None and c:
             gap = self._spread.world_frame(candidates, poses[:, 2])  # (P, C, 3, 3)
             pose_cov = gap if pose_cov is None else pose_cov[:, None] + gap

@@ -284,6 +284,12 @@ class FastSLAMConfig:
             Park from 8.9-10.7 m to 91-111 m (at 1: aces 3.3-9.2 m, intel 3.4-6.2 m): the
             composed spread makes neighbouring laser landmarks compatible, so it is not the
             default (docs/results.md, "FastSLAM without ids on MR.CLAM").
+        association_pose_spread: sightings of unknown association are compared with each
+            landmark under an innovation covariance that also holds this factor times the
+            filter's pose covariance relative to its maps (``pose_spread.PoseSpread``: predicted
+            by the odometry, shrunk by the information of every matched sighting, EKF
+            localisation against the particles' maps, Thrun et al. 2005 Tables 7.1-7.2).
+            Association only. 0.0 (default): off.
         association_gate_probability: 1.0 (default): a sighting of unknown association starts
             a new landmark when its likeliest landmark's log-likelihood is below
             ``new_landmark_log_likelihood`` (Montemerlo 2003 sec. 3.4.1). Below 1: when no
@@ -363,6 +369,7 @@ class FastSLAMConfig:
     association_margin_m: float = 3.0
     association_exclusive: bool = False
     resighting_spread: float = 0.0
+    association_pose_spread: float = 0.0
     association_gate_probability: float = 1.0
     confirm_sightings: int = 1
     bearing_gate_probability: float = 0.999
@@ -387,6 +394,8 @@ class FastSLAMConfig:
             raise ConfigError("min_parallax_deg and association_margin_m must be non-negative")
         if not 0.0 <= self.resighting_spread < math.inf:
             raise ConfigError("resighting_spread must be finite and non-negative")
+        if not 0.0 <= self.association_pose_spread < math.inf:
+            raise ConfigError("association_pose_spread must be finite and non-negative")
         if not 0.0 < self.association_gate_probability <= 1.0:
             raise ConfigError("association_gate_probability must be in (0, 1]")
         if self.confirm_sightings < 1:

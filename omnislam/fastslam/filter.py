@@ -31,8 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from omnislam.core.gating import chi_square_gate
+from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
 from omnislam.core.motion import MotionModel, StatedOdometryMotion
+from omnislam.core.se import se2_compose
 from omnislam.core.types import Estimate, FrameInput
 from omnislam.errors import ConfigError
 from omnislam.fastslam.association import SightingAssociation
@@ -53,6 +55,7 @@ from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkBlock, Land
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.mapper import make_mapper
 from omnislam.fastslam.particles import ParticleSet, PathHistory
+from omnislam.fastslam.pose_spread import PoseSpread
 from omnislam.fastslam.proposal_sampling import ProposalSampler
 from omnislam.fastslam.resampling import (
     multinomial_resample,
@@ -219,6 +222,13 @@ class FastSLAM:
             if config.resighting_spread > 0 and hasattr(motion, "covariance")
             else None
         )
+        self._pose_spread = (
+            PoseSpread(config.association_pose_spread)
+            if config.association_pose_spread > 0
+            and hasattr(motion, "covariance")
+            and modality is Modality.RANGE_BEARING_2D
+            else None
+        )
         self._association = SightingAssociation(
             self._slots,
             self._store,
@@ -229,6 +239,7 @@ class FastSLAM:
             None
             if config.association_gate_probability >= 1.0
             else chi_square_gate(config.association_gate_probability, 2),
+            self._pose_spread,
         )
         self._proposal = ProposalSampler(
             self._mapper, config.proposal_update, motion, rng, kernels, config.confirm_sightings
@@ -292,6 +303,9 @@ class FastSLAM:
             self._frames_stated += 1
         motion = self._motion if stated is None else stated
         gap = self._gap
+        if self._pose_spread is not None:
+            mean = _mean_pose(particles.poses, particles.weights)
+            self._pose_spread.predict(mean, se2_compose(mean, delta), self._step_cov(delta, stated))
         if sightings is None:
             if self._spread is not None:
                 self._spread.advance(delta, self._step_cov(delta, stated))
@@ -329,6 +343,8 @@ class FastSLAM:
             self._spread.advance(step_delta, self._step_cov(step_delta, step_stated))
         particles.poses = poses
         log_factors += self._update_landmarks(poses, sightings, pairs, gathered)
+        if self._pose_spread is not None:
+            self._shrink_pose_spread(poses, sightings, pairs, particles.weights)
         if self._existence is not None:
             self._existence.apply(self._store, self._slots, poses, particles.weights, pairs)
         particles.reweight(log_factors)
@@ -408,6 +424,28 @@ class FastSLAM:
         Optional: ids are otherwise given slots when first seen. Returns their slots.
         """
         return self._slots.slots_for_ids(np.asarray(ids, dtype=np.int64))
+
+    def _shrink_pose_spread(
+        self, poses: np.ndarray, sightings: Sightings, pairs: Pairs, weights: np.ndarray
+    ) -> None:
+        """The information of the frame's matched sightings (not the new landmarks) into the
+        pose spread (``pose_spread.PoseSpread.update``)."""
+        rows = np.flatnonzero(~pairs.new_unknown)
+        if rows.size == 0:
+            return
+        block = self._store.gather(pairs.particle[rows], pairs.slot[rows])
+        ok = block.status == ESTIMATED
+        rows = rows[ok]
+        who = pairs.particle[rows]
+        self._pose_spread.update(
+            RangeBearing2D(),
+            poses[who],
+            block.mean[ok],
+            block.cov[ok],
+            sightings.R[pairs.obs[rows]],
+            who,
+            weights,
+        )
 
     def _step_cov(self, delta: np.ndarray, stated: StatedOdometryMotion | None) -> np.ndarray:
         """(3, 3) covariance of one odometry delta: the stated one being sampled, else the
@@ -499,3 +537,10 @@ class FastSLAM:
         self._store.resample(ancestors)
         self.resample_count += 1
         return ancestors
+
+
+def _mean_pose(poses: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """(3,) the weighted mean pose, the heading's circular mean."""
+    xy = weights @ poses[:, :2]
+    heading = np.arctan2(weights @ np.sin(poses[:, 2]), weights @ np.cos(poses[:, 2]))
+    return np.array([xy[0], xy[1], heading])

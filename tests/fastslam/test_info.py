@@ -79,8 +79,8 @@ def test_the_bearing_gate_counts_what_it_rejects(variant):
     assert first.rays_pending == len(frames[0].bearings) and first.landmarks == 0
 
 
-@pytest.mark.parametrize("spread", [0.0, 5.0])
-def test_every_unknown_decision_is_counted_matched_or_new(spread):
+@pytest.mark.parametrize(("spread", "pose_spread"), [(0.0, 0.0), (5.0, 0.0), (0.0, 30.0)])
+def test_every_unknown_decision_is_counted_matched_or_new(spread, pose_spread):
     """Each (particle, unknown sighting) is one decision: matched or new; a new landmark's
     decisions can only outnumber its slots (several particles create the same slot)."""
     scenario = make_scenario(1, steps=40, unknown_ids=True)
@@ -89,6 +89,7 @@ def test_every_unknown_decision_is_counted_matched_or_new(spread):
         n_particles=10,
         motion_noise=SCENARIO_NOISE,
         resighting_spread=spread,
+        association_pose_spread=pose_spread,
     )
     slam = _run(config, scenario.frames, Modality.RANGE_BEARING_2D)
     info = slam.info()
