@@ -7,6 +7,12 @@ explains it best; if even the best explains it with likelihood below p0, the par
 new landmark. Different particles may associate differently; wrong hypotheses die out in
 resampling. Unknown association is supported for range-bearing sightings (the bearing mapper
 refuses bearings without track ids).
+
+Options (issue 16, all off by default): the pose term of S may be widened by the odometry's
+covariance since each landmark was last seen (``resighting.ResightingSpread``) or by the
+filter's pose covariance relative to its maps (``pose_spread.PoseSpread``); the new-landmark
+test may be a chi-square gate on y^T S^-1 y instead of log p0; and a frame's sightings may be
+assigned under mutual exclusion.
 """
 
 from __future__ import annotations
