@@ -46,6 +46,9 @@ COUNT_KEYS = (
     "ambiguous",
     "tentative_dropped",
     "unknown_slots",
+    "unknown_matched",
+    "unknown_new",
+    "landmarks_pruned",
 )
 TRUE_LANDMARKS = 15
 

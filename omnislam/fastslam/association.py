@@ -7,6 +7,12 @@ explains it best; if even the best explains it with likelihood below p0, the par
 new landmark. Different particles may associate differently; wrong hypotheses die out in
 resampling. Unknown association is supported for range-bearing sightings (the bearing mapper
 refuses bearings without track ids).
+
+Options (issue 16, all off by default): the pose term of S may be widened by the odometry's
+covariance since each landmark was last seen (``resighting.ResightingSpread``) or by the
+filter's pose covariance relative to its maps (``pose_spread.PoseSpread``); the new-landmark
+test may be a chi-square gate on y^T S^-1 y instead of log p0; and a frame's sightings may be
+assigned under mutual exclusion.
 """
 
 from __future__ import annotations
@@ -14,9 +20,11 @@ from __future__ import annotations
 import numpy as np
 
 from omnislam.core.batch_linalg import inverse_and_logdet, transpose
-from omnislam.core.gaussian import gaussian_log_likelihood
+from omnislam.core.gaussian import log_likelihood_from_mahalanobis, mahalanobis_squared
 from omnislam.core.measurement import MeasurementModel, RangeBearing2D
 from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkStore
+from omnislam.fastslam.pose_spread import PoseSpread
+from omnislam.fastslam.resighting import ResightingSpread
 from omnislam.fastslam.sightings import Pairs, Sightings
 from omnislam.fastslam.slot_registry import SlotRegistry
 
@@ -34,6 +42,13 @@ class SightingAssociation:
             lies within the largest sighting range plus this margin of the mean pose [m].
         log_p0: log-likelihood threshold below which a particle creates a new landmark.
         exclusive: one landmark explains at most one sighting of a frame (mutual exclusion).
+        spread: the odometry's pose covariance accumulated since each landmark was last seen
+            (``resighting.ResightingSpread``), added to the pose term of each candidate's
+            innovation covariance; None: the particle's pose alone (Montemerlo 2003).
+        gate: the chi-square quantile of the new-landmark test, or None for log p0 alone
+            (``maximum_likelihood_association``).
+        pose_spread: the filter's pose covariance relative to its maps
+            (``pose_spread.PoseSpread``), added to every particle's pose covariance, or None.
     """
 
     def __init__(
@@ -43,8 +58,17 @@ class SightingAssociation:
         margin_m: float,
         log_p0: float,
         exclusive: bool = False,
+        spread: ResightingSpread | None = None,
+        gate: float | None = None,
+        pose_spread: PoseSpread | None = None,
     ) -> None:
         self._registry = registry
+        self._pose_spread = pose_spread
+        self._spread = spread
+        self._gate = gate
+        #: (particle, sighting) decisions on unknown sightings: matched / new landmark
+        self.matched = 0
+        self.created = 0
         self._store = store
         self._margin_m = margin_m
         self._log_p0 = log_p0
@@ -100,6 +124,12 @@ class SightingAssociation:
         candidates = self._registry.near(center, radius)
         c = candidates.size
         block = self._store.gather(np.repeat(np.arange(p), c), _tiled(candidates, p))
+        if self._pose_spread is not None:
+            extra = self._pose_spread.world_frame(p)
+            pose_cov = extra if pose_cov is None else pose_cov + extra
+        if self._spread is not None and c:
+            gap = self._spread.world_frame(candidates, poses[:, 2])  # (P, C, 3, 3)
+            pose_cov = gap if pose_cov is None else pose_cov[:, None] + gap
         choice, _ = maximum_likelihood_association(
             poses,
             pose_cov,
@@ -111,8 +141,12 @@ class SightingAssociation:
             self._model,
             self._log_p0,
             self._exclusive,
+            self._gate,
         )
         new = choice == NEW_LANDMARK  # (P, K_u)
+        n_new = int(np.count_nonzero(new))
+        self.created += n_new
+        self.matched += new.size - n_new
         wanted = np.flatnonzero(new.any(axis=0))
         new_slots = np.full(unknown.size, -1, dtype=np.int64)
         if wanted.size:
@@ -143,6 +177,7 @@ def maximum_likelihood_association(
     model: MeasurementModel,
     log_p0: float,
     exclusive: bool = False,
+    gate: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Associate K sightings with C candidate landmarks in each of P particles.
 
@@ -155,7 +190,8 @@ def maximum_likelihood_association(
 
     Args:
         poses: (P, 3) particle poses (sampled, or the predicted means for FastSLAM 2.0).
-        pose_cov: (P, 3, 3) pose covariance, or None for a sampled (exact) pose.
+        pose_cov: (P, 3, 3) pose covariance, or (P, C, 3, 3) one per candidate (with the
+            spread since its last sighting), or None for a sampled (exact) pose.
         landmark_mean: (P, C, d) candidates in each particle's map.
         landmark_cov: (P, C, d, d) their covariances.
         landmark_valid: (P, C) False where the particle has no estimate of the candidate.
@@ -163,6 +199,13 @@ def maximum_likelihood_association(
         model: measurement model.
         log_p0: log-likelihood threshold for a new landmark.
         exclusive: enforce mutual exclusion within the frame.
+        gate: None: a sighting starts a new landmark when its likeliest candidate's
+            log-likelihood is below ``log_p0`` (Montemerlo 2003 sec. 3.4.1). A chi-square
+            quantile: when no candidate's squared Mahalanobis distance is inside it (the
+            validation gate of nearest-neighbour association, Bar-Shalom & Fortmann 1988; Thrun
+            et al. 2005 sec. 7.5.2), and the likeliest candidate inside it otherwise -- a test
+            on y^T S^-1 y alone, which a wide S (the spread since the last sighting) does not
+            push below p0 by its determinant.
 
     Returns:
         choice (P, K): candidate index, or ``NEW_LANDMARK``; and log_likelihood (P, K) of the
@@ -172,15 +215,13 @@ def maximum_likelihood_association(
     k = z.shape[0]
     if c == 0:
         return np.full((p, k), NEW_LANDMARK), np.full((p, k), log_p0)
-    z_hat, H_x, H_m = model.predict(poses[:, None, :], landmark_mean)  # (P, C, ...)
-    S = H_m @ landmark_cov @ transpose(H_m)
-    if pose_cov is not None:
-        S = S + H_x @ pose_cov[:, None] @ transpose(H_x)
-    S = S[:, None] + R[None, :, None]  # (P, K, C, k, k)
-    y = model.residual(z[None, :, None, :], z_hat[:, None])
-    S_inv, logdet = inverse_and_logdet(S)
-    log_likelihood = gaussian_log_likelihood(y, S_inv, logdet)
-    log_likelihood = np.where(landmark_valid[:, None, :], log_likelihood, -np.inf)
+    log_likelihood, d2 = association_log_likelihood(
+        poses, pose_cov, landmark_mean, landmark_cov, landmark_valid, z, R, model
+    )
+    if gate is not None:
+        # candidates outside the gate are not candidates; inside it, a pair always beats p0
+        inside = d2 <= gate
+        log_likelihood = np.where(inside, np.maximum(log_likelihood, log_p0), -np.inf)
     if exclusive and k > 1:
         return _exclusive_choice(log_likelihood, log_p0)
     best = np.argmax(log_likelihood, axis=2)
@@ -225,3 +266,37 @@ def _exclusive_choice(log_likelihood: np.ndarray, log_p0: float) -> tuple[np.nda
         remaining[who, sighting, :] = -np.inf
         remaining[who, :, landmark] = -np.inf
     return choice, chosen_ll
+
+
+def association_log_likelihood(
+    poses: np.ndarray,
+    pose_cov: np.ndarray | None,
+    landmark_mean: np.ndarray,
+    landmark_cov: np.ndarray,
+    landmark_valid: np.ndarray,
+    z: np.ndarray,
+    R: np.ndarray,
+    model: MeasurementModel,
+) -> np.ndarray:
+    """log N(z_k; h(x, mu_c), S_kc) of K sightings under C candidates in each of P particles,
+    S = H_m Sigma_c H_m^T + H_x P H_x^T + R_k (the pose term only with ``pose_cov``; arguments
+    as ``maximum_likelihood_association``, ``pose_cov`` (P, 3, 3) or (P, C, 3, 3) per
+    candidate).
+
+    Returns:
+        (P, K, C) log-likelihoods (-inf where ``landmark_valid`` is False) and (P, K, C) squared
+        Mahalanobis distances y^T S^-1 y (inf there).
+    """
+    z_hat, H_x, H_m = model.predict(poses[:, None, :], landmark_mean)  # (P, C, ...)
+    S = H_m @ landmark_cov @ transpose(H_m)
+    if pose_cov is not None:
+        if pose_cov.ndim == 3:
+            pose_cov = pose_cov[:, None]
+        S = S + H_x @ pose_cov @ transpose(H_x)
+    S = S[:, None] + R[None, :, None]  # (P, K, C, k, k)
+    y = model.residual(z[None, :, None, :], z_hat[:, None])
+    S_inv, logdet = inverse_and_logdet(S)
+    d2 = mahalanobis_squared(y, S_inv)
+    log_likelihood = log_likelihood_from_mahalanobis(d2, logdet, y.shape[-1])
+    valid = landmark_valid[:, None, :]
+    return np.where(valid, log_likelihood, -np.inf), np.where(valid, d2, np.inf)

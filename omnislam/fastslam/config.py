@@ -268,6 +268,45 @@ class FastSLAMConfig:
             0-2 from 9.44 to 4.93 m, but on MR.CLAM 6 without ids (seed 0) it is worse on four
             of five robots with more landmarks on all, and CARMEN was not measured
             (docs/results.md, "Victoria Park: FastSLAM against GPS").
+        resighting_spread: sightings of unknown association are compared with each landmark
+            under an innovation covariance that also holds the odometry's pose covariance
+            accumulated since that landmark was last seen, times this factor
+            (``resighting.ResightingSpread``: the motion model's step covariance -- the stated
+            one where it is sampled -- composed over the gap, Smith, Self & Cheeseman 1990),
+            the "pose uncertainty since it last saw the landmark" of issue 16: a landmark seen
+            again after a long gap stays inside the p0 gate although the particle set is far
+            narrower than its error. It enters the association decision only (not the
+            proposal, the landmark update or the weights). 0.0 (default): off. Measured
+            (fastslam2, seeds 0-2, ``--set association=unknown``): at 3 MR.CLAM 6's median ATE
+            on robots 1-5 falls from 1.126 / 1.070 / 2.521 / 0.940 / 0.489 m to 0.717 / 0.500
+            / 2.056 / 0.465 / 0.487 m (41-106 landmarks for 15), but carmen-aces goes from
+            1.63-1.82 m to 2.9-14.8 m, carmen-intel from 0.24-1.08 m to 5.7-11.1 m and Victoria
+            Park from 8.9-10.7 m to 91-111 m (at 1: aces 3.3-9.2 m, intel 3.4-6.2 m): the
+            composed spread makes neighbouring laser landmarks compatible, so it is not the
+            default (docs/results.md, "FastSLAM without ids on MR.CLAM").
+        association_pose_spread: sightings of unknown association are compared with each
+            landmark under an innovation covariance that also holds this factor times the
+            filter's pose covariance relative to its maps (``pose_spread.PoseSpread``: predicted
+            by the odometry, shrunk by the information of every matched sighting, EKF
+            localisation against the particles' maps, Thrun et al. 2005 Tables 7.1-7.2).
+            Association only. 0.0 (default): off. Measured (fastslam2, seeds 0-2, ``--set
+            association=unknown``): at 30 MR.CLAM 6's median ATE on robots 1-5 falls from
+            1.126 / 1.070 / 2.521 / 0.940 / 0.489 m (50-113 landmarks for 15) to 0.497 / 0.464
+            / 0.709 / 0.235 / 0.327 m (16-38 landmarks; robot 4 within 1.5x of its ATE with
+            ids, 16 landmarks), but carmen-aces' median goes from 1.805 to 2.015 m,
+            carmen-intel's from 0.627 to 1.021 m and Victoria Park (seed 0) from 8.85 to 26.8
+            m, so it is not the default (docs/results.md, "FastSLAM without ids on MR.CLAM").
+        association_gate_probability: 1.0 (default): a sighting of unknown association starts
+            a new landmark when its likeliest landmark's log-likelihood is below
+            ``new_landmark_log_likelihood`` (Montemerlo 2003 sec. 3.4.1). Below 1: when no
+            landmark's squared Mahalanobis distance lies inside the chi-square quantile of this
+            probability (2 dof), and it goes to the likeliest landmark inside it otherwise
+            (``association.maximum_likelihood_association``); a new landmark still weighs p0.
+            With the spread a wide S cannot start a new landmark by its determinant alone.
+            Measured on MR.CLAM 6 without ids (fastslam2, seed 0): with ``resighting_spread=1``
+            at 0.999 robots 1-5 0.775 / 0.942 / 2.930 / 1.727 / 0.378 m (55-141 landmarks);
+            with ``resighting_spread=10`` at 0.9999 robots 1 / 3 0.558 / 0.619 m against
+            1.246 / 0.883 m without the gate: no setting within the issue's goal.
         confirm_sightings: a landmark of unknown association (a sighting without id that a
             particle made a new landmark) is tentative until that particle has seen it this
             many times, the first sighting included (the provisional landmarks of Montemerlo
@@ -335,6 +374,9 @@ class FastSLAMConfig:
     new_landmark_log_likelihood: float = -6.0
     association_margin_m: float = 3.0
     association_exclusive: bool = False
+    resighting_spread: float = 0.0
+    association_pose_spread: float = 0.0
+    association_gate_probability: float = 1.0
     confirm_sightings: int = 1
     bearing_gate_probability: float = 0.999
     outlier_gate_probability: float = 1.0
@@ -356,6 +398,12 @@ class FastSLAMConfig:
             raise ConfigError("resample_ess_fraction must be in [0, 1]")
         if self.min_parallax_deg < 0 or self.association_margin_m < 0:
             raise ConfigError("min_parallax_deg and association_margin_m must be non-negative")
+        if not 0.0 <= self.resighting_spread < math.inf:
+            raise ConfigError("resighting_spread must be finite and non-negative")
+        if not 0.0 <= self.association_pose_spread < math.inf:
+            raise ConfigError("association_pose_spread must be finite and non-negative")
+        if not 0.0 < self.association_gate_probability <= 1.0:
+            raise ConfigError("association_gate_probability must be in (0, 1]")
         if self.confirm_sightings < 1:
             raise ConfigError("confirm_sightings must be >= 1")
         if self.triangulated_ray_reuse < 1.0:

@@ -68,6 +68,8 @@ class ExistenceIndex:
         self._config = config
         self._radius_m = config.max_range_m + margin_m
         self._sensor_height_m = sensor_height_m
+        #: (particle, landmark) deletions so far
+        self.pruned = 0
 
     def apply(
         self,
@@ -105,6 +107,7 @@ class ExistenceIndex:
         changed = block.take(rows)
         changed.existence -= 1
         gone = changed.existence < 0
+        self.pruned += int(np.count_nonzero(gone))
         changed.status[gone] = ABSENT
         changed.existence[gone] = 0
         changed.mean[gone] = 0.0

@@ -30,8 +30,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from omnislam.core.gating import chi_square_gate
+from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
 from omnislam.core.motion import MotionModel, StatedOdometryMotion
+from omnislam.core.se import se2_compose
 from omnislam.core.types import Estimate, FrameInput
 from omnislam.errors import ConfigError
 from omnislam.fastslam.association import SightingAssociation
@@ -52,12 +55,14 @@ from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkBlock, Land
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.mapper import make_mapper
 from omnislam.fastslam.particles import ParticleSet, PathHistory
+from omnislam.fastslam.pose_spread import PoseSpread
 from omnislam.fastslam.proposal_sampling import ProposalSampler
 from omnislam.fastslam.resampling import (
     multinomial_resample,
     stratified_resample,
     systematic_resample,
 )
+from omnislam.fastslam.resighting import ResightingSpread
 from omnislam.fastslam.sightings import Pairs, Sightings, tentative_pairs
 from omnislam.fastslam.slot_registry import SlotRegistry
 
@@ -105,6 +110,11 @@ class FastSLAMInfo:
         rays_pending: landmarks of the best particle with a stored ray only, waiting for a ray
             with enough parallax (3-D).
         unknown_slots: slots created for sightings of unknown association.
+        unknown_matched: (particle, sighting) decisions that gave a sighting of unknown
+            association to a landmark of the particle's map.
+        unknown_new: (particle, sighting) decisions that made such a sighting a new landmark.
+        landmarks_pruned: (particle, landmark) deletions by the existence index (thesis
+            5.1.2).
         sightings_gated: (particle, sighting) landmark updates rejected by the outlier gate
             (3-D: the bearing gate; 2-D: ``outlier_gate_probability``).
         proposal_sightings_gated: (particle, sighting) pairs the gate kept out of the
@@ -131,6 +141,9 @@ class FastSLAMInfo:
     landmarks: int
     rays_pending: int
     unknown_slots: int
+    unknown_matched: int
+    unknown_new: int
+    landmarks_pruned: int
     sightings_gated: int
     proposal_sightings_gated: int
     triangulation_fallbacks: int
@@ -202,12 +215,31 @@ class FastSLAM:
             kernels,
         )
         self._slots = SlotRegistry(self._store)
+        # the spread since a landmark's last sighting needs a motion model that states a step's
+        # covariance (``OdometryMotionModel.covariance``)
+        self._spread = (
+            ResightingSpread(config.resighting_spread)
+            if config.resighting_spread > 0 and hasattr(motion, "covariance")
+            else None
+        )
+        self._pose_spread = (
+            PoseSpread(config.association_pose_spread)
+            if config.association_pose_spread > 0
+            and hasattr(motion, "covariance")
+            and modality is Modality.RANGE_BEARING_2D
+            else None
+        )
         self._association = SightingAssociation(
             self._slots,
             self._store,
             config.association_margin_m,
             config.new_landmark_log_likelihood,
             config.association_exclusive,
+            self._spread,
+            None
+            if config.association_gate_probability >= 1.0
+            else chi_square_gate(config.association_gate_probability, 2),
+            self._pose_spread,
         )
         self._proposal = ProposalSampler(
             self._mapper, config.proposal_update, motion, rng, kernels, config.confirm_sightings
@@ -271,7 +303,12 @@ class FastSLAM:
             self._frames_stated += 1
         motion = self._motion if stated is None else stated
         gap = self._gap
+        if self._pose_spread is not None:
+            mean = _mean_pose(particles.poses, particles.weights)
+            self._pose_spread.predict(mean, se2_compose(mean, delta), self._step_cov(delta, stated))
         if sightings is None:
+            if self._spread is not None:
+                self._spread.advance(delta, self._step_cov(delta, stated))
             if gap is not None:
                 particles.poses = gap.extend(particles.poses, delta, self._step_cov(delta, stated))
             else:
@@ -279,6 +316,7 @@ class FastSLAM:
             self._history.record(frame.stamp_s, particles)
             return
         self._frames_with_sightings += 1
+        step_delta, step_stated = delta, stated
         previous = particles.poses
         if gap is not None and gap.open:
             # the whole gap and this step as one Gaussian motion (``gap.py``)
@@ -301,8 +339,12 @@ class FastSLAM:
                 log_factors = log_factors + self.config.new_landmark_log_likelihood * np.bincount(
                     pairs.particle[draw.tentative], minlength=len(particles)
                 )
+        if self._spread is not None:  # after the association: the spread up to the last step
+            self._spread.advance(step_delta, self._step_cov(step_delta, step_stated))
         particles.poses = poses
         log_factors += self._update_landmarks(poses, sightings, pairs, gathered)
+        if self._pose_spread is not None:
+            self._shrink_pose_spread(poses, sightings, pairs, particles.weights)
         if self._existence is not None:
             self._existence.apply(self._store, self._slots, poses, particles.weights, pairs)
         particles.reweight(log_factors)
@@ -363,6 +405,9 @@ class FastSLAM:
             landmarks=int(np.count_nonzero(status == ESTIMATED)),
             rays_pending=int(np.count_nonzero(status == RAY)),
             unknown_slots=self._slots.n_unknown,
+            unknown_matched=self._association.matched,
+            unknown_new=self._association.created,
+            landmarks_pruned=0 if self._existence is None else self._existence.pruned,
             sightings_gated=gated,
             proposal_sightings_gated=self._proposal_gated,
             triangulation_fallbacks=0 if bearing is None else bearing.triangulation_fallbacks,
@@ -379,6 +424,28 @@ class FastSLAM:
         Optional: ids are otherwise given slots when first seen. Returns their slots.
         """
         return self._slots.slots_for_ids(np.asarray(ids, dtype=np.int64))
+
+    def _shrink_pose_spread(
+        self, poses: np.ndarray, sightings: Sightings, pairs: Pairs, weights: np.ndarray
+    ) -> None:
+        """The information of the frame's matched sightings (not the new landmarks) into the
+        pose spread (``pose_spread.PoseSpread.update``)."""
+        rows = np.flatnonzero(~pairs.new_unknown)
+        if rows.size == 0:
+            return
+        block = self._store.gather(pairs.particle[rows], pairs.slot[rows])
+        ok = block.status == ESTIMATED
+        rows = rows[ok]
+        who = pairs.particle[rows]
+        self._pose_spread.update(
+            RangeBearing2D(),
+            poses[who],
+            block.mean[ok],
+            block.cov[ok],
+            sightings.R[pairs.obs[rows]],
+            who,
+            weights,
+        )
 
     def _step_cov(self, delta: np.ndarray, stated: StatedOdometryMotion | None) -> np.ndarray:
         """(3, 3) covariance of one odometry delta: the stated one being sampled, else the
@@ -455,6 +522,8 @@ class FastSLAM:
             self._store.scatter(who, slots, block)
             estimated = block.status == ESTIMATED
             self._slots.record_positions(slots[estimated], block.mean[estimated, :2])
+            if self._spread is not None:
+                self._spread.seen(np.unique(slots))
         return log_factors
 
     # -- resampling ---------------------------------------------------------------------------
@@ -468,3 +537,10 @@ class FastSLAM:
         self._store.resample(ancestors)
         self.resample_count += 1
         return ancestors
+
+
+def _mean_pose(poses: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """(3,) the weighted mean pose, the heading's circular mean."""
+    xy = weights @ poses[:, :2]
+    heading = np.arctan2(weights @ np.sin(poses[:, 2]), weights @ np.cos(poses[:, 2]))
+    return np.array([xy[0], xy[1], heading])

@@ -77,3 +77,23 @@ def test_the_bearing_gate_counts_what_it_rejects(variant):
     assert ungated.info().sightings_gated == ungated.info().proposal_sightings_gated == 0
     first = _run(config, frames[:1], Modality.BEARINGS_3D).info()
     assert first.rays_pending == len(frames[0].bearings) and first.landmarks == 0
+
+
+@pytest.mark.parametrize(("spread", "pose_spread"), [(0.0, 0.0), (5.0, 0.0), (0.0, 30.0)])
+def test_every_unknown_decision_is_counted_matched_or_new(spread, pose_spread):
+    """Each (particle, unknown sighting) is one decision: matched or new; a new landmark's
+    decisions can only outnumber its slots (several particles create the same slot)."""
+    scenario = make_scenario(1, steps=40, unknown_ids=True)
+    config = FastSLAMConfig(
+        variant=Variant.FASTSLAM2,
+        n_particles=10,
+        motion_noise=SCENARIO_NOISE,
+        resighting_spread=spread,
+        association_pose_spread=pose_spread,
+    )
+    slam = _run(config, scenario.frames, Modality.RANGE_BEARING_2D)
+    info = slam.info()
+    sightings = sum(len(f.range_bearing) for f in scenario.frames if f.range_bearing is not None)
+    assert info.unknown_matched + info.unknown_new == 10 * sightings
+    assert info.unknown_new >= info.unknown_slots > 0 and info.unknown_matched > 0
+    assert info.landmarks_pruned == 0
