@@ -143,10 +143,18 @@ class TrajectoryMode(Enum):
         of the particle set about that path's pose as its covariance (the mean read-out's
         covariance plus the offset's outer product, ``PathHistory.covariances_about``). Stores
         every particle's pose at every step: O(P) memory per step.
+    SMOOTHED: per step, the weighted mean of the particle cloud recorded at that step under
+        the forward-filtering backward-smoothing marginal weights (Doucet, Godsill & Andrieu
+        2000 eq. 43, ``smoother.py``) with the odometry Gaussian the filter sampled from as the
+        transition density, and the weighted covariance about it. Pose-only backward kernel:
+        the particles' maps are not re-conditioned (an approximation, ``smoother.py``). Stores
+        every particle's pose and weight at every step: O(P) memory per step, O(P^2) time
+        per step at the end.
     """
 
     WEIGHTED_MEAN = "weighted_mean"
     BEST_ANCESTRY = "best_ancestry"
+    SMOOTHED = "smoothed"
 
 
 class ResamplingScheme(Enum):
@@ -370,6 +378,8 @@ class FastSLAMConfig:
             )
         if min(self.initial_pose_sigma) < 0:
             raise ConfigError("initial_pose_sigma must be non-negative")
+        if self.compose_gaps and self.trajectory is TrajectoryMode.SMOOTHED:
+            raise ConfigError("trajectory=smoothed needs every step sampled: not compose_gaps")
         if self.initial_landmark_capacity < 1:
             raise ConfigError("initial_landmark_capacity must be >= 1")
 

@@ -191,8 +191,11 @@ class FastSLAM:
             poses = poses + sigma * rng.standard_normal((p, 3))
         self._particles = ParticleSet(poses)
         self._history = PathHistory(
-            keep_particles=config.trajectory is TrajectoryMode.BEST_ANCESTRY, kernels=kernels
+            keep_particles=config.trajectory is not TrajectoryMode.WEIGHTED_MEAN, kernels=kernels
         )
+        self._smoothing = config.trajectory is TrajectoryMode.SMOOTHED
+        if self._smoothing and not hasattr(motion, "covariance"):
+            raise ConfigError("trajectory=smoothed needs a motion model with a covariance")
         self._store = make_store(
             config.store,
             p,
@@ -276,7 +279,7 @@ class FastSLAM:
                 particles.poses = gap.extend(particles.poses, delta, self._step_cov(delta, stated))
             else:
                 particles.poses = motion.sample(particles.poses, delta, self._rng)
-            self._history.record(frame.stamp_s, particles)
+            self._history.record(frame.stamp_s, particles, self._transition(delta, stated))
             return
         self._frames_with_sightings += 1
         previous = particles.poses
@@ -306,7 +309,7 @@ class FastSLAM:
         if self._existence is not None:
             self._existence.apply(self._store, self._slots, poses, particles.weights, pairs)
         particles.reweight(log_factors)
-        self._history.record(frame.stamp_s, particles)
+        self._history.record(frame.stamp_s, particles, self._transition(delta, stated))
         self.last_ess = particles.effective_sample_size()
         fraction = self.config.resample_ess_fraction
         # fraction 1 means "every step": ESS of equal weights is P only up to rounding
@@ -324,6 +327,8 @@ class FastSLAM:
         if self.config.trajectory is TrajectoryMode.BEST_ANCESTRY:
             trajectory = self._history.ancestry_trajectory(best)
             pose_covariances = self._history.covariances_about(trajectory.se2)
+        elif self.config.trajectory is TrajectoryMode.SMOOTHED:
+            trajectory, pose_covariances = self._history.smoothed_trajectory()
         else:
             trajectory, pose_covariances = self._history.mean_trajectory()
         if self._store.n_landmarks == 0:
@@ -386,6 +391,14 @@ class FastSLAM:
         if stated is not None:
             return stated.covariance
         return self._motion.covariance(delta)  # type: ignore[attr-defined]
+
+    def _transition(
+        self, delta: np.ndarray, stated: StatedOdometryMotion | None
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """The step's (delta, covariance) for the smoothed read-out (None when not smoothing)."""
+        if not self._smoothing:
+            return None
+        return np.array(delta, dtype=float), self._step_cov(delta, stated)
 
     # -- mapping -------------------------------------------------------------------------------
 

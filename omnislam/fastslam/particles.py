@@ -11,6 +11,7 @@ import numpy as np
 from omnislam.core.se import wrap_angle
 from omnislam.core.types import Trajectory
 from omnislam.fastslam.resampling import effective_sample_size, normalize_log_weights
+from omnislam.fastslam.smoother import ffbsm_log_weights, weighted_moments
 
 
 class ParticleSet:
@@ -79,8 +80,10 @@ class PathHistory:
     """Per-step record of the particle set, from which ``Trajectory`` is built.
 
     Always keeps the weighted mean and covariance per step; with ``keep_particles`` it also
-    keeps every particle's pose and the resampling ancestry, so the path of any current
-    particle can be traced back (FastSLAM's path posterior sample).
+    keeps every particle's pose and log weight and the resampling ancestry, so the path of any
+    current particle can be traced back (FastSLAM's path posterior sample), and, with each
+    step's odometry delta and covariance (``record``'s ``transition``), the recorded clouds can
+    be smoothed backwards (``smoothed_trajectory``, ``smoother.py``).
     """
 
     def __init__(self, keep_particles: bool, kernels: object | None = None) -> None:
@@ -95,13 +98,27 @@ class PathHistory:
         self._means: list[np.ndarray] = []
         self._covs: list[np.ndarray] = []
         self._poses: list[np.ndarray] = []
+        self._log_weights: list[np.ndarray] = []
         self._ancestors: list[np.ndarray | None] = []
+        self._transitions: list[tuple[np.ndarray, np.ndarray] | None] = []
 
     def __len__(self) -> int:
         return len(self._stamps)
 
-    def record(self, stamp_s: float, particles: ParticleSet) -> None:
-        """Record the particle set of one step (before any resampling)."""
+    def record(
+        self,
+        stamp_s: float,
+        particles: ParticleSet,
+        transition: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
+        """Record the particle set of one step (before any resampling).
+
+        Args:
+            stamp_s: the step's time [s].
+            particles: the set after the step's update.
+            transition: (delta (3,), covariance (3, 3)) of the Gaussian robot-frame odometry
+                delta the step's poses were sampled with (for ``smoothed_trajectory``).
+        """
         if self._kernels is not None:
             mean, cov = np.empty(3), np.empty((3, 3))
             self._kernels.weighted_moments(particles.weights, particles.poses, mean, cov)
@@ -113,7 +130,9 @@ class PathHistory:
         self._covs.append(cov)
         if self._keep:
             self._poses.append(particles.poses.copy())
+            self._log_weights.append(particles.log_weights.copy())
             self._ancestors.append(None)
+            self._transitions.append(transition)
 
     def record_resampling(self, ancestors: np.ndarray) -> None:
         """Remember the ancestors of the resampling that followed the last record."""
@@ -138,6 +157,37 @@ class PathHistory:
                 index = int(ancestors[index])
             path[t] = self._poses[t][index]
         return Trajectory.from_se2(np.array(self._stamps), path)
+
+    def smoothed_trajectory(self) -> tuple[Trajectory, np.ndarray]:
+        """The FFBSm marginal means and covariances of every step (``smoother.py``).
+
+        Each step's recorded cloud reweighted by the forward-filtering backward-smoothing
+        recursion (Doucet, Godsill & Andrieu 2000 eq. 43) with the recorded transitions; the
+        weighted mean (circular heading) and covariance about it of each step.
+
+        Returns:
+            The trajectory (N poses) and (N, 3, 3) covariances.
+
+        Raises:
+            ValueError: created without keep_particles, or a step after the first recorded
+                without its transition.
+        """
+        if not self._keep:
+            raise ValueError("PathHistory was created without keep_particles")
+        n = len(self)
+        deltas = np.zeros((n, 3))
+        covs = np.tile(np.eye(3), (n, 1, 1))
+        for t in range(1, n):
+            transition = self._transitions[t]
+            if transition is None:
+                raise ValueError(f"step {t} was recorded without its transition")
+            deltas[t], covs[t] = transition
+        smoothed = ffbsm_log_weights(self._poses, self._log_weights, deltas, covs)
+        means = np.empty((n, 3))
+        out_covs = np.empty((n, 3, 3))
+        for t in range(n):
+            means[t], out_covs[t] = weighted_moments(self._poses[t], smoothed[t])
+        return Trajectory.from_se2(np.array(self._stamps), means), out_covs
 
     def covariances_about(self, path: np.ndarray) -> np.ndarray:
         """(N, 3, 3) each step's weighted second moment of the particle set about ``path``.
