@@ -117,6 +117,8 @@ class FastSLAMInfo:
         single_ancestor_steps: steps with sightings whose set descended from one particle.
         single_ancestor_longest_run: longest run of consecutive such steps.
         ess_min: smallest effective sample size before resampling.
+        log_evidence: the particle filter's estimate of log p(z_1:t)
+            (``ParticleSet.log_evidence``).
     """
 
     variant: Variant
@@ -139,6 +141,7 @@ class FastSLAMInfo:
     single_ancestor_steps: int
     single_ancestor_longest_run: int
     ess_min: float
+    log_evidence: float
 
 
 class FastSLAM:
@@ -376,6 +379,7 @@ class FastSLAM:
             single_ancestor_steps=diversity.single_ancestor_steps,
             single_ancestor_longest_run=diversity.single_ancestor_longest_run,
             ess_min=diversity.ess_min,
+            log_evidence=self._particles.log_evidence,
         )
 
     def add_known_landmarks(self, ids: np.ndarray) -> np.ndarray:

@@ -20,6 +20,10 @@ class ParticleSet:
     Attributes:
         poses: (P, 3) poses [x, y, theta] in the world.
         log_weights: (P,) normalised log weights.
+        log_evidence: sum over the reweightings of log sum_i w_i exp(log_factor_i) (w the
+            normalised weights before): the particle filter's estimate of the log-likelihood of
+            the sightings so far, log p(z_1:t) (Doucet & Johansen 2011, "A tutorial on particle
+            filtering and smoothing", eq. 31), up to the constant of the new-landmark density.
     """
 
     def __init__(self, poses: np.ndarray) -> None:
@@ -27,6 +31,7 @@ class ParticleSet:
         p = self.poses.shape[0]
         self.log_weights = np.full(p, -np.log(p))
         self._best_after_resampling: int | None = 0
+        self.log_evidence = 0.0
 
     def __len__(self) -> int:
         return int(self.poses.shape[0])
@@ -37,8 +42,13 @@ class ParticleSet:
         return np.exp(self.log_weights)
 
     def reweight(self, log_factors: np.ndarray) -> None:
-        """Multiply the weights by exp(log_factors) and normalise (thesis 4.47-4.48)."""
-        self.log_weights = normalize_log_weights(self.log_weights + log_factors)
+        """Multiply the weights by exp(log_factors) and normalise (thesis 4.47-4.48); add the
+        normaliser to ``log_evidence``."""
+        unnormalised = self.log_weights + log_factors
+        top = np.max(unnormalised)
+        if np.isfinite(top):
+            self.log_evidence += float(top + np.log(np.sum(np.exp(unnormalised - top))))
+        self.log_weights = normalize_log_weights(unnormalised)
         self._best_after_resampling = None
 
     def effective_sample_size(self) -> float:

@@ -6,6 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from omnislam.fastslam.particles import ParticleSet
 from omnislam.fastslam.resampling import (
     coefficient_of_variation,
     effective_sample_size,
@@ -50,3 +51,17 @@ def test_all_schemes_are_unbiased():
     for scheme in (systematic_resample, stratified_resample, multinomial_resample):
         counts = sum(np.bincount(scheme(weights, rng), minlength=4) for _ in range(2000))
         np.testing.assert_allclose(counts / counts.sum(), weights, atol=0.01)
+
+
+def test_log_evidence_is_the_sum_of_the_weighted_likelihoods():
+    """Two particles, likelihoods 1 and 3 at equal weights: p(z_1) = 2; then the weights are
+    1/4 and 3/4 and likelihoods 2 and 2/3: p(z_2 | z_1) = 1/2 + 1/2 = 1; resampling leaves
+    the sum alone, and a third step with likelihoods 5 and 5 multiplies it by 5."""
+    particles = ParticleSet(np.zeros((2, 3)))
+    particles.reweight(np.log([1.0, 3.0]))
+    np.testing.assert_allclose(particles.log_evidence, np.log(2.0))
+    particles.reweight(np.log([2.0, 2.0 / 3.0]))
+    np.testing.assert_allclose(particles.log_evidence, np.log(2.0))
+    particles.resample(np.array([1, 1]))
+    particles.reweight(np.log([5.0, 5.0]))
+    np.testing.assert_allclose(particles.log_evidence, np.log(10.0))
