@@ -149,14 +149,14 @@ class TrajectoryMode(Enum):
         transition density, and the weighted covariance about it. Pose-only backward kernel:
         the particles' maps are not re-conditioned (an approximation, ``smoother.py``). Stores
         every particle's pose and weight at every step: O(P) memory per step, O(P^2) time
-        per step at the end. On carmen-aces (one front-end log, seeds 0-9) the laser
-        odometry's transition is so tight against the cloud's spread that the backward kernel
-        keeps each particle's own parent (1.0-1.2 effective parents), so the read-out is close
-        to the genealogy's: median ATE fastslam1 1.93 -> 1.42 m, fastslam2 1.81 -> 1.77 m;
-        corridor21, demo, intel, MR.CLAM and loop150 unchanged within the seeds' spread, pose
-        NEES worse (the smoothed weights sit on one particle). Not the default: it does not
-        bring fastslam2 to 0.3x dead reckoning on aces (docs/results.md, "CARMEN aces, sixth
-        attempt").
+        per step at the end. On carmen-aces the laser odometry's transition is so narrow
+        against the cloud's spread that the backward kernel keeps each particle's own parent
+        (1.0-1.2 effective parents), so the read-out is close to the genealogy's: median ATE
+        over seeds 0-9 / 0-29 fastslam1 1.93 / 2.00 -> 1.42 / 1.78 m, fastslam2 1.81 / 1.81
+        -> 1.77 / 1.77 m; corridor21, demo, intel, MR.CLAM and loop150 unchanged within the
+        seeds' spread, pose NEES worse (the smoothed weights sit on few particles). Not the
+        default: it does not bring FastSLAM to 0.3x dead reckoning on aces (docs/results.md,
+        "CARMEN aces, sixth attempt").
     """
 
     WEIGHTED_MEAN = "weighted_mean"
