@@ -255,6 +255,15 @@ class FastSLAMConfig:
             sightings' information, so it is not the default.
         resample_ess_fraction: resample when ESS (thesis eq. 4.51) < fraction * P; 1.0 resamples
             every step with observations, 0.0 never.
+        islands: K: the particles form K islands of near-equal size, independent particle
+            filters averaged with equal weights -- each island's weights are normalised to 1/K
+            and each island is resampled from its own weights when its own ESS falls below
+            ``resample_ess_fraction`` of its size (``resampling.island_resample``), so the
+            weighted-mean read-out is the mean of the K filters' estimates. A variance
+            reduction by independent replication: each collapsed filter keeps one draw of the
+            sampled odometry noise, K filters average K draws; not the posterior's combination
+            (which would weigh the islands by their evidence: measured to pick one island).
+            Set ``n_particles`` to K times the particles of one filter. 1 (default): one filter.
         resampling: the resampling algorithm (low-variance systematic by default, Thrun et al.
             2005 Table 4.4).
         store: landmark storage (thesis tree by default).
@@ -339,6 +348,7 @@ class FastSLAMConfig:
     stated_odometry_noise: StatedOdometryNoise = StatedOdometryNoise.AUTO
     compose_gaps: bool = False
     resample_ess_fraction: float = 0.5
+    islands: int = 1
     likelihood_temper: float = 1.0
     resampling: ResamplingScheme = ResamplingScheme.SYSTEMATIC
     store: StoreKind = StoreKind.TREE
@@ -369,6 +379,8 @@ class FastSLAMConfig:
             raise ConfigError("likelihood_temper must be in (0, 1]")
         if not 0.0 <= self.resample_ess_fraction <= 1.0:
             raise ConfigError("resample_ess_fraction must be in [0, 1]")
+        if not 1 <= self.islands <= self.n_particles:
+            raise ConfigError("islands must be in [1, n_particles]")
         if self.min_parallax_deg < 0 or self.association_margin_m < 0:
             raise ConfigError("min_parallax_deg and association_margin_m must be non-negative")
         if self.confirm_sightings < 1:

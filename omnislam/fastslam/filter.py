@@ -54,7 +54,10 @@ from omnislam.fastslam.mapper import make_mapper
 from omnislam.fastslam.particles import ParticleSet, PathHistory
 from omnislam.fastslam.proposal_sampling import ProposalSampler
 from omnislam.fastslam.resampling import (
+    island_bounds,
+    island_resample,
     multinomial_resample,
+    normalize_per_island,
     stratified_resample,
     systematic_resample,
 )
@@ -225,6 +228,7 @@ class FastSLAM:
                 config.existence, config.association_margin_m, config.sensor_height_m
             )
         )
+        self._islands = None if config.islands == 1 else island_bounds(p, config.islands)
         self._diversity = DiversityLog(p)
         #: number of resamplings so far
         self.resample_count = 0
@@ -311,13 +315,15 @@ class FastSLAM:
         log_factors += self._update_landmarks(poses, sightings, pairs, gathered)
         if self._existence is not None:
             self._existence.apply(self._store, self._slots, poses, particles.weights, pairs)
-        particles.reweight(log_factors)
+        particles.reweight(log_factors, self._islands)
         self._history.record(frame.stamp_s, particles, self._transition(delta, stated))
         self.last_ess = particles.effective_sample_size()
         fraction = self.config.resample_ess_fraction
         # fraction 1 means "every step": ESS of equal weights is P only up to rounding
         ancestors = None
-        if fraction >= 1.0 or self.last_ess < fraction * len(particles):
+        if self._islands is not None:
+            ancestors = self._resample_islands()
+        elif fraction >= 1.0 or self.last_ess < fraction * len(particles):
             ancestors = self._resample()
         self._diversity.record(self.last_ess, ancestors)
 
@@ -482,6 +488,27 @@ class FastSLAM:
         ancestors = _RESAMPLERS[self.config.resampling](self._particles.weights, self._rng)
         self._history.record_resampling(ancestors)
         self._particles.resample(ancestors)
+        self._store.resample(ancestors)
+        self.resample_count += 1
+        return ancestors
+
+    def _resample_islands(self) -> np.ndarray | None:
+        """Each island resampled apart (``resampling.island_resample``); its weights become
+        uniform at 1/K of the total. Returns the ancestors, or None when no island was."""
+        ancestors = island_resample(
+            self._particles.log_weights,
+            self._islands,
+            self.config.resample_ess_fraction,
+            _RESAMPLERS[self.config.resampling],
+            self._rng,
+        )
+        if ancestors is None:
+            return None
+        self._history.record_resampling(ancestors)
+        self._particles.resample(ancestors)
+        self._particles.log_weights = normalize_per_island(
+            self._particles.log_weights, self._islands
+        )
         self._store.resample(ancestors)
         self.resample_count += 1
         return ancestors

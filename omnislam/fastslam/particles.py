@@ -10,7 +10,11 @@ import numpy as np
 
 from omnislam.core.se import wrap_angle
 from omnislam.core.types import Trajectory
-from omnislam.fastslam.resampling import effective_sample_size, normalize_log_weights
+from omnislam.fastslam.resampling import (
+    effective_sample_size,
+    normalize_log_weights,
+    normalize_per_island,
+)
 from omnislam.fastslam.smoother import ffbsm_log_weights, weighted_moments
 
 
@@ -41,14 +45,19 @@ class ParticleSet:
         """(P,) normalised weights."""
         return np.exp(self.log_weights)
 
-    def reweight(self, log_factors: np.ndarray) -> None:
+    def reweight(self, log_factors: np.ndarray, islands: np.ndarray | None = None) -> None:
         """Multiply the weights by exp(log_factors) and normalise (thesis 4.47-4.48); add the
-        normaliser to ``log_evidence``."""
+        normaliser to ``log_evidence``. With ``islands`` (K + 1 start indices,
+        ``resampling.island_bounds``) each island is normalised to 1/K instead (independent
+        filters averaged with equal weights; ``log_evidence`` is then the equal mixture's)."""
         unnormalised = self.log_weights + log_factors
         top = np.max(unnormalised)
         if np.isfinite(top):
             self.log_evidence += float(top + np.log(np.sum(np.exp(unnormalised - top))))
-        self.log_weights = normalize_log_weights(unnormalised)
+        if islands is None:
+            self.log_weights = normalize_log_weights(unnormalised)
+        else:
+            self.log_weights = normalize_per_island(unnormalised, islands)
         self._best_after_resampling = None
 
     def effective_sample_size(self) -> float:
