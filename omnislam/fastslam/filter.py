@@ -58,7 +58,10 @@ from omnislam.fastslam.particles import ParticleSet, PathHistory
 from omnislam.fastslam.pose_spread import PoseSpread
 from omnislam.fastslam.proposal_sampling import ProposalSampler
 from omnislam.fastslam.resampling import (
+    island_bounds,
+    island_resample,
     multinomial_resample,
+    normalize_per_island,
     stratified_resample,
     systematic_resample,
 )
@@ -127,6 +130,8 @@ class FastSLAMInfo:
         single_ancestor_steps: steps with sightings whose set descended from one particle.
         single_ancestor_longest_run: longest run of consecutive such steps.
         ess_min: smallest effective sample size before resampling.
+        log_evidence: the particle filter's estimate of log p(z_1:t)
+            (``ParticleSet.log_evidence``).
     """
 
     variant: Variant
@@ -152,6 +157,7 @@ class FastSLAMInfo:
     single_ancestor_steps: int
     single_ancestor_longest_run: int
     ess_min: float
+    log_evidence: float
 
 
 class FastSLAM:
@@ -204,8 +210,11 @@ class FastSLAM:
             poses = poses + sigma * rng.standard_normal((p, 3))
         self._particles = ParticleSet(poses)
         self._history = PathHistory(
-            keep_particles=config.trajectory is TrajectoryMode.BEST_ANCESTRY, kernels=kernels
+            keep_particles=config.trajectory is not TrajectoryMode.WEIGHTED_MEAN, kernels=kernels
         )
+        self._smoothing = config.trajectory is TrajectoryMode.SMOOTHED
+        if self._smoothing and not hasattr(motion, "covariance"):
+            raise ConfigError("trajectory=smoothed needs a motion model with a covariance")
         self._store = make_store(
             config.store,
             p,
@@ -251,6 +260,7 @@ class FastSLAM:
                 config.existence, config.association_margin_m, config.sensor_height_m
             )
         )
+        self._islands = None if config.islands == 1 else island_bounds(p, config.islands)
         self._diversity = DiversityLog(p)
         #: number of resamplings so far
         self.resample_count = 0
@@ -313,7 +323,7 @@ class FastSLAM:
                 particles.poses = gap.extend(particles.poses, delta, self._step_cov(delta, stated))
             else:
                 particles.poses = motion.sample(particles.poses, delta, self._rng)
-            self._history.record(frame.stamp_s, particles)
+            self._history.record(frame.stamp_s, particles, self._transition(delta, stated))
             return
         self._frames_with_sightings += 1
         step_delta, step_stated = delta, stated
@@ -347,13 +357,15 @@ class FastSLAM:
             self._shrink_pose_spread(poses, sightings, pairs, particles.weights)
         if self._existence is not None:
             self._existence.apply(self._store, self._slots, poses, particles.weights, pairs)
-        particles.reweight(log_factors)
-        self._history.record(frame.stamp_s, particles)
+        particles.reweight(log_factors, self._islands)
+        self._history.record(frame.stamp_s, particles, self._transition(delta, stated))
         self.last_ess = particles.effective_sample_size()
         fraction = self.config.resample_ess_fraction
         # fraction 1 means "every step": ESS of equal weights is P only up to rounding
         ancestors = None
-        if fraction >= 1.0 or self.last_ess < fraction * len(particles):
+        if self._islands is not None:
+            ancestors = self._resample_islands()
+        elif fraction >= 1.0 or self.last_ess < fraction * len(particles):
             ancestors = self._resample()
         self._diversity.record(self.last_ess, ancestors)
 
@@ -366,6 +378,8 @@ class FastSLAM:
         if self.config.trajectory is TrajectoryMode.BEST_ANCESTRY:
             trajectory = self._history.ancestry_trajectory(best)
             pose_covariances = self._history.covariances_about(trajectory.se2)
+        elif self.config.trajectory is TrajectoryMode.SMOOTHED:
+            trajectory, pose_covariances = self._history.smoothed_trajectory()
         else:
             trajectory, pose_covariances = self._history.mean_trajectory()
         if self._store.n_landmarks == 0:
@@ -416,6 +430,7 @@ class FastSLAM:
             single_ancestor_steps=diversity.single_ancestor_steps,
             single_ancestor_longest_run=diversity.single_ancestor_longest_run,
             ess_min=diversity.ess_min,
+            log_evidence=self._particles.log_evidence,
         )
 
     def add_known_landmarks(self, ids: np.ndarray) -> np.ndarray:
@@ -453,6 +468,14 @@ class FastSLAM:
         if stated is not None:
             return stated.covariance
         return self._motion.covariance(delta)  # type: ignore[attr-defined]
+
+    def _transition(
+        self, delta: np.ndarray, stated: StatedOdometryMotion | None
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """The step's (delta, covariance) for the smoothed read-out (None when not smoothing)."""
+        if not self._smoothing:
+            return None
+        return np.array(delta, dtype=float), self._step_cov(delta, stated)
 
     # -- mapping -------------------------------------------------------------------------------
 
@@ -534,6 +557,27 @@ class FastSLAM:
         ancestors = _RESAMPLERS[self.config.resampling](self._particles.weights, self._rng)
         self._history.record_resampling(ancestors)
         self._particles.resample(ancestors)
+        self._store.resample(ancestors)
+        self.resample_count += 1
+        return ancestors
+
+    def _resample_islands(self) -> np.ndarray | None:
+        """Each island resampled apart (``resampling.island_resample``); its weights become
+        uniform at 1/K of the total. Returns the ancestors, or None when no island was."""
+        ancestors = island_resample(
+            self._particles.log_weights,
+            self._islands,
+            self.config.resample_ess_fraction,
+            _RESAMPLERS[self.config.resampling],
+            self._rng,
+        )
+        if ancestors is None:
+            return None
+        self._history.record_resampling(ancestors)
+        self._particles.resample(ancestors)
+        self._particles.log_weights = normalize_per_island(
+            self._particles.log_weights, self._islands
+        )
         self._store.resample(ancestors)
         self.resample_count += 1
         return ancestors

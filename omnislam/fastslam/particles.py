@@ -10,7 +10,12 @@ import numpy as np
 
 from omnislam.core.se import wrap_angle
 from omnislam.core.types import Trajectory
-from omnislam.fastslam.resampling import effective_sample_size, normalize_log_weights
+from omnislam.fastslam.resampling import (
+    effective_sample_size,
+    normalize_log_weights,
+    normalize_per_island,
+)
+from omnislam.fastslam.smoother import ffbsm_log_weights, weighted_moments
 
 
 class ParticleSet:
@@ -19,6 +24,10 @@ class ParticleSet:
     Attributes:
         poses: (P, 3) poses [x, y, theta] in the world.
         log_weights: (P,) normalised log weights.
+        log_evidence: sum over the reweightings of log sum_i w_i exp(log_factor_i) (w the
+            normalised weights before): the particle filter's estimate of the log-likelihood of
+            the sightings so far, log p(z_1:t) (Doucet & Johansen 2011, "A tutorial on particle
+            filtering and smoothing", eq. 31), up to the constant of the new-landmark density.
     """
 
     def __init__(self, poses: np.ndarray) -> None:
@@ -26,6 +35,7 @@ class ParticleSet:
         p = self.poses.shape[0]
         self.log_weights = np.full(p, -np.log(p))
         self._best_after_resampling: int | None = 0
+        self.log_evidence = 0.0
 
     def __len__(self) -> int:
         return int(self.poses.shape[0])
@@ -35,9 +45,19 @@ class ParticleSet:
         """(P,) normalised weights."""
         return np.exp(self.log_weights)
 
-    def reweight(self, log_factors: np.ndarray) -> None:
-        """Multiply the weights by exp(log_factors) and normalise (thesis 4.47-4.48)."""
-        self.log_weights = normalize_log_weights(self.log_weights + log_factors)
+    def reweight(self, log_factors: np.ndarray, islands: np.ndarray | None = None) -> None:
+        """Multiply the weights by exp(log_factors) and normalise (thesis 4.47-4.48); add the
+        normaliser to ``log_evidence``. With ``islands`` (K + 1 start indices,
+        ``resampling.island_bounds``) each island is normalised to 1/K instead (independent
+        filters averaged with equal weights; ``log_evidence`` is then the equal mixture's)."""
+        unnormalised = self.log_weights + log_factors
+        top = np.max(unnormalised)
+        if np.isfinite(top):
+            self.log_evidence += float(top + np.log(np.sum(np.exp(unnormalised - top))))
+        if islands is None:
+            self.log_weights = normalize_log_weights(unnormalised)
+        else:
+            self.log_weights = normalize_per_island(unnormalised, islands)
         self._best_after_resampling = None
 
     def effective_sample_size(self) -> float:
@@ -79,8 +99,10 @@ class PathHistory:
     """Per-step record of the particle set, from which ``Trajectory`` is built.
 
     Always keeps the weighted mean and covariance per step; with ``keep_particles`` it also
-    keeps every particle's pose and the resampling ancestry, so the path of any current
-    particle can be traced back (FastSLAM's path posterior sample).
+    keeps every particle's pose and log weight and the resampling ancestry, so the path of any
+    current particle can be traced back (FastSLAM's path posterior sample), and, with each
+    step's odometry delta and covariance (``record``'s ``transition``), the recorded clouds can
+    be smoothed backwards (``smoothed_trajectory``, ``smoother.py``).
     """
 
     def __init__(self, keep_particles: bool, kernels: object | None = None) -> None:
@@ -95,13 +117,27 @@ class PathHistory:
         self._means: list[np.ndarray] = []
         self._covs: list[np.ndarray] = []
         self._poses: list[np.ndarray] = []
+        self._log_weights: list[np.ndarray] = []
         self._ancestors: list[np.ndarray | None] = []
+        self._transitions: list[tuple[np.ndarray, np.ndarray] | None] = []
 
     def __len__(self) -> int:
         return len(self._stamps)
 
-    def record(self, stamp_s: float, particles: ParticleSet) -> None:
-        """Record the particle set of one step (before any resampling)."""
+    def record(
+        self,
+        stamp_s: float,
+        particles: ParticleSet,
+        transition: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
+        """Record the particle set of one step (before any resampling).
+
+        Args:
+            stamp_s: the step's time [s].
+            particles: the set after the step's update.
+            transition: (delta (3,), covariance (3, 3)) of the Gaussian robot-frame odometry
+                delta the step's poses were sampled with (for ``smoothed_trajectory``).
+        """
         if self._kernels is not None:
             mean, cov = np.empty(3), np.empty((3, 3))
             self._kernels.weighted_moments(particles.weights, particles.poses, mean, cov)
@@ -113,7 +149,9 @@ class PathHistory:
         self._covs.append(cov)
         if self._keep:
             self._poses.append(particles.poses.copy())
+            self._log_weights.append(particles.log_weights.copy())
             self._ancestors.append(None)
+            self._transitions.append(transition)
 
     def record_resampling(self, ancestors: np.ndarray) -> None:
         """Remember the ancestors of the resampling that followed the last record."""
@@ -138,6 +176,37 @@ class PathHistory:
                 index = int(ancestors[index])
             path[t] = self._poses[t][index]
         return Trajectory.from_se2(np.array(self._stamps), path)
+
+    def smoothed_trajectory(self) -> tuple[Trajectory, np.ndarray]:
+        """The FFBSm marginal means and covariances of every step (``smoother.py``).
+
+        Each step's recorded cloud reweighted by the forward-filtering backward-smoothing
+        recursion (Doucet, Godsill & Andrieu 2000 eq. 43) with the recorded transitions; the
+        weighted mean (circular heading) and covariance about it of each step.
+
+        Returns:
+            The trajectory (N poses) and (N, 3, 3) covariances.
+
+        Raises:
+            ValueError: created without keep_particles, or a step after the first recorded
+                without its transition.
+        """
+        if not self._keep:
+            raise ValueError("PathHistory was created without keep_particles")
+        n = len(self)
+        deltas = np.zeros((n, 3))
+        covs = np.tile(np.eye(3), (n, 1, 1))
+        for t in range(1, n):
+            transition = self._transitions[t]
+            if transition is None:
+                raise ValueError(f"step {t} was recorded without its transition")
+            deltas[t], covs[t] = transition
+        smoothed = ffbsm_log_weights(self._poses, self._log_weights, deltas, covs)
+        means = np.empty((n, 3))
+        out_covs = np.empty((n, 3, 3))
+        for t in range(n):
+            means[t], out_covs[t] = weighted_moments(self._poses[t], smoothed[t])
+        return Trajectory.from_se2(np.array(self._stamps), means), out_covs
 
     def covariances_about(self, path: np.ndarray) -> np.ndarray:
         """(N, 3, 3) each step's weighted second moment of the particle set about ``path``.

@@ -7,6 +7,9 @@ index of every new particle and leaves copying to the caller.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from itertools import pairwise
+
 import numpy as np
 
 
@@ -75,3 +78,52 @@ def multinomial_resample(weights: np.ndarray, rng: np.random.Generator) -> np.nd
     """Roulette-wheel resampling, thesis eq. 4.49: P independent draws from the weights."""
     p = len(weights)
     return _search(np.asarray(weights, dtype=float), np.sort(rng.random(p)))
+
+
+def island_bounds(n_particles: int, n_islands: int) -> np.ndarray:
+    """(K + 1,) start indices of K contiguous islands of near-equal size (the first
+    ``P mod K`` one larger), and P at the end."""
+    sizes = np.full(n_islands, n_particles // n_islands, dtype=np.int64)
+    sizes[: n_particles % n_islands] += 1
+    return np.concatenate([[0], np.cumsum(sizes)])
+
+
+def normalize_per_island(log_weights: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+    """(P,) log weights normalised within each island to a total of 1/K (K = len(bounds) - 1):
+    K independent particle filters whose estimates are averaged with equal weights."""
+    out = np.empty_like(np.asarray(log_weights, dtype=float))
+    k = len(bounds) - 1
+    for a, b in pairwise(bounds):
+        out[a:b] = normalize_log_weights(log_weights[a:b]) - np.log(k)
+    return out
+
+
+def island_resample(
+    log_weights: np.ndarray,
+    bounds: np.ndarray,
+    ess_fraction: float,
+    resampler: Callable[[np.ndarray, np.random.Generator], np.ndarray],
+    rng: np.random.Generator,
+) -> np.ndarray | None:
+    """Resample each island from its own weights when its own ESS (thesis eq. 4.51 within the
+    island) is below ``ess_fraction`` of its size (>= 1: always): independent filters.
+
+    Args:
+        log_weights: (P,) log weights, each island's summing to 1/K (``normalize_per_island``).
+        bounds: (K + 1,) island start indices (``island_bounds``).
+        ess_fraction: the resampling threshold as a fraction of the island's size.
+        resampler: one of this module's resampling functions.
+        rng: random generator.
+
+    Returns:
+        (P,) ancestors (inside each island; identity where an island was not resampled), or
+        None when none was.
+    """
+    ancestors = np.arange(len(log_weights), dtype=np.int64)
+    resampled = False
+    for a, b in pairwise(bounds):
+        w = np.exp(normalize_log_weights(log_weights[a:b]))
+        if ess_fraction >= 1.0 or 1.0 / np.sum(w * w) < ess_fraction * (b - a):
+            ancestors[a:b] = a + resampler(w, rng)
+            resampled = True
+    return ancestors if resampled else None

@@ -458,3 +458,18 @@ def test_a_tempered_likelihood_scales_fastslam1_log_weights():
 def test_likelihood_temper_outside_0_1_is_refused(temper):
     with pytest.raises(ConfigError, match="likelihood_temper"):
         FastSLAMConfig(likelihood_temper=temper)
+
+
+def test_islands_keep_one_lineage_each_and_beat_dead_reckoning():
+    """``islands=5``: five independent filters of 10 particles, each island's weights summing
+    to 1/5; resampling within islands leaves at least five distinct ancestors at every step."""
+    scenario = make_scenario(1, steps=80)
+    slam, estimate = _run(scenario, _config(Variant.FASTSLAM1, 50, islands=5), 3)
+    w = slam.particles.weights.reshape(5, 10).sum(axis=1)
+    np.testing.assert_allclose(w, 0.2)
+    assert slam.resample_count > 0
+    assert slam.info().distinct_ancestors_min >= 5
+    dead_reckoning = ate_rmse(scenario.dead_reckoning[1:, :2], scenario.true_poses[1:, :2])
+    assert _ate(estimate, scenario) < ATE_FRACTION_OF_DEAD_RECKONING * dead_reckoning
+    with pytest.raises(ConfigError):
+        _config(Variant.FASTSLAM1, 4, islands=5)

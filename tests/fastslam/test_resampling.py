@@ -6,11 +6,15 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from omnislam.fastslam.particles import ParticleSet
 from omnislam.fastslam.resampling import (
     coefficient_of_variation,
     effective_sample_size,
+    island_bounds,
+    island_resample,
     multinomial_resample,
     normalize_log_weights,
+    normalize_per_island,
     stratified_resample,
     systematic_resample,
 )
@@ -50,3 +54,39 @@ def test_all_schemes_are_unbiased():
     for scheme in (systematic_resample, stratified_resample, multinomial_resample):
         counts = sum(np.bincount(scheme(weights, rng), minlength=4) for _ in range(2000))
         np.testing.assert_allclose(counts / counts.sum(), weights, atol=0.01)
+
+
+def test_log_evidence_is_the_sum_of_the_weighted_likelihoods():
+    """Two particles, likelihoods 1 and 3 at equal weights: p(z_1) = 2; then the weights are
+    1/4 and 3/4 and likelihoods 2 and 2/3: p(z_2 | z_1) = 1/2 + 1/2 = 1; resampling leaves
+    the sum alone, and a third step with likelihoods 5 and 5 multiplies it by 5."""
+    particles = ParticleSet(np.zeros((2, 3)))
+    particles.reweight(np.log([1.0, 3.0]))
+    np.testing.assert_allclose(particles.log_evidence, np.log(2.0))
+    particles.reweight(np.log([2.0, 2.0 / 3.0]))
+    np.testing.assert_allclose(particles.log_evidence, np.log(2.0))
+    particles.resample(np.array([1, 1]))
+    particles.reweight(np.log([5.0, 5.0]))
+    np.testing.assert_allclose(particles.log_evidence, np.log(10.0))
+
+
+def test_islands_are_normalised_and_resampled_apart():
+    """Each island's weights sum to 1/K after normalisation, and resampling draws every
+    island's particles from its own members only, only in islands whose own ESS is low."""
+    bounds = island_bounds(7, 3)
+    np.testing.assert_array_equal(bounds, [0, 3, 5, 7])
+    log_w = normalize_per_island(np.log([1.0, 1.0, 1.0, 1e-6, 1.0, 2.0, 3.0]), bounds)
+    w = np.exp(log_w)
+    np.testing.assert_allclose([w[0:3].sum(), w[3:5].sum(), w[5:7].sum()], 1.0 / 3.0)
+    rng = np.random.default_rng(0)
+    ancestors = island_resample(log_w, bounds, 0.6, systematic_resample, rng)
+    assert ancestors is not None
+    np.testing.assert_array_equal(ancestors[0:3], [0, 1, 2])  # ESS 3 >= 0.6 * 3: kept
+    np.testing.assert_array_equal(ancestors[3:5], [4, 4])  # ESS ~1 < 0.6 * 2: the heavy one
+    np.testing.assert_array_equal(ancestors[5:7], [5, 6])  # ESS 1.92 >= 0.6 * 2: kept
+    assert (
+        island_resample(
+            normalize_per_island(np.zeros(7), bounds), bounds, 0.5, systematic_resample, rng
+        )
+        is None
+    )
