@@ -60,14 +60,24 @@ def landmarks_decided(decision: Decided, next_id: int) -> list[int]:
     return landmarks
 
 
-def diagnose(dataset: str, options: dict[str, str]) -> None:
-    """Run, score and print one dataset (see the module docstring)."""
+def hidden_ids(dataset: str, options: dict[str, str]):
+    """The dataset with its ids hidden, and the ids it hides.
+
+    Returns ``(labelled, sequence, frames, options)``: each frame's labelled sightings by frame
+    index, the sequence loaded with ``association=unknown`` and its frames, and the options
+    left for the estimator (the loader's options, e.g. ``sigma_bearing_rad``, taken out).
+    """
     resolved = resolve(dataset)
     loader = {k: v for k, v in options.items() if k in resolved.option_names()}
     options = {k: v for k, v in options.items() if k not in loader}
     labelled = {f.index: f.range_bearing for f in load_dataset(resolved, loader).frame_inputs()}
     sequence = load_dataset(resolved, {**loader, "association": "unknown"})
-    frames = list(sequence.frame_inputs())
+    return labelled, sequence, list(sequence.frame_inputs()), options
+
+
+def diagnose(dataset: str, options: dict[str, str]) -> None:
+    """Run, score and print one dataset (see the module docstring)."""
+    labelled, sequence, frames, estimator_options = hidden_ids(dataset, options)
     decided: list[tuple[int, int, int, str]] = []  # (frame, hidden id, landmark or -1, decision)
     original = range_bearing.RangeBearingGraph._add_decided
 
@@ -86,7 +96,9 @@ def diagnose(dataset: str, options: dict[str, str]) -> None:
     range_bearing.RangeBearingGraph._add_decided = recording
     try:
         info = sequence_info(sequence, frames)
-        estimator = make_estimator("graphslam", info, dict(options), np.random.default_rng(0))
+        estimator = make_estimator(
+            "graphslam", info, dict(estimator_options), np.random.default_rng(0)
+        )
         for frame in frames:
             estimator.step(frame)
         estimator.estimate()
@@ -111,7 +123,7 @@ def diagnose(dataset: str, options: dict[str, str]) -> None:
     for lid in active:
         mapped_as[name[lid]].append(lid)
     base = range_bearing.CREATED_ID_BASE
-    print(f"\n{dataset} {loader or ''} {options or ''}")
+    print(f"\n{dataset} {options or ''}")
     print(
         f"  decisions: {dict(counts)}; wrong pairings {len(wrong)} "
         f"(first frames {sorted({k for k, *_ in wrong})[:12]})"

@@ -30,11 +30,10 @@ import collections
 import itertools
 
 import numpy as np
-from association_diagnosis import diagnose_each
+from association_diagnosis import diagnose_each, hidden_ids
 
 from omnislam.compare.execute import sequence_info
 from omnislam.core.measurement import RangeBearing2D
-from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.estimators import make_estimator
 from omnislam.fastslam import association as fs_association
 from omnislam.fastslam.association import association_log_likelihood
@@ -58,12 +57,7 @@ def diagnose(dataset: str, options: dict[str, str]) -> None:
     """Run, score and print one dataset (see the module docstring)."""
     options = dict(options)
     estimator_name = options.pop("estimator", "fastslam2")
-    resolved = resolve(dataset)
-    loader = {k: v for k, v in options.items() if k in resolved.option_names()}
-    options = {k: v for k, v in options.items() if k not in loader}
-    labelled = {f.index: f.range_bearing for f in load_dataset(resolved, loader).frame_inputs()}
-    sequence = load_dataset(resolved, {**loader, "association": "unknown"})
-    frames = list(sequence.frame_inputs())
+    labelled, sequence, frames, options = hidden_ids(dataset, options)
     info = sequence_info(sequence, frames)
     truth_w = dict(
         zip(
