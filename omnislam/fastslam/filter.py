@@ -314,7 +314,7 @@ class FastSLAM:
         motion = self._motion if stated is None else stated
         gap = self._gap
         if self._pose_spread is not None:
-            mean = _mean_pose(particles.poses, particles.weights)
+            mean = particles.mean_pose()
             self._pose_spread.predict(mean, se2_compose(mean, delta), self._step_cov(delta, stated))
         if sightings is None:
             if self._spread is not None:
@@ -581,10 +581,3 @@ class FastSLAM:
         self._store.resample(ancestors)
         self.resample_count += 1
         return ancestors
-
-
-def _mean_pose(poses: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """(3,) the weighted mean pose, the heading's circular mean."""
-    xy = weights @ poses[:, :2]
-    heading = np.arctan2(weights @ np.sin(poses[:, 2]), weights @ np.cos(poses[:, 2]))
-    return np.array([xy[0], xy[1], heading])

@@ -15,7 +15,23 @@ from omnislam.fastslam.resampling import (
     normalize_log_weights,
     normalize_per_island,
 )
-from omnislam.fastslam.smoother import ffbsm_log_weights, weighted_moments
+from omnislam.fastslam.smoother import ffbsm_log_weights
+
+
+def weighted_mean_pose(poses: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """(3,) weighted mean of poses (P, 3) under weights (P,) summing to 1; the heading is the
+    circular mean atan2(E sin, E cos)."""
+    heading = np.arctan2(weights @ np.sin(poses[:, 2]), weights @ np.cos(poses[:, 2]))
+    return np.array([weights @ poses[:, 0], weights @ poses[:, 1], heading])
+
+
+def weighted_covariance_about(
+    poses: np.ndarray, weights: np.ndarray, mean: np.ndarray
+) -> np.ndarray:
+    """(3, 3) weighted covariance of poses (P, 3) about ``mean`` (heading residuals wrapped)."""
+    d = poses - mean
+    d[:, 2] = wrap_angle(d[:, 2])
+    return (d * weights[:, None]).T @ d
 
 
 class ParticleSet:
@@ -83,16 +99,11 @@ class ParticleSet:
 
     def mean_pose(self) -> np.ndarray:
         """(3,) weighted mean pose; the heading is the circular mean atan2(E sin, E cos)."""
-        w = self.weights
-        x, y = w @ self.poses[:, 0], w @ self.poses[:, 1]
-        theta = np.arctan2(w @ np.sin(self.poses[:, 2]), w @ np.cos(self.poses[:, 2]))
-        return np.array([x, y, theta])
+        return weighted_mean_pose(self.poses, self.weights)
 
     def pose_covariance(self, mean: np.ndarray) -> np.ndarray:
         """(3, 3) weighted covariance about ``mean`` (heading residuals wrapped)."""
-        d = self.poses - mean
-        d[:, 2] = wrap_angle(d[:, 2])
-        return (d * self.weights[:, None]).T @ d
+        return weighted_covariance_about(self.poses, self.weights, mean)
 
 
 class PathHistory:
@@ -205,7 +216,9 @@ class PathHistory:
         means = np.empty((n, 3))
         out_covs = np.empty((n, 3, 3))
         for t in range(n):
-            means[t], out_covs[t] = weighted_moments(self._poses[t], smoothed[t])
+            w = np.exp(smoothed[t])
+            means[t] = weighted_mean_pose(self._poses[t], w)
+            out_covs[t] = weighted_covariance_about(self._poses[t], w, means[t])
         return Trajectory.from_se2(np.array(self._stamps), means), out_covs
 
     def covariances_about(self, path: np.ndarray) -> np.ndarray:

@@ -17,14 +17,10 @@ import numpy as np
 
 from omnislam.core.batch_linalg import inverse_and_logdet, transpose
 from omnislam.core.measurement import MeasurementModel
+from omnislam.fastslam.resighting import pose_rotation
 
 #: the covariance starts (and is floored) at this times the identity
 _FLOOR = 1e-9
-
-
-def _rotation(theta: float) -> np.ndarray:
-    c, s = np.cos(theta), np.sin(theta)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 class PoseSpread:
@@ -44,7 +40,7 @@ class PoseSpread:
         J = np.eye(3)
         J[0, 2] = -(wTr_after[1] - wTr_before[1])
         J[1, 2] = wTr_after[0] - wTr_before[0]
-        rotate = _rotation(float(wTr_before[2]))
+        rotate = pose_rotation(float(wTr_before[2]))
         C = J @ self.covariance @ J.T + rotate @ step_cov @ rotate.T
         self.covariance = 0.5 * (C + C.T)
 

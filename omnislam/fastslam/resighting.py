@@ -37,7 +37,7 @@ def _lever(p_xy: np.ndarray) -> np.ndarray:
     return np.array([[1.0, 0.0, -p_xy[1]], [0.0, 1.0, p_xy[0]], [0.0, 0.0, 1.0]])
 
 
-def _rotation(theta: np.ndarray | float) -> np.ndarray:
+def pose_rotation(theta: np.ndarray | float) -> np.ndarray:
     """(..., 3, 3) block-diag(Rot(theta), 1)."""
     theta = np.asarray(theta, dtype=float)
     c, s = np.cos(theta), np.sin(theta)
@@ -72,7 +72,7 @@ class ResightingSpread:
 
     def advance(self, delta_r: np.ndarray, covariance: np.ndarray) -> None:
         """One odometry step: delta (3,) in the previous pose's frame, its covariance (3, 3)."""
-        rotate = _rotation(self._pose[2])
+        rotate = pose_rotation(self._pose[2])
         self._pose = se2_compose(self._pose, np.asarray(delta_r, dtype=float))
         inverse_lever = _lever(-self._pose[:2])
         W = rotate @ np.asarray(covariance, dtype=float) @ rotate.T
@@ -102,7 +102,7 @@ class ResightingSpread:
         if not known.any():
             return out
         lever = _lever(self._pose[:2])
-        to_robot = _rotation(-self._pose[2]) @ lever
+        to_robot = pose_rotation(-self._pose[2]) @ lever
         gap = self._sum - self._seen_sum[slots[known]]
         cov = to_robot @ gap @ to_robot.T
         out[known] = 0.5 * (cov + np.swapaxes(cov, -1, -2)) * self._scale
@@ -111,5 +111,5 @@ class ResightingSpread:
     def world_frame(self, slots: np.ndarray, headings_rad: np.ndarray) -> np.ndarray:
         """(P, C, 3, 3) the same covariance in each particle's world frame (heading (P,))."""
         robot = self.robot_frame(slots)
-        rotate = _rotation(headings_rad)[:, None]  # (P, 1, 3, 3)
+        rotate = pose_rotation(headings_rad)[:, None]  # (P, 1, 3, 3)
         return rotate @ robot[None] @ np.swapaxes(rotate, -1, -2)

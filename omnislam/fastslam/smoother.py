@@ -100,23 +100,3 @@ def ffbsm_log_weights(
         top = np.max(out)
         smoothed[t] = out - (top + np.log(np.sum(np.exp(out - top))))
     return smoothed
-
-
-def weighted_moments(poses: np.ndarray, log_weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(3,) weighted mean pose (circular mean heading) and (3, 3) covariance about it.
-
-    Args:
-        poses: (P, 3) poses [m, m, rad].
-        log_weights: (P,) normalised log weights.
-    """
-    w = np.exp(log_weights)
-    mean = np.array(
-        [
-            w @ poses[:, 0],
-            w @ poses[:, 1],
-            np.arctan2(w @ np.sin(poses[:, 2]), w @ np.cos(poses[:, 2])),
-        ]
-    )
-    d = poses - mean
-    d[:, 2] = wrap_angle(d[:, 2])
-    return mean, (d * w[:, None]).T @ d

@@ -11,8 +11,9 @@ from test_filter import _ate, _config, _run
 
 from omnislam.errors import ConfigError
 from omnislam.fastslam import TrajectoryMode, Variant
+from omnislam.fastslam.particles import weighted_covariance_about, weighted_mean_pose
 from omnislam.fastslam.resampling import normalize_log_weights, systematic_resample
-from omnislam.fastslam.smoother import ffbsm_log_weights, transition_log_density, weighted_moments
+from omnislam.fastslam.smoother import ffbsm_log_weights, transition_log_density
 
 #: particles of the bootstrap filter smoothed on the linear-Gaussian model
 LINEAR_PARTICLES = 1500
@@ -93,14 +94,19 @@ def test_ffbsm_matches_the_rts_smoother_on_a_linear_gaussian_model():
     m_f, m_s, p_s = _rts(deltas[:, 0], q, r, ys, p0)
     poses, log_weights = _bootstrap_filter(deltas, cov, ys, r, p0, rng)
     smoothed = ffbsm_log_weights(poses, log_weights, deltas, np.tile(cov, (LINEAR_STEPS, 1, 1)))
-    moments = [weighted_moments(x, lw) for x, lw in zip(poses, smoothed, strict=True)]
-    means = np.array([mean[0] for mean, _ in moments])
-    variances = np.array([cov[0, 0] for _, cov in moments])
+    means_xyt = [weighted_mean_pose(x, np.exp(lw)) for x, lw in zip(poses, smoothed, strict=True)]
+    means = np.array([mean[0] for mean in means_xyt])
+    variances = np.array(
+        [
+            weighted_covariance_about(x, np.exp(lw), mean)[0, 0]
+            for x, lw, mean in zip(poses, smoothed, means_xyt, strict=True)
+        ]
+    )
     ess = np.array([1.0 / np.sum(np.exp(2 * lw)) for lw in smoothed])
     np.testing.assert_array_less(np.abs(means - m_s), MC_STDS * np.sqrt(p_s / ess))
     np.testing.assert_allclose(variances, p_s, rtol=0.35)
     filtered = np.array(
-        [weighted_moments(x, lw)[0][0] for x, lw in zip(poses, log_weights, strict=True)]
+        [weighted_mean_pose(x, np.exp(lw))[0] for x, lw in zip(poses, log_weights, strict=True)]
     )
     np.testing.assert_allclose(filtered, m_f, atol=MC_STDS * np.sqrt(r / LINEAR_PARTICLES))
     assert np.mean(np.abs(means[:4] - m_s[:4])) < np.mean(np.abs(filtered[:4] - m_s[:4]))
