@@ -26,7 +26,7 @@ import ctypes
 import dataclasses
 import itertools
 import multiprocessing
-import os
+import multiprocessing.forkserver
 import pickle
 import time
 from collections.abc import Callable, Iterator
@@ -129,8 +129,6 @@ class PreparedImage:
         seconds: wall-clock seconds per stage spent preparing it.
         cpu_seconds: CPU seconds per stage (of the process that prepared it).
         in_worker: prepared in a worker process (whose CPU this process does not count).
-        worker: ``(pid, parent pid, CPU seconds of that process so far)`` when prepared in a
-            worker, so that the workers' whole CPU is known however they were started.
     """
 
     features: Any
@@ -141,7 +139,6 @@ class PreparedImage:
     seconds: dict[str, float]
     cpu_seconds: dict[str, float]
     in_worker: bool = False
-    worker: tuple[int, int, float] | None = None
 
 
 class _ImagePreparer:
@@ -225,54 +222,31 @@ def _start_worker(image_loader: Any, rig: Any, config: FrontendConfig) -> None:
 
 def _prepare_in_worker(i: int) -> PreparedImage:
     assert _WORKER is not None
-    image = _WORKER(i)
-    return dataclasses.replace(image, in_worker=True,
-                               worker=(os.getpid(), os.getppid(), time.process_time()))
-
-
-#: CPU seconds of each fork server already counted (a server outlives one front-end run)
-_SERVER_CPU_COUNTED: dict[int, float] = {}
-
-
-def _process_cpu_s(pid: int) -> float | None:
-    """User + system CPU seconds of a running process, from ``/proc`` (None elsewhere)."""
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            fields = f.read().rsplit(")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-    except (OSError, IndexError, ValueError):
-        return None
-
-
-def _workers_cpu_s(workers: dict[int, tuple[int, float]]) -> float:
-    """The worker processes' whole CPU: each one's own (start-up after the fork, pickling
-    and preparing) and the part of their fork server's (Python's start-up and the preloaded
-    imports) not counted by an earlier run of this process.
-
-    Args:
-        workers: pid -> (parent pid, the largest CPU seconds it reported).
-    """
-    total = sum(cpu for _, cpu in workers.values())
-    for server in {parent for parent, _ in workers.values()} - {os.getpid()}:
-        cpu = _process_cpu_s(server)
-        if cpu is not None:
-            total += cpu - _SERVER_CPU_COUNTED.get(server, 0.0)
-            _SERVER_CPU_COUNTED[server] = cpu
-    return total
+    return dataclasses.replace(_WORKER(i), in_worker=True)
 
 
 def _context() -> Any:
-    """Workers forked from a server that has imported the front end once (Python's
+    """Workers forked from a fork server that has imported the front end once (Python's
     ``forkserver``): each starts in milliseconds where a spawned one re-imports numpy, scipy
-    and OpenCV (~0.4 s of CPU each; on the 59-image demo that start-up cost ~10 % of the
-    run). Forking this process instead is not safe: its OpenCV and executor threads may hold
-    locks (measured: a hang). Spawned where there is no fork server (Windows).
+    and OpenCV (~0.4 s of CPU each, ~10 % of the 59-image demo's run). Forking this process
+    instead is not safe: its OpenCV and executor threads may hold locks (measured: a hang).
+    Spawned where Python has no fork server, or no way to stop it (``_stop_fork_server``).
     """
-    if "forkserver" not in multiprocessing.get_all_start_methods():
+    server = getattr(multiprocessing.forkserver, "_forkserver", None)
+    if ("forkserver" not in multiprocessing.get_all_start_methods()
+            or not callable(getattr(server, "_stop", None))):
         return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload([__name__])
     return context
+
+
+def _stop_fork_server(context: Any) -> None:
+    """Stop the fork server and wait for it (Python's own ``ForkServer._stop``), so that its
+    CPU and its reaped workers' count as this process's ended children, as spawned workers'
+    do (every CPU figure of a run counts them that way), and no server outlives the run."""
+    if context.get_start_method() == "forkserver":
+        multiprocessing.forkserver._forkserver._stop()
 
 
 def _picklable(*objects: Any) -> bool:
@@ -299,18 +273,22 @@ def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipeline
         for i in frames:
             yield i, prepare(i)
         return
-    with ProcessPoolExecutor(max_workers=WORKERS, mp_context=_context(),
-                             initializer=_start_worker,
-                             initargs=(sequence.image_loader, rig, config)) as pool:
-        pending: collections.deque = collections.deque()
-        queue = iter(frames)
-        for i in itertools.islice(queue, LOOKAHEAD):
-            pending.append((i, pool.submit(_prepare_in_worker, i)))
-        while pending:
-            i, future = pending.popleft()
-            for j in itertools.islice(queue, 1):
-                pending.append((j, pool.submit(_prepare_in_worker, j)))
-            yield i, future.result()
+    context = _context()
+    try:
+        with ProcessPoolExecutor(max_workers=WORKERS, mp_context=context,
+                                 initializer=_start_worker,
+                                 initargs=(sequence.image_loader, rig, config)) as pool:
+            pending: collections.deque = collections.deque()
+            queue = iter(frames)
+            for i in itertools.islice(queue, LOOKAHEAD):
+                pending.append((i, pool.submit(_prepare_in_worker, i)))
+            while pending:
+                i, future = pending.popleft()
+                for j in itertools.islice(queue, 1):
+                    pending.append((j, pool.submit(_prepare_in_worker, j)))
+                yield i, future.result()
+    finally:
+        _stop_fork_server(context)
 
 
 def run_frontend(
@@ -334,10 +312,11 @@ def run_frontend(
         progress: show the images done, rate and ETA on stderr (``omnislam._progress``).
         pipelined: prepare the next images (load, SIFT, groups, rays, vertical edges) in
             ``WORKERS`` processes while image k is tracked (the CLI does); the log is the same
-            either way (a test). The processes are forked from a fork server (``_context``),
-            which imports the main module as a spawned process would: a script calling this
-            must guard its top level with ``if __name__ == "__main__":``. This process and the
-            workers keep freed memory for the next image (``reuse_freed_memory``).
+            either way (a test). The processes are forked from a fork server started for the
+            run (``_context``), which imports the main module as a spawned process would: a
+            script calling this must guard its top level with ``if __name__ == "__main__":``.
+            This process and the workers keep freed memory for the next image
+            (``reuse_freed_memory``).
         on_image: called with (images done, images to do) after each image (the grid runner's
             progress from a worker).
 
@@ -345,8 +324,8 @@ def run_frontend(
         The ObservationLog; ``stats`` holds counts, and wall-clock (``seconds_<stage>``) and
         CPU (``cpu_seconds_<stage>``) seconds per stage, and both for the whole image loop
         (``*_images_total``; its CPU counts the worker processes' whole CPU, start-up and
-        pickling included: what each reported of its own and its fork server's, or the
-        children's resource usage once they have ended, whichever is larger).
+        pickling included, and their fork server's, as the children's resource usage once
+        they have ended).
     """
     config = config if config is not None else FrontendConfig()
     rng = rng if rng is not None else np.random.default_rng(DEFAULT_SEED)
@@ -368,7 +347,6 @@ def run_frontend(
     wall_start, cpu_start = time.perf_counter(), time.process_time()
     children_start = children_cpu_s()
     prepared_cpu_s = 0.0  # the workers' CPU in their stages (a lower bound of their total)
-    workers: dict[int, tuple[int, float]] = {}  # pid -> (parent pid, CPU so far)
     if processed.size:
         tracker = LandmarkTracker(rig.viewpoint_r, config, rng, track_clock)
         poses_dr = se2_integrate(sequence.odometry_r)
@@ -381,9 +359,6 @@ def run_frontend(
             for stage, seconds in image.seconds.items():
                 clock.add(stage, seconds, image.cpu_seconds[stage])
             prepared_cpu_s += sum(image.cpu_seconds.values()) if image.in_worker else 0.0
-            if image.worker is not None:
-                pid, parent, cpu_so_far = image.worker
-                workers[pid] = (parent, max(cpu_so_far, workers.get(pid, (parent, 0.0))[1]))
             before = sum(track_clock.seconds.values()), sum(track_clock.cpu_seconds.values())
             start, cpu = time.perf_counter(), time.process_time()
             tracked = tracker.process(image.features.descriptors, image.groups, image.rays_r,
@@ -409,11 +384,10 @@ def run_frontend(
     else:
         sightings = np.zeros(0, dtype=np.int64)
     images_wall_s = time.perf_counter() - wall_start
-    # the workers ended with the loop: their whole CPU (start-up, pickling included) is known,
-    # as this process's children when spawned, as their own reports when forked by a server
+    # the workers and their fork server ended with the loop: their whole CPU (start-up,
+    # pickling included) is known
     children_s = children_cpu_s() - children_start if children_start is not None else 0.0
-    images_cpu_s = time.process_time() - cpu_start + max(
-        prepared_cpu_s, children_s, _workers_cpu_s(workers))
+    images_cpu_s = time.process_time() - cpu_start + max(prepared_cpu_s, children_s)
 
     laser_odom = None
     if (

@@ -3,9 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -18,7 +15,7 @@ from frontend_tolerances import (
     SAME_POINT_M,
 )
 
-from omnislam.frontend import evaluation, pipeline
+from omnislam.frontend import evaluation
 from omnislam.frontend.config import (
     FrontendConfig,
     LaserLandmarkConfig,
@@ -33,6 +30,7 @@ from omnislam.frontend.pipeline import (
     run_frontend,
     schedule_images,
 )
+from omnislam.frontend.timing import children_cpu_s
 
 #: no laser: these tests are about the images
 IMAGES_ONLY = FrontendConfig(laser=LaserLandmarkConfig(enabled=False))
@@ -162,7 +160,9 @@ def test_the_log_does_not_depend_on_what_ran_before(demo_sequence, demo_log):
 
 def test_pipelined_and_sequential_runs_give_the_same_log(demo_sequence, demo_log):
     """Preparing images in worker processes changes the timing, nothing else."""
+    children_before = children_cpu_s()
     pipelined = run_frontend(demo_sequence, IMAGES_ONLY, pipelined=True)
+    children_s = children_cpu_s() - children_before
     for a, b in zip(demo_log.frames, pipelined.frames, strict=True):
         assert (a.bearings is None) == (b.bearings is None)
         if a.bearings is not None:
@@ -174,28 +174,9 @@ def test_pipelined_and_sequential_runs_give_the_same_log(demo_sequence, demo_log
     # the workers' CPU is counted: at least what preparing the images cost
     prepared = sum(pipelined.stats[f"cpu_seconds_{k}"] for k in ("load", "extract", "group"))
     assert pipelined.stats["cpu_seconds_images_total"] >= prepared
-
-
-def test_a_fork_servers_start_up_is_counted_once():
-    """Workers forked from a server report their own CPU; the server's (Python's start-up and
-    the imports) is added by the first run that used it, not again by the next ones."""
-    server = subprocess.Popen(
-        [sys.executable, "-c", "import time\nt = time.process_time()\n"
-         "while time.process_time() - t < 0.3: pass\nprint(flush=True)\ntime.sleep(60)"],
-        stdout=subprocess.PIPE)
-    try:
-        server.stdout.readline()  # it has spent its 0.3 s
-        if pipeline._process_cpu_s(server.pid) is None:
-            pytest.skip("no /proc on this platform")
-        first = pipeline._workers_cpu_s({1: (server.pid, 0.5), 2: (server.pid, 0.25)})
-        again = pipeline._workers_cpu_s({3: (server.pid, 0.5)})
-    finally:
-        server.kill()
-        server.wait()
-    assert first >= 0.75 + 0.3 - 0.02  # clock ticks of 10 ms
-    assert again == pytest.approx(0.5, abs=0.02)
-    # spawned workers are this process's children: their own CPU only
-    assert pipeline._workers_cpu_s({4: (os.getpid(), 0.5)}) == 0.5
+    # ... as this process's ended children (workers and their fork server, which is stopped
+    # and waited for), so the CPU of a whole command counts them too
+    assert children_s >= prepared
 
 
 def test_bearing_sigmas_agree_with_the_residuals_against_ground_truth(demo_sequence, demo_log,
