@@ -49,6 +49,7 @@ from omnislam.core.modality import Modality, modalities_of
 from omnislam.core.types import UNKNOWN_ID, Exporting, Introspectable
 from omnislam.datasets.sequence import GroundTruth
 from omnislam.errors import ConfigError, DataError
+from omnislam.frontend.timing import cpu_with_children_s
 
 if TYPE_CHECKING:
     from omnislam.estimators import SequenceInfo
@@ -347,7 +348,7 @@ class RunStages:
         self._say(stage, done, total)
 
     def _switch(self, stage: str | None) -> None:
-        now = (time.perf_counter(), _cpu_with_children_s())
+        now = (time.perf_counter(), cpu_with_children_s())
         if self._stage is not None:
             key = self._stage
             self.wall_s[key] = self.wall_s.get(key, 0.0) + now[0] - self._start[0]
@@ -361,13 +362,6 @@ class RunStages:
             {k: round(v, 3) for k, v in self.wall_s.items()},
             {k: round(v, 3) for k, v in self.cpu_s.items()},
         )
-
-
-def _cpu_with_children_s() -> float:
-    """CPU seconds of this process and of its children that have ended (POSIX)."""
-    from omnislam.frontend.timing import children_cpu_s
-
-    return time.process_time() + (children_cpu_s() or 0.0)
 
 
 def _silent(stage: str, done: int, total: int) -> None:

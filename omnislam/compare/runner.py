@@ -79,6 +79,7 @@ from omnislam.compare.rundir import (
     write_run_dir,
 )
 from omnislam.errors import ConfigError, DataError, OmnislamError
+from omnislam.frontend.timing import cpu_with_children_s
 
 GRID_COPY = "grid.yaml"
 CELLS = "cells"
@@ -378,7 +379,8 @@ class Prepared:
         frontend_computed: the front end ran now (False: its log was cached).
         truth_computed: the true points of the log's tracks were computed now (False: cached,
             or not needed).
-        wall_s, cpu_s: wall-clock and CPU time of the preparation [s].
+        wall_s, cpu_s: wall-clock and CPU time of the preparation [s] (the CPU of this process
+            and of its ended children: the front end's workers when it pipelines).
     """
 
     dataset: str
@@ -427,7 +429,8 @@ def prepare_dataset(
             return None
 
     truth_path = log_path.with_name(log_path.name + ".truth.npz")
-    wall, cpu = time.perf_counter(), time.process_time()
+    # the front end's worker processes (pipelined where this process may have children) count
+    wall, cpu = time.perf_counter(), cpu_with_children_s()
 
     def counting(stage: str) -> Callable[[int, int], None] | None:
         if on_step is None:
@@ -452,7 +455,7 @@ def prepare_dataset(
         computed,
         truth_computed,
         time.perf_counter() - wall,
-        time.process_time() - cpu,
+        cpu_with_children_s() - cpu,
     )
 
 

@@ -47,3 +47,9 @@ def children_cpu_s() -> float | None:
         return None
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
     return usage.ru_utime + usage.ru_stime
+
+
+def cpu_with_children_s() -> float:
+    """CPU seconds of this process and of its ended children (the front end's worker
+    processes and their fork server; POSIX, this process alone elsewhere)."""
+    return time.process_time() + (children_cpu_s() or 0.0)
