@@ -267,7 +267,8 @@ class FastSLAMConfig:
             Measured with full-size islands (each the default filter; docs/results.md, CARMEN
             aces, session 18): carmen-aces median ATE over seeds 0-9 fastslam1 1.93 -> 1.41 /
             1.12 m at K = 3 / 5, fastslam2 1.81 -> 1.31 / 1.19 m; intel and loop150 gain,
-            MR.CLAM with ids within its seed spread; K times the CPU, hence not the default.
+            MR.CLAM with ids within its seed spread, lab40's paths better and maps worse; K
+            times the CPU, hence not the default.
         resampling: the resampling algorithm (low-variance systematic by default, Thrun et al.
             2005 Table 4.4).
         store: landmark storage (thesis tree by default).
