@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -138,6 +139,28 @@ def build_scale_space(grey: np.ndarray, sigma: float, layers: int, *, fine: bool
     return tuple(octaves)
 
 
+def _kernels() -> Any:
+    """The compiled ``kernels`` when numba is installed (and ``use_kernels`` allows), else
+    None: the numpy and OpenCV path below, their reference."""
+    if not _USE_KERNELS:
+        return None
+    from omnislam.frontend import kernels
+
+    return kernels.COMPILED
+
+
+#: the compiled kernels are used when available (``use_kernels``)
+_USE_KERNELS = True
+
+
+def use_kernels(enabled: bool) -> bool:
+    """Use the compiled kernels when numba is installed (the default) or never (the reference
+    path, for tests and benchmarks); returns the previous setting."""
+    global _USE_KERNELS
+    previous, _USE_KERNELS = _USE_KERNELS, bool(enabled)
+    return previous
+
+
 #: offsets (scale, row, col) of a 3 x 3 x 3 neighbourhood, index 13 is the centre
 _CUBE = np.stack(np.meshgrid([-1, 0, 1], [-1, 0, 1], [-1, 0, 1], indexing="ij"), -1).reshape(-1, 3)
 #: the 18 neighbours in the layers above and below
@@ -165,6 +188,10 @@ def _candidates(dog: np.ndarray, span: int, threshold: float, mask: np.ndarray |
     inner[b:-b, b:-b] = 255
     if mask is not None:
         inner = cv2.bitwise_and(inner, mask)
+    compiled = _kernels()
+    if compiled is not None:  # the same candidates in the same order, one pass (``kernels``)
+        found = compiled.extrema(dog, span, np.float32(threshold), inner)
+        return found[:, 0].copy(), found[:, 1].copy(), found[:, 2].copy()
     found_s, found_r, found_c = [], [], []
     flat = dog.reshape(-1)
     strides = np.array([height * width, width, 1])
@@ -242,6 +269,11 @@ class _Refined:
 def _refine(dog: np.ndarray, span: int, s: np.ndarray, r: np.ndarray, c: np.ndarray,
             contrast_threshold: float, edge_threshold: float) -> _Refined:
     """Taylor refinement and the contrast and edge tests (thesis eqs. 4.6-4.15)."""
+    compiled = _kernels()
+    if compiled is not None:  # the same bits, one loop per candidate (``kernels``)
+        index, values = compiled.refine(dog, span, IMAGE_BORDER, s, r, c, contrast_threshold,
+                                        edge_threshold)
+        return _Refined(s[index], r[index], c[index], values[:, :3], values[:, 3])
     height, width = dog.shape[1:]
     b = IMAGE_BORDER
     alive = np.arange(s.shape[0])

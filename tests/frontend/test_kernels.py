@@ -1,0 +1,137 @@
+"""The SIFT detector's compiled kernels give the numpy / OpenCV reference's bits.
+
+The front end's log must not depend on whether numba is installed (``frontend/kernels.py``):
+the candidates are compared exactly (the kernels only compare float32 values), and the
+refinement's float64 arithmetic is written out in the reference's order, so its offsets and
+contrasts are compared exactly too, as are the detections and descriptors of whole images.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from omnislam.frontend import scale_space
+from omnislam.frontend.config import OMNI_THESIS
+from omnislam.frontend.scale_space import IMAGE_BORDER, build_scale_space
+from omnislam.frontend.sift import SiftExtractor, detection_mask
+
+cv2 = pytest.importorskip("cv2")
+pytest.importorskip("numba")
+
+from omnislam.frontend import kernels  # noqa: E402 (compiles them: numba is installed)
+
+
+@pytest.fixture
+def reference():
+    """Run the body on the numpy / OpenCV path (``scale_space.use_kernels(False)``)."""
+
+    class _Switch:
+        def __enter__(self):
+            self.previous = scale_space.use_kernels(False)
+
+        def __exit__(self, *exc):
+            scale_space.use_kernels(self.previous)
+
+    return _Switch()
+
+
+def _textured(seed: int, size: int = 160) -> np.ndarray:
+    """A grey image of blobs and edges at several scales, with noise (uint8)."""
+    rng = np.random.default_rng(seed)
+    v, u = np.mgrid[0:size, 0:size].astype(float)
+    image = 120.0 + 10.0 * rng.standard_normal((size, size))
+    for _ in range(40):
+        cu, cv_, s = rng.uniform(0, size), rng.uniform(0, size), rng.uniform(1.0, 8.0)
+        image += rng.choice([-1, 1]) * 60.0 * np.exp(-((u - cu) ** 2 + (v - cv_) ** 2) / (2 * s**2))
+    image[:, size // 3] += 40.0  # an edge: rejected by the curvature test
+    return np.clip(np.round(image), 0, 255).astype(np.uint8)
+
+
+def _omni(demo_sequence, frame: int) -> tuple[np.ndarray, np.ndarray]:
+    camera = demo_sequence.calibration.camera
+    image = demo_sequence.image(frame)
+    return image, detection_mask(camera.mask(), (camera.height, camera.width))
+
+
+def _inner(shape: tuple[int, int], mask: np.ndarray | None) -> np.ndarray:
+    inner = np.zeros(shape, dtype=np.uint8)
+    b = IMAGE_BORDER
+    inner[b:-b, b:-b] = 255
+    return inner if mask is None else cv2.bitwise_and(inner, mask)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_extrema_are_the_references_in_its_order(seed, reference):
+    grey = _textured(seed)
+    mask = np.zeros(grey.shape, dtype=np.uint8)
+    mask[20:140, 10:150] = 255
+    total = 0
+    for octave in build_scale_space(grey, 1.6, 3, fine=True):
+        span, step = octave.extrema_layers, octave.step_px
+        height, width = octave.dog.shape[1:]
+        octave_mask = np.ascontiguousarray(mask[::step, ::step][:height, :width])
+        for threshold in (0.0, 0.005, 0.01):
+            with reference:
+                expected = scale_space._candidates(octave.dog, span, threshold, octave_mask)
+            found = kernels.COMPILED.extrema(
+                octave.dog, span, np.float32(threshold), _inner((height, width), octave_mask)
+            )
+            for want, got in zip(expected, found.T, strict=True):
+                np.testing.assert_array_equal(got, want)
+            total += found.shape[0]
+    assert total > 50  # the comparison saw real extrema
+
+
+def test_the_extrema_grow_their_buffer_past_its_first_size():
+    """More than the kernel's first 1024 extrema: a checkerboard of isolated peaks."""
+    dog = np.zeros((3, 200, 200), dtype=np.float32)
+    dog[1, 6:194:3, 6:194:3] = 1.0
+    found = kernels.COMPILED.extrema(dog, 1, np.float32(0.5), _inner((200, 200), None))
+    assert found.shape[0] == len(range(6, 194, 3)) ** 2 > 1024
+    np.testing.assert_array_equal(found[:, 0], 1)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_refinement_gives_the_references_bits(seed, reference):
+    grey = _textured(seed)
+    kept = 0
+    for octave in build_scale_space(grey, 1.6, 3, fine=True):
+        span = octave.extrema_layers
+        with reference:
+            s, r, c = scale_space._candidates(octave.dog, span, 0.005, None)
+            want = scale_space._refine(
+                octave.dog,
+                span,
+                s.copy(),
+                r.copy(),
+                c.copy(),
+                OMNI_THESIS.contrast_threshold,
+                OMNI_THESIS.edge_threshold,
+            )
+        got = scale_space._refine(
+            octave.dog,
+            span,
+            s.copy(),
+            r.copy(),
+            c.copy(),
+            OMNI_THESIS.contrast_threshold,
+            OMNI_THESIS.edge_threshold,
+        )
+        for field in ("layer", "row", "col", "offset", "contrast"):
+            np.testing.assert_array_equal(getattr(got, field), getattr(want, field))
+        kept += got.layer.size
+    assert kept > 10
+
+
+def test_whole_omni_images_give_the_same_features(demo_sequence, reference):
+    """The features of rendered omni images (the front end's input), every field exact."""
+    extractor = SiftExtractor(OMNI_THESIS)
+    for frame in demo_sequence.image_frames[:3]:
+        image, mask = _omni(demo_sequence, int(frame))
+        with reference:
+            want = extractor.extract(image, mask)
+        got = extractor.extract(image, mask)
+        assert len(got) > 100
+        for field in ("pixels", "sizes_px", "angles_rad", "contrast", "descriptors"):
+            np.testing.assert_array_equal(getattr(got, field), getattr(want, field))
