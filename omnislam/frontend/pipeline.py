@@ -28,6 +28,7 @@ import itertools
 import multiprocessing
 import multiprocessing.forkserver
 import pickle
+import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -237,7 +238,7 @@ def _context() -> Any:
             or not callable(getattr(server, "_stop", None))):
         return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload([__name__])
+    context.set_forkserver_preload([__name__, "omnislam.frontend.kernels"])
     return context
 
 
@@ -257,14 +258,67 @@ def _picklable(*objects: Any) -> bool:
     return True
 
 
+def _worker_ready() -> bool:
+    """A task that returns once a worker process has started (its initializer has run)."""
+    return _WORKER is not None
+
+
+class _WorkerPool:
+    """The ``WORKERS`` processes, started in a background thread (``start``) so that this
+    process can prepare the first images itself meanwhile: the fork server's start-up
+    (importing the front end and compiling its kernels, ~1 s) would otherwise leave both cores
+    idle before the first image."""
+
+    def __init__(self, sequence: Any, config: FrontendConfig) -> None:
+        self.context = _context()
+        self.pool: ProcessPoolExecutor | None = None
+        self.error: BaseException | None = None
+        self._args = (sequence.image_loader, sequence.calibration, config)
+        self._thread = threading.Thread(target=self._start, name="omnislam-frontend-workers",
+                                        daemon=True)
+
+    def _start(self) -> None:
+        try:
+            self.pool = ProcessPoolExecutor(max_workers=WORKERS, mp_context=self.context,
+                                            initializer=_start_worker, initargs=self._args)
+            # one task per worker makes the executor start them all now
+            for future in [self.pool.submit(_worker_ready) for _ in range(WORKERS)]:
+                future.result()
+        except BaseException as exc:  # re-raised by ``wait`` in the caller's thread
+            self.error = exc
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def starting(self) -> bool:
+        return self._thread.is_alive()
+
+    def wait(self) -> ProcessPoolExecutor:
+        self._thread.join()
+        if self.error is not None:
+            raise self.error
+        assert self.pool is not None
+        return self.pool
+
+    def close(self) -> None:
+        """Shut the workers down and stop their fork server (``_stop_fork_server``)."""
+        self._thread.join()
+        try:
+            if self.pool is not None:
+                self.pool.shutdown(wait=True, cancel_futures=True)
+        finally:
+            _stop_fork_server(self.context)
+
+
 def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipelined: bool
               ) -> Iterator[tuple[int, PreparedImage]]:
     """``(frame, prepared image)`` in order.
 
     Pipelined, up to ``LOOKAHEAD`` images are prepared ahead in ``WORKERS`` processes while
     this one tracks (threads would not overlap: the preparation is mostly numpy calls that
-    hold the GIL; measured in the README). A sequence whose image loader cannot be sent to
-    another process is prepared here, one image at a time.
+    hold the GIL; measured in the README). Until the workers have started, this process
+    prepares the images itself (``_WorkerPool``). A sequence whose image loader cannot be sent
+    to another process is prepared here, one image at a time.
     """
     rig = sequence.calibration
     if (not pipelined or multiprocessing.current_process().daemon  # may not have children
@@ -273,22 +327,29 @@ def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipeline
         for i in frames:
             yield i, prepare(i)
         return
-    context = _context()
+    workers = _WorkerPool(sequence, config)
     try:
-        with ProcessPoolExecutor(max_workers=WORKERS, mp_context=context,
-                                 initializer=_start_worker,
-                                 initargs=(sequence.image_loader, rig, config)) as pool:
-            pending: collections.deque = collections.deque()
-            queue = iter(frames)
-            for i in itertools.islice(queue, LOOKAHEAD):
-                pending.append((i, pool.submit(_prepare_in_worker, i)))
-            while pending:
-                i, future = pending.popleft()
-                for j in itertools.islice(queue, 1):
-                    pending.append((j, pool.submit(_prepare_in_worker, j)))
-                yield i, future.result()
+        workers.start()
+        queue = iter(frames)
+        local = None
+        while workers.starting():
+            i = next(queue, None)
+            if i is None:
+                break
+            local = local if local is not None else _ImagePreparer(sequence.image_loader,
+                                                                   rig, config)
+            yield i, local(i)
+        pool = workers.wait()
+        pending: collections.deque = collections.deque()
+        for i in itertools.islice(queue, LOOKAHEAD):
+            pending.append((i, pool.submit(_prepare_in_worker, i)))
+        while pending:
+            i, future = pending.popleft()
+            for j in itertools.islice(queue, 1):
+                pending.append((j, pool.submit(_prepare_in_worker, j)))
+            yield i, future.result()
     finally:
-        _stop_fork_server(context)
+        workers.close()
 
 
 def run_frontend(
@@ -347,6 +408,7 @@ def run_frontend(
     wall_start, cpu_start = time.perf_counter(), time.process_time()
     children_start = children_cpu_s()
     prepared_cpu_s = 0.0  # the workers' CPU in their stages (a lower bound of their total)
+    in_workers = 0  # images prepared in worker processes
     if processed.size:
         tracker = LandmarkTracker(rig.viewpoint_r, config, rng, track_clock)
         poses_dr = se2_integrate(sequence.odometry_r)
@@ -358,7 +420,9 @@ def run_frontend(
         for i, image in _prepared(sequence, config, processed.tolist(), pipelined):
             for stage, seconds in image.seconds.items():
                 clock.add(stage, seconds, image.cpu_seconds[stage])
-            prepared_cpu_s += sum(image.cpu_seconds.values()) if image.in_worker else 0.0
+            if image.in_worker:
+                prepared_cpu_s += sum(image.cpu_seconds.values())
+                in_workers += 1
             before = sum(track_clock.seconds.values()), sum(track_clock.cpu_seconds.values())
             start, cpu = time.perf_counter(), time.process_time()
             tracked = tracker.process(image.features.descriptors, image.groups, image.rays_r,
@@ -468,6 +532,8 @@ def run_frontend(
         "seconds_images_total": images_wall_s,
         "cpu_seconds_images_total": images_cpu_s,
         "images_processed": float(len(raw)),
+        "images_prepared_in_workers": float(in_workers),
+        "cpu_seconds_prepared_in_workers": prepared_cpu_s,
         "tracks_total": float(sightings.shape[0]),
         "tracks_kept": float(keep_track.sum()),
         "sightings_per_image_median": float(np.median(n_bearings)) if n_bearings else 0.0,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import threading
 
 import numpy as np
 import pytest
@@ -15,7 +16,7 @@ from frontend_tolerances import (
     SAME_POINT_M,
 )
 
-from omnislam.frontend import evaluation
+from omnislam.frontend import evaluation, pipeline
 from omnislam.frontend.config import (
     FrontendConfig,
     LaserLandmarkConfig,
@@ -176,7 +177,43 @@ def test_pipelined_and_sequential_runs_give_the_same_log(demo_sequence, demo_log
     assert pipelined.stats["cpu_seconds_images_total"] >= prepared
     # ... as this process's ended children (workers and their fork server, which is stopped
     # and waited for), so the CPU of a whole command counts them too
-    assert children_s >= prepared
+    in_workers = pipelined.stats["cpu_seconds_prepared_in_workers"]
+    assert pipelined.stats["images_prepared_in_workers"] > 0 and in_workers > 0
+    assert children_s >= in_workers
+
+
+def test_images_are_prepared_here_until_the_workers_have_started(demo_sequence, demo_log,
+                                                                  monkeypatch):
+    """While the fork server starts, this process prepares the first images itself; then
+    the workers take over, and the log is the same. Here the workers start only after three
+    images, and the fourth waits for them, so exactly four are prepared here."""
+    start, prepare = pipeline._WorkerPool._start, pipeline._ImagePreparer.__call__
+    go, ready = threading.Event(), threading.Event()
+    prepared_here = []
+
+    def late_start(self):
+        go.wait(timeout=60)
+        start(self)
+        ready.set()
+
+    def counted(self, i):
+        prepared_here.append(i)
+        if len(prepared_here) == 3:
+            go.set()
+        elif len(prepared_here) == 4:
+            ready.wait(timeout=60)
+        return prepare(self, i)
+
+    monkeypatch.setattr(pipeline._WorkerPool, "_start", late_start)
+    monkeypatch.setattr(pipeline._ImagePreparer, "__call__", counted)
+    mixed = run_frontend(demo_sequence, IMAGES_ONLY, pipelined=True)
+    assert len(prepared_here) == 4
+    assert mixed.stats["images_prepared_in_workers"] == mixed.stats["images_processed"] - 4
+    for a, b in zip(demo_log.frames, mixed.frames, strict=True):
+        assert (a.bearings is None) == (b.bearings is None)
+        if a.bearings is not None:
+            np.testing.assert_array_equal(a.bearings.landmark_ids, b.bearings.landmark_ids)
+            np.testing.assert_array_equal(a.bearings.unit_vectors_r, b.bearings.unit_vectors_r)
 
 
 def test_bearing_sigmas_agree_with_the_residuals_against_ground_truth(demo_sequence, demo_log,
