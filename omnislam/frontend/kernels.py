@@ -2,20 +2,28 @@
 
 ``scale_space`` finds the DoG extrema with whole-image OpenCV operations (a 3 x 3 dilation and
 erosion per layer, then a gather of the 18 neighbours in the layers above and below for the ~18 %
-of the pixels that pass the threshold) and refines them with vectorised numpy; on a 640 x 640
-lab40 image that is ~20 + ~8 ms of CPU, most of it memory traffic over whole images. These
-kernels do the same work in one pass each:
+of the pixels that pass the threshold), refines them and histograms their orientation windows
+with vectorised numpy; on a 640 x 640 lab40 image that is ~20 + ~8 + ~4 ms of CPU, most of it
+memory traffic and index arithmetic over whole arrays. These kernels do the same work in one
+pass each:
 
 * ``extrema``: the DoG extrema over their 26 neighbours above half the contrast threshold
   (``scale_space._candidates``), a branch-free pre-test on each row first;
 * ``refine``: the Taylor refinement and the contrast and edge tests (thesis eqs. 4.6-4.15,
-  ``scale_space._refine``).
+  ``scale_space._refine``);
+* ``window_gradients`` and ``orientation_histograms``: the gradients of the orientation
+  windows and their weighted direction histograms (Lowe 2004 sec. 5,
+  ``scale_space._orientations``), with OpenCV's ``cartToPolar`` and numpy's ``exp`` still
+  between them (their float32 results depend on the implementation, so they stay the same
+  calls on the same arrays).
 
 The numpy path stays the reference and the test oracle (``tests/frontend/test_kernels.py``):
 ``extrema`` only compares float32 values and returns the same candidates in the same order;
 ``refine`` writes out the reference's float64 arithmetic in the reference's order (the central
-differences, the adjugate solve, the same rounding of a Newton step), so both give the same bits
-and the front end's log does not depend on whether numba is installed.
+differences, the adjugate solve, the same rounding of a Newton step); the gather computes the
+same float32 differences, and the histograms add the same float32 products in the same order
+as ``np.bincount``. So all give the same bits, and the front end's log does not depend on
+whether numba is installed.
 
 The functions are plain Python written in the subset numba compiles. Importing this module
 compiles them when numba is installed (cached on disk by numba; ``pipeline``'s fork server
@@ -240,6 +248,76 @@ def refine(
     return index[:k], values[:k]
 
 
+def window_gradients(
+    gaussian: np.ndarray,
+    layer: np.ndarray,
+    rows: np.ndarray,
+    cols: np.ndarray,
+    radius: np.ndarray,
+    reach: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The orientation windows' gradients (``scale_space._orientations``'s gather).
+
+    Args:
+        gaussian: (N + 3, H, W) float32 Gaussian images of the octave.
+        layer, rows, cols: (M,) int64 keypoint layers and positions.
+        radius: (M,) int64 window radius of each keypoint.
+        reach: the largest radius: every window is (2 reach + 1)^2 samples, as the
+            reference's.
+
+    Returns:
+        ``(dx, dy, valid)``: (M * (2 reach + 1)^2,) float32 central differences (x right, y
+        up) at each sample (positions clipped into the image as the reference does), and
+        whether the sample is inside the keypoint's own window and the image.
+    """
+    height, width = gaussian.shape[1], gaussian.shape[2]
+    side = 2 * reach + 1
+    m = rows.shape[0]
+    dx = np.empty(m * side * side, dtype=np.float32)
+    dy = np.empty(m * side * side, dtype=np.float32)
+    valid = np.empty(m * side * side, dtype=np.bool_)
+    i = 0
+    for k in range(m):
+        image = gaussian[layer[k]]
+        for iy in range(side):
+            y = rows[k] + iy - reach
+            yc = min(max(y, 1), height - 2)
+            inside_y = abs(iy - reach) <= radius[k] and 0 < y < height - 1
+            for ix in range(side):
+                x = cols[k] + ix - reach
+                xc = min(max(x, 1), width - 2)
+                dx[i] = image[yc, xc + 1] - image[yc, xc - 1]
+                dy[i] = image[yc - 1, xc] - image[yc + 1, xc]
+                valid[i] = inside_y and abs(ix - reach) <= radius[k] and 0 < x < width - 1
+                i += 1
+    return dx, dy, valid
+
+
+def orientation_histograms(
+    angle: np.ndarray, weight: np.ndarray, magnitude: np.ndarray, m: int, bins: int
+) -> np.ndarray:
+    """(M, bins) float64 histograms of the window samples' directions
+    (``scale_space._orientations``'s ``np.bincount``: the float32 products summed in sample
+    order).
+
+    Args:
+        angle: (M * S,) float32 sample directions [deg] (``cv2.cartToPolar``).
+        weight: (M * S,) float32 Gaussian weights (0 outside a keypoint's window).
+        magnitude: (M * S,) float32 gradient magnitudes.
+        m: M keypoints, S samples each.
+        bins: histogram bins over 360 deg.
+    """
+    hist = np.zeros((m, bins))
+    per = angle.shape[0] // max(m, 1)
+    scale = np.float32(bins / 360.0)
+    for k in range(m):
+        for j in range(per):
+            i = k * per + j
+            b = np.int64(np.rint(angle[i] * scale)) % bins
+            hist[k, b] += np.float64(weight[i] * magnitude[i])
+    return hist
+
+
 def _compile() -> SimpleNamespace | None:
     """The kernels compiled with ``numba.njit`` (cached on disk), or None without numba."""
     try:
@@ -251,7 +329,12 @@ def _compile() -> SimpleNamespace | None:
     namespace = globals()
     for helper in ("_derivatives", "_solve3"):
         namespace[helper] = jit(namespace[helper])
-    compiled = SimpleNamespace(extrema=jit(extrema), refine=jit(refine))
+    compiled = SimpleNamespace(
+        extrema=jit(extrema),
+        refine=jit(refine),
+        window_gradients=jit(window_gradients),
+        orientation_histograms=jit(orientation_histograms),
+    )
     # compile now, for the argument types ``scale_space`` passes (numba compiles on first call)
     dog = np.zeros((3, 12, 12), dtype=np.float32)
     dog[1, 6, 6] = 1.0
@@ -259,6 +342,9 @@ def _compile() -> SimpleNamespace | None:
     compiled.refine(
         dog, 1, 5, found[:, 0].copy(), found[:, 1].copy(), found[:, 2].copy(), 0.01, 10.0
     )
+    one = np.ones(1, dtype=np.int64)
+    dx, dy, _ = compiled.window_gradients(dog, one, 6 * one, 6 * one, 2 * one, 2)
+    compiled.orientation_histograms(dx, dx, dy, 1, 36)
     return compiled
 
 

@@ -326,24 +326,33 @@ def _orientations(gaussian: np.ndarray, layer: np.ndarray, rows: np.ndarray,
     radius = np.rint(ORI_RADIUS * scales).astype(np.int64)
     reach = int(radius.max())
     span = np.arange(-reach, reach + 1)
-    yy = rows[:, None, None] + span[None, :, None]
-    xx = cols[:, None, None] + span[None, None, :]
-    valid = ((np.abs(span)[None, :, None] <= radius[:, None, None])
-             & (np.abs(span)[None, None, :] <= radius[:, None, None])
-             & (yy > 0) & (yy < height - 1) & (xx > 0) & (xx < width - 1))
-    flat = gaussian.reshape(-1)
-    at = (layer[:, None, None] * (height * width) + np.clip(yy, 1, height - 2) * width
-          + np.clip(xx, 1, width - 2))
-    dx = (flat[at + 1] - flat[at - 1]).ravel()
-    dy = (flat[at - width] - flat[at + width]).ravel()
+    compiled = _kernels()
+    if compiled is not None:  # the same gather, one pass (``kernels``)
+        dx, dy, valid = compiled.window_gradients(gaussian, layer, rows, cols, radius, reach)
+        valid = valid.reshape(m, span.size, span.size)
+    else:
+        yy = rows[:, None, None] + span[None, :, None]
+        xx = cols[:, None, None] + span[None, None, :]
+        valid = ((np.abs(span)[None, :, None] <= radius[:, None, None])
+                 & (np.abs(span)[None, None, :] <= radius[:, None, None])
+                 & (yy > 0) & (yy < height - 1) & (xx > 0) & (xx < width - 1))
+        flat = gaussian.reshape(-1)
+        at = (layer[:, None, None] * (height * width) + np.clip(yy, 1, height - 2) * width
+              + np.clip(xx, 1, width - 2))
+        dx = (flat[at + 1] - flat[at - 1]).ravel()
+        dy = (flat[at - width] - flat[at + width]).ravel()
     magnitude, angle = cv2.cartToPolar(dx, dy, angleInDegrees=True)
     sigma_w = (ORI_SIGMA * scales).astype(np.float32)
     dist2 = (span[None, :, None] ** 2 + span[None, None, :] ** 2).astype(np.float32)
     weight = np.exp(-dist2 / (2.0 * sigma_w[:, None, None] ** 2)) * valid
-    bins = np.rint(angle.ravel() * (ORI_BINS / 360.0)).astype(np.int64) % ORI_BINS
-    index = (np.arange(m)[:, None] * ORI_BINS + bins.reshape(m, -1)).ravel()
-    hist = np.bincount(index, weights=weight.ravel() * magnitude.ravel(),
-                       minlength=m * ORI_BINS).reshape(m, ORI_BINS)
+    if compiled is not None:  # the same sums in the same order
+        hist = compiled.orientation_histograms(angle.ravel(), weight.ravel(), magnitude.ravel(),
+                                               m, ORI_BINS)
+    else:
+        bins = np.rint(angle.ravel() * (ORI_BINS / 360.0)).astype(np.int64) % ORI_BINS
+        index = (np.arange(m)[:, None] * ORI_BINS + bins.reshape(m, -1)).ravel()
+        hist = np.bincount(index, weights=weight.ravel() * magnitude.ravel(),
+                           minlength=m * ORI_BINS).reshape(m, ORI_BINS)
     # smoothing [1 4 6 4 1] / 16 (circular)
     wrap = np.concatenate([hist[:, -2:], hist, hist[:, :2]], axis=1)
     hist = ((wrap[:, :-4] + wrap[:, 4:]) * (1.0 / 16.0) + (wrap[:, 1:-3] + wrap[:, 3:-1])

@@ -135,3 +135,23 @@ def test_whole_omni_images_give_the_same_features(demo_sequence, reference):
         assert len(got) > 100
         for field in ("pixels", "sizes_px", "angles_rad", "contrast", "descriptors"):
             np.testing.assert_array_equal(getattr(got, field), getattr(want, field))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_orientations_are_the_references(seed, reference):
+    """Keypoints near the border too (their windows are clipped): the same orientations."""
+    grey = _textured(seed)
+    octave = build_scale_space(grey, 1.6, 3, fine=True)[0]
+    height, width = octave.gaussian.shape[1:]
+    rng = np.random.default_rng(seed)
+    m = 60
+    layer = rng.integers(1, octave.extrema_layers + 1, m)
+    rows = np.concatenate([rng.integers(1, height - 1, m - 4), [1, 2, height - 2, height - 3]])
+    cols = np.concatenate([rng.integers(1, width - 1, m - 4), [width - 2, 1, 3, width - 3]])
+    scales = rng.uniform(0.8, 4.0, m)
+    with reference:
+        want = scale_space._orientations(octave.gaussian, layer, rows, cols, scales)
+    got = scale_space._orientations(octave.gaussian, layer, rows, cols, scales)
+    assert want[0].size >= m
+    for a, b in zip(got, want, strict=True):
+        np.testing.assert_array_equal(a, b)
