@@ -155,9 +155,13 @@ def per_stage(log) -> dict[str, float]:
 def totals(log) -> dict[str, float]:
     images = max(log.stats["images_processed"], 1.0)
     wall = log.stats["seconds_images_total"]
-    return {"images": int(images), "seconds_wall": wall,
-            "images_per_s_wall": images / wall,
-            "cpu_ms_per_image": 1e3 * log.stats["cpu_seconds_images_total"] / images}
+    result = {"images": int(images), "seconds_wall": wall,
+              "images_per_s_wall": images / wall,
+              "cpu_ms_per_image": 1e3 * log.stats["cpu_seconds_images_total"] / images}
+    if "seconds_workers_start" in log.stats:  # pipelined: until the workers were up
+        result["seconds_workers_start"] = log.stats["seconds_workers_start"]
+        result["images_prepared_here"] = images - log.stats["images_prepared_in_workers"]
+    return result
 
 
 def sift_alone(sequence, frames: np.ndarray, config: FrontendConfig) -> dict[str, float]:

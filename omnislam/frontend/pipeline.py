@@ -290,6 +290,8 @@ class _WorkerPool:
         self.context = _context()
         self.pool: ProcessPoolExecutor | None = None
         self.error: BaseException | None = None
+        self.started_s = 0.0  # wall-clock seconds from ``start`` until the workers were up
+        self._clock_start = 0.0
         self._args = (sequence.image_loader, sequence.calibration, config)
         self._thread = threading.Thread(target=self._start, name="omnislam-frontend-workers",
                                         daemon=True)
@@ -301,10 +303,12 @@ class _WorkerPool:
             # one task per worker makes the executor start them all now
             for future in [self.pool.submit(_worker_ready) for _ in range(WORKERS)]:
                 future.result()
+            self.started_s = time.perf_counter() - self._clock_start
         except BaseException as exc:  # re-raised by ``wait`` in the caller's thread
             self.error = exc
 
     def start(self) -> None:
+        self._clock_start = time.perf_counter()
         self._thread.start()
 
     def starting(self) -> bool:
@@ -340,9 +344,10 @@ def _prepare_here(prepare: _ImagePreparer, i: int) -> PreparedImage:
         use_kernels(previous)
 
 
-def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipelined: bool
-              ) -> Iterator[tuple[int, PreparedImage]]:
-    """``(frame, prepared image)`` in order.
+def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipelined: bool,
+              timing: dict[str, float] | None = None) -> Iterator[tuple[int, PreparedImage]]:
+    """``(frame, prepared image)`` in order; ``timing`` receives ``seconds_workers_start``,
+    the wall-clock seconds until the workers were up, when they were used.
 
     Pipelined, up to ``LOOKAHEAD`` images are prepared ahead in ``WORKERS`` processes while
     this one tracks (threads would not overlap: the preparation is mostly numpy calls that
@@ -370,6 +375,8 @@ def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipeline
                                                                    rig, config)
             yield i, _prepare_here(local, i)
         pool = workers.wait()
+        if timing is not None:
+            timing["seconds_workers_start"] = workers.started_s
         pending: collections.deque = collections.deque()
         for i in itertools.islice(queue, LOOKAHEAD):
             pending.append((i, pool.submit(_prepare_in_worker, i)))
@@ -416,7 +423,10 @@ def run_frontend(
         CPU (``cpu_seconds_<stage>``) seconds per stage, and both for the whole image loop
         (``*_images_total``; its CPU counts the worker processes' whole CPU, start-up and
         pickling included, and their fork server's, as the children's resource usage once
-        they have ended).
+        they have ended); pipelined, also the images prepared in the workers and their
+        stages' CPU (``images_prepared_in_workers``, ``cpu_seconds_prepared_in_workers``) and
+        the wall-clock seconds until the workers were up (``seconds_workers_start``; the
+        images before were prepared here).
     """
     config = config if config is not None else FrontendConfig()
     rng = rng if rng is not None else np.random.default_rng(DEFAULT_SEED)
@@ -438,6 +448,7 @@ def run_frontend(
     wall_start, cpu_start = time.perf_counter(), time.process_time()
     children_start = children_cpu_s()
     prepared_cpu_s = 0.0  # the workers' CPU in their stages (a lower bound of their total)
+    workers_timing: dict[str, float] = {}
     in_workers = 0  # images prepared in worker processes
     if processed.size:
         tracker = LandmarkTracker(rig.viewpoint_r, config, rng, track_clock)
@@ -447,7 +458,8 @@ def run_frontend(
             from omnislam._progress import Progress
 
             bar = Progress(f"frontend {sequence.name}", int(processed.size), "img")
-        for i, image in _prepared(sequence, config, processed.tolist(), pipelined):
+        for i, image in _prepared(sequence, config, processed.tolist(), pipelined,
+                                  workers_timing):
             for stage, seconds in image.seconds.items():
                 clock.add(stage, seconds, image.cpu_seconds[stage])
             if image.in_worker:
@@ -563,6 +575,7 @@ def run_frontend(
         "cpu_seconds_images_total": images_cpu_s,
         "images_processed": float(len(raw)),
         "images_prepared_in_workers": float(in_workers),
+        **workers_timing,
         "cpu_seconds_prepared_in_workers": prepared_cpu_s,
         "tracks_total": float(sightings.shape[0]),
         "tracks_kept": float(keep_track.sum()),

@@ -208,6 +208,7 @@ def test_images_are_prepared_here_until_the_workers_have_started(demo_sequence, 
     monkeypatch.setattr(pipeline._ImagePreparer, "__call__", counted)
     mixed = run_frontend(demo_sequence, IMAGES_ONLY, pipelined=True)
     assert len(prepared_here) == 4
+    assert mixed.stats["seconds_workers_start"] > 0
     assert mixed.stats["images_prepared_in_workers"] == mixed.stats["images_processed"] - 4
     for a, b in zip(demo_log.frames, mixed.frames, strict=True):
         assert (a.bearings is None) == (b.bearings is None)
