@@ -17,7 +17,7 @@ pass each:
   between them (their float32 results depend on the implementation, so they stay the same
   calls on the same arrays).
 
-The numpy path stays the reference and the test oracle (``tests/frontend/test_kernels.py``):
+The numpy path stays the reference and the test oracle (``tests/frontend/test_sift_kernels.py``):
 ``extrema`` only compares float32 values and returns the same candidates in the same order;
 ``refine`` writes out the reference's float64 arithmetic in the reference's order (the central
 differences, the adjugate solve, the same rounding of a Newton step); the gather computes the
