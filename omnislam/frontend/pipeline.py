@@ -280,14 +280,21 @@ def _worker_ready() -> bool:
     return _WORKER is not None
 
 
+#: held by the run whose workers come from this process's fork server
+_FORK_SERVER = threading.Lock()
+
+
 class _WorkerPool:
     """The ``WORKERS`` processes, started in a background thread (``start``) so that this
     process can prepare the first images itself meanwhile: the fork server's start-up
-    (importing the front end and compiling its kernels, ~1 s) would otherwise leave both cores
-    idle before the first image."""
+    (importing the front end and loading its compiled kernels, ~1 s) would otherwise leave
+    both cores idle before the first image."""
 
     def __init__(self, sequence: Any, config: FrontendConfig) -> None:
-        self.context = _context()
+        # Python has one fork server per process, and a run stops it when it ends: a second
+        # run at the same time in this process (threads of a Dask worker) spawns its workers
+        self._owns_server = _FORK_SERVER.acquire(blocking=False)
+        self.context = _context() if self._owns_server else multiprocessing.get_context("spawn")
         self.pool: ProcessPoolExecutor | None = None
         self.error: BaseException | None = None
         self.started_s = 0.0  # wall-clock seconds from ``start`` until the workers were up
@@ -328,7 +335,11 @@ class _WorkerPool:
             if self.pool is not None:
                 self.pool.shutdown(wait=True, cancel_futures=True)
         finally:
-            _stop_fork_server(self.context)
+            if self._owns_server:
+                try:
+                    _stop_fork_server(self.context)
+                finally:
+                    _FORK_SERVER.release()
 
 
 def _prepare_here(prepare: _ImagePreparer, i: int) -> PreparedImage:

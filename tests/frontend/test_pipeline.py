@@ -182,6 +182,25 @@ def test_pipelined_and_sequential_runs_give_the_same_log(demo_sequence, demo_log
     assert children_s >= in_workers
 
 
+def test_two_pipelined_runs_at_once_in_one_process(demo_sequence, demo_log):
+    """Two front ends in threads of one process (a Dask worker's): Python has one fork server
+    per process and a run stops it when it ends, so the second run spawns its workers; both
+    logs are the same as the sequential one."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=2) as threads:
+        logs = list(threads.map(lambda _: run_frontend(demo_sequence, IMAGES_ONLY,
+                                                       pipelined=True), range(2)))
+    for log in logs:
+        assert log.stats["images_prepared_in_workers"] > 0
+        for a, b in zip(demo_log.frames, log.frames, strict=True):
+            assert (a.bearings is None) == (b.bearings is None)
+            if a.bearings is not None:
+                np.testing.assert_array_equal(a.bearings.landmark_ids, b.bearings.landmark_ids)
+                np.testing.assert_array_equal(a.bearings.unit_vectors_r,
+                                              b.bearings.unit_vectors_r)
+
+
 def test_images_are_prepared_here_until_the_workers_have_started(demo_sequence, demo_log,
                                                                   monkeypatch):
     """While the fork server starts, this process prepares the first images itself; then
