@@ -6,8 +6,8 @@ every array the log file holds: bearings, their sigmas and ids, pixels, vertical
 profiles, range-bearing sightings, odometry, stamps (NaN equals NaN). The run's statistics
 (timings, CPU) are left out; the rest of the metadata is compared too::
 
-    omnislam frontend runs/lab40 --out /tmp/after.npz      # and /tmp/before.npz from the old code
-    PYTHONPATH=. .venv/bin/python benchmarks/compare_logs.py /tmp/before.npz /tmp/after.npz
+    omnislam frontend runs/lab40 --out AFTER.npz      # and BEFORE.npz with the old code
+    PYTHONPATH=. .venv/bin/python benchmarks/compare_logs.py BEFORE.npz AFTER.npz
 
 Prints one line per differing array (or "identical") and exits 1 when anything differs.
 """

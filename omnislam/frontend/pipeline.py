@@ -330,7 +330,8 @@ class _WorkerPool:
 
     def close(self) -> None:
         """Shut the workers down and stop their fork server (``_stop_fork_server``)."""
-        self._thread.join()
+        if self._thread.ident is not None:  # started
+            self._thread.join()
         try:
             if self.pool is not None:
                 self.pool.shutdown(wait=True, cancel_futures=True)
@@ -345,7 +346,9 @@ class _WorkerPool:
 def _prepare_here(prepare: _ImagePreparer, i: int) -> PreparedImage:
     """Image i prepared in this process while the workers start. Unless this process has
     loaded the compiled kernels already, on the numpy path (the same bits): loading them
-    (~0.5 s) would cost more than they save on the few images prepared here."""
+    (~0.5 s) would cost more than they save on the few images prepared here. The switch is
+    process-wide: a front end running meanwhile in another thread of this process takes the
+    numpy path for those moments too, with the same bits."""
     if "omnislam.frontend.kernels" in sys.modules:
         return prepare(i)
     previous = use_kernels(False)
