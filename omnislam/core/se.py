@@ -7,7 +7,6 @@ homogeneous matrices. ``aTb`` maps points in frame b to frame a:  ``p_a = aTb p_
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 #: 2 pi as used by ``wrap_angle``'s modulo.
 _TWO_PI = 2.0 * np.pi
@@ -219,12 +218,21 @@ def se3_transform_points(aTb: np.ndarray, points_b: np.ndarray) -> np.ndarray:
     return np.einsum("...ij,...j->...i", aTb[..., :3, :3], points_b) + aTb[..., :3, 3]
 
 
+def _rotation() -> type:
+    """scipy's ``Rotation``, imported on first use: importing ``scipy.spatial`` takes ~0.2 s,
+    which every process that only needs SE(2) (the front end's image workers) would pay."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation
+
+
 def se3_from_xyz_quat(xyz: np.ndarray, quat_wxyz: np.ndarray) -> np.ndarray:
     """Positions [..., 3] and unit quaternions [..., 4] (w, x, y, z) -> SE(3) [..., 4, 4]."""
     xyz = np.asarray(xyz, dtype=float)
     quat_wxyz = np.asarray(quat_wxyz, dtype=float)
     flat = quat_wxyz.reshape(-1, 4)
-    R = Rotation.from_quat(flat[:, [1, 2, 3, 0]]).as_matrix().reshape(*quat_wxyz.shape[:-1], 3, 3)
+    R = _rotation().from_quat(flat[:, [1, 2, 3, 0]]).as_matrix()
+    R = R.reshape(*quat_wxyz.shape[:-1], 3, 3)
     out = np.zeros((*xyz.shape[:-1], 4, 4))
     out[..., :3, :3] = R
     out[..., :3, 3] = xyz
@@ -236,7 +244,7 @@ def quat_wxyz_from_se3(aTb: np.ndarray) -> np.ndarray:
     """SE(3) [..., 4, 4] -> unit quaternions [..., 4] (w, x, y, z) with w >= 0."""
     aTb = np.asarray(aTb, dtype=float)
     flat = aTb[..., :3, :3].reshape(-1, 3, 3)
-    xyzw = Rotation.from_matrix(flat).as_quat()
+    xyzw = _rotation().from_matrix(flat).as_quat()
     wxyz = xyzw[:, [3, 0, 1, 2]]
     wxyz *= np.where(wxyz[:, :1] < 0, -1.0, 1.0)
     return wxyz.reshape(*aTb.shape[:-2], 4)
@@ -247,7 +255,7 @@ def se3_exp(xi: np.ndarray) -> np.ndarray:
     xi = np.asarray(xi, dtype=float)
     flat = xi.reshape(-1, 6)
     rho, phi = flat[:, :3], flat[:, 3:]
-    R = Rotation.from_rotvec(phi).as_matrix()
+    R = _rotation().from_rotvec(phi).as_matrix()
     theta = np.linalg.norm(phi, axis=1)
     K = _hat(phi)
     small = theta < 1e-8
@@ -266,7 +274,7 @@ def se3_log(aTb: np.ndarray) -> np.ndarray:
     """Logarithm map SE(3) [..., 4, 4] -> [..., 6] = [rho, phi] (inverse of ``se3_exp``)."""
     aTb = np.asarray(aTb, dtype=float)
     flat = aTb.reshape(-1, 4, 4)
-    phi = Rotation.from_matrix(flat[:, :3, :3]).as_rotvec()
+    phi = _rotation().from_matrix(flat[:, :3, :3]).as_rotvec()
     theta = np.linalg.norm(phi, axis=1)
     K = _hat(phi)
     small = theta < 1e-8

@@ -23,8 +23,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
-import ctypes
-import dataclasses
+import io
 import itertools
 import multiprocessing
 import multiprocessing.forkserver
@@ -36,13 +35,12 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from omnislam._optional import require
 from omnislam.core.se import se2_integrate
 from omnislam.core.types import Bearings, FrameInput, Odometry, RangeBearing
 from omnislam.errors import DataError
@@ -57,8 +55,15 @@ from omnislam.frontend.observation_log import (
     load_observation_log,
     save_observation_log,
 )
+from omnislam.frontend.preparation import (
+    ImagePreparer,
+    PreparedImage,
+    prepare_in_worker,
+    reuse_freed_memory,
+    start_worker,
+    worker_ready,
+)
 from omnislam.frontend.scale_space import use_kernels
-from omnislam.frontend.sift import SiftExtractor, detection_mask
 from omnislam.frontend.timing import StageClock, children_cpu_s
 from omnislam.frontend.tracks import LandmarkTracker
 
@@ -122,128 +127,25 @@ WORKERS = 2
 LOOKAHEAD = 4
 
 
-@dataclass(frozen=True, slots=True)
-class PreparedImage:
-    """What tracking needs of one image, computed independently of every other image.
-
-    Attributes:
-        features: its SIFT features.
-        groups: (N,) feature-group labels (``groups.NO_GROUP``: unused).
-        rays_r: (N, 3) unit bearings of the features in the robot frame (NaN: none).
-        sigmas_rad: (N,) angular std of each bearing (``bearing_noise``).
-        lines: its vertical lines, or None when they are not extracted.
-        seconds: wall-clock seconds per stage spent preparing it.
-        cpu_seconds: CPU seconds per stage (of the process that prepared it).
-        in_worker: prepared in a worker process (whose CPU this process does not count).
-    """
-
-    features: Any
-    groups: np.ndarray
-    rays_r: np.ndarray
-    sigmas_rad: np.ndarray
-    lines: Any
-    seconds: dict[str, float]
-    cpu_seconds: dict[str, float]
-    in_worker: bool = False
-
-
-class _ImagePreparer:
-    """Load, SIFT, groups, rays and vertical edges of one image (no state between images).
-
-    Args:
-        image_loader: ``image_loader(i)`` -> (H, W, 3) uint8 image of frame i.
-        rig: the camera rig.
-        config: the front-end configuration.
-    """
-
-    def __init__(self, image_loader: Any, rig: Any, config: FrontendConfig) -> None:
-        camera = rig.camera
-        self.image_loader, self.config, self.rig = image_loader, config, rig
-        self.mask = detection_mask(camera.mask(), (camera.height, camera.width))
-        self.extractor = SiftExtractor(config.sift)
-        self.vertical = None
-        if config.vertical_edges.enabled:
-            from omnislam.frontend.vertical_edges import VerticalLineExtractor
-
-            self.vertical = VerticalLineExtractor(rig, config.vertical_edges)
-
-    def __call__(self, i: int) -> PreparedImage:
-        clock, config = StageClock(), self.config
-        with clock("load"):
-            image = self.image_loader(i)
-        with clock("extract"):
-            features = self.extractor.extract(image, self.mask)
-        with clock("group"):
-            groups = group_features(features.pixels, features.sizes_px, features.contrast,
-                                    config.groups)
-            rays_r = self.rig.rays_r(features.pixels)
-            sigmas = bearing_sigmas(self.rig.camera, features, config.tracks)
-        lines = None
-        if self.vertical is not None:
-            with clock("vertical_edges"):
-                lines = self.vertical.extract(image)
-        return PreparedImage(features, groups, rays_r, sigmas, lines, clock.seconds,
-                             clock.cpu_seconds)
-
-
-#: glibc's mallopt parameters, and the values ``reuse_freed_memory`` sets
-_M_TRIM_THRESHOLD, _M_TOP_PAD, _M_MMAP_THRESHOLD = -1, -2, -3
-_MMAP_THRESHOLD_B = 32 << 20  # glibc's largest (half its heap size)
-_TRIM_THRESHOLD_B = 512 << 20
-_TOP_PAD_B = 64 << 20
-
-
-def reuse_freed_memory() -> bool:
-    """Make this process's allocator keep freed memory for the next image (glibc only).
-
-    Every image allocates the same large arrays (the scale space: ~28 MB of float32 images,
-    OpenCV's descriptor pyramid, the tracker's distance matrices). By default glibc serves
-    blocks this large with fresh ``mmap`` pages and returns them on ``free``, so every image
-    pays ~4000 page faults (zero-filling its pages): ~8 ms of CPU per lab40 image, 15 % of
-    SIFT's. Serving them from a heap that is not trimmed reuses the same pages. A process-wide
-    setting; harmless elsewhere (freed memory stays with the process, up to 512 MB).
-
-    Returns:
-        True when it was set (False on a platform without glibc).
-    """
-    try:
-        mallopt = ctypes.CDLL("libc.so.6").mallopt
-    except (OSError, AttributeError):
-        return False
-    return all(mallopt(option, value) == 1 for option, value in (
-        (_M_MMAP_THRESHOLD, _MMAP_THRESHOLD_B), (_M_TRIM_THRESHOLD, _TRIM_THRESHOLD_B),
-        (_M_TOP_PAD, _TOP_PAD_B)))
-
-
-#: the preparer of a worker process (built once by ``_start_worker``)
-_WORKER: _ImagePreparer | None = None
-
-
-def _start_worker(image_loader: Any, rig: Any, config: FrontendConfig) -> None:
-    global _WORKER
-    require("cv2").setNumThreads(1)  # the processes share the cores, not OpenCV's threads
-    reuse_freed_memory()
-    _WORKER = _ImagePreparer(image_loader, rig, config)
-
-
-def _prepare_in_worker(i: int) -> PreparedImage:
-    assert _WORKER is not None
-    return dataclasses.replace(_WORKER(i), in_worker=True)
-
-
-def _context() -> Any:
-    """Workers forked from a fork server that has imported the front end once (Python's
+def _context(modules: list[str]) -> Any:
+    """Workers forked from a fork server that has imported what they need once (Python's
     ``forkserver``): each starts in milliseconds where a spawned one re-imports numpy, scipy
     and OpenCV (~0.4 s of CPU each, ~10 % of the 59-image demo's run). Forking this process
     instead is not safe: its OpenCV and executor threads may hold locks (measured: a hang).
     Spawned where Python has no fork server, or no way to stop it (``_stop_fork_server``).
+
+    The server imports ``preparation``, the compiled kernels, ``modules`` (those of the
+    workers' arguments, ``_modules_of``) and the main module, which a worker would otherwise
+    import again for itself (multiprocessing does that for the spawned and the fork server's
+    processes); the tracking's modules (scipy's among them) it does not need.
     """
     server = getattr(multiprocessing.forkserver, "_forkserver", None)
     if ("forkserver" not in multiprocessing.get_all_start_methods()
             or not callable(getattr(server, "_stop", None))):
         return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload([__name__, "omnislam.frontend.kernels"])
+    context.set_forkserver_preload(["__main__", "omnislam.frontend.preparation",
+                                    "omnislam.frontend.kernels", *modules])
     return context
 
 
@@ -267,17 +169,29 @@ def _stop_fork_server(context: Any) -> None:
     server._stop()
 
 
-def _picklable(*objects: Any) -> bool:
+class _ModuleRecorder(pickle.Pickler):
+    """Pickles to nowhere, recording the module of every object and class it meets."""
+
+    def __init__(self) -> None:
+        super().__init__(io.BytesIO(), protocol=pickle.HIGHEST_PROTOCOL)
+        self.modules: set[str] = set()
+
+    def reducer_override(self, obj: Any) -> Any:
+        module = getattr(obj if isinstance(obj, type) else type(obj), "__module__", None)
+        if isinstance(module, str):
+            self.modules.add(module)
+        return NotImplemented  # pickled as usual
+
+
+def _modules_of(*objects: Any) -> list[str] | None:
+    """The modules a process unpickling ``objects`` imports (sorted), or None when they
+    cannot be pickled (so cannot be sent to a worker)."""
+    recorder = _ModuleRecorder()
     try:
-        pickle.dumps(objects)
+        recorder.dump(objects)
     except (pickle.PicklingError, AttributeError, TypeError):
-        return False
-    return True
-
-
-def _worker_ready() -> bool:
-    """A task that returns once a worker process has started (its initializer has run)."""
-    return _WORKER is not None
+        return None
+    return sorted(m for m in recorder.modules if m not in ("builtins", "__main__"))
 
 
 #: held by the run whose workers come from this process's fork server
@@ -287,14 +201,15 @@ _FORK_SERVER = threading.Lock()
 class _WorkerPool:
     """The ``WORKERS`` processes, started in a background thread (``start``) so that this
     process can prepare the first images itself meanwhile: the fork server's start-up
-    (importing the front end and loading its compiled kernels, ~1 s) would otherwise leave
-    both cores idle before the first image."""
+    (importing ``preparation`` and loading its compiled kernels, ~0.6 s of CPU, most of it
+    numba's) would otherwise leave a core idle before the first image."""
 
-    def __init__(self, sequence: Any, config: FrontendConfig) -> None:
+    def __init__(self, sequence: Any, config: FrontendConfig, modules: list[str]) -> None:
         # Python has one fork server per process, and a run stops it when it ends: a second
         # run at the same time in this process (threads of a Dask worker) spawns its workers
         self._owns_server = _FORK_SERVER.acquire(blocking=False)
-        self.context = _context() if self._owns_server else multiprocessing.get_context("spawn")
+        self.context = (_context(modules) if self._owns_server
+                        else multiprocessing.get_context("spawn"))
         self.pool: ProcessPoolExecutor | None = None
         self.error: BaseException | None = None
         self.started_s = 0.0  # wall-clock seconds from ``start`` until the workers were up
@@ -306,9 +221,9 @@ class _WorkerPool:
     def _start(self) -> None:
         try:
             self.pool = ProcessPoolExecutor(max_workers=WORKERS, mp_context=self.context,
-                                            initializer=_start_worker, initargs=self._args)
+                                            initializer=start_worker, initargs=self._args)
             # one task per worker makes the executor start them all now
-            for future in [self.pool.submit(_worker_ready) for _ in range(WORKERS)]:
+            for future in [self.pool.submit(worker_ready) for _ in range(WORKERS)]:
                 future.result()
             self.started_s = time.perf_counter() - self._clock_start
         except BaseException as exc:  # re-raised by ``wait`` in the caller's thread
@@ -343,7 +258,7 @@ class _WorkerPool:
                     _FORK_SERVER.release()
 
 
-def _prepare_here(prepare: _ImagePreparer, i: int) -> PreparedImage:
+def _prepare_here(prepare: ImagePreparer, i: int) -> PreparedImage:
     """Image i prepared in this process while the workers start. Unless this process has
     loaded the compiled kernels already, on the numpy path (the same bits): loading them
     (~0.5 s) would cost more than they save on the few images prepared here. The switch is
@@ -370,13 +285,15 @@ def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipeline
     to another process is prepared here, one image at a time.
     """
     rig = sequence.calibration
-    if (not pipelined or multiprocessing.current_process().daemon  # may not have children
-            or not _picklable(sequence.image_loader, rig, config)):
-        prepare = _ImagePreparer(sequence.image_loader, rig, config)
+    modules = None
+    if pipelined and not multiprocessing.current_process().daemon:  # may have children
+        modules = _modules_of(sequence.image_loader, rig, config)
+    if modules is None:  # one image at a time, here
+        prepare = ImagePreparer(sequence.image_loader, rig, config)
         for i in frames:
             yield i, prepare(i)
         return
-    workers = _WorkerPool(sequence, config)
+    workers = _WorkerPool(sequence, config, modules)
     try:
         workers.start()
         queue = iter(frames)
@@ -385,7 +302,7 @@ def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipeline
             i = next(queue, None)
             if i is None:
                 break
-            local = local if local is not None else _ImagePreparer(sequence.image_loader,
+            local = local if local is not None else ImagePreparer(sequence.image_loader,
                                                                    rig, config)
             yield i, _prepare_here(local, i)
         pool = workers.wait()
@@ -393,11 +310,11 @@ def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipeline
             timing["seconds_workers_start"] = workers.started_s
         pending: collections.deque = collections.deque()
         for i in itertools.islice(queue, LOOKAHEAD):
-            pending.append((i, pool.submit(_prepare_in_worker, i)))
+            pending.append((i, pool.submit(prepare_in_worker, i)))
         while pending:
             i, future = pending.popleft()
             for j in itertools.islice(queue, 1):
-                pending.append((j, pool.submit(_prepare_in_worker, j)))
+                pending.append((j, pool.submit(prepare_in_worker, j)))
             yield i, future.result()
     finally:
         workers.close()
@@ -422,11 +339,13 @@ def run_frontend(
         rng: generator for RANSAC (default: seeded with ``DEFAULT_SEED``).
         max_images: process at most this many images (the log still has every frame).
         progress: show the images done, rate and ETA on stderr (``omnislam._progress``).
-        pipelined: prepare the next images (load, SIFT, groups, rays, vertical edges) in
+        pipelined: prepare the next images (load, SIFT, vertical edges) in
             ``WORKERS`` processes while image k is tracked (the CLI does); the log is the same
             either way (a test). The processes are forked from a fork server started for the
             run (``_context``), which imports the main module as a spawned process would: a
-            script calling this must guard its top level with ``if __name__ == "__main__":``.
+            script calling this must guard its top level with ``if __name__ == "__main__":``,
+            and what it imports at its top level every run's start-up imports too. The
+            feature groups, rays and bearing sigmas are computed here, as each image arrives.
             This process and the workers keep freed memory for the next image
             (``reuse_freed_memory``).
         on_image: called with (images done, images to do) after each image (the grid runner's
@@ -479,18 +398,22 @@ def run_frontend(
             if image.in_worker:
                 prepared_cpu_s += sum(image.cpu_seconds.values())
                 in_workers += 1
+            features = image.features
+            with clock("group"):  # here: the groups need scipy, which the workers do not load
+                groups = group_features(features.pixels, features.sizes_px, features.contrast,
+                                        config.groups)
+                rays_r = rig.rays_r(features.pixels)
+                sigmas = bearing_sigmas(rig.camera, features, config.tracks)
             before = sum(track_clock.seconds.values()), sum(track_clock.cpu_seconds.values())
             start, cpu = time.perf_counter(), time.process_time()
-            tracked = tracker.process(image.features.descriptors, image.groups, image.rays_r,
-                                      poses_dr[i])
+            tracked = tracker.process(features.descriptors, groups, rays_r, poses_dr[i])
             # "track": what process() spent outside its own match / verify / map stages
             inner = (sum(track_clock.seconds.values()) - before[0],
                      sum(track_clock.cpu_seconds.values()) - before[1])
             track_clock.add("track", time.perf_counter() - start - inner[0],
                             time.process_time() - cpu - inner[1])
             idx = tracked.feature_index
-            raw[i] = (tracked.track_ids, image.rays_r[idx], image.features.pixels[idx],
-                      image.sigmas_rad[idx])
+            raw[i] = (tracked.track_ids, rays_r[idx], features.pixels[idx], sigmas[idx])
             if image.lines is not None:
                 lines[i] = image.lines
             if bar is not None:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
+import subprocess
+import sys
 import threading
 
 import numpy as np
@@ -16,7 +18,7 @@ from frontend_tolerances import (
     SAME_POINT_M,
 )
 
-from omnislam.frontend import evaluation, pipeline
+from omnislam.frontend import evaluation, pipeline, preparation
 from omnislam.frontend.config import (
     FrontendConfig,
     LaserLandmarkConfig,
@@ -27,10 +29,10 @@ from omnislam.frontend.config import (
 from omnislam.frontend.observation_log import load_observation_log
 from omnislam.frontend.pipeline import (
     cached_frontend,
-    reuse_freed_memory,
     run_frontend,
     schedule_images,
 )
+from omnislam.frontend.preparation import reuse_freed_memory
 from omnislam.frontend.timing import children_cpu_s
 
 #: no laser: these tests are about the images
@@ -206,7 +208,7 @@ def test_images_are_prepared_here_until_the_workers_have_started(demo_sequence, 
     """While the fork server starts, this process prepares the first images itself; then
     the workers take over, and the log is the same. Here the workers start only after three
     images, and the fourth waits for them, so exactly four are prepared here."""
-    start, prepare = pipeline._WorkerPool._start, pipeline._ImagePreparer.__call__
+    start, prepare = pipeline._WorkerPool._start, preparation.ImagePreparer.__call__
     go, ready = threading.Event(), threading.Event()
     prepared_here = []
 
@@ -224,7 +226,7 @@ def test_images_are_prepared_here_until_the_workers_have_started(demo_sequence, 
         return prepare(self, i)
 
     monkeypatch.setattr(pipeline._WorkerPool, "_start", late_start)
-    monkeypatch.setattr(pipeline._ImagePreparer, "__call__", counted)
+    monkeypatch.setattr(preparation.ImagePreparer, "__call__", counted)
     mixed = run_frontend(demo_sequence, IMAGES_ONLY, pipelined=True)
     assert len(prepared_here) == 4
     assert mixed.stats["seconds_workers_start"] > 0
@@ -234,6 +236,28 @@ def test_images_are_prepared_here_until_the_workers_have_started(demo_sequence, 
         if a.bearings is not None:
             np.testing.assert_array_equal(a.bearings.landmark_ids, b.bearings.landmark_ids)
             np.testing.assert_array_equal(a.bearings.unit_vectors_r, b.bearings.unit_vectors_r)
+
+
+def test_the_workers_import_only_what_preparing_an_image_needs(demo_sequence):
+    """The fork server imports ``preparation``, the kernels and the modules of the workers'
+    arguments (the image loader's, the rig's); none of them brings in the tracking or scipy's
+    spatial package (~0.2 s of every run's start-up), which the groups, computed here, use."""
+    modules = pipeline._modules_of(demo_sequence.image_loader, demo_sequence.calibration,
+                                   IMAGES_ONLY)
+    assert {"omnislam.datasets.synthetic.loader", "omnislam.camera.rig"} <= set(modules)
+    assert pipeline._modules_of(lambda: None) is None  # cannot be sent: prepared here
+    code = ("import importlib, sys\n"
+            "for name in sys.argv[1:]:\n"
+            "    importlib.import_module(name)\n"
+            "print(' '.join(sorted(sys.modules)))")
+    loaded = subprocess.run(
+        [sys.executable, "-c", code, "omnislam.frontend.preparation",
+         "omnislam.frontend.kernels", *modules],
+        capture_output=True, text=True, check=True).stdout.split()
+    assert "omnislam.frontend.sift" in loaded
+    for heavy in ("scipy.spatial", "scipy.sparse", "omnislam.frontend.pipeline",
+                  "omnislam.frontend.tracks", "omnislam.frontend.groups"):
+        assert heavy not in loaded, heavy
 
 
 def test_bearing_sigmas_agree_with_the_residuals_against_ground_truth(demo_sequence, demo_log,
