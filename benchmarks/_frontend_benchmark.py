@@ -315,6 +315,3 @@ def main() -> int:
         args.json.write_text(text + "\n")
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())
