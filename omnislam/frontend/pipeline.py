@@ -33,6 +33,7 @@ import signal
 import sys
 import threading
 import time
+import types
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
@@ -177,7 +178,10 @@ class _ModuleRecorder(pickle.Pickler):
         self.modules: set[str] = set()
 
     def reducer_override(self, obj: Any) -> Any:
-        module = getattr(obj if isinstance(obj, type) else type(obj), "__module__", None)
+        # a class or function is pickled as a reference to its module; any other object
+        # with its class
+        by_reference = isinstance(obj, type | types.FunctionType)
+        module = getattr(obj if by_reference else type(obj), "__module__", None)
         if isinstance(module, str):
             self.modules.add(module)
         return NotImplemented  # pickled as usual

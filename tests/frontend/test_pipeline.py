@@ -33,6 +33,7 @@ from omnislam.frontend.pipeline import (
     schedule_images,
 )
 from omnislam.frontend.preparation import reuse_freed_memory
+from omnislam.frontend.scale_space import use_kernels
 from omnislam.frontend.timing import children_cpu_s
 
 #: no laser: these tests are about the images
@@ -246,6 +247,8 @@ def test_the_workers_import_only_what_preparing_an_image_needs(demo_sequence):
                                    IMAGES_ONLY)
     assert {"omnislam.datasets.synthetic.loader", "omnislam.camera.rig"} <= set(modules)
     assert pipeline._modules_of(lambda: None) is None  # cannot be sent: prepared here
+    # a function goes by reference: its module is what the worker imports
+    assert "omnislam.frontend.scale_space" in pipeline._modules_of(use_kernels)
     code = ("import importlib, sys\n"
             "for name in sys.argv[1:]:\n"
             "    importlib.import_module(name)\n"
