@@ -307,7 +307,7 @@ def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipeline
             if i is None:
                 break
             local = local if local is not None else ImagePreparer(sequence.image_loader,
-                                                                   rig, config)
+                                                                  rig, config)
             yield i, _prepare_here(local, i)
         pool = workers.wait()
         if timing is not None:
