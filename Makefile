@@ -11,7 +11,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 SYSLIBS := libusb-1.0-0 libgl1 libegl1 libx11-6 libudev1 libgomp1
 
-.PHONY: test demo suite venv syslibs lint clean
+.PHONY: test demo suite venv kernels syslibs lint clean
 
 venv: $(STAMP)
 
@@ -22,6 +22,11 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
 	@rm -f $(VENV)/.installed-*
 	@touch $@
+
+# the SIFT kernels compiled ahead of time for this machine (omnislam/frontend/kernels_aot.py;
+# a no-op when built, numba's just-in-time path when they cannot be)
+kernels: venv
+	@$(BIN)/python -m omnislam.frontend.kernels_aot
 
 # open3d needs a few shared libraries that a minimal Debian lacks.
 syslibs:
@@ -44,11 +49,11 @@ syslibs:
 lint: venv
 	$(BIN)/ruff check .
 
-test: venv
+test: kernels
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -q
 
-demo: venv
+demo: kernels
 	$(BIN)/omnislam demo --overwrite
 
 # SUITE_WORKERS=N: N local worker processes (default: one per core);
@@ -61,7 +66,7 @@ SCHEDULER     ?=
 # the committed report must stay small
 SUITE_MAX_BYTES := 5242880
 
-suite: venv
+suite: kernels
 	$(BIN)/omnislam compare benchmarks/grids/suite.yaml --out $(SUITE_RESULTS) --resume \
 	  $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(if $(SUITE_WORKERS),--workers $(SUITE_WORKERS)); \
 	status=$$?; test $$status -le 1 || exit $$status; \

@@ -26,8 +26,11 @@ as ``np.bincount``. So all give the same bits, and the front end's log does not 
 whether numba is installed.
 
 The functions are plain Python written in the subset numba compiles. Importing this module
-compiles them when numba is installed (cached on disk by numba; ``pipeline``'s fork server
-imports it once, so its workers start with them compiled); ``COMPILED`` is None without numba.
+loads them compiled ahead of time when ``make`` has built them for this machine
+(``kernels_aot``: an extension module that needs no numba at run time and loads in
+milliseconds), else compiles them with numba (cached on disk by numba, yet ~0.5 s of CPU per
+new process); ``pipeline``'s fork server imports it once, so its workers start with them
+loaded. ``COMPILED`` is None without numba and without a built module.
 """
 
 from __future__ import annotations
@@ -348,5 +351,16 @@ def _compile() -> SimpleNamespace | None:
     return compiled
 
 
-#: the compiled kernels, or None when numba is not installed
-COMPILED: SimpleNamespace | None = _compile()
+def _load() -> SimpleNamespace | None:
+    """The kernels compiled ahead of time for this machine when they were built
+    (``kernels_aot``: no numba at run time, milliseconds to load), else ``_compile``'s."""
+    from omnislam.frontend import kernels_aot
+
+    module = kernels_aot.load()
+    if module is None:
+        return _compile()
+    return SimpleNamespace(**{name: getattr(module, name) for name in kernels_aot.SIGNATURES})
+
+
+#: the compiled kernels, or None when numba is not installed and none were built ahead of time
+COMPILED: SimpleNamespace | None = _load()

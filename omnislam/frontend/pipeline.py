@@ -45,6 +45,7 @@ import numpy as np
 from omnislam.core.se import se2_integrate
 from omnislam.core.types import Bearings, FrameInput, Odometry, RangeBearing
 from omnislam.errors import DataError
+from omnislam.frontend import kernels_aot
 from omnislam.frontend.bearing_noise import bearing_sigmas
 from omnislam.frontend.config import FrontendConfig, ScheduleConfig, ScheduleMode, config_hash
 from omnislam.frontend.config import config_to_dict as _config_to_dict
@@ -263,12 +264,13 @@ class _WorkerPool:
 
 
 def _prepare_here(prepare: ImagePreparer, i: int) -> PreparedImage:
-    """Image i prepared in this process while the workers start. Unless this process has
-    loaded the compiled kernels already, on the numpy path (the same bits): loading them
-    (~0.5 s) would cost more than they save on the few images prepared here. The switch is
-    process-wide: a front end running meanwhile in another thread of this process takes the
+    """Image i prepared in this process while the workers start, with the compiled kernels
+    when this process has loaded them already or they were compiled ahead of time (loaded in
+    milliseconds, ``kernels_aot``), else on the numpy path (the same bits): compiling them with
+    numba (~0.5 s) would cost more than they save on the few images prepared here. The switch
+    is process-wide: a front end running meanwhile in another thread of this process takes the
     numpy path for those moments too, with the same bits."""
-    if "omnislam.frontend.kernels" in sys.modules:
+    if "omnislam.frontend.kernels" in sys.modules or kernels_aot.path().is_file():
         return prepare(i)
     previous = use_kernels(False)
     try:

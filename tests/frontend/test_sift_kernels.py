@@ -8,6 +8,8 @@ contrasts are compared exactly too, as are the detections and descriptors of who
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -19,7 +21,35 @@ from omnislam.frontend.sift import SiftExtractor, detection_mask
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("numba")
 
-from omnislam.frontend import kernels  # noqa: E402 (compiles them: numba is installed)
+from omnislam.frontend import kernels, kernels_aot  # noqa: E402 (numba is installed)
+
+
+@pytest.fixture(scope="module")
+def jit_kernels():
+    """numba's just-in-time kernels (what runs when none were compiled ahead of time)."""
+    return kernels._compile()
+
+
+@pytest.fixture(scope="module")
+def aot_kernels(tmp_path_factory):
+    """The kernels compiled ahead of time (``kernels_aot``, ~10 s), loaded from a fresh
+    build."""
+    folder = tmp_path_factory.mktemp("aot")
+    try:
+        kernels_aot.build(folder)
+    except Exception as exc:  # no C compiler: numba's just-in-time path is what runs
+        pytest.skip(f"cannot compile ahead of time here: {type(exc).__name__}: {exc}")
+    module = kernels_aot.load(folder)
+    assert module is not None
+    return SimpleNamespace(**{name: getattr(module, name) for name in kernels_aot.SIGNATURES})
+
+
+@pytest.fixture(params=["jit", "aot"])
+def compiled(request, monkeypatch):
+    """Each test runs with both compilations of the kernels as ``kernels.COMPILED``."""
+    namespace = request.getfixturevalue(f"{request.param}_kernels")
+    monkeypatch.setattr(kernels, "COMPILED", namespace)
+    return namespace
 
 
 @pytest.fixture
@@ -62,7 +92,7 @@ def _inner(shape: tuple[int, int], mask: np.ndarray | None) -> np.ndarray:
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_the_extrema_are_the_references_in_its_order(seed, reference):
+def test_the_extrema_are_the_references_in_its_order(seed, reference, compiled):
     grey = _textured(seed)
     mask = np.zeros(grey.shape, dtype=np.uint8)
     mask[20:140, 10:150] = 255
@@ -74,7 +104,7 @@ def test_the_extrema_are_the_references_in_its_order(seed, reference):
         for threshold in (0.0, 0.005, 0.01):
             with reference:
                 expected = scale_space._candidates(octave.dog, span, threshold, octave_mask)
-            found = kernels.COMPILED.extrema(
+            found = compiled.extrema(
                 octave.dog, span, np.float32(threshold), _inner((height, width), octave_mask)
             )
             for want, got in zip(expected, found.T, strict=True):
@@ -83,17 +113,17 @@ def test_the_extrema_are_the_references_in_its_order(seed, reference):
     assert total > 50  # the comparison saw real extrema
 
 
-def test_the_extrema_grow_their_buffer_past_its_first_size():
+def test_the_extrema_grow_their_buffer_past_its_first_size(compiled):
     """More than the kernel's first 1024 extrema: a checkerboard of isolated peaks."""
     dog = np.zeros((3, 200, 200), dtype=np.float32)
     dog[1, 6:194:3, 6:194:3] = 1.0
-    found = kernels.COMPILED.extrema(dog, 1, np.float32(0.5), _inner((200, 200), None))
+    found = compiled.extrema(dog, 1, np.float32(0.5), _inner((200, 200), None))
     assert found.shape[0] == len(range(6, 194, 3)) ** 2 > 1024
     np.testing.assert_array_equal(found[:, 0], 1)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_the_refinement_gives_the_references_bits(seed, reference):
+def test_the_refinement_gives_the_references_bits(seed, reference, compiled):
     grey = _textured(seed)
     kept = 0
     for octave in build_scale_space(grey, 1.6, 3, fine=True):
@@ -116,7 +146,7 @@ def test_the_refinement_gives_the_references_bits(seed, reference):
     assert kept > 10
 
 
-def test_whole_omni_images_give_the_same_features(demo_sequence, reference):
+def test_whole_omni_images_give_the_same_features(demo_sequence, reference, compiled):
     """The features of rendered omni images (the front end's input), every field exact."""
     extractor = SiftExtractor(OMNI_THESIS)
     for frame in demo_sequence.image_frames[:3]:
@@ -130,7 +160,7 @@ def test_whole_omni_images_give_the_same_features(demo_sequence, reference):
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_the_orientations_are_the_references(seed, reference):
+def test_the_orientations_are_the_references(seed, reference, compiled):
     """Keypoints near the border too (their windows are clipped): the same orientations."""
     grey = _textured(seed)
     octave = build_scale_space(grey, 1.6, 3, fine=True)[0]
@@ -147,3 +177,21 @@ def test_the_orientations_are_the_references(seed, reference):
     assert want[0].size >= m
     for a, b in zip(got, want, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def test_the_ahead_of_time_module_is_named_by_what_its_code_depends_on(tmp_path, monkeypatch):
+    """Another kernels source (or Python, numpy, CPU) is another file: a module built for
+    other kernels is never loaded; none built: None (numba's just-in-time path runs)."""
+    assert kernels_aot.load(tmp_path) is None
+    before = kernels_aot.path(tmp_path)
+    assert before.parent == tmp_path and kernels_aot.key() in before.name
+    edited = tmp_path / "kernels.py"
+    edited.write_text(kernels_aot._SOURCE.read_text() + "\n# edited\n")
+    kernels_aot.key.cache_clear()
+    monkeypatch.setattr(kernels_aot, "_SOURCE", edited)
+    try:
+        assert kernels_aot.path(tmp_path) != before
+    finally:
+        monkeypatch.undo()
+        kernels_aot.key.cache_clear()
+    assert kernels_aot.path(tmp_path) == before
