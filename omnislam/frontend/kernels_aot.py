@@ -78,15 +78,21 @@ def path(directory: Path | None = None) -> Path:
 
 
 def load(directory: Path | None = None) -> ModuleType | None:
-    """The module built for this key, or None when there is none."""
+    """The module built for this key, or None when there is none or it cannot be loaded
+    (then numba's just-in-time path runs, with a warning)."""
     file = path(directory)
     if not file.is_file():
         return None
     loader = importlib.machinery.ExtensionFileLoader(MODULE, str(file))
     spec = importlib.util.spec_from_file_location(MODULE, file, loader=loader)
     assert spec is not None
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
+    try:
+        module = importlib.util.module_from_spec(spec)
+        loader.exec_module(module)
+    except ImportError as exc:
+        warnings.warn(f"{file}: cannot load the SIFT kernels compiled ahead of time ({exc}); "
+                      "numba compiles them instead", RuntimeWarning, stacklevel=2)
+        return None
     return module
 
 

@@ -195,3 +195,10 @@ def test_the_ahead_of_time_module_is_named_by_what_its_code_depends_on(tmp_path,
         monkeypatch.undo()
         kernels_aot.key.cache_clear()
     assert kernels_aot.path(tmp_path) == before
+
+
+def test_a_module_that_cannot_be_loaded_leaves_the_just_in_time_path(tmp_path):
+    """A damaged file under this key (not a module) is a warning and None, not a crash."""
+    kernels_aot.path(tmp_path).write_bytes(b"not a shared object")
+    with pytest.warns(RuntimeWarning, match="cannot load"):
+        assert kernels_aot.load(tmp_path) is None
