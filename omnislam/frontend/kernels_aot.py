@@ -14,7 +14,9 @@ numpy's version (its C API) and this CPU (the code is compiled for the host's in
 ``make`` builds it (``python -m omnislam.frontend.kernels_aot``); ``load`` returns it when one was
 built for this key, else None (``kernels`` then compiles with numba as before). The module runs
 the same LLVM code as numba's just-in-time functions, without fast-math: the same bits, which
-``tests/frontend/test_sift_kernels.py`` checks for both against the numpy path.
+``tests/frontend/test_sift_kernels.py`` checks for both against the numpy path. Unlike the
+just-in-time functions (``nogil``), the exported ones hold the GIL while they run (``numba.pycc``
+has no such option); the front end prepares its images in processes, where that does not matter.
 """
 
 from __future__ import annotations
