@@ -96,6 +96,7 @@ FORMATS: dict[DatasetFormat, FormatSpec] = {
             "command_delay_s": float,
             "odometry_noise": _bool,
             "max_step_s": _positive_float,
+            "same_image_s": float,
         },
     ),
     DatasetFormat.VICTORIA_PARK: FormatSpec(

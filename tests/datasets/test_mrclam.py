@@ -14,9 +14,11 @@ from omnislam.datasets.mrclam import (
     DEPTH_BIAS_M,
     MAX_STEP_S,
     ODOMETRY_NOISE,
+    SAME_IMAGE_S,
     SIGMA_BEARING_RAD,
     SIGMA_RANGE_M,
     bearing_residuals,
+    image_stamps,
     load_mrclam,
     read_barcodes,
     read_landmark_groundtruth,
@@ -135,6 +137,43 @@ def test_a_sighting_gap_is_split_into_odometry_steps(tmp_path):
     assert np.abs(split.odometry_r[3:, 2]).max() < 0.6  # no step turns more than 1.9 s x 0.3
     np.testing.assert_array_equal(split.ground_truth.trajectory.stamps_s, [0.0, 0.5, 10.0])
     assert split.info["max_step_s"] == "2.0"
+
+
+def test_one_images_sightings_share_a_frame(tmp_path):
+    """Sightings stamped 1 ms apart are one image's: one frame, which mutual exclusion within a
+    frame needs; 0.25 s apart they are the next image."""
+    odometry = "".join(f"{t:.2f} 0.2 0.0\n" for t in np.arange(0.0, 2.0, 0.01))
+    measurement = "0.500 63 2.0 0.1\n0.501 81 1.0 0.2\n0.750 63 2.0 0.1\n"
+    folder = write_folder(tmp_path / "ds", odometry, measurement)
+    seq = load_mrclam(folder, 1, command_delay_s=0)
+    np.testing.assert_allclose(seq.stamps_s, [0.0, 0.5, 0.75])
+    assert sorted(seq.range_bearing[1].landmark_ids.tolist()) == [6, 7]
+    assert seq.info["same_image_s"] == str(SAME_IMAGE_S)
+    apart = load_mrclam(folder, 1, command_delay_s=0, same_image_s=0.0)
+    np.testing.assert_allclose(apart.stamps_s, [0.0, 0.5, 0.501, 0.75])
+
+
+def test_image_stamps_bound_a_burst_by_its_first_stamp():
+    stamps = np.array([0.0, 0.01, 0.02, 0.03, 0.5, 0.5, 0.505])
+    np.testing.assert_allclose(image_stamps(stamps, 0.02), [0.0, 0.0, 0.0, 0.03, 0.5, 0.5, 0.5])
+    np.testing.assert_array_equal(image_stamps(stamps, 0.0), stamps)
+    assert image_stamps(np.zeros(0), 0.02).shape == (0,)
+    with pytest.raises(ConfigError, match="same_image_s"):
+        image_stamps(stamps, -1.0)
+
+
+@needs_data
+@pytest.mark.parametrize("robot", [1, 2, 3, 4, 5])
+def test_dataset6_stamps_split_images_by_milliseconds(robot):
+    """The fact behind SAME_IMAGE_S: consecutive distinct stamps are either <= 4 ms apart (one
+    image) or >= 0.1 s (the next), and no burst holds a barcode twice."""
+    table = np.loadtxt(DATASET6 / f"Robot{robot}_Measurement.dat")
+    gaps = np.diff(np.unique(table[:, 0]))
+    assert np.sum(gaps <= 0.0045) > 50
+    assert not np.any((gaps > 0.0045) & (gaps < 0.1))
+    bursts = image_stamps(table[:, 0], SAME_IMAGE_S)
+    pairs = {(b, c) for b, c in zip(bursts.tolist(), table[:, 1].astype(int).tolist(), strict=True)}
+    assert len(pairs) == len(table)
 
 
 def test_fill_gaps_keeps_every_stamp_and_bounds_the_steps():
