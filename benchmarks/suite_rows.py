@@ -1,0 +1,230 @@
+"""Re-run some datasets of the suite and splice their rows into its committed report::
+
+    PYTHONPATH=. OMNISLAM_DATA=../shared/data .venv/bin/python benchmarks/suite_rows.py PATTERN
+        [--grid benchmarks/grids/suite.yaml] [--results runs/suite-rows] [--report reports/suite]
+        [--workers N]
+
+For a change that moves only some datasets' results (a loader fix, say) when the full suite's
+results folder (``make suite``'s ``runs/suite``, hours of renders and cells) is not at hand. It
+runs the suite grid's datasets whose label matches the regular expression PATTERN (``omnislam
+compare``, resumable: an interrupted run continues), reports them (``omnislam report``, as ``make
+suite`` does) and puts their results into the report in place of the old ones:
+
+* ``tables/LABEL-*.csv|tex`` copied from the new report;
+* the datasets' rows of ``tables/ate-rmse`` and ``tables/verdict`` (CSV and LaTeX) and, in
+  ``report.md`` and ``index.html``, their verdict sentences, their rows of the verdict, ATE and
+  provenance tables and their sections replaced, and the CSV/LaTeX files that ``index.html``
+  inlines re-encoded;
+* a provenance row names the re-run datasets, the commit and the date.
+
+Every other row stays as the full run left it. The README's table is then
+``benchmarks/suite_table.py`` (this script runs it). Nothing is written unless every step
+succeeded: a row or section of a matched dataset missing from either report is an error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import datetime as dt
+import html
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import yaml
+
+REPO = Path(__file__).resolve().parents[1]
+#: tables of the whole suite, one row per dataset
+SUITE_TABLES = ("ate-rmse", "verdict")
+
+
+class SpliceError(Exception):
+    """The old and the new report do not have the same rows or sections to exchange."""
+
+
+def dataset_label(entry: str | dict) -> str:
+    """The label a grid's dataset entry reports under."""
+    if isinstance(entry, str):
+        return entry
+    return entry.get("label") or entry.get("dataset") or entry["synthetic"]
+
+
+def subset_grid(grid: dict, pattern: str) -> tuple[dict, list[str]]:
+    """The grid with only the datasets whose label matches ``pattern``, and those labels."""
+    kept = [d for d in grid["datasets"] if re.search(pattern, dataset_label(d))]
+    if not kept:
+        raise SpliceError(f"no dataset of the grid matches {pattern!r}")
+    return {**grid, "datasets": kept}, [dataset_label(d) for d in kept]
+
+
+def _replace_all(old: str, new: str, pattern: str, what: str) -> str:
+    """``old`` with each match of ``pattern`` replaced by the same-numbered match in ``new``."""
+    old_hits = list(re.finditer(pattern, old, flags=re.M | re.S))
+    new_hits = list(re.finditer(pattern, new, flags=re.M | re.S))
+    if not old_hits or len(old_hits) != len(new_hits):
+        raise SpliceError(f"{what}: {len(old_hits)} in the old report, {len(new_hits)} in the new")
+    out, last = [], 0
+    for o, n in zip(old_hits, new_hits, strict=True):
+        out += [old[last : o.start()], n.group(0)]
+        last = o.end()
+    return "".join(out) + old[last:]
+
+
+def splice_markdown(old: str, new: str, labels: list[str], note: str) -> str:
+    """report.md: the labels' table rows and sections from ``new``, a provenance row added."""
+    for label in labels:
+        e = re.escape(label)
+        old = _replace_all(old, new, rf"^\| {e} \|[^\n]*$", f"report.md rows of {label}")
+        old = _replace_all(
+            old, new, rf"^\| dataset {e} \|[^\n]*$", f"report.md provenance of {label}"
+        )
+        old = _replace_all(old, new, rf"^{e}: [^\n]*$", f"report.md verdict of {label}")
+        old = _replace_all(old, new, rf"^## {e} — .*?(?=^## )", f"report.md section {label}")
+    old = _mark_made_with(old)
+    return _add_provenance_row(old, r"^\| runs \|[^\n]*$", f"| rows re-run | {note} |")
+
+
+def splice_html(old: str, new: str, labels: list[str], note: str) -> str:
+    """index.html: as ``splice_markdown``, on the HTML tables and sections."""
+    for label in labels:
+        e = re.escape(html.escape(label))
+        old = _replace_all(
+            old, new, rf"<tr><td>{e}</td>[^\n]*?</tr>", f"index.html rows of {label}"
+        )
+        old = _replace_all(
+            old, new, rf"<tr><td>dataset {e}</td>[^\n]*?</tr>", f"index.html provenance of {label}"
+        )
+        old = _replace_all(old, new, rf"<p>{e}: [^\n]*?</p>", f"index.html verdict of {label}")
+        old = _replace_all(old, new, rf"<h2>{e} — .*?(?=<h2>)", f"index.html section {label}")
+    old = _mark_made_with(old)
+    row = f"<tr><td>rows re-run</td><td>{html.escape(note)}</td></tr>"
+    return _add_provenance_row(old, r"<tr><td>runs</td>.*?</tr>", row)
+
+
+#: the report's line that dates it (``omnislam.compare.report``)
+MADE_WITH = "; see Provenance at the end."
+RE_RUN = "; some rows were re-run since: see Provenance at the end."
+
+
+def _mark_made_with(text: str) -> str:
+    """The report's "Made with ... on DATE" line, saying that rows were re-run since."""
+    if RE_RUN in text:
+        return text
+    if text.count(MADE_WITH) != 1:
+        raise SpliceError("the report has no single 'Made with ...' line")
+    return text.replace(MADE_WITH, RE_RUN)
+
+
+def _add_provenance_row(text: str, after: str, row: str) -> str:
+    hit = re.search(after, text, flags=re.M)
+    if hit is None:
+        raise SpliceError("the report has no 'runs' provenance row")
+    separator = "\n" if row.startswith("|") else ""
+    return text[: hit.end()] + separator + row + text[hit.end() :]
+
+
+def splice_table(old: str, new: str, labels: list[str], suffix: str, what: str) -> str:
+    """A suite table (CSV: ``suffix`` ',', LaTeX: ' &'): the labels' rows from ``new``."""
+    for label in labels:
+        pattern = rf"^{re.escape(label)}{re.escape(suffix)}[^\n]*$"
+        old = _replace_all(old, new, pattern, f"{what} row {label}")
+    return old
+
+
+def reencode_links(page: str, replaced: dict[bytes, bytes]) -> str:
+    """``page`` with every inlined ``data:`` link whose content is a key of ``replaced``
+    re-encoded with its value."""
+
+    def swap(match: re.Match) -> str:
+        content = base64.b64decode(match.group(2))
+        if content not in replaced:
+            return match.group(0)
+        return match.group(1) + base64.b64encode(replaced[content]).decode("ascii")
+
+    return re.sub(r'(href="data:[^";,]+(?:;[^";,]+)*;base64,)([A-Za-z0-9+/=]+)', swap, page)
+
+
+def _header(table: str) -> str | None:
+    """A suite table's line of column names (CSV or LaTeX)."""
+    return next((line for line in table.splitlines() if line.startswith("dataset")), None)
+
+
+def splice_report(old_dir: Path, new_dir: Path, labels: list[str], note: str) -> dict[Path, str]:
+    """The files of ``old_dir`` to write (path -> text), the labels' results from ``new_dir``."""
+    out: dict[Path, str] = {}
+    replaced: dict[bytes, bytes] = {}
+    for name in SUITE_TABLES:
+        for ext, suffix in ((".csv", ","), (".tex", " &")):
+            path = Path("tables") / f"{name}{ext}"
+            old = (old_dir / path).read_text()
+            new = (new_dir / path).read_text()
+            if _header(old) != _header(new):
+                raise SpliceError(f"{path}: the new report's columns differ from the old one's")
+            out[path] = splice_table(old, new, labels, suffix, str(path))
+            replaced[old.encode()] = out[path].encode()
+    for path in sorted((new_dir / "tables").glob("*")):
+        if path.stem not in SUITE_TABLES and path.stem != "estimators":
+            out[Path("tables") / path.name] = path.read_text()
+    old_md = (old_dir / "report.md").read_text()
+    out[Path("report.md")] = splice_markdown(
+        old_md, (new_dir / "report.md").read_text(), labels, note
+    )
+    old_html = (old_dir / "index.html").read_text()
+    spliced = splice_html(old_html, (new_dir / "index.html").read_text(), labels, note)
+    out[Path("index.html")] = reencode_links(spliced, replaced)
+    return out
+
+
+def run(command: list[str]) -> None:
+    print("  $ " + " ".join(command), file=sys.stderr, flush=True)
+    subprocess.run(command, check=True)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("pattern", help="regular expression on the dataset labels")
+    parser.add_argument("--grid", type=Path, default=REPO / "benchmarks/grids/suite.yaml")
+    parser.add_argument("--results", type=Path, default=Path("runs/suite-rows"))
+    parser.add_argument("--report", type=Path, default=REPO / "reports/suite")
+    parser.add_argument("--workers", type=int, default=2)
+    args = parser.parse_args(argv)
+
+    grid, labels = subset_grid(yaml.safe_load(args.grid.read_text()), args.pattern)
+    print(f"re-running {len(labels)} datasets: {', '.join(labels)}", file=sys.stderr)
+    args.results.mkdir(parents=True, exist_ok=True)
+    grid_path = args.results.parent / f"{args.results.name}.grid.yaml"
+    grid_path.write_text(yaml.safe_dump(grid, sort_keys=False))
+    bin_dir = Path(sys.executable).parent
+    resume = ["--resume"] if any(args.results.iterdir()) else ["--overwrite"]
+    run([str(bin_dir / "omnislam"), "compare", str(grid_path), "--out", str(args.results),
+         "--workers", str(args.workers), *resume])  # fmt: skip
+    commit = subprocess.run(
+        ["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True
+    ).stdout.strip()
+    note = (
+        f"{', '.join(labels)}: re-run at commit {commit} on "
+        f"{dt.datetime.now(dt.UTC).date().isoformat()} "
+        f"(benchmarks/suite_rows.py '{args.pattern}'); the other rows are the full run's"
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        new_dir = Path(tmp) / "report"
+        run([str(bin_dir / "omnislam"), "report", str(args.results), "--out", str(new_dir),
+             "--no-exports", "--no-figures", "--overwrite"])  # fmt: skip
+        try:
+            files = splice_report(args.report, new_dir, labels, note)
+        except SpliceError as error:
+            print(f"suite_rows: {error}; nothing written", file=sys.stderr)
+            return 2
+    for path, text in files.items():
+        (args.report / path).write_text(text)
+    print(f"spliced {len(files)} files of {args.report}", file=sys.stderr)
+    run([sys.executable, str(REPO / "benchmarks/suite_table.py"), "--report", str(args.report),
+         "--readme", str(REPO / "README.md")])  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,107 @@
+"""``benchmarks/suite_rows.py`` splices re-run datasets into a suite report: the result is the
+report a full run with the new data would have written, provenance aside."""
+
+from __future__ import annotations
+
+import base64
+import importlib.util
+import re
+import sys
+from pathlib import Path
+
+import pytest
+from room_log import write_room_log
+
+from omnislam.compare.grid import load_grid
+from omnislam.compare.report import ReportOptions, write_report
+from omnislam.compare.runner import SerialExecutor, run_grid
+
+REPO = Path(__file__).resolve().parents[2]
+_spec = importlib.util.spec_from_file_location("suite_rows", REPO / "benchmarks" / "suite_rows.py")
+suite_rows = importlib.util.module_from_spec(_spec)
+sys.modules["suite_rows"] = suite_rows
+_spec.loader.exec_module(suite_rows)
+
+GRID = """
+name: rooms
+datasets: [{dataset: data/room_a.log, label: a}, {dataset: data/%s.log, label: b}]
+estimators: [deadreckoning, {estimator: fastslam2, seeds: [0, 1], options: {n_particles: 8}}]
+evaluation: {rpe_segment_m: 2.0}
+"""
+
+
+def _report(root: Path, name: str, grid: str) -> Path:
+    (root / f"{name}.yaml").write_text(grid)
+    run_grid(load_grid(root / f"{name}.yaml"), root / f"{name}-results", SerialExecutor)
+    write_report(root / f"{name}-results", root / name, ReportOptions(exports=False, figures=False))
+    return root / name
+
+
+@pytest.fixture(scope="module")
+def reports(tmp_path_factory) -> tuple[Path, Path, Path]:
+    """The old full report (b = room_b), a report of b alone re-run on other data (room_c),
+    and the full report with that data (the splice's expected result)."""
+    root = tmp_path_factory.mktemp("suite-rows")
+    for name, seed in (("room_a", 1), ("room_b", 2), ("room_c", 3)):
+        write_room_log(root / "data" / f"{name}.log", frames=120, seed=seed)
+    old = _report(root, "old", GRID % "room_b")
+    only_b = GRID.replace("{dataset: data/room_a.log, label: a}, ", "")
+    new = _report(root, "new", only_b % "room_c")
+    full = _report(root, "full", GRID % "room_c")
+    return old, new, full
+
+
+def _sections(text: str, heading: str) -> dict[str, str]:
+    """A report's sections by their heading's first word, the line that dates it left out."""
+    text = re.sub(r"Made with omnislam [^\n]*", "", text)
+    parts = text.split(heading)
+    return {re.match(r"[\w-]+", part).group(0): part for part in parts[1:]} | {"": parts[0]}
+
+
+def test_the_spliced_report_is_the_full_runs(reports):
+    """The whole-suite tables and verdicts are what a full run with the new data reports; each
+    dataset's own section is the run that made it (its timings are that run's)."""
+    old, new, full = reports
+    files = suite_rows.splice_report(old, new, ["b"], "b: re-run")
+    for name in ("ate-rmse", "verdict"):
+        for ext in (".csv", ".tex"):
+            path = Path("tables") / f"{name}{ext}"
+            assert files[path] == (full / path).read_text()
+            assert files[path] != (old / path).read_text()  # b's numbers did change
+    b_tables = sorted(p.name for p in (new / "tables").glob("b-*"))
+    assert b_tables and all(files[Path("tables") / n] == (new / "tables" / n).read_text()
+                            for n in b_tables)  # fmt: skip
+    assert not any(p.name.startswith("a-") for p in files)  # a's own tables are left alone
+    for name, heading in (("report.md", "\n## "), ("index.html", "<h2>")):
+        spliced = _sections(files[Path(name)], heading)
+        expected = _sections((full / name).read_text(), heading)
+        assert spliced.keys() == expected.keys()
+        for key in expected:
+            if key in ("a", "b"):  # a as the old run left it, b as re-run (timings differ)
+                source = old if key == "a" else new
+                assert spliced[key] == _sections((source / name).read_text(), heading)[key]
+            elif key != "Provenance":
+                assert spliced[key] == expected[key], key
+        assert "rows re-run" in spliced["Provenance"] and "b: re-run" in spliced["Provenance"]
+        assert suite_rows.RE_RUN in files[Path(name)]
+    # the inlined copy of the whole-suite table is the spliced one
+    page = files[Path("index.html")]
+    inlined = [base64.b64decode(b) for b in re.findall(r"base64,([A-Za-z0-9+/=]+)", page)]
+    assert files[Path("tables/ate-rmse.csv")].encode() in inlined
+    assert (old / "tables/ate-rmse.csv").read_bytes() not in inlined
+
+
+def test_a_dataset_missing_from_the_new_report_is_refused(reports):
+    old, new, _ = reports
+    with pytest.raises(suite_rows.SpliceError, match="a"):
+        suite_rows.splice_report(old, new, ["a", "b"], "note")
+
+
+def test_the_subset_grid_keeps_the_matching_datasets_only():
+    grid = {"datasets": ["mrclam6-r1", {"dataset": "mrclam6-r1", "label": "mrclam6-r1-noids"},
+                         {"synthetic": "demo"}], "estimators": ["deadreckoning"]}  # fmt: skip
+    subset, labels = suite_rows.subset_grid(grid, "^mrclam6")
+    assert labels == ["mrclam6-r1", "mrclam6-r1-noids"]
+    assert subset["estimators"] == ["deadreckoning"] and len(subset["datasets"]) == 2
+    with pytest.raises(suite_rows.SpliceError, match="no dataset"):
+        suite_rows.subset_grid(grid, "^victoria")
