@@ -20,7 +20,7 @@ table resumes; ``--fresh`` ignores the cache::
 
     PYTHONPATH=. OMNISLAM_DATA=../shared/data .venv/bin/python benchmarks/association_mrclam.py
         [--robots 1 2 3 4 5] [--estimators graphslam ekfslam fastslam2] [--seed 0]
-        [--cache runs/association_mrclam] [--fresh]
+        [--cache runs/association_mrclam] [--fresh] [--set KEY=VALUE ...]
 """
 
 from __future__ import annotations
@@ -53,10 +53,20 @@ COUNT_KEYS = (
 TRUE_LANDMARKS = 15
 
 
-def cell(dataset: str, estimator: str, seed: int, unknown: bool, cache: Path | None) -> dict:
-    """ATE, landmark count and association counts of one run (from the cache if there)."""
-    name = f"{dataset}_{estimator}_s{seed}_{'unknown' if unknown else 'ids'}.json"
-    options = {"association": "unknown"} if unknown else {}
+def cell(
+    dataset: str,
+    estimator: str,
+    seed: int,
+    unknown: bool,
+    cache: Path | None,
+    extra: dict[str, str] | None = None,
+) -> dict:
+    """ATE, landmark count and association counts of one run (from the cache if there);
+    ``extra``: ``--set`` options (estimator or loader) given to every run."""
+    extra = extra or {}
+    shown = "".join(f"_{k}={v}" for k, v in sorted(extra.items()))
+    name = f"{dataset}_{estimator}_s{seed}_{'unknown' if unknown else 'ids'}{shown}.json"
+    options = {**extra, **({"association": "unknown"} if unknown else {})}
     path = None if cache is None else cache / name
     return run_cell(dataset, estimator, seed, options, path, COUNT_KEYS)
 
@@ -68,7 +78,15 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cache", type=Path, default=Path("runs/association_mrclam"))
     parser.add_argument("--fresh", action="store_true", help="ignore cached cells")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="an estimator or loader option for every run (e.g. same_image_s=0)",
+    )
     args = parser.parse_args()
+    extra = dict(item.split("=", 1) for item in args.set)
     cache = None if args.fresh else args.cache
     for estimator in args.estimators:
         print(f"\n{estimator} (seed {args.seed}):")
@@ -80,8 +98,8 @@ def main() -> None:
         with_ids, without, ratios, counts_ok = [], [], [], []
         for robot in args.robots:
             dataset = f"mrclam6-r{robot}"
-            a = cell(dataset, estimator, args.seed, False, cache)
-            b = cell(dataset, estimator, args.seed, True, cache)
+            a = cell(dataset, estimator, args.seed, False, cache, extra)
+            b = cell(dataset, estimator, args.seed, True, cache, extra)
             ratio = b["ate_m"] / a["ate_m"]
             with_ids.append(a["ate_m"])
             without.append(b["ate_m"])

@@ -26,8 +26,10 @@ from __future__ import annotations
 
 import argparse
 import base64
+import csv
 import datetime as dt
 import html
+import io
 import re
 import subprocess
 import sys
@@ -134,6 +136,37 @@ def splice_table(old: str, new: str, labels: list[str], suffix: str, what: str) 
     return old
 
 
+def splice_csv(old: str, new: str, labels: list[str], what: str) -> str:
+    """A suite CSV table: the labels' rows from ``new``, laid out in ``old``'s columns.
+
+    A report leaves out an estimator's "std" column when no dataset ran it on several seeds, so
+    the re-run datasets' report may lack columns the whole suite's has: those cells are empty,
+    as they are in the whole report for an estimator run on one seed.
+    """
+    old_rows = list(csv.reader(io.StringIO(old)))
+    new_rows = list(csv.reader(io.StringIO(new)))
+    header, new_header = old_rows[0], new_rows[0]
+    missing = [c for c in new_header if c not in header]
+    lacking = [c for c in header if c not in new_header and not c.endswith(" std")]
+    if missing or lacking:
+        raise SpliceError(f"{what}: columns {missing or lacking} are in one report only")
+    by_label = {row[0]: dict(zip(new_header, row, strict=True)) for row in new_rows[1:]}
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(header)
+    seen = set()
+    for row in old_rows[1:]:
+        if row[0] in labels:
+            if row[0] not in by_label:
+                raise SpliceError(f"{what}: no row {row[0]} in the new report")
+            seen.add(row[0])
+            row = [by_label[row[0]].get(column, "") for column in header]
+        writer.writerow(row)
+    if seen != set(labels):
+        raise SpliceError(f"{what}: no row {sorted(set(labels) - seen)} in the old report")
+    return out.getvalue()
+
+
 def reencode_links(page: str, replaced: dict[bytes, bytes]) -> str:
     """``page`` with every inlined ``data:`` link whose content is a key of ``replaced``
     re-encoded with its value."""
@@ -161,9 +194,12 @@ def splice_report(old_dir: Path, new_dir: Path, labels: list[str], note: str) ->
             path = Path("tables") / f"{name}{ext}"
             old = (old_dir / path).read_text()
             new = (new_dir / path).read_text()
-            if _header(old) != _header(new):
-                raise SpliceError(f"{path}: the new report's columns differ from the old one's")
-            out[path] = splice_table(old, new, labels, suffix, str(path))
+            if ext == ".csv":
+                out[path] = splice_csv(old, new, labels, str(path))
+            else:
+                if _header(old) != _header(new):
+                    raise SpliceError(f"{path}: the new report's columns differ from the old's")
+                out[path] = splice_table(old, new, labels, suffix, str(path))
             replaced[old.encode()] = out[path].encode()
     for path in sorted((new_dir / "tables").glob("*")):
         if path.stem not in SUITE_TABLES and path.stem != "estimators":

@@ -105,3 +105,16 @@ def test_the_subset_grid_keeps_the_matching_datasets_only():
     assert subset["estimators"] == ["deadreckoning"] and len(subset["datasets"]) == 2
     with pytest.raises(suite_rows.SpliceError, match="no dataset"):
         suite_rows.subset_grid(grid, "^victoria")
+
+
+def test_a_csv_row_is_laid_out_in_the_old_tables_columns():
+    """The re-run datasets' report lacks the std column of an estimator it ran on one seed
+    only; its cells are empty there, as the whole report leaves them for such an estimator."""
+    old = 'dataset,ground truth,dr,dr std,f,f std\na,"x, y",1,,2,0.1\nb,z,3,,4,0.2\n'
+    new = "dataset,ground truth,dr,f\nb,z,5,6\n"
+    spliced = suite_rows.splice_csv(old, new, ["b"], "t")
+    assert spliced == 'dataset,ground truth,dr,dr std,f,f std\na,"x, y",1,,2,0.1\nb,z,5,,6,\n'
+    with pytest.raises(suite_rows.SpliceError, match="one report only"):
+        suite_rows.splice_csv(old, "dataset,ground truth,dr,g\nb,z,5,6\n", ["b"], "t")
+    with pytest.raises(suite_rows.SpliceError, match="no row"):
+        suite_rows.splice_csv(old, new, ["a", "b"], "t")
