@@ -38,6 +38,8 @@ from pathlib import Path
 
 import yaml
 
+from omnislam.compare.tables import latex_escape
+
 REPO = Path(__file__).resolve().parents[1]
 #: tables of the whole suite, one row per dataset
 SUITE_TABLES = ("ate-rmse", "verdict")
@@ -124,7 +126,7 @@ def _add_provenance_row(text: str, after: str, row: str) -> str:
     hit = re.search(after, text, flags=re.M)
     if hit is None:
         raise SpliceError("the report has no 'runs' provenance row")
-    separator = "\n" if row.startswith("|") else ""
+    separator = "" if row.startswith("<") else "\n"
     return text[: hit.end()] + separator + row + text[hit.end() :]
 
 
@@ -201,8 +203,22 @@ def splice_report(old_dir: Path, new_dir: Path, labels: list[str], note: str) ->
                     raise SpliceError(f"{path}: the new report's columns differ from the old's")
                 out[path] = splice_table(old, new, labels, suffix, str(path))
             replaced[old.encode()] = out[path].encode()
+    for ext in (".csv", ".tex"):
+        path = Path("tables") / f"provenance{ext}"
+        old, new = (old_dir / path).read_text(), (new_dir / path).read_text()
+        suffix = "," if ext == ".csv" else " &"
+        rows = [f"dataset {label}" for label in labels]
+        text = splice_table(old, new, rows, suffix, str(path))
+        if ext == ".csv":
+            line = io.StringIO()
+            csv.writer(line, lineterminator="").writerow(["rows re-run", note])
+            row = line.getvalue()
+        else:
+            row = f"rows re-run & {latex_escape(note)} \\\\"
+        out[path] = _add_provenance_row(text, rf"^runs{re.escape(suffix)}[^\n]*$", row)
+        replaced[old.encode()] = out[path].encode()
     for path in sorted((new_dir / "tables").glob("*")):
-        if path.stem not in SUITE_TABLES and path.stem != "estimators":
+        if path.stem not in (*SUITE_TABLES, "estimators", "provenance"):
             out[Path("tables") / path.name] = path.read_text()
     old_md = (old_dir / "report.md").read_text()
     out[Path("report.md")] = splice_markdown(

@@ -72,6 +72,19 @@ def test_the_spliced_report_is_the_full_runs(reports):
     assert b_tables and all(files[Path("tables") / n] == (new / "tables" / n).read_text()
                             for n in b_tables)  # fmt: skip
     assert not any(p.name.startswith("a-") for p in files)  # a's own tables are left alone
+    for ext, sep in ((".csv", ","), (".tex", " &")):
+        spliced = files[Path(f"tables/provenance{ext}")].splitlines()
+        old_rows = (old / f"tables/provenance{ext}").read_text().splitlines()
+        new_rows = (new / f"tables/provenance{ext}").read_text().splitlines()
+        assert [r for r in spliced if r.startswith(f"dataset b{sep}")] == [
+            r for r in new_rows if r.startswith(f"dataset b{sep}")
+        ]
+        assert [r for r in spliced if not r.startswith(("dataset b", "rows re-run"))] == [
+            r for r in old_rows if not r.startswith("dataset b")
+        ]
+        assert spliced[
+            spliced.index(next(r for r in spliced if r.startswith(f"runs{sep}"))) + 1
+        ] == ("rows re-run,b: re-run" if ext == ".csv" else "rows re-run & b: re-run \\\\")
     for name, heading in (("report.md", "\n## "), ("index.html", "<h2>")):
         spliced = _sections(files[Path(name)], heading)
         expected = _sections((full / name).read_text(), heading)
