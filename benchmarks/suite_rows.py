@@ -43,6 +43,9 @@ from omnislam.compare.tables import latex_escape
 REPO = Path(__file__).resolve().parents[1]
 #: tables of the whole suite, one row per dataset
 SUITE_TABLES = ("ate-rmse", "verdict")
+#: the paragraphs ``omnislam report`` writes after the last dataset's section, which a dataset's
+#: section does not take along (a regular expression)
+TRAILERS = "(?:Figures: not drawn|Exports: )"
 
 
 class SpliceError(Exception):
@@ -86,7 +89,8 @@ def splice_markdown(old: str, new: str, labels: list[str], note: str) -> str:
             old, new, rf"^\| dataset {e} \|[^\n]*$", f"report.md provenance of {label}"
         )
         old = _replace_all(old, new, rf"^{e}: [^\n]*$", f"report.md verdict of {label}")
-        old = _replace_all(old, new, rf"^## {e} — .*?(?=^## )", f"report.md section {label}")
+        section = rf"^## {e} — .*?(?=^## |^{TRAILERS})"
+        old = _replace_all(old, new, section, f"report.md section {label}")
     old = _mark_made_with(old)
     return _add_provenance_row(old, r"^\| runs \|[^\n]*$", f"| rows re-run | {note} |")
 
@@ -102,7 +106,8 @@ def splice_html(old: str, new: str, labels: list[str], note: str) -> str:
             old, new, rf"<tr><td>dataset {e}</td>[^\n]*?</tr>", f"index.html provenance of {label}"
         )
         old = _replace_all(old, new, rf"<p>{e}: [^\n]*?</p>", f"index.html verdict of {label}")
-        old = _replace_all(old, new, rf"<h2>{e} — .*?(?=<h2>)", f"index.html section {label}")
+        section = rf"<h2>{e} — .*?(?=<h2>|<p>{TRAILERS})"
+        old = _replace_all(old, new, section, f"index.html section {label}")
     old = _mark_made_with(old)
     row = f"<tr><td>rows re-run</td><td>{html.escape(note)}</td></tr>"
     return _add_provenance_row(old, r"<tr><td>runs</td>.*?</tr>", row)
