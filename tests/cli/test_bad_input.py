@@ -235,6 +235,11 @@ def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "robot=one"), "robot"
 
 
+@case("mrclam-negative-same-image-window")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "same_image_s=-1"), "same_image_s"
+
+
 @case("mrclam-unknown-association")
 def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "graphslam", "--set", "association=maybe"), "association"
