@@ -80,37 +80,38 @@ def _replace_all(old: str, new: str, pattern: str, what: str) -> str:
     return "".join(out) + old[last:]
 
 
-def splice_markdown(old: str, new: str, labels: list[str], note: str) -> str:
-    """report.md: the labels' table rows and sections from ``new``, a provenance row added."""
+#: what of a dataset ``report.md`` and ``index.html`` hold, as regular expressions around LABEL:
+#: its rows of the verdict and ATE tables, its provenance row, its verdict sentence, its section
+PAGE_PARTS = {
+    "report.md": (
+        ("rows", r"^\| LABEL \|[^\n]*$"),
+        ("provenance", r"^\| dataset LABEL \|[^\n]*$"),
+        ("verdict", r"^LABEL: [^\n]*$"),
+        ("section", rf"^## LABEL — .*?(?=^## |^{TRAILERS})"),
+    ),
+    "index.html": (
+        ("rows", r"<tr><td>LABEL</td>[^\n]*?</tr>"),
+        ("provenance", r"<tr><td>dataset LABEL</td>[^\n]*?</tr>"),
+        ("verdict", r"<p>LABEL: [^\n]*?</p>"),
+        ("section", rf"<h2>LABEL — .*?(?=<h2>|<p>{TRAILERS})"),
+    ),
+}
+
+
+def splice_page(name: str, old: str, new: str, labels: list[str], note: str) -> str:
+    """report.md or index.html (``name``): the labels' rows, verdicts and sections from
+    ``new``, the dating line marked and a provenance row added."""
     for label in labels:
-        e = re.escape(label)
-        old = _replace_all(old, new, rf"^\| {e} \|[^\n]*$", f"report.md rows of {label}")
-        old = _replace_all(
-            old, new, rf"^\| dataset {e} \|[^\n]*$", f"report.md provenance of {label}"
-        )
-        old = _replace_all(old, new, rf"^{e}: [^\n]*$", f"report.md verdict of {label}")
-        section = rf"^## {e} — .*?(?=^## |^{TRAILERS})"
-        old = _replace_all(old, new, section, f"report.md section {label}")
+        escaped = re.escape(html.escape(label) if name == "index.html" else label)
+        for what, pattern in PAGE_PARTS[name]:
+            old = _replace_all(
+                old, new, pattern.replace("LABEL", escaped), f"{name} {what} of {label}"
+            )
     old = _mark_made_with(old)
+    if name == "index.html":
+        row = f"<tr><td>rows re-run</td><td>{html.escape(note)}</td></tr>"
+        return _add_provenance_row(old, r"<tr><td>runs</td>.*?</tr>", row)
     return _add_provenance_row(old, r"^\| runs \|[^\n]*$", f"| rows re-run | {note} |")
-
-
-def splice_html(old: str, new: str, labels: list[str], note: str) -> str:
-    """index.html: as ``splice_markdown``, on the HTML tables and sections."""
-    for label in labels:
-        e = re.escape(html.escape(label))
-        old = _replace_all(
-            old, new, rf"<tr><td>{e}</td>[^\n]*?</tr>", f"index.html rows of {label}"
-        )
-        old = _replace_all(
-            old, new, rf"<tr><td>dataset {e}</td>[^\n]*?</tr>", f"index.html provenance of {label}"
-        )
-        old = _replace_all(old, new, rf"<p>{e}: [^\n]*?</p>", f"index.html verdict of {label}")
-        section = rf"<h2>{e} — .*?(?=<h2>|<p>{TRAILERS})"
-        old = _replace_all(old, new, section, f"index.html section {label}")
-    old = _mark_made_with(old)
-    row = f"<tr><td>rows re-run</td><td>{html.escape(note)}</td></tr>"
-    return _add_provenance_row(old, r"<tr><td>runs</td>.*?</tr>", row)
 
 
 #: the report's line that dates it (``omnislam.compare.report``)
@@ -225,13 +226,11 @@ def splice_report(old_dir: Path, new_dir: Path, labels: list[str], note: str) ->
     for path in sorted((new_dir / "tables").glob("*")):
         if path.stem not in (*SUITE_TABLES, "estimators", "provenance"):
             out[Path("tables") / path.name] = path.read_text()
-    old_md = (old_dir / "report.md").read_text()
-    out[Path("report.md")] = splice_markdown(
-        old_md, (new_dir / "report.md").read_text(), labels, note
-    )
-    old_html = (old_dir / "index.html").read_text()
-    spliced = splice_html(old_html, (new_dir / "index.html").read_text(), labels, note)
-    out[Path("index.html")] = reencode_links(spliced, replaced)
+    for name in PAGE_PARTS:
+        page = splice_page(
+            name, (old_dir / name).read_text(), (new_dir / name).read_text(), labels, note
+        )
+        out[Path(name)] = reencode_links(page, replaced) if name == "index.html" else page
     return out
 
 
