@@ -9,13 +9,17 @@ Covariances, when configured, come from ``gtsam.Marginals`` at the LM solution.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 from typing import Any
 
 from omnislam._optional import require
 from omnislam.core.types import Estimate
 from omnislam.errors import EstimationError
-from omnislam.graphslam.isam import GraphSLAM
+from omnislam.graphslam.association import Gates
+from omnislam.graphslam.export import G2O_ATTACHMENT, format_g2o
+from omnislam.graphslam.isam import GraphSLAM, GraphSLAMInfo
+from omnislam.graphslam.reassociation import reassociate
 
 gtsam = require("gtsam")
 
@@ -90,6 +94,8 @@ class BatchGraphSLAM(GraphSLAM):
         super().__init__(*args, **kwargs)
         self._batch: BatchResult | None = None
         self._batch_frames = -1
+        self._batch_graph: Any = None
+        self._reassociated = 0
 
     def optimize(self) -> BatchResult:
         """Run (or reuse) LM on every factor so far, from the current iSAM2 estimate.
@@ -100,11 +106,48 @@ class BatchGraphSLAM(GraphSLAM):
         if self._frames == 0:
             raise EstimationError("the graph is empty: no frame yet")
         if self._batch is None or self._batch_frames != self._frames:
-            self._batch = warm_started_lm(
-                self, self.config.batch_max_iterations, self.config.batch_relative_error_tol
+            config = self.config
+            batch = warm_started_lm(
+                self, config.batch_max_iterations, config.batch_relative_error_tol
             )
-            self._batch_frames = self._frames
+            graph = self.factor_graph()
+            movable = getattr(self._graph, "reassociable", None)  # range-bearing graphs only
+            if config.batch_reassociation_rounds > 0 and movable is not None:
+                again = reassociate(
+                    graph,
+                    batch.values,
+                    movable,
+                    Gates.from_probabilities(
+                        config.association_gate_probability, config.new_landmark_probability
+                    ).match,
+                    config.batch_reassociation_rounds,
+                    lambda g, v: (
+                        optimize_batch(
+                            g, v, config.batch_max_iterations, config.batch_relative_error_tol
+                        ).values
+                    ),
+                )
+                graph, self._reassociated = again.graph, again.moved
+                batch = BatchResult(
+                    again.values,
+                    batch.iterations,
+                    batch.initial_error,
+                    float(graph.error(again.values)),
+                )
+            self._batch, self._batch_graph, self._batch_frames = batch, graph, self._frames
         return self._batch
+
+    def attachments(self) -> Mapping[str, bytes]:
+        """``{"graph.g2o": ...}``: the graph the final LM solved (with the re-associated
+        sightings, if any) at its solution."""
+        if self._frames == 0:
+            return super().attachments()
+        result = self.optimize()
+        return {G2O_ATTACHMENT: format_g2o(self._batch_graph, result.values).text.encode()}
+
+    def info(self) -> GraphSLAMInfo:
+        """``GraphSLAM.info`` with the re-association's count (after ``estimate``)."""
+        return replace(super().info(), sightings_reassociated=self._reassociated)
 
     def values(self) -> Any:
         """The LM solution as ``gtsam.Values``."""
@@ -117,5 +160,5 @@ class BatchGraphSLAM(GraphSLAM):
         result = self.optimize()
         covariance = None
         if self.config.compute_covariances:
-            covariance = gtsam.Marginals(self.factor_graph(), result.values).marginalCovariance
+            covariance = gtsam.Marginals(self._batch_graph, result.values).marginalCovariance
         return self._estimate_from(result.values, covariance)

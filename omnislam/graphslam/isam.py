@@ -124,6 +124,8 @@ class GraphSLAMInfo:
         landmarks_merged: landmarks started by the association found to duplicate an older one
             and merged into it (``loop_closure.py``; not counted in ``landmarks``).
         loop_closures: loop closures accepted (each merged one or more landmarks).
+        sightings_reassociated: batch mode with ``GraphSLAMConfig.batch_reassociation_rounds``:
+            sightings the final re-association gave to another landmark (``reassociation.py``).
     """
 
     modality: Modality
@@ -158,6 +160,7 @@ class GraphSLAMInfo:
     online_landmarks_held_out: int = 0
     landmarks_merged: int = 0
     loop_closures: int = 0
+    sightings_reassociated: int = 0
 
 
 class GraphSLAM:

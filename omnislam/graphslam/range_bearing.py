@@ -435,6 +435,14 @@ class RangeBearingGraph:
                 covariances[j] = self._session.marginal_covariance(key)
         return covariances
 
+    def reassociable(self, key: int) -> bool:
+        """Whether a landmark key's sightings were decided by the association and may be
+        given to another such landmark (``reassociation.py``): a landmark the association
+        created, not merged into another."""
+        symbol = gtsam.Symbol(key)
+        lid = symbol.index()
+        return symbol.chr() == ord("l") and lid >= CREATED_ID_BASE and self._registry.active(lid)
+
     def landmark_ids(self) -> np.ndarray:
         """(M,) ids of the landmarks in the graph, ascending (not those merged into another)."""
         ids = self._registry.sorted_ids()
