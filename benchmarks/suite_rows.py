@@ -38,6 +38,7 @@ from pathlib import Path
 
 import yaml
 
+from omnislam.compare.grid import load_grid
 from omnislam.compare.tables import latex_escape
 
 REPO = Path(__file__).resolve().parents[1]
@@ -52,19 +53,28 @@ class SpliceError(Exception):
     """The old and the new report do not have the same rows or sections to exchange."""
 
 
-def dataset_label(entry: str | dict) -> str:
-    """The label a grid's dataset entry reports under."""
-    if isinstance(entry, str):
-        return entry
-    return entry.get("label") or entry.get("dataset") or entry["synthetic"]
-
-
-def subset_grid(grid: dict, pattern: str) -> tuple[dict, list[str]]:
-    """The grid with only the datasets whose label matches ``pattern``, and those labels."""
-    kept = [d for d in grid["datasets"] if re.search(pattern, dataset_label(d))]
+def subset_grid(path: Path, pattern: str) -> tuple[dict, list[str]]:
+    """The grid file's contents with only the datasets whose label (as ``omnislam compare``
+    labels them, ``compare.grid``) matches ``pattern``, and those labels. Relative dataset
+    paths are made absolute, so the subset grid may be written anywhere."""
+    grid = yaml.safe_load(path.read_text())
+    labels = load_grid(path).datasets
+    if len(labels) != len(grid["datasets"]):
+        raise SpliceError(f"{path}: {len(grid['datasets'])} dataset entries, {len(labels)} labels")
+    kept, kept_labels = [], []
+    for entry, label in zip(grid["datasets"], labels, strict=True):
+        if not re.search(pattern, label):
+            continue
+        name = entry if isinstance(entry, str) else entry.get("dataset")
+        local = isinstance(name, str) and (path.parent / name).exists()
+        if local:  # the label kept as it was, whatever the grid derives from the new path
+            entry = {**({} if isinstance(entry, str) else entry), "label": label}
+            entry["dataset"] = str((path.parent / name).resolve())
+        kept.append(entry)
+        kept_labels.append(label)
     if not kept:
-        raise SpliceError(f"no dataset of the grid matches {pattern!r}")
-    return {**grid, "datasets": kept}, [dataset_label(d) for d in kept]
+        raise SpliceError(f"no dataset of {path} matches {pattern!r}")
+    return {**grid, "datasets": kept}, kept_labels
 
 
 def _replace_all(old: str, new: str, pattern: str, what: str) -> str:
@@ -248,7 +258,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args(argv)
 
-    grid, labels = subset_grid(yaml.safe_load(args.grid.read_text()), args.pattern)
+    try:
+        grid, labels = subset_grid(args.grid, args.pattern)
+    except SpliceError as error:
+        print(f"suite_rows: {error}", file=sys.stderr)
+        return 2
     print(f"re-running {len(labels)} datasets: {', '.join(labels)}", file=sys.stderr)
     args.results.mkdir(parents=True, exist_ok=True)
     grid_path = args.results.parent / f"{args.results.name}.grid.yaml"

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import yaml
 from room_log import write_room_log
 
 from omnislam.compare.grid import load_grid
@@ -113,14 +114,19 @@ def test_a_dataset_missing_from_the_new_report_is_refused(reports):
         suite_rows.splice_report(old, new, ["a", "b"], "note")
 
 
-def test_the_subset_grid_keeps_the_matching_datasets_only():
-    grid = {"datasets": ["mrclam6-r1", {"dataset": "mrclam6-r1", "label": "mrclam6-r1-noids"},
-                         {"synthetic": "demo"}], "estimators": ["deadreckoning"]}  # fmt: skip
-    subset, labels = suite_rows.subset_grid(grid, "^mrclam6")
-    assert labels == ["mrclam6-r1", "mrclam6-r1-noids"]
-    assert subset["estimators"] == ["deadreckoning"] and len(subset["datasets"]) == 2
+def test_the_subset_grid_keeps_the_matching_datasets_under_their_labels(reports, tmp_path):
+    """Labels as ``omnislam compare`` gives them; relative data paths made absolute, so the
+    subset grid runs from any folder."""
+    root = reports[0].parent
+    subset, labels = suite_rows.subset_grid(root / "old.yaml", "^b$")
+    assert labels == ["b"] and len(subset["datasets"]) == 1
+    entry = subset["datasets"][0]
+    assert entry["label"] == "b" and entry["dataset"] == str(root / "data" / "room_b.log")
+    assert subset["estimators"] == yaml.safe_load((root / "old.yaml").read_text())["estimators"]
+    (tmp_path / "grid.yaml").write_text(yaml.safe_dump(subset))
+    assert load_grid(tmp_path / "grid.yaml").datasets == ("b",)
     with pytest.raises(suite_rows.SpliceError, match="no dataset"):
-        suite_rows.subset_grid(grid, "^victoria")
+        suite_rows.subset_grid(root / "old.yaml", "^victoria")
 
 
 def test_a_csv_row_is_laid_out_in_the_old_tables_columns():
