@@ -36,10 +36,11 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from omnislam._optional import require
-from omnislam.core.se import wrap_angle
+from omnislam.core.measurement import RangeBearing2D
 
 gtsam = require("gtsam")
 
+_MODEL = RangeBearing2D()
 #: cost of a pairing outside the gate in the assignment (never chosen over one inside)
 _OUTSIDE = 1e12
 
@@ -115,16 +116,13 @@ def squared_distances(values: Any, rows: list[_Sighting], landmarks: list[int]) 
     """(len(rows), len(landmarks)) squared Mahalanobis distances of sightings of one pose to
     landmarks at ``values``, under each sighting's (bearing, range) sigmas."""
     pose = values.atPose2(rows[0].pose)
+    wTr = np.array([pose.x(), pose.y(), pose.theta()])
     points = np.array([values.atPoint2(k) for k in landmarks]).reshape(-1, 2)
-    dx, dy = points[:, 0] - pose.x(), points[:, 1] - pose.y()
-    predicted_range = np.hypot(dx, dy)
-    predicted_bearing = np.arctan2(dy, dx) - pose.theta()
-    bearings = np.array([s.bearing_rad for s in rows])[:, None]
-    ranges = np.array([s.range_m for s in rows])[:, None]
-    sigmas = np.array([s.sigmas for s in rows])
-    db = wrap_angle(bearings - predicted_bearing[None, :]) / sigmas[:, :1]
-    dr = (ranges - predicted_range[None, :]) / sigmas[:, 1:]
-    return db**2 + dr**2
+    predicted, _, _ = _MODEL.predict(wTr, points, jacobians=False)  # (M, 2): range, bearing
+    measured = np.array([[s.range_m, s.bearing_rad] for s in rows])
+    residual = _MODEL.residual(measured[:, None, :], predicted[None, :, :])  # (K, M, 2)
+    sigmas = np.array([[s.sigmas[1], s.sigmas[0]] for s in rows])[:, None, :]  # range, bearing
+    return np.sum((residual / sigmas) ** 2, axis=-1)
 
 
 def reassociate(
