@@ -21,12 +21,17 @@ the goal holds. Cells are cached as JSON under ``--cache`` (``--fresh`` ignores 
 
     PYTHONPATH=. OMNISLAM_DATA=../shared/data .venv/bin/python benchmarks/clutter.py
         [--datasets mrclam6-r3 mrclam6-r4] [--estimators graphslam ekfslam fastslam2]
-        [--rate 0.5] [--seed 0] [--cache runs/clutter] [--fresh]
+        [--rate 0.5] [--seed 0] [--cache runs/clutter] [--fresh] [--set KEY=VALUE ...]
+
+``--set KEY=VALUE`` (repeatable) adds an option to every cell, clean and cluttered alike --
+an estimator's (``association_min_sightings=3``) or the loader's -- as ``omnislam run --set``
+does; the cells of each set of options are cached under their own names.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 from pathlib import Path
 
 from harness_cells import run_cell
@@ -45,10 +50,23 @@ COUNT_TOLERANCE = 0.10
 ATE_RATIO = 1.5
 
 
-def cell(dataset: str, estimator: str, seed: int, rate: float, cache: Path | None) -> dict:
-    """ATE, landmarks and association counts of one run (from the cache if there)."""
-    name = f"{dataset}_{estimator}_s{seed}_clutter{rate:g}.json"
-    options = {"association": "unknown"}
+def cell(
+    dataset: str,
+    estimator: str,
+    seed: int,
+    rate: float,
+    cache: Path | None,
+    extra: dict[str, str] | None = None,
+) -> dict:
+    """ATE, landmarks and association counts of one run (from the cache if there); ``extra``
+    are options added to the run (``--set``)."""
+    extra = dict(extra or {})
+    tag = ""
+    if extra:
+        text = ",".join(f"{k}={v}" for k, v in sorted(extra.items()))
+        tag = "_" + hashlib.sha256(text.encode()).hexdigest()[:10]
+    name = f"{dataset}_{estimator}_s{seed}_clutter{rate:g}{tag}.json"
+    options = {"association": "unknown", **extra}
     if rate > 0:
         options["clutter_per_frame"] = repr(rate)
     path = None if cache is None else cache / name
@@ -63,8 +81,23 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cache", type=Path, default=Path("runs/clutter"))
     parser.add_argument("--fresh", action="store_true", help="ignore cached cells")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="an option added to every run (repeatable)",
+    )
     args = parser.parse_args()
+    extra = {}
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            parser.error(f"--set takes KEY=VALUE, got {item!r}")
+        extra[key] = value
     cache = None if args.fresh else args.cache
+    if extra:
+        print("options added to every run: " + " ".join(f"{k}={v}" for k, v in extra.items()))
     print(
         "| dataset | estimator | ATE clean [m] | ATE clutter [m] | ratio | landmarks clean / "
         "clutter (true) | added | counts with clutter | goal |"
@@ -73,8 +106,8 @@ def main() -> None:
     met_all = True
     for dataset in args.datasets:
         for estimator in args.estimators:
-            clean = cell(dataset, estimator, args.seed, 0.0, cache)
-            noisy = cell(dataset, estimator, args.seed, args.rate, cache)
+            clean = cell(dataset, estimator, args.seed, 0.0, cache, extra)
+            noisy = cell(dataset, estimator, args.seed, args.rate, cache, extra)
             ratio = noisy["ate_m"] / clean["ate_m"]
             truth = noisy["truth"]
             count_ok = truth is not None and abs(noisy["landmarks"] - truth) <= max(
