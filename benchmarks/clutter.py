@@ -34,7 +34,7 @@ import argparse
 import hashlib
 from pathlib import Path
 
-from harness_cells import run_cell
+from harness_cells import run_cell, set_options
 
 #: association counters read from ``estimator_info.json`` (graphslam's, ekfslam's, FastSLAM's)
 COUNT_KEYS = (
@@ -89,12 +89,7 @@ def main() -> None:
         help="an option added to every run (repeatable)",
     )
     args = parser.parse_args()
-    extra = {}
-    for item in args.set:
-        key, sep, value = item.partition("=")
-        if not sep or not key:
-            parser.error(f"--set takes KEY=VALUE, got {item!r}")
-        extra[key] = value
+    extra = set_options(parser, args.set)
     cache = None if args.fresh else args.cache
     if extra:
         print("options added to every run: " + " ".join(f"{k}={v}" for k, v in extra.items()))

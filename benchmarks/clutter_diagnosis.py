@@ -37,6 +37,7 @@ import collections
 
 import numpy as np
 from association_diagnosis import hidden_ids, landmarks_decided
+from harness_cells import set_options
 
 from omnislam.compare.execute import RunSpec, execute_run, sequence_info
 from omnislam.compare.perturb import add_clutter
@@ -216,12 +217,7 @@ def main() -> None:
     parser.add_argument("--trace", type=int, nargs=2, metavar=("LO", "HI"))
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
-    options = {}
-    for item in args.set:
-        key, sep, value = item.partition("=")
-        if not sep or not key:
-            parser.error(f"--set takes KEY=VALUE, got {item!r}")
-        options[key] = value
+    options = set_options(parser, args.set)
     if args.diagnosis == "decisions":
         decisions(args.dataset, args.rate, args.seed, args.trace, options)
     else:

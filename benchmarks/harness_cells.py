@@ -11,6 +11,7 @@ the false detections the harness added (``clutter_per_frame``), the association 
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 import time
@@ -55,3 +56,15 @@ def run_cell(
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(out, indent=1))
     return out
+
+
+def set_options(parser: argparse.ArgumentParser, items: Iterable[str]) -> dict[str, str]:
+    """The ``--set KEY=VALUE`` items of a benchmark's command line as a dict; a malformed item
+    is a usage error (``parser.error``: one line, exit 2)."""
+    options = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            parser.error(f"--set takes KEY=VALUE, got {item!r}")
+        options[key] = value
+    return options
