@@ -90,6 +90,8 @@ def main() -> None:
     )
     args = parser.parse_args()
     extra = set_options(parser, args.set)
+    if "clutter_per_frame" in extra:
+        parser.error("--set clutter_per_frame would reach the clean cells too; use --rate")
     cache = None if args.fresh else args.cache
     if extra:
         print("options added to every run: " + " ".join(f"{k}={v}" for k, v in extra.items()))
