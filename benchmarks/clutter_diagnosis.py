@@ -40,7 +40,7 @@ from association_diagnosis import hidden_ids, landmarks_decided
 from harness_cells import set_options
 
 from omnislam.compare.execute import RunSpec, execute_run, sequence_info
-from omnislam.compare.perturb import add_clutter
+from omnislam.compare.perturb import add_clutter, clutter_stream
 from omnislam.compare.reference import reference_for
 from omnislam.core.compatibility import Decision
 from omnislam.core.se import se2_between
@@ -56,8 +56,7 @@ def decisions(dataset: str, rate: float, seed: int, trace: tuple[int, int] | Non
     """Run, score and print the ``decisions`` diagnosis (module docstring)."""
     labelled, sequence, frames, estimator_options = hidden_ids(dataset, options)
     info = sequence_info(sequence, frames)  # told before the clutter, as the harness does
-    clutter_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
-    frames, added = add_clutter(frames, rate, clutter_rng)
+    frames, added = add_clutter(frames, rate, clutter_stream(seed))
 
     def label(k: int, r: float, b: float) -> int:
         given = labelled[k]

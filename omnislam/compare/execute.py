@@ -38,6 +38,7 @@ from omnislam.compare.perturb import (
     CLUTTER_OPTION,
     WRONG_ID_OPTION,
     add_clutter,
+    clutter_stream,
     parse_clutter_rate,
     parse_fraction,
     reassign_ids,
@@ -229,8 +230,7 @@ def execute_run(
     info = sequence_info(sequence, frames, "laser" if laser else "wheel")
     clutter_added = 0
     if clutter_rate > 0:
-        clutter_rng = np.random.default_rng(np.random.SeedSequence(spec.seed).spawn(2)[1])
-        frames, clutter_added = add_clutter(frames, clutter_rate, clutter_rng)
+        frames, clutter_added = add_clutter(frames, clutter_rate, clutter_stream(spec.seed))
     known = info.known_association
     modality = resolve_estimator_modality(spec.estimator, info, estimator_options)
     track_truth = False

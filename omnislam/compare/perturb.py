@@ -130,6 +130,12 @@ def _checked_rate(value: float) -> float:
     return float(value)
 
 
+def clutter_stream(seed: int) -> np.random.Generator:
+    """The random stream of a run's false detections: its own, derived from the run's seed, so
+    the estimator draws the same numbers with and without clutter."""
+    return np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
+
+
 def add_clutter(
     frames: Iterable[FrameInput], rate: float, rng: np.random.Generator
 ) -> tuple[list[FrameInput], int]:
