@@ -29,6 +29,7 @@ import argparse
 import collections
 
 import numpy as np
+from harness_cells import set_options
 
 from omnislam.compare.execute import sequence_info
 from omnislam.core.compatibility import Decision
@@ -179,7 +180,7 @@ def diagnose_each(diagnose_one, description: str) -> None:
     parser.add_argument("datasets", nargs="*", default=[f"mrclam6-r{i}" for i in range(1, 6)])
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
-    options = dict(item.split("=", 1) for item in args.set)
+    options = set_options(parser, args.set)
     for dataset in args.datasets:
         diagnose_one(dataset, options)
 

@@ -34,6 +34,7 @@ import argparse
 import time
 
 import numpy as np
+from harness_cells import set_options
 
 from omnislam._progress import Stages
 from omnislam.compare.execute import RunSpec, execute_run
@@ -145,7 +146,7 @@ def main() -> None:
     parser.add_argument("--probe-every", type=int, default=50)
     parser.add_argument("--stop-after", type=int, default=None)
     args = parser.parse_args()
-    options = dict(item.split("=", 1) for item in args.options)
+    options = set_options(parser, args.options)
     recorder = _Recorder(args.probe_every, args.stop_after)
     recorder.install()
     print(f"graphslam on {args.dataset} {options or ''}", flush=True)

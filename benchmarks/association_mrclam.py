@@ -29,7 +29,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from harness_cells import run_cell
+from harness_cells import run_cell, set_options
 
 #: the association counters read from ``estimator_info.json`` when present (graphslam's,
 #: ekfslam's, FastSLAM's names)
@@ -86,7 +86,7 @@ def main() -> None:
         help="an estimator or loader option for every run (e.g. same_image_s=0)",
     )
     args = parser.parse_args()
-    extra = dict(item.split("=", 1) for item in args.set)
+    extra = set_options(parser, args.set)
     cache = None if args.fresh else args.cache
     for estimator in args.estimators:
         print(f"\n{estimator} (seed {args.seed}):")

@@ -37,6 +37,7 @@ import collections
 
 import numpy as np
 from association_diagnosis import landmarks_decided
+from harness_cells import set_options
 
 from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.compare.metrics import associate, ate
@@ -179,7 +180,7 @@ def main() -> None:
     parser.add_argument("--threshold-m", type=float, default=0.75)
     parser.add_argument("--stretch", type=int, default=75)
     args = parser.parse_args()
-    options = dict(item.split("=", 1) for item in args.set)
+    options = set_options(parser, args.set)
     for dataset in args.datasets:
         diagnose(dataset, options, args.threshold_m, args.stretch)
 

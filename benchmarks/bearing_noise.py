@@ -40,11 +40,25 @@ TRIM = 0.01
 
 
 def _override(config: FrontendConfig, assignment: str) -> FrontendConfig:
-    """``section.field=value`` (value parsed as JSON) on the front-end config."""
-    key, value = assignment.split("=", 1)
-    section, field = key.split(".")
-    part = dataclasses.replace(getattr(config, section), **{field: json.loads(value)})
-    return dataclasses.replace(config, **{section: part})
+    """``section.field=value`` (value parsed as JSON) on the front-end config.
+
+    Raises:
+        ValueError: a malformed assignment, a value that is not JSON or an unknown setting.
+    """
+    key, sep, value = assignment.partition("=")
+    section, dot, field = key.partition(".")
+    if not sep or not dot or not section or not field:
+        raise ValueError(f"--set takes SECTION.FIELD=JSON, got {assignment!r}")
+    try:
+        parsed = json.loads(value)
+    except json.JSONDecodeError:
+        raise ValueError(f"--set {key}: {value!r} is not JSON") from None
+    part = getattr(config, section, None)
+    if not dataclasses.is_dataclass(part) or field not in {
+        f.name for f in dataclasses.fields(part)
+    }:
+        raise ValueError(f"--set {key}: no such front-end setting")
+    return dataclasses.replace(config, **{section: dataclasses.replace(part, **{field: parsed})})
 
 
 def keypoint_sizes(sequence, log, config: FrontendConfig) -> list[np.ndarray | None]:
@@ -103,12 +117,15 @@ def main() -> int:
     parser.add_argument("--json", type=Path, help="write the results here")
     args = parser.parse_args()
 
-    sequence = load_synthetic(args.dataset)
-    folder = SyntheticFolder(args.dataset)
     config = FrontendConfig(laser=LaserLandmarkConfig(enabled=False),
                             vertical_edges=VerticalEdgeConfig(enabled=False))
     for assignment in args.set:
-        config = _override(config, assignment)
+        try:
+            config = _override(config, assignment)
+        except ValueError as error:
+            parser.error(str(error))
+    sequence = load_synthetic(args.dataset)
+    folder = SyntheticFolder(args.dataset)
     log = run_frontend(sequence, config, max_images=args.images, progress=True)
     s = evaluation.true_sightings(log, lambda i: folder.ground_truth_maps(i).points_w)
     angular = evaluation.bearing_residuals(log, s, folder.groundtruth.poses_w,

@@ -51,6 +51,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from harness_cells import set_options
 
 from omnislam.compare.evaluation import evaluate_run
 from omnislam.compare.execute import RunSpec, execute_run
@@ -223,7 +224,7 @@ def main() -> None:
         help="an option for every run but dead reckoning's (repeatable)",
     )
     args = parser.parse_args()
-    overrides = dict(item.split("=", 1) for item in args.overrides)
+    overrides = set_options(parser, args.overrides)
     rows = cells(args)
     if args.diagnose:
         for _, dataset, _, carmen in rows:

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from harness_cells import set_options
 
 from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
 from omnislam.compare.execute import RunSpec, execute_run
@@ -84,7 +85,7 @@ def main() -> None:
     )
     args = parser.parse_args()
     data = str(Path(args.data).resolve())
-    extra = dict(item.split("=", 1) for item in args.set)
+    extra = set_options(parser, args.set)
     runs: list[tuple[str, int | None]] = [
         c for c in CONFIGS if not args.only or f"{c[0]}/{c[1]}" in args.only
     ]

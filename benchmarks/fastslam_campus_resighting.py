@@ -34,12 +34,14 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+from harness_cells import set_options
 
 from omnislam.compare.execute import sequence_info
 from omnislam.core.batch_linalg import inverse_and_logdet, transpose
 from omnislam.core.gaussian import gaussian_log_likelihood
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.datasets.registry import load_dataset, resolve
+from omnislam.errors import OmnislamError
 from omnislam.estimators import make_estimator
 from omnislam.fastslam.landmark_store import ESTIMATED
 
@@ -52,12 +54,15 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
-    resolved = resolve(str(Path(args.data).resolve()))
-    truth = load_dataset(resolved, {"association": "known"})
-    sequence = load_dataset(resolved, {"association": "unknown"})
-    frames = list(sequence.frame_inputs())
     options = {"n_particles": str(args.particles), "modality": "range-bearing-2d"}
-    options |= dict(item.split("=", 1) for item in args.set)
+    options |= set_options(parser, args.set)
+    try:
+        resolved = resolve(str(Path(args.data).resolve()))
+        truth = load_dataset(resolved, {"association": "known"})
+        sequence = load_dataset(resolved, {"association": "unknown"})
+    except OmnislamError as error:
+        parser.exit(2, f"{parser.prog}: {error}\n")
+    frames = list(sequence.frame_inputs())
     rng = np.random.default_rng(args.seed)
     estimator = make_estimator(args.estimator, sequence_info(sequence, frames), options, rng)
     probe = _Probe(estimator, truth)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from harness_cells import set_options
 
 from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
 from omnislam.compare.execute import RunSpec, execute_run
@@ -147,7 +148,7 @@ def main() -> None:
     parser.add_argument("--mrclam", action="store_true", help=f"also run {MRCLAM} (2-D)")
     parser.add_argument("--only", default=None, help="run only cells whose label contains this")
     args = parser.parse_args()
-    extra = dict(item.split("=", 1) for item in args.options)
+    extra = set_options(parser, args.options)
     dataset = str(Path(args.dataset).resolve())
     log = str(Path(args.log).resolve())
 

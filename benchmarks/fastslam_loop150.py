@@ -49,6 +49,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from harness_cells import set_options
 
 from omnislam.compare.metrics import Alignment, ate, pose_nees
 from omnislam.core.modality import modalities_of
@@ -287,8 +288,8 @@ def main() -> None:
         help="extra graphslam option for graphslam and graphslam-online (repeatable)",
     )
     args = parser.parse_args()
-    extra = dict(item.split("=", 1) for item in args.set)
-    graph_extra = dict(item.split("=", 1) for item in args.graph_set)
+    extra = set_options(parser, args.set)
+    graph_extra = set_options(parser, args.graph_set, "--graph-set")
     if args.no_bias:
         print("odometry: zero-mean alpha noise only (no systematic bias)")
     if graph_extra:

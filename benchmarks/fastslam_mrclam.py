@@ -28,6 +28,7 @@ import json
 import time
 
 import numpy as np
+from harness_cells import set_options
 
 from omnislam.compare.evaluation import evaluate_run
 from omnislam.compare.execute import RunSpec, execute_run
@@ -82,8 +83,8 @@ def main() -> None:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument("--loader-set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
-    loader = dict(item.split("=", 1) for item in args.loader_set)
-    extra = {**dict(item.split("=", 1) for item in args.set), **loader}
+    loader = set_options(parser, args.loader_set, "--loader-set")
+    extra = {**set_options(parser, args.set), **loader}
     if extra:
         print("extra FastSLAM options:", " ".join(f"{k}={v}" for k, v in extra.items()))
     ates: dict[str, list[float]] = {}

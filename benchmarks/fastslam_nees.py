@@ -26,6 +26,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from harness_cells import set_options
 
 from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.compare.metrics import (
@@ -79,7 +80,7 @@ def main() -> None:
     parser.add_argument("--estimators", nargs="+", default=["fastslam2", "fastslam1"])
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
-    options = dict(item.split("=", 1) for item in args.set)
+    options = set_options(parser, args.set)
     for robot in args.robots:
         for estimator in args.estimators:
             record = execute_run(RunSpec(f"mrclam6-r{robot}", estimator, args.seed, options))

@@ -20,6 +20,7 @@ import argparse
 import json
 
 import numpy as np
+from harness_cells import set_options
 
 from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.compare.metrics import ate
@@ -46,7 +47,7 @@ def main() -> None:
     parser.add_argument("--group", type=int, nargs="+", default=[3, 5, 10])
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
-    options = dict(item.split("=", 1) for item in args.set)
+    options = set_options(parser, args.set)
     for estimator in args.estimators:
         trajectories, ates, evidences = [], [], []
         truth = None

@@ -17,6 +17,7 @@ import argparse
 
 import numpy as np
 from fastslam_mrclam import graphslam_online_trajectory
+from harness_cells import set_options
 
 from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.compare.metrics import Alignment, associate, ate
@@ -43,7 +44,7 @@ def main() -> None:
     parser.add_argument("--estimator", default="fastslam2")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
-    options = dict(item.split("=", 1) for item in args.set)
+    options = set_options(parser, args.set)
     dataset = f"mrclam6-r{args.robot}"
     sequence = load_dataset(resolve(dataset), {})
     truth = sequence.ground_truth.trajectory

@@ -58,13 +58,15 @@ def run_cell(
     return out
 
 
-def set_options(parser: argparse.ArgumentParser, items: Iterable[str]) -> dict[str, str]:
+def set_options(
+    parser: argparse.ArgumentParser, items: Iterable[str], flag: str = "--set"
+) -> dict[str, str]:
     """The ``--set KEY=VALUE`` items of a benchmark's command line as a dict; a malformed item
-    is a usage error (``parser.error``: one line, exit 2)."""
+    is a usage error (``parser.error``: one line naming ``flag``, exit 2)."""
     options = {}
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key:
-            parser.error(f"--set takes KEY=VALUE, got {item!r}")
+            parser.error(f"{flag} takes KEY=VALUE, got {item!r}")
         options[key] = value
     return options

@@ -32,6 +32,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import realtime_lab40 as rt
+from harness_cells import set_options
 
 from omnislam.compare.metrics import ate
 from omnislam.core.types import Trajectory
@@ -133,10 +134,11 @@ def main() -> None:
     )
     parser.add_argument("--growth", action="store_true", help="the defaults' updates in blocks")
     args = parser.parse_args()
+    configs = [set_options(parser, text.split(), "--config") for text in args.config or [""]]
     data = rt.prepare(args.name, args.folder, args.log, None)
     original = (session_module.ISAM2Session._new_isam, session_module.ISAM2Session.update)
-    for i, text in enumerate(args.config or [""]):
-        items = [item.split("=", 1) for item in text.split()]
+    for i, config in enumerate(configs):
+        items = config.items()
         options = {k: v for k, v in items if not k.startswith("P:")}
         params = {k[2:]: v for k, v in items if k.startswith("P:")}
         run(data, options, params, args.growth and i == 0)

@@ -49,6 +49,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from harness_cells import set_options
 
 from omnislam.compare.cache import LOGS, cache_dir
 from omnislam.compare.execute import (
@@ -295,7 +296,7 @@ def main() -> None:
     unknown = [n for n in names if n not in VARIANTS]
     if unknown:
         parser.error(f"unknown variants {unknown}; known: {', '.join(VARIANTS)}")
-    extra = dict(item.split("=", 1) for item in args.options)
+    extra = set_options(parser, args.options)
     print(HEADER)
     for entry in datasets:
         if len(entry) not in (2, 3):

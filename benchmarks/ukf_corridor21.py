@@ -43,6 +43,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from harness_cells import set_options
 
 warnings.filterwarnings("ignore", category=UserWarning)
 
@@ -541,7 +542,7 @@ def main() -> None:
         help="with --sweep: every wrong validated pair and what let it through",
     )
     args = parser.parse_args()
-    options = dict(kv.split("=", 1) for kv in args.set)
+    options = set_options(parser, args.set)
     if args.seeds is not None:
         _print_seeds(Path(args.out), args.noise, args.seeds or [0, 1, 2, 3, 4], options)
         return

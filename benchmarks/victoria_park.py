@@ -31,7 +31,7 @@ import json
 from pathlib import Path
 
 import numpy as np
-from harness_cells import run_cell
+from harness_cells import run_cell, set_options
 
 DATASET = "victoria-park"
 PARTICLE_FILTERS = ("fastslam1", "fastslam2")
@@ -71,7 +71,7 @@ def main() -> None:
     parser.add_argument("--fresh", action="store_true", help="ignore cached cells")
     args = parser.parse_args()
     cache = None if args.fresh else args.cache
-    fastslam_options = dict(item.split("=", 1) for item in args.set)
+    fastslam_options = set_options(parser, args.set)
     if fastslam_options:
         print("FastSLAM options:", " ".join(f"{k}={v}" for k, v in fastslam_options.items()))
     print("| estimator | ATE vs GPS [m] (median) | per seed | landmarks | counters | CPU [s] |")
