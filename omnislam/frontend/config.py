@@ -501,6 +501,47 @@ class LaserOdometryConfig:
 
 
 @dataclass(frozen=True, slots=True)
+class FloorTrackConfig:
+    """Floor tracks: keypoints on the floor matched by where the odometry moves them
+    (``frontend.floor_tracks``).
+
+    A keypoint seen at least ``min_depression_deg`` below the horizon is taken to lie on the
+    floor plane, ``h`` below the camera's viewpoint (the rig's ``viewpoint_r``), which places
+    it in the world of the dead-reckoned pose. A floor track is continued by the keypoint whose
+    floor point lies within ``gate_m`` of the track's and whose descriptor is within
+    ``max_descriptor_distance``: the floor's repeated texture (tiles) defeats the ratio test and
+    the feature groups, which drop isolated keypoints, while the floor plane and the odometry
+    tell the tiles apart (they are tens of cm apart; the odometry errs by mm between images).
+    Keypoints fixed to the robot (its body in the mirror) move with the robot and start a new
+    track in every image, which ``tracks.min_track_length`` drops. Off by default.
+
+    Attributes:
+        enabled: track floor keypoints (on top of the landmark tracks).
+        min_depression_deg: keypoints at least this far below the horizon are floor
+            candidates (as ``graphslam.floor_scale``) [deg].
+        gate_m: a candidate continues a track only within this distance of the track's floor
+            point, both placed with the dead-reckoned poses [m].
+        max_descriptor_distance: ... and within this L2 distance of its last descriptor
+            (SIFT descriptors of norm 512).
+        window_images: a track is looked for in this many images after its last sighting.
+    """
+
+    enabled: bool = False
+    min_depression_deg: float = 35.0
+    gate_m: float = 0.04
+    max_descriptor_distance: float = 300.0
+    window_images: int = 3
+
+    def __post_init__(self) -> None:
+        if not 0 < self.min_depression_deg < 90:
+            raise ConfigError("FloorTrackConfig: min_depression_deg must be in (0, 90)")
+        if not self.gate_m > 0 or not self.max_descriptor_distance > 0:
+            raise ConfigError("FloorTrackConfig: gate_m and max_descriptor_distance must be > 0")
+        if self.window_images < 1:
+            raise ConfigError("FloorTrackConfig: window_images must be >= 1")
+
+
+@dataclass(frozen=True, slots=True)
 class FrontendConfig:
     """Everything the front end does, in one hashable record (see ``config_hash``)."""
 
@@ -513,6 +554,7 @@ class FrontendConfig:
     vertical_edges: VerticalEdgeConfig = field(default_factory=VerticalEdgeConfig)
     laser: LaserLandmarkConfig = field(default_factory=LaserLandmarkConfig)
     laser_odometry: LaserOdometryConfig = field(default_factory=LaserOdometryConfig)
+    floor: FloorTrackConfig = field(default_factory=FloorTrackConfig)
 
 
 def config_to_dict(config: object) -> dict[str, Any]:

@@ -49,6 +49,7 @@ from omnislam.frontend import kernels_aot
 from omnislam.frontend.bearing_noise import bearing_sigmas
 from omnislam.frontend.config import FrontendConfig, ScheduleConfig, ScheduleMode, config_hash
 from omnislam.frontend.config import config_to_dict as _config_to_dict
+from omnislam.frontend.floor_tracks import FloorTracker
 from omnislam.frontend.groups import group_features
 from omnislam.frontend.observation_log import (
     ObservationLog,
@@ -389,8 +390,15 @@ def run_frontend(
     prepared_cpu_s = 0.0  # the workers' CPU in their stages (a lower bound of their total)
     workers_timing: dict[str, float] = {}
     in_workers = 0  # images prepared in worker processes
+    # per image: floor track ids, their feature rows, and the landmark tracker's rows
+    floor_raw: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+    floor_rows: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+    floor = None
+    floor_tracks_total = 0
     if processed.size:
         tracker = LandmarkTracker(rig.viewpoint_r, config, rng, track_clock)
+        if config.floor.enabled:
+            floor = FloorTracker(rig.viewpoint_r, config.floor)
         poses_dr = se2_integrate(sequence.odometry_r)
         bar = None
         if progress:
@@ -420,6 +428,12 @@ def run_frontend(
                             time.process_time() - cpu - inner[1])
             idx = tracked.feature_index
             raw[i] = (tracked.track_ids, rays_r[idx], features.pixels[idx], sigmas[idx])
+            if floor is not None:
+                with track_clock("floor"):
+                    usable = np.isfinite(sigmas) & (sigmas > 0)
+                    seen = floor.process(rays_r, features.descriptors, poses_dr[i], usable)
+                    floor_raw[i] = (seen.track_ids, seen.feature_index, idx)
+                    floor_rows[i] = (rays_r, features.pixels, sigmas)
             if image.lines is not None:
                 lines[i] = image.lines
             if bar is not None:
@@ -430,6 +444,20 @@ def run_frontend(
             bar.close()
         sightings = tracker.sightings
         raw = {i: (tracker.canonical_ids(ids), *rest) for i, (ids, *rest) in raw.items()}
+        if floor is not None:  # floor tracks take the ids after the landmark tracks'
+            kept = sightings >= config.tracks.min_track_length
+            offset = sightings.shape[0]
+            floor_tracks_total = floor.sightings.shape[0]
+            sightings = np.concatenate([sightings, floor.sightings])
+            for i, (ids, rows, landmark_rows) in floor_raw.items():
+                # a keypoint that a kept landmark track holds stays that track's alone
+                mine = ~np.isin(rows, landmark_rows[kept[raw[i][0]]])
+                ids, rows = ids[mine], rows[mine]
+                rays, px, sigmas = floor_rows.pop(i)
+                own = raw[i]
+                raw[i] = (np.concatenate([own[0], ids + offset]),
+                          np.vstack([own[1], rays[rows]]), np.vstack([own[2], px[rows]]),
+                          np.concatenate([own[3], sigmas[rows]]))
     else:
         sightings = np.zeros(0, dtype=np.int64)
     images_wall_s = time.perf_counter() - wall_start
@@ -524,6 +552,9 @@ def run_frontend(
         "tracks_kept": float(keep_track.sum()),
         "sightings_per_image_median": float(np.median(n_bearings)) if n_bearings else 0.0,
     }
+    if floor is not None:
+        floor_kept = keep_track[sightings.shape[0] - floor_tracks_total :]
+        stats["floor_tracks_kept"] = float(floor_kept.sum())
     if laser_odom is not None:
         matched = [r for r in laser_odom.reasons if r]
         stats["laser_odometry_matches"] = float(len(matched))
