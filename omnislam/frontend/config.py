@@ -509,9 +509,10 @@ class FloorTrackConfig:
     floor plane, ``h`` below the camera's viewpoint (the rig's ``viewpoint_r``), which places
     it in the world of the dead-reckoned pose. A floor track is continued by the keypoint whose
     floor point lies within ``gate_m`` of the track's and whose descriptor is within
-    ``max_descriptor_distance``: the floor's repeated texture (tiles) defeats the ratio test and
-    the feature groups, which drop isolated keypoints, while the floor plane and the odometry
-    tell the tiles apart (they are tens of cm apart; the odometry errs by mm between images).
+    ``max_descriptor_distance``: the feature groups drop the floor's isolated corners, and its
+    repeated texture (tiles) leaves the ratio test no distinct match, while the floor plane and
+    the odometry tell the tiles apart (they are tens of cm apart; the odometry errs by mm
+    between images).
     Keypoints fixed to the robot (its body in the mirror) move with the robot and start a new
     track in every image, which ``tracks.min_track_length`` drops. Off by default.
 
