@@ -390,9 +390,9 @@ def run_frontend(
     prepared_cpu_s = 0.0  # the workers' CPU in their stages (a lower bound of their total)
     workers_timing: dict[str, float] = {}
     in_workers = 0  # images prepared in worker processes
-    # per image: floor track ids, their feature rows, and the landmark tracker's rows
-    floor_raw: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-    floor_rows: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+    # per image: floor track ids, their feature rows, the landmark tracker's rows, and the
+    # floor keypoints' rays, pixels and sigmas
+    floor_raw: dict[int, tuple[np.ndarray, ...]] = {}
     floor = None
     floor_tracks_total = 0
     if processed.size:
@@ -432,8 +432,9 @@ def run_frontend(
                 with track_clock("floor"):
                     usable = np.isfinite(sigmas) & (sigmas > 0)
                     seen = floor.process(rays_r, features.descriptors, poses_dr[i], usable)
-                    floor_raw[i] = (seen.track_ids, seen.feature_index, idx)
-                    floor_rows[i] = (rays_r, features.pixels, sigmas)
+                    rows = seen.feature_index
+                    floor_raw[i] = (seen.track_ids, rows, idx, rays_r[rows],
+                                    features.pixels[rows], sigmas[rows])
             if image.lines is not None:
                 lines[i] = image.lines
             if bar is not None:
@@ -448,16 +449,17 @@ def run_frontend(
             kept = sightings >= config.tracks.min_track_length
             offset = sightings.shape[0]
             floor_tracks_total = floor.sightings.shape[0]
-            sightings = np.concatenate([sightings, floor.sightings])
-            for i, (ids, rows, landmark_rows) in floor_raw.items():
+            floor_seen = np.zeros(floor_tracks_total, dtype=np.int64)
+            for i, (ids, rows, landmark_rows, rays, px, sigmas) in floor_raw.items():
                 # a keypoint that a kept landmark track holds stays that track's alone
                 mine = ~np.isin(rows, landmark_rows[kept[raw[i][0]]])
-                ids, rows = ids[mine], rows[mine]
-                rays, px, sigmas = floor_rows.pop(i)
+                floor_raw[i] = (ids[mine], rays[mine], px[mine], sigmas[mine])
+                np.add.at(floor_seen, ids[mine], 1)
+            sightings = np.concatenate([sightings, floor_seen])  # what the log keeps of them
+            for i, (ids, rays, px, sigmas) in floor_raw.items():
                 own = raw[i]
-                raw[i] = (np.concatenate([own[0], ids + offset]),
-                          np.vstack([own[1], rays[rows]]), np.vstack([own[2], px[rows]]),
-                          np.concatenate([own[3], sigmas[rows]]))
+                raw[i] = (np.concatenate([own[0], ids + offset]), np.vstack([own[1], rays]),
+                          np.vstack([own[2], px]), np.concatenate([own[3], sigmas]))
     else:
         sightings = np.zeros(0, dtype=np.int64)
     images_wall_s = time.perf_counter() - wall_start

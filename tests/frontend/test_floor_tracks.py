@@ -169,6 +169,8 @@ def test_the_pipeline_adds_floor_tracks_on_the_floor_and_leaves_the_rest(demo_se
         np.testing.assert_array_equal(b.bearings.landmark_ids[:k], a.bearings.landmark_ids)
         np.testing.assert_array_equal(b.bearings.unit_vectors_r[:k], a.bearings.unit_vectors_r)
         landmark_ids |= set(a.bearings.landmark_ids.tolist())
+    # every track the log keeps, floor tracks included, has its minimum length
+    assert evaluation.track_lengths(floor).min() >= floor.config["tracks"]["min_track_length"]
     ids, points = evaluation.track_truth(evaluation.true_sightings(floor, demo_truth))
     on_floor = np.array([i not in landmark_ids for i in ids.tolist()])
     assert floor.stats["floor_tracks_kept"] >= 30
