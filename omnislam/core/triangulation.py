@@ -7,6 +7,7 @@
 * ``triangulate_midpoint``: the midpoint of the shortest segment between two 3-D rays.
 * ``triangulate_rays``: least squares over any number of rays (minimises the sum of squared
   perpendicular distances), with the smallest eigenvalue of the normal matrix as conditioning.
+* ``floor_points_r``: one ray and the floor plane, for a viewpoint at a known height.
 """
 
 from __future__ import annotations
@@ -129,3 +130,23 @@ def triangulate_rays(origins_w: np.ndarray, rays_w: np.ndarray) -> RayTriangulat
         parallax_rad=float(np.arccos(cosines.min())),
         depths_m=np.einsum("ki,ki->k", point - origins_w, d),
     )
+
+
+def floor_points_r(
+    unit_vectors_r: np.ndarray, sigmas_rad: np.ndarray, height_m: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bearings pointing below the horizon intersected with the floor plane, from a viewpoint
+    ``height_m`` above it (``graphslam.floor_scale``, ``frontend.floor_tracks``).
+
+    Args:
+        unit_vectors_r: (M, 3) unit bearings in the robot frame, u_z < 0.
+        sigmas_rad: (M,) their angular stds [rad].
+        height_m: the viewpoint's height above the floor [m].
+
+    Returns:
+        (M, 2) floor points in the robot frame, ``h u_xy / -u_z`` [m], and (M,) their radial
+        stds ``h sigma / sin^2(depression)`` [m].
+    """
+    u = np.asarray(unit_vectors_r, dtype=float)
+    depth = height_m / -u[:, 2]
+    return u[:, :2] * depth[:, None], height_m * np.asarray(sigmas_rad) / u[:, 2] ** 2

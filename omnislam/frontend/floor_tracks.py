@@ -32,6 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from omnislam.core.se import se2_transform_points
+from omnislam.core.triangulation import floor_points_r
 from omnislam.frontend.config import FloorTrackConfig
 
 
@@ -107,10 +109,8 @@ class FloorTracker:
         rows = np.flatnonzero(low)
         if not rows.size:
             return FloorSightings(np.zeros(0, dtype=np.int64), rows)
-        u = u[rows]
-        floor_r = self._v[:2] + (self._v[2] / -u[:, 2])[:, None] * u[:, :2]
-        c, s = np.cos(pose_dr[2]), np.sin(pose_dr[2])
-        floor_w = np.asarray(pose_dr[:2], dtype=float) + floor_r @ np.array([[c, s], [-s, c]])
+        floor_r, _ = floor_points_r(u[rows], np.zeros(rows.size), self._v[2])
+        floor_w = se2_transform_points(pose_dr, self._v[:2] + floor_r)
         desc = np.asarray(descriptors, dtype=np.float32)[rows]
         ids = self._continue(floor_w, desc)
         fresh = np.flatnonzero(ids < 0)

@@ -38,8 +38,8 @@ import numpy as np
 
 from omnislam._optional import require
 from omnislam.core.se import se2_transform_points, se3_inverse
+from omnislam.core.triangulation import floor_points_r
 from omnislam.graphslam import factors as fx
-from omnislam.graphslam.floor_scale import floor_points_r
 
 gtsam = require("gtsam")
 

@@ -45,6 +45,7 @@ from __future__ import annotations
 import numpy as np
 
 from omnislam.core.se import se2_between, se2_compose
+from omnislam.core.triangulation import floor_points_r
 from omnislam.core.types import UNKNOWN_ID, Bearings
 
 #: bearings at least this far below the horizon are floor candidates [deg]
@@ -64,25 +65,6 @@ MODE_MIN_RELATIVE = 0.3
 MODE_WINDOW = 2.0
 #: pairs that must support the mode before the estimate replaces 1
 MIN_PAIRS = 20
-
-
-def floor_points_r(
-    unit_vectors_r: np.ndarray, sigmas_rad: np.ndarray, height_m: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Bearings pointing below the horizon intersected with the floor (module docstring).
-
-    Args:
-        unit_vectors_r: (M, 3) unit bearings in the robot frame, u_z < 0.
-        sigmas_rad: (M,) their angular stds [rad].
-        height_m: the viewpoint's height above the floor [m].
-
-    Returns:
-        (M, 2) floor points in the robot frame, ``h u_xy / -u_z`` [m], and (M,) their radial
-        stds ``h sigma / sin^2(depression)`` [m].
-    """
-    u = np.asarray(unit_vectors_r, dtype=float)
-    depth = height_m / -u[:, 2]
-    return u[:, :2] * depth[:, None], height_m * np.asarray(sigmas_rad) / u[:, 2] ** 2
 
 
 class FloorScale:
