@@ -18,6 +18,9 @@ odometry, now inside the bundle adjustment rather than beside it):
   planar prior, a between-factor of the odometry from its key frame and its bearings of the
   landmarks already in the graph (outliers gated), so the floor points hang on a viewpoint
   the bearings hold, not on odometry composed over up to ``keyframe_spacing_m``;
+* with ``new_viewpoints`` off (``GraphSLAMConfig.floor_viewpoints``) only the key frames'
+  floor sightings enter, and the joint solve stays the size of the graph whatever the number
+  of floor tracks;
 * a floor track's sightings whose floor point lies more than ``max(FLOOR_POINT_GATE_M,
   FLOOR_POINT_GATE_SIGMAS sigma)`` from the track's median floor point are wrong associations
   of the front end and left out; a track keeps at least two sightings or is left out.
@@ -104,6 +107,7 @@ def floor_landmarks(
     mapped_w: dict[int, np.ndarray],
     height_m: float,
     planar_prior_noise: Any,
+    new_viewpoints: bool = True,
 ) -> FloorLandmarks:
     """The factors and variables the floor tracks add to the final graph (module docstring).
 
@@ -115,6 +119,9 @@ def floor_landmarks(
         mapped_w: landmark id -> (3,) position of every landmark in the graph [m] (world).
         height_m: the camera viewpoint's height above the floor [m].
         planar_prior_noise: noise model of the planar prior of a viewpoint (``poses.py``).
+        new_viewpoints: the floor sightings of frames that are no key frames enter with a
+            viewpoint of their own (``GraphSLAMConfig.floor_viewpoints``); False: they are
+            left out.
 
     Returns:
         The ``FloorLandmarks``; empty when no floor track keeps two sightings.
@@ -123,6 +130,8 @@ def floor_landmarks(
     keys = set(key_frames)
     per_track: dict[int, list[tuple[int, np.ndarray, float, np.ndarray, float]]] = {}
     for frame, seen in sightings.items():
+        if not new_viewpoints and frame not in keys:
+            continue
         down = np.isin(seen.ids, floor) & (seen.rays_s[:, 2] < 0)
         if not down.any():
             continue

@@ -385,6 +385,7 @@ class GraphSLAM:
             tracks, self._sightings, planar, self._poses.key_frames, mapped_w,
             self.config.sensor_height_m,
             fx.planar_prior_noise(self.config.planar_sigma_m, self.config.planar_sigma_rad),
+            self.config.floor_viewpoints,
         )
         return floor if len(floor.tracks) >= MIN_FLOOR_LANDMARKS else None
 

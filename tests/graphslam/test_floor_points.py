@@ -85,6 +85,33 @@ def test_floor_landmarks_leave_out_a_wrong_sighting_and_add_viewpoints():
     np.testing.assert_allclose(floor.values.atPoint3(fx.landmark_key(5))[:2], floor_w, atol=1e-9)
 
 
+def test_floor_landmarks_of_the_key_frames_only():
+    """``new_viewpoints=False``: the sightings of frames that are no key frames stay out, no
+    pose variable is added, and a track seen by fewer than two key frames is left out."""
+    h = SENSOR_HEIGHT_M
+    planar = np.array([[0.0, 0, 0], [0.06, 0, 0], [0.12, 0, 0], [0.18, 0, 0]])
+    points = {5: np.array([0.8, 0.3]), 7: np.array([0.5, -0.6])}
+    sightings = {}
+    for frame in range(4):
+        ids = [5] if frame == 1 else [5, 7]  # 7 is seen by key frames 0 and 2, 5 by 0, 1, 2, 3
+        rays = [_floor_ray(planar[frame], points[lid], h) for lid in ids]
+        sightings[frame] = Sightings(np.array(ids), np.array(rays), np.full(len(ids), SIGMA_RAD))
+    args = (sightings, planar, [0, 2], {}, h, fx.planar_prior_noise(1e-3, 1e-3))
+    key_only = floor_landmarks(np.array([5, 7]), *args, new_viewpoints=False)
+    assert key_only.tracks.tolist() == [5, 7] and key_only.frames == ()
+    assert key_only.keys == {fx.landmark_key(5), fx.landmark_key(7)}
+    kinds = [type(key_only.factors.at(i)).__name__ for i in range(key_only.factors.size())]
+    assert kinds.count("BearingFactor3D") == 4 and kinds.count("PriorFactorPose3") == 0
+    every = floor_landmarks(np.array([5, 7]), *args)
+    assert every.frames == (1, 3)
+    kinds = [type(every.factors.at(i)).__name__ for i in range(every.factors.size())]
+    assert kinds.count("BearingFactor3D") == 7
+    # one key frame only: no track keeps two sightings
+    alone = floor_landmarks(np.array([5, 7]), sightings, planar, [0], {}, h,
+                            fx.planar_prior_noise(1e-3, 1e-3), new_viewpoints=False)
+    assert alone.tracks.size == 0 and alone.factors.size() == 0
+
+
 def _run(frames, config):
     graph = GraphSLAM(Modality.BEARINGS_3D, config)
     for frame in frames:
@@ -109,6 +136,8 @@ def test_the_joint_floor_solve_recovers_the_scale_better_than_the_pairs(seed):
     assert joint_error < 0.75 * pairs_error and joint_error < 9e-4
     assert joint.info().floor_landmarks >= MIN_FLOOR_LANDMARKS
     assert pairs.info().floor_landmarks == 0
+    key_only = _run(frames, replace(config, floor_viewpoints=False))
+    assert abs(_ate_scale(key_only.estimate(), poses) - 1) < 0.75 * pairs_error
     # the estimate holds the graph's landmarks and poses only, and reading again is the same
     a, b = joint.estimate(), pairs.estimate()
     np.testing.assert_array_equal(a.landmark_ids, b.landmark_ids)
