@@ -56,6 +56,7 @@ from omnislam.compare.execute import (
     _load_log,
     _own_sighting_ids,
     _with_track_truth,
+    frames_for_estimator,
     frontend_log_for,
     peak_rss_mb,
     reset_peak_rss,
@@ -118,6 +119,7 @@ class Replay:
     info: SequenceInfo
     truth: object
     images: np.ndarray  # (N,) bool: frame carries bearings
+    floor_ids_from: int | None  # the log's floor tracks (``ObservationLog.floor_ids_from``)
 
 
 @dataclass(frozen=True, slots=True)
@@ -158,7 +160,7 @@ def prepare(name: str, folder: str, log: str | None, frames: int | None) -> Repl
     truth, _ = _with_track_truth(sequence, replay, Path(log))
     info = sequence_info(sequence, inputs)  # what `omnislam run` tells the estimator
     images = np.array([f.bearings is not None and len(f.bearings) > 0 for f in inputs])
-    return Replay(name, inputs, info, truth, images)
+    return Replay(name, inputs, info, truth, images, replay.floor_ids_from)
 
 
 def true_odometry_scale(data: Replay) -> float:
@@ -178,11 +180,12 @@ def _p95_ms(values: np.ndarray) -> float | None:
 def replay_once(data: Replay, estimator_name: str, options: dict[str, str], seed: int) -> Result:
     """Build the estimator through the registry and feed it every frame, timing each step."""
     reset_peak_rss()
+    frames = frames_for_estimator(estimator_name, data.frames, data.floor_ids_from)
     estimator = make_estimator(estimator_name, data.info, options, np.random.default_rng(seed))
-    cpu = np.zeros(len(data.frames))
+    cpu = np.zeros(len(frames))
     process, clock = time.process_time, time.perf_counter
     wall0, cpu0 = clock(), process()
-    for i, frame in enumerate(data.frames):
+    for i, frame in enumerate(frames):
         start = process()
         estimator.step(frame)
         cpu[i] = process() - start

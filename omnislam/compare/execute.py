@@ -47,7 +47,7 @@ from omnislam.compare.prior import PRIOR_MAP_OPTION, prior_map_from_run_dir
 from omnislam.compare.reference import reference_for
 from omnislam.compare.rundir import ATTACHMENTS, ESTIMATOR_INFO, RunConfig, RunRecord
 from omnislam.core.modality import Modality, modalities_of
-from omnislam.core.types import UNKNOWN_ID, Exporting, Introspectable
+from omnislam.core.types import UNKNOWN_ID, Bearings, Exporting, Introspectable
 from omnislam.datasets.sequence import GroundTruth
 from omnislam.errors import ConfigError, DataError
 from omnislam.frontend.timing import cpu_with_children_s
@@ -220,6 +220,7 @@ def execute_run(
         frames = _own_sighting_ids(
             sequence, list(sequence.frame_inputs(replay.frames, odometry=laser)), log
         )
+        frames = frames_for_estimator(spec.estimator, frames, replay.floor_ids_from)
     reassigned = 0
     if wrong_fraction > 0:
         # its own stream, so the estimator draws the same numbers with and without it
@@ -438,6 +439,26 @@ def _load_log(sequence: object, log: str) -> Any:
             Path(log),
         )
     return replay
+
+
+def frames_for_estimator(name: str, frames: list[Any], floor_ids_from: int | None) -> list[Any]:
+    """A log's frames as estimator ``name`` is fed them: without the floor tracks' bearings
+    (ids ``floor_ids_from`` and above, ``ObservationLog.floor_ids_from``) unless it models the
+    floor (``EstimatorEntry.floor_tracks``). The frames themselves when there are none."""
+    from omnislam.estimators import ESTIMATORS
+
+    if floor_ids_from is None or ESTIMATORS[name].floor_tracks:
+        return frames
+    out = []
+    for frame in frames:
+        seen = frame.bearings
+        if seen is None or not np.any(seen.landmark_ids >= floor_ids_from):
+            out.append(frame)
+            continue
+        keep = seen.landmark_ids < floor_ids_from
+        out.append(replace(frame, bearings=Bearings(
+            seen.landmark_ids[keep], seen.unit_vectors_r[keep], seen.sigmas_rad[keep])))
+    return out
 
 
 def _own_sighting_ids(sequence: Any, frames: list[Any], log: str | Path) -> list[Any]:

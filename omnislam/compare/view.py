@@ -139,7 +139,9 @@ def _sightings_source(
     record: RunRecord, notes: list[str]
 ) -> tuple[Any, list[Any] | None, Any]:
     """(sequence or None, the frames the run replayed or None, the replayed log or None)."""
+    from omnislam.compare.execute import frames_for_estimator
     from omnislam.datasets.registry import load_dataset
+    from omnislam.estimators import ESTIMATORS
 
     config = record.config
     try:
@@ -162,6 +164,8 @@ def _sightings_source(
             notes.append(f"front-end log not read, so no image sightings: {exc}")
     try:
         frames = list(sequence.frame_inputs(log.frames if log is not None else None))
+        if log is not None and config.estimator in ESTIMATORS:
+            frames = frames_for_estimator(config.estimator, frames, log.floor_ids_from)
     except OmnislamError as exc:
         notes.append(f"sightings not replayed: {exc}")
         frames = None

@@ -52,6 +52,10 @@ class ObservationLog:
             ICP, with their covariance; the wheel odometry where a match was rejected), which
             ``omnislam run`` hands the SLAM estimators instead of the dataset's (dead
             reckoning keeps the wheel odometry).
+        floor_ids_from: the floor tracks' ids (``frontend.floor_tracks``, the option
+            ``FrontendConfig.floor``) are this number and above, the landmark tracks' below it;
+            None when the front end tracked no floor. Only estimators that model the floor
+            take the floor tracks (``estimators.EstimatorEntry.floor_tracks``).
     """
 
     dataset_id: str
@@ -61,10 +65,15 @@ class ObservationLog:
     config: Mapping[str, Any] = field(default_factory=dict)
     stats: Mapping[str, float] = field(default_factory=dict)
     odometry_source: str = "wheel"
+    floor_ids_from: int | None = None
 
     def __post_init__(self) -> None:
         if self.odometry_source not in ("wheel", "laser"):
             raise DataError(f"ObservationLog: unknown odometry source {self.odometry_source!r}")
+        first = self.floor_ids_from
+        if first is not None and (isinstance(first, bool) or not isinstance(first, int)
+                                  or first < 0):
+            raise DataError(f"ObservationLog: floor_ids_from must be an id >= 0, got {first!r}")
         if len(self.pixels) != len(self.frames):
             raise DataError("ObservationLog: one pixels entry per frame is required")
         for frame, px in zip(self.frames, self.pixels, strict=True):
@@ -170,6 +179,7 @@ def save_observation_log(log: ObservationLog, path: str | Path) -> None:
         "config": dict(log.config),
         "stats": dict(log.stats),
         "odometry_source": log.odometry_source,
+        "floor_ids_from": log.floor_ids_from,
     }
     arrays["meta"] = np.array(json.dumps(meta, sort_keys=True))
     try:
@@ -259,7 +269,22 @@ def load_observation_log(
         config=meta.get("config", {}),
         stats=meta.get("stats", {}),
         odometry_source=meta.get("odometry_source", "wheel"),
+        floor_ids_from=_floor_ids_from(path, meta),
     )
+
+
+def _floor_ids_from(path: Path, meta: dict[str, Any]) -> int | None:
+    """The log's ``floor_ids_from``; a log whose configuration tracked the floor without it
+    (written before the floor tracks were told apart) is stale."""
+    first = meta.get("floor_ids_from")
+    config = meta.get("config", {})
+    floor = config.get("floor", {}) if isinstance(config, dict) else {}
+    if first is None and isinstance(floor, dict) and floor.get("enabled"):
+        raise StaleLogError("its floor tracks are not told apart from the landmark tracks", path)
+    if first is not None and (isinstance(first, bool) or not isinstance(first, int)
+                              or first < 0):
+        raise DataError(f"malformed observation log (floor_ids_from {first!r})", path)
+    return first
 
 
 def _slices(arrays: dict[str, np.ndarray], prefix: str, i: int) -> slice | None:

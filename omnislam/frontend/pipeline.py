@@ -395,6 +395,7 @@ def run_frontend(
     floor_raw: dict[int, tuple[np.ndarray, ...]] = {}
     floor = None
     floor_tracks_total = 0
+    floor_ids_from: int | None = None
     if processed.size:
         tracker = LandmarkTracker(rig.viewpoint_r, config, rng, track_clock)
         if config.floor.enabled:
@@ -447,7 +448,7 @@ def run_frontend(
         raw = {i: (tracker.canonical_ids(ids), *rest) for i, (ids, *rest) in raw.items()}
         if floor is not None:  # floor tracks take the ids after the landmark tracks'
             kept = sightings >= config.tracks.min_track_length
-            offset = sightings.shape[0]
+            offset = floor_ids_from = int(sightings.shape[0])
             floor_tracks_total = floor.sightings.shape[0]
             floor_seen = np.zeros(floor_tracks_total, dtype=np.int64)
             for i, (ids, rows, landmark_rows, rays, px, sigmas) in floor_raw.items():
@@ -569,6 +570,7 @@ def run_frontend(
         config=_config_to_dict(config),
         stats=stats,
         odometry_source="wheel" if laser_odom is None else "laser",
+        floor_ids_from=floor_ids_from,
     )
 
 

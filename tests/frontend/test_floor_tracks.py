@@ -152,7 +152,9 @@ def test_a_viewpoint_on_the_floor_is_refused():
         FloorTracker(np.zeros(3), FloorTrackConfig())
 
 
-def test_the_pipeline_adds_floor_tracks_on_the_floor_and_leaves_the_rest(demo_sequence, demo_truth):
+@pytest.fixture(scope="module")
+def demo_logs(demo_sequence):
+    """The demo's first images through the front end without and with the floor tracks."""
     from omnislam.frontend.pipeline import run_frontend
 
     images_only = FrontendConfig(laser=LaserLandmarkConfig(enabled=False))
@@ -160,6 +162,11 @@ def test_the_pipeline_adds_floor_tracks_on_the_floor_and_leaves_the_rest(demo_se
     floor = run_frontend(
         demo_sequence, dataclasses.replace(images_only, floor=FloorTrackConfig(enabled=True))
     )
+    return plain, floor
+
+
+def test_the_pipeline_adds_floor_tracks_on_the_floor_and_leaves_the_rest(demo_logs, demo_truth):
+    plain, floor = demo_logs
     landmark_ids = set()
     for a, b in zip(plain.frames, floor.frames, strict=True):
         if a.bearings is None:
@@ -169,6 +176,14 @@ def test_the_pipeline_adds_floor_tracks_on_the_floor_and_leaves_the_rest(demo_se
         np.testing.assert_array_equal(b.bearings.landmark_ids[:k], a.bearings.landmark_ids)
         np.testing.assert_array_equal(b.bearings.unit_vectors_r[:k], a.bearings.unit_vectors_r)
         landmark_ids |= set(a.bearings.landmark_ids.tolist())
+    # the floor tracks' ids come after every landmark track's, and the log says where
+    assert plain.floor_ids_from is None and floor.floor_ids_from is not None
+    assert max(landmark_ids) < floor.floor_ids_from
+    floor_ids = {
+        int(i) for f in floor.frames if f.bearings is not None
+        for i in f.bearings.landmark_ids if i not in landmark_ids
+    }
+    assert floor_ids and min(floor_ids) >= floor.floor_ids_from
     # every track the log keeps, floor tracks included, has its minimum length
     assert evaluation.track_lengths(floor).min() >= floor.config["tracks"]["min_track_length"]
     ids, points = evaluation.track_truth(evaluation.true_sightings(floor, demo_truth))
@@ -181,3 +196,22 @@ def test_the_pipeline_adds_floor_tracks_on_the_floor_and_leaves_the_rest(demo_se
     heights = points[on_floor, 2]
     assert np.mean(np.abs(heights) < 0.01) >= 0.9
     assert np.all(np.abs(heights) < 0.15)
+
+
+def test_only_the_estimators_that_model_the_floor_are_fed_its_tracks(
+    demo_logs, demo_folder, tmp_path
+):
+    """``omnislam run --log``: the graph takes the floor tracks, FastSLAM 2.0 and EKF-SLAM the
+    landmark tracks alone (``EstimatorEntry.floor_tracks``)."""
+    from omnislam.compare.execute import RunSpec, execute_run
+    from omnislam.frontend.observation_log import save_observation_log
+
+    floor = demo_logs[1]
+    path = tmp_path / "floor.npz"
+    save_observation_log(floor, path)
+    first = floor.floor_ids_from
+    for estimator, fed in (("graphslam", True), ("fastslam2", False), ("ekfslam", False)):
+        record = execute_run(RunSpec(str(demo_folder), estimator, seed=0, log=str(path)))
+        ids = record.estimate.landmark_ids
+        assert len(ids) and np.any(ids < first), estimator
+        assert np.any(ids >= first) == fed, estimator

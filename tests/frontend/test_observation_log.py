@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -86,6 +87,35 @@ def test_another_format_version_is_stale(tmp_path):
     np.savez_compressed(path, **arrays)
     with pytest.raises(StaleLogError, match="version"):
         load_observation_log(path)
+
+
+def _with_meta(path, **changes):
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    meta = json.loads(str(arrays["meta"]))
+    meta.update(changes)
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez_compressed(path, **arrays)
+
+
+def test_the_floor_tracks_first_id_round_trips_and_is_checked(tmp_path):
+    path = tmp_path / "log.npz"
+    log = dataclasses.replace(_log(), floor_ids_from=8,
+                              config={"floor": {"enabled": True}})
+    save_observation_log(log, path)
+    assert load_observation_log(path).floor_ids_from == 8
+    save_observation_log(_log(), path)
+    assert load_observation_log(path).floor_ids_from is None
+    # a floor-tracking configuration without the first id: written before they were told apart
+    _with_meta(path, config={"floor": {"enabled": True}})
+    with pytest.raises(StaleLogError, match="floor tracks"):
+        load_observation_log(path)
+    for bad in (-1, 2.5, "8", True):
+        _with_meta(path, floor_ids_from=bad)
+        with pytest.raises(DataError, match="floor_ids_from"):
+            load_observation_log(path)
+    with pytest.raises(DataError, match="floor_ids_from"):
+        dataclasses.replace(_log(), floor_ids_from=-3)
 
 
 @pytest.mark.parametrize("content", [b"", b"not a zip", None])
