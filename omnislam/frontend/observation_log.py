@@ -27,8 +27,9 @@ from omnislam.core.types import Bearings, FrameInput, Odometry, RangeBearing, Ve
 from omnislam.errors import DataError
 
 LOG_FORMAT = "omnislam-observation-log"
-#: bump when the layout changes; older files are refused
-LOG_FORMAT_VERSION = 1
+#: bump when the layout changes; older files are refused (2: ``floor_ids_from``, without which
+#: a log's floor tracks could not be told from its landmark tracks)
+LOG_FORMAT_VERSION = 2
 
 
 class StaleLogError(DataError):
@@ -274,13 +275,8 @@ def load_observation_log(
 
 
 def _floor_ids_from(path: Path, meta: dict[str, Any]) -> int | None:
-    """The log's ``floor_ids_from``; a log whose configuration tracked the floor without it
-    (written before the floor tracks were told apart) is stale."""
+    """The log's ``floor_ids_from`` (None: no floor tracks)."""
     first = meta.get("floor_ids_from")
-    config = meta.get("config", {})
-    floor = config.get("floor", {}) if isinstance(config, dict) else {}
-    if first is None and isinstance(floor, dict) and floor.get("enabled"):
-        raise StaleLogError("its floor tracks are not told apart from the landmark tracks", path)
     if first is not None and (isinstance(first, bool) or not isinstance(first, int)
                               or first < 0):
         raise DataError(f"malformed observation log (floor_ids_from {first!r})", path)

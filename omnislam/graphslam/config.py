@@ -196,15 +196,16 @@ class GraphSLAMConfig:
             ``floor_scale_refine`` decides. Four LM solves of the whole graph (the last three
             warm-started, with the floor images' poses) instead of two.
         floor_viewpoints: with ``floor_landmarks``: an image between key frames that sees a
-            floor track gets a viewpoint of its own in the joint solve (default True); False:
-            only the key frames' floor sightings enter it, and a floor track needs two of them.
+            floor track gets a viewpoint of its own in the joint solve; False (default): only
+            the key frames' floor sightings enter it, and a floor track needs two of them.
             The viewpoints make the joint solve grow with the floor sightings: with the front
             end's floor tracks (``FrontendConfig.floor``, ~2600 on lab40, in every image) the
             lab40 replay took 13.6 / 11.1 / 21.8 s of CPU on seeds 0 / 1 / 2, with False 4.0 /
             4.2 / 4.7 s at the same accuracy (ATE 0.19 / 0.21 / 0.22 cm, landmark median 0.46 /
-            0.52 / 0.39 cm). With the default front end (fewer floor tracks) the viewpoints
-            pay for themselves: False gave lab40 seeds 1 / 2 ATE 0.36 / 0.29 cm against 0.25 /
-            0.16 cm (docs/results.md, "The joint floor solve's viewpoints").
+            0.52 / 0.39 cm). Without the front end's floor tracks (a log with ``floor.enabled``
+            off: the landmark tracks' few hundred floor points) the viewpoints pay for
+            themselves: False gave lab40 seeds 1 / 2 ATE 0.36 / 0.29 cm against 0.25 / 0.16 cm
+            (docs/results.md, "The joint floor solve's viewpoints").
         known_odometry_scale: the wheel odometry's translation scale when it is known (a
             calibrated wheel radius): each translation is multiplied by it from the first frame
             and the floor points are not used (None: ``floor_scale`` decides). With the truth's
@@ -358,7 +359,7 @@ class GraphSLAMConfig:
     floor_scale_final: bool = True
     floor_scale_refine: bool = True
     floor_landmarks: bool = True
-    floor_viewpoints: bool = True
+    floor_viewpoints: bool = False
     known_odometry_scale: float | None = None
     online_lag_key_frames: int | None = 20
     min_consistent_sightings: int = 2

@@ -158,10 +158,11 @@ def demo_logs(demo_sequence):
     from omnislam.frontend.pipeline import run_frontend
 
     images_only = FrontendConfig(laser=LaserLandmarkConfig(enabled=False))
-    plain = run_frontend(demo_sequence, images_only)
-    floor = run_frontend(
-        demo_sequence, dataclasses.replace(images_only, floor=FloorTrackConfig(enabled=True))
+    assert images_only.floor.enabled  # the default
+    plain = run_frontend(
+        demo_sequence, dataclasses.replace(images_only, floor=FloorTrackConfig(enabled=False))
     )
+    floor = run_frontend(demo_sequence, images_only)
     return plain, floor
 
 

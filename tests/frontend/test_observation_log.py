@@ -100,16 +100,11 @@ def _with_meta(path, **changes):
 
 def test_the_floor_tracks_first_id_round_trips_and_is_checked(tmp_path):
     path = tmp_path / "log.npz"
-    log = dataclasses.replace(_log(), floor_ids_from=8,
-                              config={"floor": {"enabled": True}})
+    log = dataclasses.replace(_log(), floor_ids_from=8)
     save_observation_log(log, path)
     assert load_observation_log(path).floor_ids_from == 8
     save_observation_log(_log(), path)
     assert load_observation_log(path).floor_ids_from is None
-    # a floor-tracking configuration without the first id: written before they were told apart
-    _with_meta(path, config={"floor": {"enabled": True}})
-    with pytest.raises(StaleLogError, match="floor tracks"):
-        load_observation_log(path)
     for bad in (-1, 2.5, "8", True):
         _with_meta(path, floor_ids_from=bad)
         with pytest.raises(DataError, match="floor_ids_from"):
