@@ -53,7 +53,7 @@ class ObservationLog:
             ICP, with their covariance; the wheel odometry where a match was rejected), which
             ``omnislam run`` hands the SLAM estimators instead of the dataset's (dead
             reckoning keeps the wheel odometry).
-        floor_ids_from: the floor tracks' ids (``frontend.floor_tracks``, the option
+        floor_ids_from: the floor tracks' ids (``frontend.floor_tracks``, the front end's
             ``FrontendConfig.floor``) are this number and above, the landmark tracks' below it;
             None when the front end tracked no floor. Only estimators that model the floor
             take the floor tracks (``estimators.EstimatorEntry.floor_tracks``).
@@ -71,10 +71,10 @@ class ObservationLog:
     def __post_init__(self) -> None:
         if self.odometry_source not in ("wheel", "laser"):
             raise DataError(f"ObservationLog: unknown odometry source {self.odometry_source!r}")
-        first = self.floor_ids_from
-        if first is not None and (isinstance(first, bool) or not isinstance(first, int)
-                                  or first < 0):
-            raise DataError(f"ObservationLog: floor_ids_from must be an id >= 0, got {first!r}")
+        if not _is_first_id(self.floor_ids_from):
+            raise DataError(
+                f"ObservationLog: floor_ids_from must be an id >= 0, got {self.floor_ids_from!r}"
+            )
         if len(self.pixels) != len(self.frames):
             raise DataError("ObservationLog: one pixels entry per frame is required")
         for frame, px in zip(self.frames, self.pixels, strict=True):
@@ -274,13 +274,17 @@ def load_observation_log(
     )
 
 
+def _is_first_id(value: object) -> bool:
+    """Whether ``value`` can be ``ObservationLog.floor_ids_from``: None or an int >= 0."""
+    return value is None or (isinstance(value, int) and not isinstance(value, bool) and value >= 0)
+
+
 def _floor_ids_from(path: Path, meta: dict[str, Any]) -> int | None:
     """The log's ``floor_ids_from`` (None: no floor tracks)."""
     first = meta.get("floor_ids_from")
-    if first is not None and (isinstance(first, bool) or not isinstance(first, int)
-                              or first < 0):
+    if not _is_first_id(first):
         raise DataError(f"malformed observation log (floor_ids_from {first!r})", path)
-    return first
+    return first  # type: ignore[return-value]
 
 
 def _slices(arrays: dict[str, np.ndarray], prefix: str, i: int) -> slice | None:
