@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from harness_cells import set_options
+from harness_cells import add_set_option, set_options
 
 from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
 from omnislam.compare.execute import RunSpec, execute_run
@@ -137,14 +137,7 @@ def main() -> None:
     parser.add_argument("--dataset", default=DEFAULT_DATASET, help="synthetic world folder")
     parser.add_argument("--log", default=DEFAULT_LOG, help="its front-end observation log")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
-    parser.add_argument(
-        "--set",
-        dest="options",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="extra FastSLAM option for every bearings cell (repeatable)",
-    )
+    add_set_option(parser, "extra FastSLAM option for every bearings cell (repeatable)")
     parser.add_argument("--mrclam", action="store_true", help=f"also run {MRCLAM} (2-D)")
     parser.add_argument("--only", default=None, help="run only cells whose label contains this")
     args = parser.parse_args()

@@ -22,7 +22,7 @@ import argparse
 import sys
 
 import numpy as np
-from harness_cells import set_options
+from harness_cells import add_set_option, set_options
 from realtime_lab40 import prepare
 
 from omnislam._optional import require
@@ -56,14 +56,7 @@ def key_frame_ate_m(values: object, truth_w: np.ndarray, stamps_s: np.ndarray) -
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", nargs="+", required=True, metavar="NAME DIR [LOG]")
-    parser.add_argument(
-        "--set",
-        dest="options",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="graph option (repeatable)",
-    )
+    add_set_option(parser, "graph option (repeatable)")
     args = parser.parse_args()
     if len(args.dataset) not in (2, 3):
         parser.error("--dataset takes NAME DIR [LOG]")

@@ -58,6 +58,13 @@ def run_cell(
     return out
 
 
+def add_set_option(parser: argparse.ArgumentParser, help: str, flag: str = "--set") -> None:
+    """A repeatable ``FLAG KEY=VALUE`` argument, gathered in ``args.options`` (read it with
+    ``set_options``)."""
+    parser.add_argument(flag, dest="options", action="append", default=[], metavar="KEY=VALUE",
+                        help=help)
+
+
 def set_options(
     parser: argparse.ArgumentParser, items: Iterable[str], flag: str = "--set"
 ) -> dict[str, str]:

@@ -49,7 +49,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from harness_cells import set_options
+from harness_cells import add_set_option, set_options
 
 from omnislam.compare.cache import LOGS, cache_dir
 from omnislam.compare.execute import (
@@ -285,14 +285,7 @@ def main() -> None:
     parser.add_argument("--variants", default="default", help="comma-separated, or 'all'")
     parser.add_argument("--others", action="store_true", help="also " + ", ".join(OTHERS))
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument(
-        "--set",
-        dest="options",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="extra graph option for every graph variant (repeatable)",
-    )
+    add_set_option(parser, "extra graph option for every graph variant (repeatable)")
     args = parser.parse_args()
     datasets = args.dataset or [["lab40", "runs/lab40"]]
     names = list(VARIANTS) if args.variants == "all" else args.variants.split(",")
