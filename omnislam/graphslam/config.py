@@ -185,8 +185,9 @@ class GraphSLAMConfig:
             bearings, is not (within 0.03 % on lab40). One or two more LM solves of the whole
             graph.
         floor_landmarks: with ``floor_scale_final``: the tracks of the floor's mode enter the
-            final estimate as landmarks with a prior on their height (z = 0), the images
-            between key frames that see them as viewpoints with their bearings, and the final
+            final estimate as landmarks with a prior on their height (z = 0) (with
+            ``floor_viewpoints`` also the images between key frames that see them, as
+            viewpoints with their bearings), and the final
             scale is the one at which the solved trajectory agrees with the odometry
             (``floor_points.py``; default True). The pairs' refined scale
             (``floor_scale_refine``) takes the graph's short relative translations as the

@@ -14,13 +14,15 @@ odometry, now inside the bundle adjustment rather than beside it):
   bearing factor per sighting and a prior on its height alone, z = 0 with std
   ``FLOOR_HEIGHT_SIGMA_M`` (x and y free): seen from viewpoints held at the camera height h,
   its bearings then fix its range metrically, ``h / tan(depression)``;
-* an image with floor sightings that is no key frame gets a ``Pose3`` of its own, with the
+* with ``new_viewpoints`` (``GraphSLAMConfig.floor_viewpoints``; not the default since the
+  front end's floor tracks, whose sightings are in every image) an image with floor sightings
+  that is no key frame gets a ``Pose3`` of its own, with the
   planar prior, a between-factor of the odometry from its key frame and its bearings of the
   landmarks already in the graph (outliers gated), so the floor points hang on a viewpoint
   the bearings hold, not on odometry composed over up to ``keyframe_spacing_m``;
-* with ``new_viewpoints`` off (``GraphSLAMConfig.floor_viewpoints``) only the key frames'
-  floor sightings enter, and the joint solve stays the size of the graph whatever the number
-  of floor tracks;
+* with ``new_viewpoints`` off (``GraphSLAMConfig``'s default) only the key frames' floor
+  sightings enter, and the joint solve stays the size of the graph whatever the number of
+  floor tracks;
 * a floor track's sightings whose floor point lies more than ``max(FLOOR_POINT_GATE_M,
   FLOOR_POINT_GATE_SIGMAS sigma)`` from the track's median floor point are wrong associations
   of the front end and left out; a track keeps at least two sightings or is left out.
