@@ -3,9 +3,10 @@
 Replays a synthetic preset's front-end log through ``graphslam`` (its defaults, or ``--set``),
 takes the final factor graph and its solution (``GraphSLAM.factor_graph`` / ``values``: what
 ``graph.g2o`` exports), and runs Levenberg-Marquardt on the same graph again, started from the
-renderer's truth: every key frame's true pose (at the solution's height) and every landmark at
-the true point of its track (``frontend.evaluation.track_truth``; the others, whose tracks
-wander between surfaces, and the floor landmarks of the final solve keep the solution's value).
+renderer's truth: every key frame's true pose (at the solution's height) and every landmark,
+the final solve's floor landmarks included, at the true point of its track
+(``frontend.evaluation.track_truth``; those whose tracks wander between surfaces have none and
+keep the solution's value).
 Printed: the graph error (0.5 x the sum of squared whitened residuals) at the solution, at the
 truth and after LM from the truth, and the key frames' ATE (SE(2)-aligned) of both solutions.
 If LM from the truth comes back to the solution's error and ATE, the optimiser found the
