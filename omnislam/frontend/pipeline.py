@@ -396,6 +396,7 @@ def run_frontend(
     floor = None
     floor_tracks_total = 0
     floor_ids_from: int | None = None
+    beyond_floor = 0  # frame-to-frame matches refused by the floor check
     if processed.size:
         tracker = LandmarkTracker(rig.viewpoint_r, config, rng, track_clock)
         if config.floor.enabled:
@@ -445,6 +446,7 @@ def run_frontend(
         if bar is not None:
             bar.close()
         sightings = tracker.sightings
+        beyond_floor = tracker.beyond_floor
         raw = {i: (tracker.canonical_ids(ids), *rest) for i, (ids, *rest) in raw.items()}
         if floor is not None:  # floor tracks take the ids after the landmark tracks'
             kept = sightings >= config.tracks.min_track_length
@@ -553,6 +555,7 @@ def run_frontend(
         "cpu_seconds_prepared_in_workers": prepared_cpu_s,
         "tracks_total": float(sightings.shape[0]),
         "tracks_kept": float(keep_track.sum()),
+        "matches_beyond_floor": float(beyond_floor),
         "sightings_per_image_median": float(np.median(n_bearings)) if n_bearings else 0.0,
     }
     if floor is not None:

@@ -6,7 +6,9 @@ Per processed image (thesis 4.2, Fig. 4.1):
    test) against the tracks seen in the last ``window_images`` processed images, validated
    per object (a group's matches count only if enough of the group matched) and verified by
    RANSAC on bearing vectors, seeded by the odometry since the image the tracks were seen in.
-   Inliers inherit track ids.
+   Inliers whose rays could only meet below the floor are refused (``beyond_the_floor``: a
+   floor texture repeating along the direction of travel fits the epipolar geometry one
+   period on); the others inherit track ids.
 2. **Re-recognition (loop closing).** Features still unassigned, or on young tracks (started
    in the last ``young_images`` images), are matched against the descriptors of every older
    landmark of the map (FLANN kd-tree, the thesis's BBF search), with the ratio test taken
@@ -43,7 +45,15 @@ from omnislam.frontend.matching import (
     validate_objects,
 )
 from omnislam.frontend.timing import StageClock
-from omnislam.frontend.verification import RelativePose, verify_matches
+from omnislam.frontend.verification import (
+    ModelKind,
+    RelativePose,
+    beyond_the_floor,
+    verify_matches,
+)
+
+#: ``beyond_the_floor``'s tolerance on the parallax, in inlier thresholds of the verification
+FLOOR_SLACK_THRESHOLDS = 3.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -125,6 +135,10 @@ class LandmarkTracker:
         self._frame_rays: list[np.ndarray] = []
         self._frame_pose: list[np.ndarray] = []
         self._map: MapIndex | None = None
+        # the floor check needs the viewpoint's height above the floor
+        self._floor_check = config.verification.below_floor_check and self.viewpoint_r[2] > 0
+        #: frame-to-frame inliers refused because they meet below the floor
+        self.beyond_floor = 0
 
     # -- public ---------------------------------------------------------------------------
     @property
@@ -341,8 +355,21 @@ class LandmarkTracker:
                         self._frame_rays[reference][pos[seen]], rays[query[seen]], prior,
                         verification, self.rng, guided=guided,
                     )
+                rows = np.flatnonzero(seen)[result.inliers]
+                # frame to frame only: re-recognition's baseline is dead reckoning over an
+                # unknown stretch (checking its recent references too cost lab40 2.6 % of
+                # its true sighting pairs; docs/results.md, "Floor tiles matched one period on")
+                if guided and self._floor_check and result.kind is ModelKind.ESSENTIAL:
+                    assert result.pose is not None
+                    below = beyond_the_floor(
+                        self._frame_rays[reference][pos[rows]], rays[query[rows]],
+                        result.pose.R, prior.t, float(self.viewpoint_r[2]),
+                        FLOOR_SLACK_THRESHOLDS * verification.threshold_rad,
+                    )
+                    self.beyond_floor += int(below.sum())
+                    rows = rows[~below]
                 ok = np.zeros(query.shape[0], dtype=bool)
-                ok[np.flatnonzero(seen)[result.inliers]] = True
+                ok[rows] = True
                 accept = ok & is_candidate
                 assigned[query[accept]] = train[accept]
             left = ~seen[: len(m)]

@@ -44,6 +44,9 @@ BATCH = 16
 NEAR_DEPTH_M = 1.0
 #: matches whose error under the prior exceeds this are not sampled (still scored) [rad]
 PRIOR_GATE_RAD = 0.06
+#: ``beyond_the_floor`` shortens the odometry's baseline by this fraction (its distance error
+#: over a few images is ~1 %, the synthetic robot's wheel scale 1 %)
+FLOOR_BASELINE_SLACK = 0.1
 
 
 def skew(v: np.ndarray) -> np.ndarray:
@@ -427,3 +430,50 @@ def verify_matches(
         pose = decompose(best_model, f1[best_inliers], f2[best_inliers])
         kind = ModelKind.ESSENTIAL
     return VerificationResult(best_inliers, kind, pose, iterations)
+
+
+def beyond_the_floor(
+    f1: np.ndarray, f2: np.ndarray, R: np.ndarray, t: np.ndarray, height_m: float,
+    slack_rad: float,
+) -> np.ndarray:
+    """Bearing pairs that can only meet below the floor: a texture repeating along the motion.
+
+    The epipolar constraint is blind along the epipolar plane, and when the robot drives
+    along a tiled floor that plane holds the next tile: a corner matched to the one a tile
+    period further on fits ``E`` exactly. Its two rays are then parallel (the robot moved by
+    the period too), i.e. they meet at infinity -- below the floor, for rays that point down.
+
+    A point at depth ``lam`` on ray ``f1`` (viewpoint frame 1; the floor at ``z = -h``) is
+    seen from viewpoint 2 at ``t`` along ``lam f1 - t``, so its parallax
+    ``beta(lam) = angle(f1, lam f1 - t)`` falls monotonically from ``angle(f1, -t)`` at
+    ``lam = 0`` to 0 as ``lam -> inf`` (``tan beta = |t_perp| / (lam - f1.t)``). A ray that
+    points down meets the floor at ``lam_f = h / -f1_z``, so a point at or above the floor has
+    ``beta >= beta(lam_f)``. A pair whose measured parallax ``angle(f1, R f2)`` is smaller
+    than that by more than ``slack_rad`` meets beyond the floor and is flagged. The baseline is
+    the odometry's, shortened by ``FLOOR_BASELINE_SLACK`` so that the odometry's distance error
+    over a few images cannot flag a true floor point; rays within ~0.06 deg of the horizon are
+    never flagged.
+
+    Args:
+        f1: (N, 3) unit bearings in viewpoint frame 1.
+        f2: (N, 3) unit bearings of the same matches in viewpoint frame 2.
+        R: (3, 3) rotation of frame 2 in frame 1 (the verified model's).
+        t: (3,) viewpoint 2 in frame 1 [m] (metric: the odometry's).
+        height_m: the viewpoint's height above the floor [m] (> 0).
+        slack_rad: tolerance of the measured parallax (its noise and the rotation's error).
+
+    Returns:
+        (N,) bool: True where the pair meets below the floor.
+    """
+    flagged = np.zeros(f1.shape[0], dtype=bool)
+    down = np.flatnonzero(f1[:, 2] < -1e-3)
+    if down.shape[0] == 0 or not height_m > 0:
+        return flagged
+    a = f1[down]
+    to_floor = (height_m / -a[:, 2])[:, None] * a - (1.0 - FLOOR_BASELINE_SLACK) * np.asarray(t)
+    cos_floor = np.sum(a * to_floor, axis=1) / np.linalg.norm(to_floor, axis=1)
+    cos_measured = np.sum(a * (f2[down] @ np.asarray(R).T), axis=1)
+    floor = np.arccos(np.clip(cos_floor, -1.0, 1.0))
+    measured = np.arccos(np.clip(cos_measured, -1.0, 1.0))
+    flagged[down] = measured < floor - slack_rad
+    return flagged

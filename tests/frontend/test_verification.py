@@ -8,6 +8,7 @@ from omnislam.frontend.config import VerificationConfig
 from omnislam.frontend.verification import (
     ModelKind,
     RelativePose,
+    beyond_the_floor,
     decompose_essential,
     decompose_planar_essential,
     epipolar_errors,
@@ -141,3 +142,39 @@ def test_too_few_matches_are_rejected_not_guessed():
     _, f1, f2 = _scene(rng, n=5)
     result = verify_matches(f1, f2, None, VerificationConfig(), rng)
     assert result.kind is ModelKind.NONE and result.n_inliers == 0
+
+
+def _bearings(points_1, pose):
+    """Unit bearings of points (viewpoint frame 1) from both viewpoints."""
+    points_2 = (points_1 - pose.t) @ pose.R
+    return (points_1 / np.linalg.norm(points_1, axis=1, keepdims=True),
+            points_2 / np.linalg.norm(points_2, axis=1, keepdims=True))
+
+
+def test_a_floor_tile_one_period_on_fits_the_epipolar_plane_but_meets_below_the_floor():
+    """Driving 1.5 m along a floor tiled with a 1.5 m period: each tile corner seen from the
+    second viewpoint at the place its predecessor was seen from the first fits E exactly
+    (the mismatch moves along the epipolar plane), and only the floor's height refuses it."""
+    height, period = 0.85, 1.5
+    pose = RelativePose.from_planar_motion(np.array([period, 0.0, 0.05]), np.zeros(3))
+    rng = np.random.default_rng(11)
+    floor = np.column_stack([rng.uniform(-3, 3, 200), rng.uniform(-3, 3, 200),
+                             np.full(200, -height)])
+    floor = floor[np.hypot(floor[:, 0], floor[:, 1]) > 0.5]
+    f1, f2 = _bearings(floor, pose)
+    _, aliased = _bearings(floor + np.array([period, 0.0, 0.0]), pose)
+    slack = 3 * VerificationConfig().threshold_rad
+    assert np.max(epipolar_errors(pose.essential(), f1, aliased)) < 1e-6
+    assert not beyond_the_floor(f1, f2, pose.R, pose.t, height, slack).any()
+    assert beyond_the_floor(f1, aliased, pose.R, pose.t, height, slack).all()
+    # true floor points survive an odometry 5 % long and bearing noise of the threshold
+    noisy = f2 + rng.normal(scale=VerificationConfig().threshold_rad / 2, size=f2.shape)
+    noisy /= np.linalg.norm(noisy, axis=1, keepdims=True)
+    assert not beyond_the_floor(f1, noisy, pose.R, 1.05 * pose.t, height, slack).any()
+    # points above the floor (walls near and far, down to the floor's edge, and the ceiling)
+    # are never refused, nor is anything without a floor below the viewpoint
+    walls = np.column_stack([rng.uniform(-30, 30, 300), rng.choice([-1.25, 1.25], 300),
+                             rng.uniform(-height + 0.01, 2.0, 300)])
+    g1, g2 = _bearings(walls, pose)
+    assert not beyond_the_floor(g1, g2, pose.R, pose.t, height, slack).any()
+    assert not beyond_the_floor(f1, aliased, pose.R, pose.t, 0.0, slack).any()
