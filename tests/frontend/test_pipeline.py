@@ -175,6 +175,8 @@ def test_pipelined_and_sequential_runs_give_the_same_log(demo_sequence, demo_log
             np.testing.assert_array_equal(a.bearings.sigmas_rad, b.bearings.sigmas_rad)
     for stats in (demo_log.stats, pipelined.stats):
         assert stats["cpu_seconds_extract"] > 0 and stats["seconds_images_total"] > 0
+    # the floor check's refusals are counted, the same in both
+    assert demo_log.stats["matches_beyond_floor"] == pipelined.stats["matches_beyond_floor"]
     # the workers' CPU is counted: at least what preparing the images cost
     prepared = sum(pipelined.stats[f"cpu_seconds_{k}"] for k in ("load", "extract", "group"))
     assert pipelined.stats["cpu_seconds_images_total"] >= prepared
