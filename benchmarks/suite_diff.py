@@ -23,11 +23,17 @@ from pathlib import Path
 import numpy as np
 
 
+class BadResultsError(Exception):
+    """A results folder without cells, or a cell's metrics.json that is not JSON."""
+
+
 def load_cells(folder: Path) -> dict[tuple[str, str, str], dict]:
     """``(dataset, estimator, seed) -> metrics`` of every cell of a results folder."""
     cells = folder / "cells"
     if not cells.is_dir():
-        raise SystemExit(f"{folder}: no cells/ folder (not an omnislam compare results folder)")
+        raise BadResultsError(
+            f"{folder}: no cells/ folder (not an omnislam compare results folder)"
+        )
     out = {}
     for path in sorted(cells.glob("*/metrics.json")):
         parts = path.parent.name.split("__")
@@ -36,7 +42,7 @@ def load_cells(folder: Path) -> dict[tuple[str, str, str], dict]:
         try:
             out[tuple(parts)] = json.loads(path.read_text())
         except json.JSONDecodeError as exc:
-            raise SystemExit(f"{path}: not JSON ({exc.msg}, line {exc.lineno})") from None
+            raise BadResultsError(f"{path}: not JSON ({exc.msg}, line {exc.lineno})") from None
     return out
 
 
@@ -68,7 +74,11 @@ def main() -> int:
         pattern = re.compile(args.datasets)
     except re.error as exc:
         parser.error(f"--datasets: {exc}")
-    before, after = load_cells(args.before), load_cells(args.after)
+    try:
+        before, after = load_cells(args.before), load_cells(args.after)
+    except BadResultsError as exc:
+        print(f"suite_diff: {exc}", file=sys.stderr)
+        return 2
 
     def wanted(key: tuple[str, str, str]) -> bool:
         return bool(pattern.search(key[0])) and (
