@@ -205,8 +205,8 @@ class VerificationConfig:
             only meet below the floor (``verification.beyond_the_floor``): the epipolar
             constraint cannot see a floor texture that repeats along the direction of travel
             (a tile matched one period on moves within its epipolar plane), the floor's height
-            can. On ``loop150``'s tiled corridors 45-61 % of the landmark tracks' sighting
-            pairs were such mismatches, ~9 % with the check (docs/results.md, "Floor tiles
+            can. On ``loop150``'s tiled corridors 45-60 % of the tracks' sighting pairs were
+            such mismatches, 9-10 % are mismatched with the check (docs/results.md, "Floor tiles
             matched one period on").
     """
 
