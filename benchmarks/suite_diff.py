@@ -18,6 +18,7 @@ import argparse
 import json
 import re
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -99,8 +100,10 @@ def main() -> int:
         )
     print("\nmedians over the seeds")
     for (dataset, estimator), pairs in sorted(groups.items()):
-        a = np.nanmedian(np.array([p[0] for p in pairs]), axis=0)
-        b = np.nanmedian(np.array([p[1] for p in pairs]), axis=0)
+        with warnings.catch_warnings():  # a figure no cell has (a filter's landmarks) is NaN
+            warnings.simplefilter("ignore", RuntimeWarning)
+            a = np.nanmedian(np.array([p[0] for p in pairs]), axis=0)
+            b = np.nanmedian(np.array([p[1] for p in pairs]), axis=0)
         print(
             f"{dataset:18s} {estimator:16s} {len(pairs):4d} "
             + "  ".join(f"{x:8.2f}->{y:7.2f}" for x, y in zip(a, b, strict=True))
