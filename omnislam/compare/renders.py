@@ -4,10 +4,12 @@ A grid names a synthetic dataset by its preset (``{synthetic: lab40, seeds: [0, 
 ``compare.grid``); each seed is rendered as ``omnislam dataset synth PRESET --seed S [--frames
 N]`` would render it, into ``cache_dir()/renders/PRESET-sS[-iN]-BACKEND-KEY``. KEY hashes what
 the render is a function of: the preset, the seed, the image limit, the ray-casting backend and
-the code that renders -- the static import closure, inside omnislam, of the synthetic package's
-simulator, presets and writer, each module as its syntax tree without docstrings (an edited
-comment re-renders nothing; a changed odometry model or camera re-renders everything, and since
-the path changes, every cell on it is computed again).
+the code that renders -- the synthetic package's simulator, presets and writer and, name by name,
+what they can execute inside omnislam (``compare.code_closure``: of ``frontend.config`` only
+``VerticalEdgeConfig``, of ``frontend.evaluation`` only ``visible_lines``), each statement as its
+syntax tree without docstrings. An edited comment or a front-end setting the renderer never reads
+re-renders nothing; a changed odometry model or camera re-renders everything, and since the path
+changes, every cell on it is computed again.
 
 The path is known before the render exists, so a grid's cells name it from the start; the
 writer produces byte-identical folders for the same inputs and writes atomically
@@ -16,7 +18,6 @@ writer produces byte-identical folders for the same inputs and writes atomically
 
 from __future__ import annotations
 
-import ast
 import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass, fields
@@ -24,11 +25,12 @@ from functools import lru_cache
 from pathlib import Path
 
 from omnislam.compare.cache import cache_dir
+from omnislam.compare.code_closure import Closure, code_closure, code_digest
 from omnislam.errors import ConfigError
 
 #: sub-folder of the cache holding the renders
 RENDERS = "renders"
-#: the modules whose code a render is a function of (with everything they import)
+#: the modules a render runs: all of them, and what they can execute of what they import
 RENDER_ROOTS = (
     "omnislam.datasets.synthetic.presets",
     "omnislam.datasets.synthetic.simulate",
@@ -64,61 +66,21 @@ class RenderSpec:
         return (root if root is not None else cache_dir() / RENDERS) / self.folder_name
 
 
-def _source_file(module: str) -> Path | None:
-    """The source of an omnislam module, found without importing it (None: not a module)."""
+def renderer_code(package_dir: Path | None = None) -> Closure:
+    """The code a render can execute: ``code_closure`` of ``RENDER_ROOTS``.
+
+    Args:
+        package_dir: the omnislam source folder to read (default: this installation's).
+    """
     import omnislam
 
-    parts = module.split(".")[1:]
-    base = Path(omnislam.__file__).parent.joinpath(*parts)
-    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
-        if parts and candidate.is_file():
-            return candidate
-    return None
-
-
-def _imported_modules(tree: ast.AST) -> set[str]:
-    """Every ``omnislam`` module a syntax tree imports (lazy imports inside functions too)."""
-    found: set[str] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            found.update(a.name for a in node.names if a.name.startswith("omnislam"))
-        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
-            if node.module.startswith("omnislam"):
-                found.add(node.module)
-                # ``from omnislam.x import y`` where y is a module
-                found.update(f"{node.module}.{a.name}" for a in node.names)
-    return found
-
-
-def _without_docstrings(tree: ast.Module) -> ast.Module:
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
-            body = node.body
-            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
-                if isinstance(body[0].value.value, str):
-                    node.body = body[1:] or [ast.Pass()]
-    return tree
+    return code_closure(RENDER_ROOTS, package_dir or Path(omnislam.__file__).parent)
 
 
 @lru_cache(maxsize=1)
 def renderer_code_hash() -> str:
-    """Hash of the code of the renderer: the static import closure of ``RENDER_ROOTS``."""
-    pending, seen = list(RENDER_ROOTS), {}
-    while pending:
-        module = pending.pop()
-        if module in seen:
-            continue
-        path = _source_file(module)
-        if path is None:  # a name imported from a module, not a module
-            seen[module] = None
-            continue
-        tree = ast.parse(path.read_text(), filename=str(path))
-        pending.extend(_imported_modules(tree))
-        seen[module] = ast.dump(_without_docstrings(tree), annotate_fields=False)
-    digest = hashlib.sha256()
-    for module in sorted(m for m, dump in seen.items() if dump is not None):
-        digest.update(f"{module}\n{seen[module]}\n".encode())
-    return digest.hexdigest()
+    """Hash of the code a render can execute (``renderer_code``), as SHA-256 hex."""
+    return code_digest(renderer_code())
 
 
 def render_spec(preset: str, seed: int, images: int | None = None) -> RenderSpec:

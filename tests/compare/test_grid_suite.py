@@ -1,16 +1,15 @@
 """The grid format the suite needs: synthetic presets per seed, per-estimator seeds, estimator
-lists per dataset, ``prior_map: {from:}``; the suite grid itself; the render cache's key."""
+lists per dataset, ``prior_map: {from:}``; the suite grid itself (the render cache's key:
+test_renders.py)."""
 
 from __future__ import annotations
 
-import ast
 from collections import defaultdict
 from pathlib import Path
 
 import pytest
 from room_log import write_room_log
 
-from omnislam.compare import renders
 from omnislam.compare.cache import cache_dir
 from omnislam.compare.grid import load_grid, parse_grid
 from omnislam.errors import ConfigError
@@ -105,38 +104,6 @@ def test_a_bad_suite_entry_fails_the_grid_naming_it(tmp_path, room_extra, text_c
     text = GRID if text_change is None else GRID.replace(*text_change)
     with pytest.raises(ConfigError, match=message):
         grid(tmp_path, room_extra, text)
-
-
-def test_the_render_key_ignores_docstrings_and_comments_but_not_code():
-    def dump(source: str) -> str:
-        return ast.dump(renders._without_docstrings(ast.parse(source)), annotate_fields=False)
-
-    base = 'def f(x):\n    """Doc."""\n    return x + 1  # one\n'
-    assert dump(base) == dump('def f(x):\n    """Other doc."""\n    return x + 1\n')
-    assert dump(base) != dump('def f(x):\n    """Doc."""\n    return x + 2\n')
-    # the renderer's own closure reaches the odometry model and the camera models
-    closure = set()
-    pending = list(renders.RENDER_ROOTS)
-    while pending:
-        module = pending.pop()
-        path = renders._source_file(module)
-        if module in closure or path is None:
-            continue
-        closure.add(module)
-        pending.extend(renders._imported_modules(ast.parse(path.read_text())))
-    assert {"omnislam.core.motion", "omnislam.camera.hyperbolic"} <= closure
-    # the render surveys the lines' MC descriptors with the front end's extraction
-    # (datasets/synthetic/line_survey.py), so the front end is part of it; the harness is not
-    assert not any(m.startswith(("omnislam.compare", "omnislam.cli")) for m in closure)
-
-
-def test_the_render_path_depends_on_preset_seed_images_and_nothing_random():
-    a = renders.render_spec("lab40", 0)
-    assert a == renders.render_spec("lab40", 0)  # stable within the process ...
-    assert a.key != renders.render_spec("lab40", 1).key
-    assert a.key != renders.render_spec("lab40", 0, images=5).key
-    assert a.key != renders.render_spec("loop150", 0).key
-    assert a.folder_name.startswith(f"lab40-s0-{a.backend}-")
 
 
 def test_the_suite_grid_runs_every_estimator_where_it_can_with_one_configuration(shared_data):
