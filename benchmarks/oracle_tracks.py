@@ -9,6 +9,10 @@ reports the estimator's ATE and landmark error for each:
 ``clean``
     every sighting whose true point lies more than ``--tol`` from its track's point (the median
     of the track's true points) is dropped: no track holds two world points.
+``returns``
+    ``clean``, and a track whose point an earlier track saw, with more than ``--return-gap-s``
+    between the two, takes that track's id: the loop closure alone, as a front end that
+    re-associates every return would give it.
 ``merged``
     ``clean``, and tracks whose points lie within ``--tol`` of each other become one track
     (union-find over the pairs): every re-sighting is re-associated, the loop closure included.
@@ -56,7 +60,7 @@ from omnislam.frontend.observation_log import (
     save_observation_log,
 )
 
-VARIANTS = ("front end", "clean", "merged", "noisy truth", "exact")
+VARIANTS = ("front end", "clean", "returns", "merged", "noisy truth", "exact")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -111,6 +115,33 @@ def track_truth(s: Sightings, tol_m: float, floor_ids_from: int | None) -> Track
     return TrackTruth(keep, point_of, merged_id, merged_point)
 
 
+def returns_only(truth: TrackTruth, s: Sightings, gap_s: float) -> TrackTruth:
+    """``truth`` with only the merges across a gap of more than ``gap_s`` (a return): within
+    each merged group, in the order the tracks started, a track that starts more than
+    ``gap_s`` after the group's sightings so far joins the latest track; one that starts
+    sooner keeps its id (a track broken and re-started in passing is not re-joined)."""
+    first: dict[int, float] = {}
+    last: dict[int, float] = {}
+    for track, stamp in zip(s.track.tolist(), s.stamp_s.tolist(), strict=True):
+        first[track] = min(first.get(track, np.inf), stamp)
+        last[track] = max(last.get(track, -np.inf), stamp)
+    groups: dict[int, list[int]] = {}
+    for track, group in truth.merged_id.items():
+        groups.setdefault(group, []).append(track)
+    merged_id: dict[int, int] = {}
+    for tracks in groups.values():
+        tracks.sort(key=lambda t: first[t])
+        latest, end = tracks[0], last[tracks[0]]
+        merged_id[latest] = latest
+        for track in tracks[1:]:
+            if first[track] - end > gap_s:
+                merged_id[track] = merged_id[latest]
+            else:
+                merged_id[track] = latest = track
+            end = max(end, last[track])
+    return dataclasses.replace(truth, merged_id=merged_id)
+
+
 def _tangent_noise(d: np.ndarray, sigma: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """Unit vectors ``d`` (K, 3) turned by Gaussian angles of std ``sigma`` (K,) on both
     tangent axes."""
@@ -132,7 +163,7 @@ def variant_log(
     rng: np.random.Generator,
 ) -> ObservationLog:
     """``log`` with its tracks corrected as ``variant`` says (module docstring)."""
-    merged = variant in ("merged", "noisy truth", "exact")
+    merged = variant in ("returns", "merged", "noisy truth", "exact")
     frames, pixels, start = [], [], 0
     for frame, px in zip(log.frames, log.pixels, strict=True):
         if frame.bearings is None or len(frame.bearings) == 0:
@@ -177,6 +208,9 @@ def main() -> None:
     parser.add_argument("--log", required=True, help="its front-end log")
     parser.add_argument("--estimator", default="graphslam")
     parser.add_argument("--tol", type=float, default=0.02, help="same world point [m]")
+    parser.add_argument(
+        "--return-gap-s", type=float, default=60.0, help="a return: seen again after [s]"
+    )
     parser.add_argument("--noise-seed", type=int, default=0)
     parser.add_argument("--seed", type=int, default=0, help="the estimator's seed")
     parser.add_argument("--keep", type=Path, help="write the variant logs here")
@@ -193,10 +227,15 @@ def main() -> None:
     wTr = SyntheticFolder(args.dataset).groundtruth.poses_w
     viewpoint_r = np.asarray(sequence.calibration.viewpoint_r, dtype=float)
     rng = np.random.default_rng(args.noise_seed)
+    returns = returns_only(truth, s, args.return_gap_s)
+    joined = {t for t, m in returns.merged_id.items() if m != t}
+    returning = truth.keep & np.isin(s.track, list(joined))
     print(
         f"{args.dataset}: {len(s.track)} sightings, {truth.keep.sum()} on their track's "
         f"point (tol {args.tol} m); {len(truth.point_of)} tracks, "
-        f"{len(truth.merged_point)} after merging"
+        f"{len(truth.merged_point)} after merging; returns: {len(joined)} tracks of "
+        f"{len({returns.merged_id[t] for t in joined})} earlier ones, {returning.sum()} "
+        f"sightings in {len(np.unique(s.frame[returning]))} images"
     )
     print(
         "\n| tracks | sightings | ATE [cm] | landmark RMSE [cm] | landmark median [cm] | "
@@ -209,7 +248,8 @@ def main() -> None:
             path = Path(args.log)
             if variant != "front end":
                 path = folder / f"{Path(args.log).stem}-{variant.replace(' ', '-')}.npz"
-                save_observation_log(variant_log(log, truth, variant, wTr, viewpoint_r, rng), path)
+                used = returns if variant == "returns" else truth
+                save_observation_log(variant_log(log, used, variant, wTr, viewpoint_r, rng), path)
             say(f"{args.estimator} on the {variant} tracks ...")
             record = execute_run(
                 RunSpec(args.dataset, args.estimator, args.seed, {}, log=str(path))

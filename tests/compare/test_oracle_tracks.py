@@ -89,3 +89,17 @@ def test_noisy_truth_bearings_scatter_with_the_logged_sigma() -> None:
     # two tangent axes of std sigma: E[angle^2] = 2 sigma^2
     assert np.sqrt(np.mean(angle**2)) / 0.01 == pytest.approx(np.sqrt(2), rel=0.03)
     np.testing.assert_allclose(np.linalg.norm(out, axis=1), 1.0)
+
+
+def test_returns_only_joins_a_track_that_starts_after_the_gap() -> None:
+    # tracks 1 (t 0-1 s) and 2 (t 2 s) see P in passing, track 3 sees it again at t 100 s
+    s = Sightings(
+        np.array([0, 10, 20, 1000]),
+        np.array([0.0, 1.0, 2.0, 100.0]),
+        np.array([1, 1, 2, 3]),
+        np.array([P, P, P, P]),
+    )
+    truth = oracle.track_truth(s, 0.02, floor_ids_from=None)
+    assert truth.merged_id == {1: 1, 2: 1, 3: 1}
+    returns = oracle.returns_only(truth, s, gap_s=60.0)
+    assert returns.merged_id == {1: 1, 2: 2, 3: 2}  # the return joins the latest pass
