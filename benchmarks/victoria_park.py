@@ -20,7 +20,8 @@ from the estimator, seed and options) so an interrupted table resumes; ``--fresh
         [--set KEY=VALUE ...] [--cache runs/victoria_park] [--fresh]
 
 Cost on the shared 2-core machine: graphslam ~10-15 min, ekfslam ~3 min, fastslam2 ~25 s per
-seed, fastslam1 (100 particles) ~13 min CPU per seed.
+seed, fastslam1 (100 particles) ~2 min CPU per seed (10-13 min before the compiled
+association likelihoods, benchmarks/fastslam_real_speed.py).
 """
 
 from __future__ import annotations

@@ -20,7 +20,11 @@ from __future__ import annotations
 import numpy as np
 
 from omnislam.core.batch_linalg import inverse_and_logdet, transpose
-from omnislam.core.gaussian import log_likelihood_from_mahalanobis, mahalanobis_squared
+from omnislam.core.gaussian import (
+    LOG_2PI,
+    log_likelihood_from_mahalanobis,
+    mahalanobis_squared,
+)
 from omnislam.core.measurement import MeasurementModel, RangeBearing2D
 from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkStore
 from omnislam.fastslam.pose_spread import PoseSpread
@@ -49,6 +53,9 @@ class SightingAssociation:
             (``maximum_likelihood_association``).
         pose_spread: the filter's pose covariance relative to its maps
             (``pose_spread.PoseSpread``), added to every particle's pose covariance, or None.
+        kernels: the compiled kernels (``kernels.compiled()``) for the likelihoods of every
+            (particle, sighting, candidate) triple, or None for the numpy reference (the same
+            numbers, ``association_log_likelihood``).
     """
 
     def __init__(
@@ -61,8 +68,10 @@ class SightingAssociation:
         spread: ResightingSpread | None = None,
         gate: float | None = None,
         pose_spread: PoseSpread | None = None,
+        kernels: object | None = None,
     ) -> None:
         self._registry = registry
+        self._kernels = kernels
         self._pose_spread = pose_spread
         self._spread = spread
         self._gate = gate
@@ -142,6 +151,7 @@ class SightingAssociation:
             self._log_p0,
             self._exclusive,
             self._gate,
+            self._kernels,
         )
         new = choice == NEW_LANDMARK  # (P, K_u)
         n_new = int(np.count_nonzero(new))
@@ -178,6 +188,7 @@ def maximum_likelihood_association(
     log_p0: float,
     exclusive: bool = False,
     gate: float | None = None,
+    kernels: object | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Associate K sightings with C candidate landmarks in each of P particles.
 
@@ -206,6 +217,7 @@ def maximum_likelihood_association(
             et al. 2005 sec. 7.5.2), and the likeliest candidate inside it otherwise -- a test
             on y^T S^-1 y alone, which a wide S (the spread since the last sighting) does not
             push below p0 by its determinant.
+        kernels: the compiled kernels for ``association_log_likelihood``, or None.
 
     Returns:
         choice (P, K): candidate index, or ``NEW_LANDMARK``; and log_likelihood (P, K) of the
@@ -216,7 +228,7 @@ def maximum_likelihood_association(
     if c == 0:
         return np.full((p, k), NEW_LANDMARK), np.full((p, k), log_p0)
     log_likelihood, d2 = association_log_likelihood(
-        poses, pose_cov, landmark_mean, landmark_cov, landmark_valid, z, R, model
+        poses, pose_cov, landmark_mean, landmark_cov, landmark_valid, z, R, model, kernels
     )
     if gate is not None:
         # candidates outside the gate are not candidates; inside it, a pair always beats p0
@@ -277,11 +289,17 @@ def association_log_likelihood(
     z: np.ndarray,
     R: np.ndarray,
     model: MeasurementModel,
-) -> np.ndarray:
+    kernels: object | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """log N(z_k; h(x, mu_c), S_kc) of K sightings under C candidates in each of P particles,
     S = H_m Sigma_c H_m^T + H_x P H_x^T + R_k (the pose term only with ``pose_cov``; arguments
     as ``maximum_likelihood_association``, ``pose_cov`` (P, 3, 3) or (P, C, 3, 3) per
     candidate).
+
+    The prediction and the sighting-independent part of S are computed per (particle,
+    candidate); with ``kernels`` and ``RangeBearing2D`` the rest, per (particle, sighting,
+    candidate), is compiled (``_compiled_log_likelihood``): the numpy path's numbers bit for
+    bit (the same operations in the same order; log det S stays numpy's).
 
     Returns:
         (P, K, C) log-likelihoods (-inf where ``landmark_valid`` is False) and (P, K, C) squared
@@ -293,6 +311,8 @@ def association_log_likelihood(
         if pose_cov.ndim == 3:
             pose_cov = pose_cov[:, None]
         S = S + H_x @ pose_cov @ transpose(H_x)
+    if kernels is not None and isinstance(model, RangeBearing2D):
+        return _compiled_log_likelihood(kernels, z_hat, S, landmark_valid, z, R)
     S = S[:, None] + R[None, :, None]  # (P, K, C, k, k)
     y = model.residual(z[None, :, None, :], z_hat[:, None])
     S_inv, logdet = inverse_and_logdet(S)
@@ -300,3 +320,50 @@ def association_log_likelihood(
     log_likelihood = log_likelihood_from_mahalanobis(d2, logdet, y.shape[-1])
     valid = landmark_valid[:, None, :]
     return np.where(valid, log_likelihood, -np.inf), np.where(valid, d2, np.inf)
+
+
+def _compiled_log_likelihood(
+    kernels: object,
+    z_hat: np.ndarray,
+    S_landmark: np.ndarray,
+    landmark_valid: np.ndarray,
+    z: np.ndarray,
+    R: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``association_log_likelihood``'s (particle, sighting, candidate) part for range-bearing
+    sightings with the compiled kernels, bit for bit the numpy path's numbers.
+
+    The inverses and log-determinants of S = S_pc + R_k are computed once per distinct R (one
+    for a sensor of fixed noise, ``kernels.association_inverses``; the log is numpy's, as the
+    reference's), then every triple's residual, Mahalanobis distance and log-likelihood in one
+    pass (``kernels.association_scores``), without the (P, K, C, 2, 2) temporaries.
+
+    Args:
+        z_hat: (P, C, 2) predicted sightings; S_landmark: (P, C, 2, 2) H_m Sigma H_m^T (+ the
+            pose term); landmark_valid: (P, C); z: (K, 2); R: (K, 2, 2).
+
+    Returns:
+        (P, K, C) log-likelihoods and squared Mahalanobis distances, as the numpy path.
+    """
+    first: dict[bytes, int] = {}  # a noise's bit pattern -> its group
+    group = np.array([first.setdefault(r.tobytes(), len(first)) for r in R], dtype=np.int64)
+    noises = R[np.unique(group, return_index=True)[1]]
+    p, c = landmark_valid.shape
+    inverse = np.empty((len(noises), p, c, 4))
+    det = np.empty((len(noises), p, c))
+    kernels.association_inverses(S_landmark, noises, inverse, det)
+    logdet = np.log(det)
+    log_likelihood = np.empty((p, len(z), c))
+    d2 = np.empty((p, len(z), c))
+    kernels.association_scores(
+        z_hat,
+        inverse,
+        logdet,
+        group,
+        z,
+        landmark_valid,
+        z.shape[-1] * LOG_2PI,
+        log_likelihood,
+        d2,
+    )
+    return log_likelihood, d2

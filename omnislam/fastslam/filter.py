@@ -249,6 +249,7 @@ class FastSLAM:
             if config.association_gate_probability >= 1.0
             else chi_square_gate(config.association_gate_probability, 2),
             self._pose_spread,
+            kernels,
         )
         self._proposal = ProposalSampler(
             self._mapper, config.proposal_update, motion, rng, kernels, config.confirm_sightings

@@ -8,6 +8,10 @@ dominates. These kernels do the same work as one loop over the pairs each:
   (``landmark_tree.LandmarkTree.gather`` / ``scatter``);
 * ``ekf_range_bearing``: the 2-D landmark EKF update (``core.kalman.ekf_update`` with
   ``RangeBearing2D``, thesis eqs. 4.33-4.37);
+* ``association_inverses`` / ``association_scores``: the (particle, sighting, candidate) part
+  of maximum-likelihood association of 2-D range-bearing sightings
+  (``association.association_log_likelihood``), the bulk of FastSLAM 1.0's cost on data of
+  unknown association;
 * ``refine_range_bearing``: FastSLAM 2.0's sequential proposal over a step's sightings of
   established landmarks (``proposal.refine_proposal``, thesis eqs. 4.45-4.46 / Montemerlo 2003,
   Joseph form);
@@ -88,12 +92,15 @@ def compiled() -> SimpleNamespace:
         # the helpers the kernels call must be compiled first (numba resolves globals then)
         namespace = globals()
         namespace["_wrap"] = jit(_wrap)
+        namespace["_wrap_near"] = jit(_wrap_near)
         namespace["_key_depth"] = jit(_key_depth)
         namespace["_own_copy"] = jit(_own_copy)
         _COMPILED = SimpleNamespace(
             tree_rows=jit(tree_rows),
             tree_scatter=jit(tree_scatter),
             ekf_range_bearing=jit(ekf_range_bearing),
+            association_inverses=jit(association_inverses),
+            association_scores=jit(association_scores),
             refine_range_bearing=jit(refine_range_bearing),
             cholesky_draws=jit(cholesky_draws),
             odometry_prediction=jit(odometry_prediction),
@@ -105,6 +112,24 @@ def compiled() -> SimpleNamespace:
 def _wrap(angle: float) -> float:
     """(angle + pi) mod 2 pi - pi with floored modulo: ``core.se.wrap_angle`` bit for bit."""
     shifted = angle + _PI
+    return (shifted % _TWO_PI) - _PI
+
+
+def _wrap_near(angle: float) -> float:
+    """``_wrap`` bit for bit, without the modulo for an angle within one turn of [-pi, pi).
+
+    Floored modulo of s = angle + pi in [-2 pi, 4 pi) is s, s - 2 pi or s + 2 pi, each exact
+    (Sterbenz's lemma; the argument of ``core.se._unshift``); ``%`` costs ~10x more.
+    """
+    shifted = angle + _PI
+    if shifted >= _TWO_PI:
+        if shifted < 2.0 * _TWO_PI:
+            return (shifted - _TWO_PI) - _PI
+    elif shifted < 0.0:
+        if shifted >= -_TWO_PI:
+            return (shifted + _TWO_PI) - _PI
+    elif shifted == shifted:  # not NaN
+        return shifted - _PI
     return (shifted % _TWO_PI) - _PI
 
 
@@ -325,6 +350,89 @@ def ekf_range_bearing(
         out_cov[i, 0, 1] = 0.5 * (c01 + c10)
         out_cov[i, 1, 0] = 0.5 * (c10 + c01)
         out_cov[i, 1, 1] = 0.5 * (c11 + c11)
+
+
+# -- maximum-likelihood association of 2-D range-bearing sightings ------------------------------
+
+
+def association_inverses(
+    S_landmark: np.ndarray, R: np.ndarray, out_inverse: np.ndarray, out_det: np.ndarray
+) -> None:
+    """Inverses and determinants of S = S_pc + R_g for G distinct sighting noises R_g.
+
+    The first half of ``association.association_log_likelihood``'s (particle, sighting,
+    candidate) algebra with ``RangeBearing2D``: the sum S[:, None] + R[None, :, None] and the
+    closed-form 2x2 inverse of ``batch_linalg.inverse_and_logdet`` (det = a d - b c, then
+    d / det, -b / det, -c / det, a / det), once per distinct R instead of once per sighting.
+
+    Args:
+        S_landmark: (P, C, 2, 2) the sighting-independent part of S (H_m Sigma_c H_m^T, plus
+            the pose term when the pose is uncertain).
+        R: (G, 2, 2) the distinct noises of the frame's sightings.
+        out_inverse: (G, P, C, 4) S^-1 entries (00, 01, 10, 11); out_det: (G, P, C) det S.
+    """
+    for g in range(R.shape[0]):
+        r00, r01, r10, r11 = R[g, 0, 0], R[g, 0, 1], R[g, 1, 0], R[g, 1, 1]
+        for p in range(S_landmark.shape[0]):
+            for c in range(S_landmark.shape[1]):
+                a = S_landmark[p, c, 0, 0] + r00
+                b = S_landmark[p, c, 0, 1] + r01
+                e = S_landmark[p, c, 1, 0] + r10
+                d = S_landmark[p, c, 1, 1] + r11
+                det = a * d - b * e
+                out_det[g, p, c] = det
+                out_inverse[g, p, c, 0] = d / det
+                out_inverse[g, p, c, 1] = -b / det
+                out_inverse[g, p, c, 2] = -e / det
+                out_inverse[g, p, c, 3] = a / det
+
+
+def association_scores(
+    z_hat: np.ndarray,
+    inverse: np.ndarray,
+    logdet: np.ndarray,
+    group: np.ndarray,
+    z: np.ndarray,
+    valid: np.ndarray,
+    log_normaliser: float,
+    out_log_likelihood: np.ndarray,
+    out_mahalanobis: np.ndarray,
+) -> None:
+    """log N(z_k; z_hat_pc, S) and y^T S^-1 y of K sightings under C candidates in P particles.
+
+    The second half of ``association_inverses``: per (particle, sighting, candidate) the
+    residual y = z_k - z_hat_pc with the bearing wrapped (``RangeBearing2D.residual``), the
+    quadratic form in the order of ``gaussian.mahalanobis_squared``'s einsum,
+    ((y0 S'00 y0 + y0 S'01 y1) + y1 S'10 y0) + y1 S'11 y1 with S' = S^-1 and each product
+    taken left to right, the log-likelihood -0.5 ((d2 + log det S) + k log 2 pi)
+    (``gaussian.log_likelihood_from_mahalanobis``), and -inf / inf where the candidate is not
+    valid.
+
+    Args:
+        z_hat: (P, C, 2) predicted (range, bearing) of each candidate from each particle.
+        inverse: (G, P, C, 4) and logdet: (G, P, C): ``association_inverses``' outputs, the log
+            taken by the caller (numpy's, as the reference's).
+        group: (K,) the noise group g of each sighting; z: (K, 2) the sightings.
+        valid: (P, C) False where the particle has no estimate of the candidate.
+        log_normaliser: k log 2 pi.
+        out_log_likelihood, out_mahalanobis: (P, K, C) outputs.
+    """
+    for p in range(z_hat.shape[0]):
+        for k in range(z.shape[0]):
+            g = group[k]
+            z0, z1 = z[k, 0], z[k, 1]
+            for c in range(z_hat.shape[1]):
+                if not valid[p, c]:
+                    out_log_likelihood[p, k, c] = -math.inf
+                    out_mahalanobis[p, k, c] = math.inf
+                    continue
+                y0 = z0 - z_hat[p, c, 0]
+                y1 = _wrap_near(z1 - z_hat[p, c, 1])
+                i00, i01 = inverse[g, p, c, 0], inverse[g, p, c, 1]
+                i10, i11 = inverse[g, p, c, 2], inverse[g, p, c, 3]
+                d2 = ((y0 * i00 * y0 + y0 * i01 * y1) + y1 * i10 * y0) + y1 * i11 * y1
+                out_mahalanobis[p, k, c] = d2
+                out_log_likelihood[p, k, c] = -0.5 * ((d2 + logdet[g, p, c]) + log_normaliser)
 
 
 # -- FastSLAM 2.0's proposal over 2-D range-bearing sightings ---------------------------------

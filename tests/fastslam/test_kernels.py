@@ -26,6 +26,11 @@ from omnislam.core.motion import MotionNoise, OdometryMotionModel
 from omnislam.errors import MissingExtraError
 from omnislam.fastslam import FastSLAMConfig, Kernels, Variant, make_fastslam
 from omnislam.fastslam import kernels as kernel_module
+from omnislam.fastslam.association import (
+    NEW_LANDMARK,
+    association_log_likelihood,
+    maximum_likelihood_association,
+)
 from omnislam.fastslam.landmark_store import LandmarkBlock, LandmarkStatus
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.particles import ParticleSet
@@ -146,6 +151,67 @@ def test_weighted_moments_kernel_matches_the_particle_set(k):
     expected = particles.mean_pose()
     np.testing.assert_allclose(mean, expected, rtol=KERNEL_RTOL)
     np.testing.assert_allclose(cov, particles.pose_covariance(expected), rtol=1e-10)
+
+
+def _association_inputs(rng, p, k_sightings, c, R_kinds):
+    """Random poses, candidates (some not valid) and sightings for the association tests;
+    ``R_kinds`` distinct sighting noises, repeated over the sightings."""
+    poses = np.column_stack([rng.uniform(-3, 3, (p, 2)), rng.uniform(-np.pi, np.pi, p)])
+    mean, cov = _random_landmarks(rng, p * c)
+    valid = rng.random((p, c)) > 0.2
+    z, R = _range_bearing(rng, k_sightings)
+    z[: k_sightings // 2, 1] += rng.choice([-2 * np.pi, 2 * np.pi], k_sightings // 2)  # unwrapped
+    R *= rng.uniform(0.5, 2.0, (R_kinds, 1, 1))[np.arange(k_sightings) % R_kinds]
+    return poses, mean.reshape(p, c, 2), cov.reshape(p, c, 2, 2), valid, z, R
+
+
+@pytest.mark.parametrize("R_kinds", [1, 3])
+@pytest.mark.parametrize("pose_cov_kind", [None, "per particle", "per candidate"])
+def test_association_kernels_equal_the_numpy_path_bit_for_bit(k, R_kinds, pose_cov_kind):
+    """FastSLAM's per-(particle, sighting, candidate) association likelihoods, compiled and
+    numpy: exactly equal (the kernels repeat the numpy path's operations in its order), with
+    one noise for all sightings or several, with and without a pose covariance."""
+    rng = np.random.default_rng(8)
+    p, k_sightings, c = 30, 7, 40
+    poses, mean, cov, valid, z, R = _association_inputs(rng, p, k_sightings, c, R_kinds)
+    pose_cov = None
+    if pose_cov_kind is not None:
+        shape = (p, 3, 3) if pose_cov_kind == "per particle" else (p, c, 3, 3)
+        a = rng.normal(0, 0.05, shape)
+        pose_cov = a @ np.swapaxes(a, -1, -2)
+    model = RangeBearing2D()
+    expected = association_log_likelihood(poses, pose_cov, mean, cov, valid, z, R, model)
+    got = association_log_likelihood(poses, pose_cov, mean, cov, valid, z, R, model, k)
+    for a, b in zip(expected, got, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert np.isneginf(got[0].transpose(0, 2, 1)[~valid]).all()  # not candidates: -inf
+
+
+@pytest.mark.parametrize("exclusive", [False, True])
+@pytest.mark.parametrize("gate", [None, 9.21])
+def test_association_choices_equal_on_both_paths(k, exclusive, gate):
+    rng = np.random.default_rng(9)
+    poses, mean, cov, valid, z, R = _association_inputs(rng, 20, 6, 25, 1)
+    # sightings of candidates of particle 0, so that some are matched and some are new
+    z[:3] = RangeBearing2D().predict(poses[0], mean[0, :3])[0] + rng.normal(0, 0.02, (3, 2))
+    args = (poses, None, mean, cov, valid, z, R, RangeBearing2D(), -6.0, exclusive, gate)
+    expected = maximum_likelihood_association(*args)
+    got = maximum_likelihood_association(*args, k)
+    for a, b in zip(expected, got, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert (expected[0] == NEW_LANDMARK).any() and (expected[0] != NEW_LANDMARK).any()
+
+
+def test_wrap_near_is_the_modulo_wrap_bit_for_bit():
+    """``_wrap_near`` (exact turn corrections) against ``_wrap`` (floored modulo), in plain
+    Python as numba runs them: random angles, the interval ends and their neighbours."""
+    rng = np.random.default_rng(10)
+    ends = np.array([-3 * np.pi, -np.pi, 0.0, -0.0, np.pi, 3 * np.pi, 5 * np.pi, 1e6, -1e6])
+    near = np.concatenate([ends, np.nextafter(ends, np.inf), np.nextafter(ends, -np.inf)])
+    angles = np.concatenate([near, rng.uniform(-12, 12, 20000), [np.inf, -np.inf, np.nan]])
+    for angle in angles.tolist():
+        a, b = kernel_module._wrap(angle), kernel_module._wrap_near(angle)
+        assert (a == b and math.copysign(1, a) == math.copysign(1, b)) or (a != a and b != b)
 
 
 @pytest.mark.parametrize("layout", list(TreeLayout))
