@@ -8,7 +8,7 @@ numba's compilation, warmed on the first frames of a throwaway estimator, are no
 plus a SHA-1 digest of its outputs: the trajectory, the landmark map and ``info()``, written
 with ``repr`` (every digit of every float).
 
-``--against CHECKOUT`` also runs a second source tree (e.g. ``git worktree add /tmp/base
+``--against CHECKOUT`` also runs a second source tree (e.g. ``git worktree add ../base
 main``) with ``PYTHONPATH=CHECKOUT``, alternating the two run by run so that a shared
 machine's load hits both alike, and says whether every pair of digests is equal. ``--dump
 DIR`` writes one run's outputs as text for a diff. Datasets whose runs replay a front-end log
