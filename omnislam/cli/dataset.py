@@ -3,7 +3,8 @@
 ``list`` prints every registered real dataset (source, sensors, ground truth, found or not and
 where it was looked for) and the synthetic presets. ``synth`` renders a synthetic world; it is
 implemented by the synthetic-world work as ``omnislam.datasets.synthetic.cli_synth(args)``
-(args: preset, out, seed, frames, backend, overwrite), with its progress on stderr; an existing
+(args: preset, out, seed, frames, image_every, backend, overwrite), with its progress on stderr;
+an existing
 dataset folder is replaced only with ``--overwrite``.
 """
 
@@ -28,6 +29,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     synth.add_argument("--out", required=True, help="output folder")
     synth.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     synth.add_argument("--frames", type=int, default=None, help="number of frames")
+    synth.add_argument(
+        "--image-every",
+        type=int,
+        default=None,
+        metavar="K",
+        help="one image every K odometry steps (default: the preset's); the same world, route "
+        "and odometry at another image rate",
+    )
     synth.add_argument(
         "--backend",
         choices=("open3d", "numpy"),

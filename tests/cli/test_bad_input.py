@@ -900,6 +900,12 @@ def _(tmp, fx):
     return ["dataset", "synth", "atlantis", "--out", str(tmp / "x")], "atlantis"
 
 
+@case("synth-image-every-zero")
+def _(tmp, fx):
+    args = ["dataset", "synth", "demo", "--out", str(tmp / "x"), "--image-every", "0"]
+    return args, "image-every"
+
+
 @case("synth-out-not-empty")
 def _(tmp, fx):
     (tmp / "demo").mkdir()

@@ -1,8 +1,10 @@
-"""``omnislam dataset synth PRESET --out DIR [--seed N] [--frames N] [--backend B]``."""
+"""``omnislam dataset synth PRESET --out DIR [--seed N] [--frames N] [--image-every K]
+[--backend B]``."""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -13,7 +15,13 @@ def cli_synth(args: argparse.Namespace) -> int:
     """Render preset ``args.preset`` into ``args.out``, its progress on stderr.
 
     ``args`` carries ``preset``, ``out``, ``seed`` (default 0), ``frames`` (None: all images),
-    ``backend`` (None: open3d if installed) and optionally ``overwrite``. Returns the exit code.
+    ``backend`` (None: open3d if installed) and optionally ``overwrite`` and ``image_every`` (one
+    image every that many odometry steps instead of the preset's ``image_every_k``: the world,
+    route, odometry and sightings are the same, only the image frames change). Returns the exit
+    code.
+
+    Raises:
+        ConfigError: an unknown preset or an image step below 1.
     """
     from omnislam._progress import Progress
     from omnislam.datasets.synthetic.presets import PRESETS
@@ -23,6 +31,11 @@ def cli_synth(args: argparse.Namespace) -> int:
     preset = PRESETS.get(args.preset)
     if preset is None:
         raise ConfigError(f"unknown preset {args.preset!r}; known: {', '.join(PRESETS)}")
+    image_every = getattr(args, "image_every", None)
+    if image_every is not None:
+        if image_every < 1:
+            raise ConfigError(f"--image-every must be >= 1, got {image_every}")
+        preset = dataclasses.replace(preset, image_every_k=int(image_every))
     overwrite = bool(getattr(args, "overwrite", False))
     prepare_output(Path(args.out), overwrite)
     seed = 0 if args.seed is None else int(args.seed)

@@ -8,8 +8,10 @@ byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
 
 ``meta.json``
     ``{"format": "omnislam-synthetic", "version": 1, "preset", "seed", "backend", "frames",
-    "images", "description", "source", "odometry_bias", "motion_noise"}`` (the last two: the
-    simulated robot's systematic odometry errors and alpha coefficients, as dicts).
+    "images", "image_every_k", "description", "source", "odometry_bias", "motion_noise"}``
+    (``image_every_k``: one image every that many frames, the preset's unless ``omnislam dataset
+    synth --image-every`` chose another; the last two: the simulated robot's systematic odometry
+    errors and alpha coefficients, as dicts).
 ``world.json``
     The world: quads (surface id = index), texture specs, poles, vertical lines, 2-D walls.
 ``calibration.yaml``
@@ -155,6 +157,7 @@ def write_synthetic(
             "supersample": supersample,
             "frames": n,
             "images": int(sim.image_frames.size),
+            "image_every_k": int(sim.preset.image_every_k),
             "description": sim.preset.description,
             "source": sim.preset.source,
             "odometry_bias": dataclasses.asdict(sim.preset.odometry_bias),

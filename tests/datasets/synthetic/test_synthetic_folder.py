@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import json
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from omnislam.datasets.synthetic import (
     load_synthetic,
     read_ground_truth_maps,
 )
+from omnislam.datasets.synthetic.presets import PRESETS
 from omnislam.datasets.synthetic.render import Renderer
 from omnislam.datasets.synthetic.writer import write_synthetic
 from omnislam.errors import DataError
@@ -43,6 +45,26 @@ def test_same_preset_and_seed_give_byte_identical_folders(tmp_path):
     a, b = _digests(tmp_path / "a"), _digests(tmp_path / "b")
     assert a == b
     assert "images/000000.png" in a and "gt/000000.npz" in a and "world.json" in a
+
+
+def test_another_image_rate_keeps_the_world_route_and_odometry(tmp_path):
+    pytest.importorskip("cv2")
+    preset_k = PRESETS["demo"].image_every_k
+    for name, every in (("preset", None), ("dense", 2)):
+        args = argparse.Namespace(preset="demo", out=str(tmp_path / name), seed=3, frames=3,
+                                  backend="numpy", image_every=every)
+        assert cli_synth(args) == 0
+    preset, dense = load_synthetic(tmp_path / "preset"), load_synthetic(tmp_path / "dense")
+    assert preset.image_frames.tolist() == [0, preset_k, 2 * preset_k]
+    assert dense.image_frames.tolist() == [0, 2, 4]
+    shared = dense.stamps_s.size  # --frames keeps the frames up to the third image
+    np.testing.assert_array_equal(dense.odometry_r, preset.odometry_r[:shared])
+    np.testing.assert_array_equal(dense.stamps_s, preset.stamps_s[:shared])
+    meta = [json.loads((tmp_path / n / "meta.json").read_text()) for n in ("preset", "dense")]
+    assert [m["image_every_k"] for m in meta] == [preset_k, 2]
+    assert (tmp_path / "dense" / "world.json").read_text() == (
+        tmp_path / "preset" / "world.json"
+    ).read_text()
 
 
 def test_refuses_a_non_empty_folder_and_leaves_no_partial_output(tmp_path, demo_sim):
