@@ -5,7 +5,8 @@ path spends it in ~460 calls of 1-3 us each: the per-call overhead, not the arit
 dominates. These kernels do the same work as one loop over the pairs each:
 
 * ``tree_rows`` / ``tree_scatter``: the landmark tree's walks and its path copying
-  (``landmark_tree.LandmarkTree.gather`` / ``scatter``);
+  (``landmark_tree.LandmarkTree.gather`` / ``scatter``), ``take_rows`` / ``put_rows`` the
+  copies of the payload rows they address;
 * ``ekf_range_bearing``: the 2-D landmark EKF update (``core.kalman.ekf_update`` with
   ``RangeBearing2D``, thesis eqs. 4.33-4.37);
 * ``association_inverses`` / ``association_scores``: the (particle, sighting, candidate) part
@@ -109,6 +110,8 @@ def compiled() -> SimpleNamespace:
         _COMPILED = SimpleNamespace(
             tree_rows=jit(tree_rows),
             tree_scatter=jit(tree_scatter),
+            take_rows=jit(take_rows),
+            put_rows=jit(put_rows),
             ekf_range_bearing=jit(ekf_range_bearing),
             association_inverses=jit(association_inverses),
             association_scores=jit(association_scores),
@@ -282,6 +285,24 @@ def tree_scatter(
         links[node, _PAYLOAD] = row
         rows[i] = row
     return rows, node_taken, node_used, payload_taken, payload_used, copies, visits
+
+
+def take_rows(source: np.ndarray, rows: np.ndarray, out: np.ndarray) -> None:
+    """out[i] = source[rows[i]] for 2-D arrays (the payload table's fields as (Q, width)
+    views): ``LandmarkBlock.take`` of the gathered rows, one field per call."""
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        for j in range(source.shape[1]):
+            out[i, j] = source[r, j]
+
+
+def put_rows(target: np.ndarray, rows: np.ndarray, source: np.ndarray) -> None:
+    """target[rows[i]] = source[i] for 2-D arrays: ``LandmarkBlock.put`` of the written rows
+    (distinct), one field per call."""
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        for j in range(target.shape[1]):
+            target[r, j] = source[i, j]
 
 
 # -- 2-D range-bearing landmark EKF -------------------------------------------------------------
