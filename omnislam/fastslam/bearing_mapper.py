@@ -121,7 +121,7 @@ class BearingMapper:
         triangulated = config.bearing_update is BearingUpdate.TRIANGULATED
         ray_reuse = config.triangulated_ray_reuse if triangulated else 1.0
         log_likelihood = np.zeros(len(block))
-        rays = world_rays(wTr, sightings.unit_vectors_r[obs], self._sensor_height_m)
+        rays = self._world_rays(wTr, sightings.unit_vectors_r, obs)
         sigma = sightings.sigmas_rad[obs]
         absent = np.flatnonzero(block.status == ABSENT)
         ray_only = np.flatnonzero(block.status == RAY)
@@ -196,7 +196,7 @@ class BearingMapper:
         Returns:
             ((len(rows),) True where it triangulated, z3 (K, 3), Q (K, 3, 3) of those K rows).
         """
-        points, valid, parallax = self._triangulate(block.ray[rows], rays[rows])
+        points, valid, parallax = self._triangulate(block.ray, rays, rows)
         ok = valid & (parallax >= self._min_parallax_rad)
         kept = rows[ok]
         if not kept.size:
@@ -206,18 +206,33 @@ class BearingMapper:
         )
         return ok, z3, Q
 
+    def _world_rays(
+        self, wTr: np.ndarray, unit_vectors_r: np.ndarray, obs: np.ndarray
+    ) -> np.ndarray:
+        """``bearing_landmarks.world_rays`` of the bearings ``obs`` seen from ``wTr``; by the
+        compiled kernel when there is one (the headings' cos and sin stay numpy's)."""
+        if self._kernels is None:
+            return world_rays(wTr, unit_vectors_r[obs], self._sensor_height_m)
+        rays = np.empty((len(wTr), RAY_DIM))
+        cos_theta, sin_theta = np.cos(wTr[..., 2]), np.sin(wTr[..., 2])
+        self._kernels.world_rays(
+            wTr, cos_theta, sin_theta, unit_vectors_r, obs, self._sensor_height_m, rays
+        )
+        return rays
+
     def _triangulate(
-        self, rays_a: np.ndarray, rays_b: np.ndarray
+        self, rays_a: np.ndarray, rays_b: np.ndarray, rows: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``bearing_landmarks.triangulate`` with the configured method; the midpoint by the
-        compiled kernel when there is one (the parallax's arccos stays numpy's)."""
+        """``bearing_landmarks.triangulate`` of the rows ``rows`` of two ray tables with the
+        configured method; the midpoint by the compiled kernel when there is one (the
+        parallax's arccos stays numpy's)."""
         method = self._config.triangulation
         if self._kernels is None or method is not TriangulationMethod.MIDPOINT:
-            return triangulate(method, rays_a, rays_b)
-        n = len(rays_a)
+            return triangulate(method, rays_a[rows], rays_b[rows])
+        n = rows.size
         points, cosine = np.empty((n, 3)), np.empty(n)
         valid = np.empty(n, dtype=bool)
-        self._kernels.midpoint_triangulation(rays_a, rays_b, points, cosine, valid)
+        self._kernels.midpoint_triangulation(rays_a, rays_b, rows, points, cosine, valid)
         return points, valid, np.arccos(cosine)
 
     def _azimuth_elevation(self, wTr: np.ndarray, points_w: np.ndarray) -> np.ndarray:
@@ -226,9 +241,10 @@ class BearingMapper:
         atan2 on the arguments of ``kernels.azimuth_elevation_arguments``)."""
         arguments = np.empty((4, len(wTr)))
         self._kernels.azimuth_elevation_arguments(wTr, points_w, self._sensor_height_m, arguments)
-        return np.stack(
-            [np.arctan2(arguments[0], arguments[1]), np.arctan2(arguments[2], arguments[3])]
-        )
+        angles = np.empty((2, len(wTr)))
+        np.arctan2(arguments[0], arguments[1], out=angles[0])
+        np.arctan2(arguments[2], arguments[3], out=angles[1])
+        return angles
 
     def _update_compiled(
         self,
@@ -249,7 +265,7 @@ class BearingMapper:
         n = est.size
         wTr_est = wTr[est]
         if self._config.bearing_update is BearingUpdate.TRIANGULATED:
-            points, valid, parallax = self._triangulate(block.ray[est], rays[est])
+            points, valid, parallax = self._triangulate(block.ray, rays, est)
             triangulated = valid & (parallax >= self._min_parallax_rad)
             point_angles = self._azimuth_elevation(wTr_est, points)
             sin_parallax = np.sin(parallax)
@@ -278,18 +294,25 @@ class BearingMapper:
             self._sensor_height_m,
             self._triangulated_gate,
             self._bearing_gate,
+            rays,
+            block.ray,
             mahalanobis,
             det,
             accepted,
         )
         # log N(y; 0, S) (core.gaussian) truncated at the gate, as ekf_update and
         # gate_truncated_log_likelihood compute it for each model
-        dim_term = np.where(triangulated, 3 * LOG_2PI, 2 * LOG_2PI)
-        gate = np.where(triangulated, self._triangulated_gate, self._bearing_gate)
-        ll = -0.5 * (mahalanobis + np.log(det) + dim_term)
-        log_likelihood[est] = ll - 0.5 * (np.minimum(mahalanobis, gate) - mahalanobis)
-        moved = est[accepted & triangulated]
-        block.ray[moved] = rays[moved]  # eq. 4.28: keep the latest sighting
+        self._kernels.gated_log_likelihoods(
+            mahalanobis,
+            np.log(det),
+            triangulated,
+            3 * LOG_2PI,
+            2 * LOG_2PI,
+            self._triangulated_gate,
+            self._bearing_gate,
+            est,
+            log_likelihood,
+        )
         self.sightings_gated += int(n - np.count_nonzero(accepted))
 
     def _gated_update(

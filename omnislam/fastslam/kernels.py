@@ -21,10 +21,11 @@ dominates. These kernels do the same work as one loop over the pairs each:
   FastSLAM 2.0 proposal (``core.motion.OdometryMotionModel.predict`` with P = None);
 * ``weighted_moments``: the particle set's weighted mean pose (circular mean heading) and
   covariance, recorded every step (``particles.ParticleSet.mean_pose`` / ``pose_covariance``);
-* ``midpoint_triangulation``, ``azimuth_elevation_arguments``, ``bearing_landmark_updates``:
-  the triangulations and landmark EKF updates of omni bearings
+* ``world_rays``, ``midpoint_triangulation``, ``azimuth_elevation_arguments``,
+  ``bearing_landmark_updates``, ``gated_log_likelihoods``: the rays, triangulations, landmark
+  EKF updates and weight factors of omni bearings
   (``bearing_mapper.BearingMapper.update``, thesis eqs. 4.21-4.37), ~95 % of the sightings of
-  a synthetic omni run. Their atan2 / arccos / sin / log are numpy's, taken by the caller
+  a synthetic omni run. Their cos / sin / atan2 / arccos / log are numpy's, taken by the caller
   between the kernels: numpy's SIMD atan2, arccos and log differ from the C library's in the
   last bit on a few percent of arguments, so these kernels give the reference's numbers
   exactly.
@@ -119,9 +120,11 @@ def compiled() -> SimpleNamespace:
             cholesky_draws=jit(cholesky_draws),
             odometry_prediction=jit(odometry_prediction),
             weighted_moments=jit(weighted_moments),
+            world_rays=jit(world_rays),
             midpoint_triangulation=jit(midpoint_triangulation),
             azimuth_elevation_arguments=jit(azimuth_elevation_arguments),
             bearing_landmark_updates=jit(bearing_landmark_updates),
+            gated_log_likelihoods=jit(gated_log_likelihoods),
         )
     return _COMPILED
 
@@ -691,14 +694,43 @@ def weighted_moments(
 # -- 3-D landmarks from omni bearings -----------------------------------------------------------
 
 
+def world_rays(
+    wTr: np.ndarray,
+    cos_theta: np.ndarray,
+    sin_theta: np.ndarray,
+    unit_vectors_r: np.ndarray,
+    obs: np.ndarray,
+    sensor_height_m: float,
+    out: np.ndarray,
+) -> None:
+    """Rays in the world of N bearings ``unit_vectors_r[obs]`` seen from the poses ``wTr``.
+
+    ``bearing_landmarks.world_rays`` (``core.se.se2_rotate_vectors``) with the cosines and
+    sines of the headings taken by the caller (numpy's): out = [x, y, h, c u0 - s u1,
+    s u0 + c u1, u2] (N, 6).
+    """
+    for i in range(wTr.shape[0]):
+        o = obs[i]
+        c, s = cos_theta[i], sin_theta[i]
+        u0, u1 = unit_vectors_r[o, 0], unit_vectors_r[o, 1]
+        out[i, 0] = wTr[i, 0]
+        out[i, 1] = wTr[i, 1]
+        out[i, 2] = sensor_height_m
+        out[i, 3] = c * u0 - s * u1
+        out[i, 4] = s * u0 + c * u1
+        out[i, 5] = unit_vectors_r[o, 2]
+
+
 def midpoint_triangulation(
     rays_a: np.ndarray,
     rays_b: np.ndarray,
+    rows: np.ndarray,
     out_points: np.ndarray,
     out_cosine: np.ndarray,
     out_valid: np.ndarray,
 ) -> None:
-    """Midpoints of N pairs of rays and the cosines of the angles between them.
+    """Midpoints of N pairs of rays (rows ``rows`` of both tables) and the cosines of the
+    angles between them.
 
     ``bearing_landmarks.triangulate`` with ``TriangulationMethod.MIDPOINT`` up to the arccos of
     the parallax (numpy's, left to the caller): ``core.triangulation.triangulate_midpoint`` on
@@ -707,14 +739,16 @@ def midpoint_triangulation(
     products are summed as ``batch_linalg.rows_dot``, (p0 + p1) + p2.
 
     Args:
-        rays_a, rays_b: (N, 6) rays [origin_w (3), direction_w (3)].
+        rays_a, rays_b: (B, 6) rays [origin_w (3), direction_w (3)].
+        rows: (N,) the rows to triangulate.
         out_points: (N, 3) the midpoints; out_cosine: (N,) clipped cosines; out_valid: (N,).
     """
-    for i in range(rays_a.shape[0]):
-        o1x, o1y, o1z = rays_a[i, 0], rays_a[i, 1], rays_a[i, 2]
-        a0, a1, a2 = rays_a[i, 3], rays_a[i, 4], rays_a[i, 5]
-        o2x, o2y, o2z = rays_b[i, 0], rays_b[i, 1], rays_b[i, 2]
-        b0, b1, b2 = rays_b[i, 3], rays_b[i, 4], rays_b[i, 5]
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        o1x, o1y, o1z = rays_a[r, 0], rays_a[r, 1], rays_a[r, 2]
+        a0, a1, a2 = rays_a[r, 3], rays_a[r, 4], rays_a[r, 5]
+        o2x, o2y, o2z = rays_b[r, 0], rays_b[r, 1], rays_b[r, 2]
+        b0, b1, b2 = rays_b[r, 3], rays_b[r, 4], rays_b[r, 5]
         norm_a = math.sqrt((a0 * a0 + a1 * a1) + a2 * a2)
         norm_b = math.sqrt((b0 * b0 + b1 * b1) + b2 * b2)
         u0, u1, u2 = a0 / norm_a, a1 / norm_a, a2 / norm_a
@@ -811,6 +845,8 @@ def bearing_landmark_updates(
     sensor_height_m: float,
     gate_triangulated: float,
     gate_direct: float,
+    rays: np.ndarray,
+    block_ray: np.ndarray,
     out_mahalanobis: np.ndarray,
     out_det: np.ndarray,
     out_accepted: np.ndarray,
@@ -843,6 +879,8 @@ def bearing_landmark_updates(
         mean_angles: (2, N) atan2(dy, dx) and atan2(dz, rho) of each landmark mean.
         sensor_height_m: the viewpoint's height.
         gate_triangulated, gate_direct: the validation gates of 3-D and 2-D innovations.
+        rays: (B, 6) the new sightings' rays; block_ray: (B, 6) the stored ones: an accepted
+            triangulated update stores the new ray (eq. 4.28).
         out_mahalanobis, out_det: (N,) y^T S^-1 y and det S; out_accepted: (N,) bool.
     """
     H = np.zeros((3, 3))
@@ -939,6 +977,9 @@ def bearing_landmark_updates(
         out_accepted[i] = accepted
         if not accepted:  # an outlier: the landmark stays as it was
             continue
+        if k == 3:  # eq. 4.28: keep the latest sighting
+            for a in range(6):
+                block_ray[r, a] = rays[r, a]
         # K = (P H^T) S^-1, mean + K y, Sigma - K (P H^T)^T symmetrised
         for a in range(3):
             for b in range(k):
@@ -960,3 +1001,28 @@ def bearing_landmark_updates(
         for a in range(3):
             for b in range(3):
                 cov[r, a, b] = 0.5 * (c[a, b] + c[b, a])
+
+
+def gated_log_likelihoods(
+    mahalanobis: np.ndarray,
+    logdet: np.ndarray,
+    triangulated: np.ndarray,
+    log_normaliser_triangulated: float,
+    log_normaliser_direct: float,
+    gate_triangulated: float,
+    gate_direct: float,
+    rows: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """out[rows[i]] = log N(y; 0, S) truncated at the gate, from ``bearing_landmark_updates``'
+    y^T S^-1 y and numpy's log det S: ``gaussian.log_likelihood_from_mahalanobis``,
+    -0.5 ((d2 + log det S) + k log 2 pi), then ``gating.gate_truncated_log_likelihood``,
+    ll - 0.5 (min(d2, gate) - d2) (NaN propagating as ``np.minimum``)."""
+    for i in range(rows.shape[0]):
+        d2 = mahalanobis[i]
+        if triangulated[i]:
+            normaliser, gate = log_normaliser_triangulated, gate_triangulated
+        else:
+            normaliser, gate = log_normaliser_direct, gate_direct
+        truncated = gate if d2 > gate else d2
+        out[rows[i]] = -0.5 * ((d2 + logdet[i]) + normaliser) - 0.5 * (truncated - d2)

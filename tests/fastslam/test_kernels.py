@@ -293,12 +293,22 @@ def _bearing_views(rng, n):
     return poses, landmarks, stored, new
 
 
+def test_world_rays_kernel_equals_world_rays(k, rng):
+    poses, _, _, new = _bearing_views(rng, 2000)
+    unit_vectors_r = new[rng.permutation(2000), 3:]
+    obs = rng.integers(0, 2000, 2000)
+    rays = np.empty((2000, 6))
+    cos_theta, sin_theta = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    k.world_rays(poses, cos_theta, sin_theta, unit_vectors_r, obs, SENSOR_HEIGHT_M, rays)
+    np.testing.assert_array_equal(rays, world_rays(poses, unit_vectors_r[obs], SENSOR_HEIGHT_M))
+
+
 def test_midpoint_triangulation_kernel_equals_triangulate(k, rng):
     _, _, stored, new = _bearing_views(rng, 2000)
     points, valid, parallax = triangulate(TriangulationMethod.MIDPOINT, stored, new)
     got_points, cosine = np.empty((2000, 3)), np.empty(2000)
     got_valid = np.empty(2000, dtype=bool)
-    k.midpoint_triangulation(stored, new, got_points, cosine, got_valid)
+    k.midpoint_triangulation(stored, new, np.arange(2000), got_points, cosine, got_valid)
     assert 0 < valid.sum() < valid.size
     np.testing.assert_array_equal(got_points, points)
     np.testing.assert_array_equal(got_valid, valid)
@@ -380,6 +390,26 @@ def test_bearing_mapper_updates_equal_the_numpy_path_bit_for_bit(
         assert mappers[0].sightings_gated > 0
     if bearing_update is BearingUpdate.TRIANGULATED:
         assert 0 < mappers[0].triangulation_fallbacks < np.count_nonzero(block.status == ESTIMATED)
+
+
+def test_payload_row_kernels_equal_take_and_put(k, rng):
+    table = LandmarkBlock.empty(50, 3, 6)
+    names = ("mean", "cov", "status", "existence", "ray")
+    for name in names:
+        field = getattr(table, name)
+        field[:] = rng.integers(-100, 100, field.shape)
+    rows = rng.permutation(50)[:20]
+    taken = table.take(rows)
+    for name in names:
+        field, out = getattr(table, name), getattr(taken, name)
+        got = np.zeros_like(out)
+        k.take_rows(field.reshape(50, -1), rows, got.reshape(20, -1))
+        np.testing.assert_array_equal(got, out)
+        written = out[::-1].copy()
+        expected = field.copy()
+        expected[rows] = written
+        k.put_rows(field.reshape(50, -1), rows, written.reshape(20, -1))
+        np.testing.assert_array_equal(field, expected)
 
 
 def _run(config, frames, modality, initial_pose=None):
