@@ -23,12 +23,13 @@ dominates. These kernels do the same work as one loop over the pairs each:
   covariance, recorded every step (``particles.ParticleSet.mean_pose`` / ``pose_covariance``);
 * ``world_rays``, ``midpoint_triangulation``, ``azimuth_elevation_arguments``,
   ``bearing_landmark_updates``, ``gated_log_likelihoods``: the rays, triangulations, landmark
-  EKF updates and weight factors of omni bearings
-  (``bearing_mapper.BearingMapper.update``, thesis eqs. 4.21-4.37), ~95 % of the sightings of
-  a synthetic omni run. Their cos / sin / atan2 / arccos / log are numpy's, taken by the caller
-  between the kernels: numpy's SIMD atan2, arccos and log differ from the C library's in the
-  last bit on a few percent of arguments, so these kernels give the reference's numbers
-  exactly.
+  EKF updates and weight factors of omni bearings (``bearing_mapper.BearingMapper.update``,
+  thesis eqs. 4.21-4.37); ``refine_bearing_elevation``: their FastSLAM 2.0 proposal, one
+  sighting at a time (``proposal.refine_proposal`` with ``BearingElevation3D``). Their cos /
+  sin / atan2 / arccos / log are numpy's, taken by the caller between the kernels: numpy's SIMD
+  atan2, arccos and log differ from the C library's in the last bit on a few percent of
+  arguments, and with numpy's these kernels give the reference's numbers exactly (the tests
+  demand equality).
 
 The numpy path stays the reference and the test oracle (``tests/fastslam/test_kernels.py``):
 every kernel writes out the reference's arithmetic in the reference's order (products summed
@@ -125,6 +126,7 @@ def compiled() -> SimpleNamespace:
             azimuth_elevation_arguments=jit(azimuth_elevation_arguments),
             bearing_landmark_updates=jit(bearing_landmark_updates),
             gated_log_likelihoods=jit(gated_log_likelihoods),
+            refine_bearing_elevation=jit(refine_bearing_elevation),
         )
     return _COMPILED
 
@@ -1026,3 +1028,132 @@ def gated_log_likelihoods(
             normaliser, gate = log_normaliser_direct, gate_direct
         truncated = gate if d2 > gate else d2
         out[rows[i]] = -0.5 * ((d2 + logdet[i]) + normaliser) - 0.5 * (truncated - d2)
+
+
+def refine_bearing_elevation(
+    pose_mean: np.ndarray,
+    pose_cov: np.ndarray,
+    who: np.ndarray,
+    z: np.ndarray,
+    R: np.ndarray,
+    landmark_mean: np.ndarray,
+    landmark_cov: np.ndarray,
+    angles: np.ndarray,
+    sensor_height_m: float,
+    gate: float,
+    out_mahalanobis: np.ndarray,
+    out_det: np.ndarray,
+) -> None:
+    """Refine the proposals of particles ``who`` (distinct) by one omni bearing each, in place.
+
+    One step of FastSLAM 2.0's sequential proposal (``proposal.refine_proposal`` with
+    ``BearingElevation3D``, thesis eqs. 4.45-4.46 / Montemerlo 2003) for every particle that saw
+    one sighting: z_hat, H_x and H_m at the refined mean, Q = (H_m Sigma_m) H_m^T + R,
+    L = H_x P H_x^T + Q, K = P H_x^T L^-1, mean + K y with the heading wrapped, and the
+    covariance in Joseph form (I - K H_x) P (I - K H_x)^T + (K Q) K^T, symmetrised; every
+    product summed in index order as ``batch_linalg.product``. A pair outside the ``gate``
+    leaves the proposal as it was. The atan2 of the landmarks seen from the refined means are
+    numpy's (the caller's, from ``azimuth_elevation_arguments``), as are the log of det L and
+    the likelihood.
+
+    Args:
+        pose_mean: (P, 3), pose_cov: (P, 3, 3): the particles' proposals, updated in place.
+        who: (N,) distinct particles; z: (2,) and R: (2, 2): the sighting (azimuth,
+            elevation) and its noise; landmark_mean: (N, 3), landmark_cov: (N, 3, 3): the
+            sighted landmark in each particle's map; angles: (2, N) atan2(dy, dx) and
+            atan2(dz, rho) of the landmark from each particle's refined mean.
+        out_mahalanobis, out_det: (N,) y^T L^-1 y and det L.
+    """
+    hm = np.zeros((2, 3))
+    hx = np.zeros((2, 3))
+    b = np.zeros((2, 3))
+    q = np.zeros((2, 2))
+    a = np.zeros((3, 2))
+    k = np.zeros((3, 2))
+    ikh = np.zeros((3, 3))
+    bp = np.zeros((3, 3))
+    c = np.zeros((3, 3))
+    for i in range(who.shape[0]):
+        p = who[i]
+        x, y, theta = pose_mean[p, 0], pose_mean[p, 1], pose_mean[p, 2]
+        dx = landmark_mean[i, 0] - x
+        dy = landmark_mean[i, 1] - y
+        dz = landmark_mean[i, 2] - sensor_height_m
+        rho2 = dx * dx + dy * dy
+        if rho2 < _EPS:
+            rho2 = _EPS
+        rho = math.sqrt(rho2)
+        d2 = rho2 + dz * dz
+        y0 = _wrap(z[0] - _wrap(angles[0, i] - theta))
+        y1 = _wrap(z[1] - angles[1, i])
+        # landmark Jacobian H_m and pose Jacobian H_x = [-H_m[:, :2] | (-1, 0)^T]
+        hm[0, 0], hm[0, 1], hm[0, 2] = -dy / rho2, dx / rho2, 0.0
+        hm[1, 0], hm[1, 1], hm[1, 2] = -dz * dx / (rho * d2), -dz * dy / (rho * d2), rho / d2
+        hx[0, 0], hx[0, 1], hx[0, 2] = -hm[0, 0], -hm[0, 1], -1.0
+        hx[1, 0], hx[1, 1], hx[1, 2] = -hm[1, 0], -hm[1, 1], 0.0
+        # Q = (H_m Sigma_m) H_m^T + R
+        for r in range(2):
+            for col in range(3):
+                acc = hm[r, 0] * landmark_cov[i, 0, col]
+                acc += hm[r, 1] * landmark_cov[i, 1, col]
+                acc += hm[r, 2] * landmark_cov[i, 2, col]
+                b[r, col] = acc
+        for r in range(2):
+            for col in range(2):
+                acc = b[r, 0] * hm[col, 0]
+                acc += b[r, 1] * hm[col, 1]
+                acc += b[r, 2] * hm[col, 2]
+                q[r, col] = acc + R[r, col]
+        P = pose_cov[p]
+        # P H_x^T (3 x 2), L = H_x (P H_x^T) + Q
+        for r in range(3):
+            for col in range(2):
+                acc = P[r, 0] * hx[col, 0]
+                acc += P[r, 1] * hx[col, 1]
+                acc += P[r, 2] * hx[col, 2]
+                a[r, col] = acc
+        s00 = hx[0, 0] * a[0, 0] + hx[0, 1] * a[1, 0] + hx[0, 2] * a[2, 0] + q[0, 0]
+        s01 = hx[0, 0] * a[0, 1] + hx[0, 1] * a[1, 1] + hx[0, 2] * a[2, 1] + q[0, 1]
+        s10 = hx[1, 0] * a[0, 0] + hx[1, 1] * a[1, 0] + hx[1, 2] * a[2, 0] + q[1, 0]
+        s11 = hx[1, 0] * a[0, 1] + hx[1, 1] * a[1, 1] + hx[1, 2] * a[2, 1] + q[1, 1]
+        det = s00 * s11 - s01 * s10
+        i00, i01, i10, i11 = s11 / det, -s01 / det, -s10 / det, s00 / det
+        t0 = i00 * y0 + i01 * y1
+        t1 = i10 * y0 + i11 * y1
+        mahalanobis = y0 * t0 + y1 * t1
+        out_mahalanobis[i] = mahalanobis
+        out_det[i] = det
+        if not mahalanobis <= gate:  # an outlier: the proposal stays as it was
+            continue
+        for r in range(3):
+            k[r, 0] = a[r, 0] * i00 + a[r, 1] * i10
+            k[r, 1] = a[r, 0] * i01 + a[r, 1] * i11
+        step0 = k[0, 0] * y0 + k[0, 1] * y1
+        step1 = k[1, 0] * y0 + k[1, 1] * y1
+        step2 = k[2, 0] * y0 + k[2, 1] * y1
+        # Joseph form (I - K H_x) P (I - K H_x)^T + (K Q) K^T
+        for r in range(3):
+            for col in range(3):
+                ikh[r, col] = (1.0 if r == col else 0.0) - (
+                    k[r, 0] * hx[0, col] + k[r, 1] * hx[1, col]
+                )
+        for r in range(3):
+            for col in range(3):
+                acc = ikh[r, 0] * P[0, col]
+                acc += ikh[r, 1] * P[1, col]
+                acc += ikh[r, 2] * P[2, col]
+                bp[r, col] = acc
+        for r in range(3):
+            d0 = k[r, 0] * q[0, 0] + k[r, 1] * q[1, 0]
+            d1 = k[r, 0] * q[0, 1] + k[r, 1] * q[1, 1]
+            for col in range(3):
+                joseph = bp[r, 0] * ikh[col, 0]
+                joseph += bp[r, 1] * ikh[col, 1]
+                joseph += bp[r, 2] * ikh[col, 2]
+                c[r, col] = joseph + (d0 * k[col, 0] + d1 * k[col, 1])
+        for r in range(3):
+            for col in range(3):
+                P[r, col] = 0.5 * (c[r, col] + c[col, r])
+        pose_mean[p, 0] = x + step0
+        pose_mean[p, 1] = y + step1
+        pose_mean[p, 2] = _wrap(theta + step2)

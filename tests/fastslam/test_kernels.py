@@ -19,6 +19,7 @@ from fastslam_scenario import (
     make_scenario,
 )
 
+from omnislam.core.gaussian import log_likelihood_from_mahalanobis
 from omnislam.core.kalman import ekf_update
 from omnislam.core.measurement import (
     BearingElevation3D,
@@ -392,6 +393,56 @@ def test_bearing_mapper_updates_equal_the_numpy_path_bit_for_bit(
         assert 0 < mappers[0].triangulation_fallbacks < np.count_nonzero(block.status == ESTIMATED)
 
 
+@pytest.mark.parametrize("gate", [math.inf, 2.0])
+def test_bearing_proposal_kernel_equals_refine_proposal_bit_for_bit(k, rng, gate):
+    n = 500
+    poses, landmarks, _, _ = _bearing_views(rng, n)
+    model = BearingElevation3D(SENSOR_HEIGHT_M)
+    a = rng.normal(0, 0.05, (n, 3, 3))
+    pose_cov = a @ np.swapaxes(a, 1, 2) + 1e-6 * np.eye(3)
+    b = rng.normal(0, 0.1, (n, 3, 3))
+    landmark_cov = b @ np.swapaxes(b, 1, 2) + 1e-4 * np.eye(3)
+    z = model.predict(poses[0], landmarks[0])[0] + np.array([0.01, -0.02])
+    R = np.diag([0.004**2, 0.003**2])
+    expected = refine_proposal(
+        poses,
+        pose_cov,
+        np.broadcast_to(z, (n, 2)),
+        np.broadcast_to(R, (n, 2, 2)),
+        landmarks,
+        landmark_cov,
+        model,
+        gate,
+    )
+    arguments, angles = np.empty((4, n)), np.empty((2, n))
+    k.azimuth_elevation_arguments(poses, landmarks, SENSOR_HEIGHT_M, arguments)
+    angles[0], angles[1] = np.arctan2(arguments[0], arguments[1]), np.arctan2(*arguments[2:])
+    mean, cov = poses.copy(), pose_cov.copy()
+    mahalanobis, det = np.empty(n), np.empty(n)
+    who = rng.permutation(n)  # any order of distinct particles
+    k.refine_bearing_elevation(
+        mean,
+        cov,
+        who,
+        z,
+        R,
+        landmarks[who],
+        landmark_cov[who],
+        angles[:, who],
+        SENSOR_HEIGHT_M,
+        gate,
+        mahalanobis,
+        det,
+    )
+    np.testing.assert_array_equal(mean, expected.mean)
+    np.testing.assert_array_equal(cov, expected.cov)
+    np.testing.assert_array_equal(mahalanobis <= gate, expected.accepted[who])
+    log_likelihood = log_likelihood_from_mahalanobis(np.minimum(mahalanobis, gate), np.log(det), 2)
+    np.testing.assert_array_equal(log_likelihood, expected.log_likelihood[who])
+    if math.isfinite(gate):
+        assert 0 < expected.accepted.sum() < n
+
+
 def test_payload_row_kernels_equal_take_and_put(k, rng):
     table = LandmarkBlock.empty(50, 3, 6)
     names = ("mean", "cov", "status", "existence", "ray")
@@ -443,8 +494,8 @@ def test_range_bearing_runs_agree_on_both_paths(variant, unknown_ids):
 
 @pytest.mark.parametrize("variant", list(Variant))
 def test_bearing_runs_agree_on_both_paths(variant):
-    """3-D: the tree, the draws, the motion prediction, the triangulations and the landmark
-    EKFs run compiled; the gated proposal stays numpy."""
+    """3-D: the tree, the draws, the motion prediction, the triangulations, the landmark EKFs
+    and the gated sequential proposal run compiled."""
     frames = make_bearing_scenario(2, steps=60).frames
     config = FastSLAMConfig(
         variant=variant,
