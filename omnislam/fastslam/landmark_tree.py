@@ -358,8 +358,16 @@ class LandmarkTree:
             self._kernels.put_rows(table, rows, written)
 
     def _take_compiled(self, rows: np.ndarray) -> LandmarkBlock:
-        """``self._payload.take(rows)`` by ``kernels.take_rows``, field by field."""
-        block = LandmarkBlock.empty(rows.size, self._dim, self._ray_dim)
+        """``self._payload.take(rows)`` by ``kernels.take_rows``, field by field (into
+        uninitialised arrays: every entry is written)."""
+        n, d, payload = rows.size, self._dim, self._payload
+        block = LandmarkBlock(
+            np.empty((n, d)),
+            np.empty((n, d, d)),
+            np.empty(n, dtype=payload.status.dtype),
+            np.empty(n, dtype=payload.existence.dtype),
+            np.empty((n, self._ray_dim)),
+        )
         for table, out in zip(_fields(self._payload), _fields(block), strict=True):
             self._kernels.take_rows(table, rows, out)
         return block
