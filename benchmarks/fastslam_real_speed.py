@@ -11,12 +11,20 @@ with ``repr`` (every digit of every float).
 ``--against CHECKOUT`` also runs a second source tree (e.g. ``git worktree add ../base
 main``) with ``PYTHONPATH=CHECKOUT``, alternating the two run by run so that a shared
 machine's load hits both alike, and says whether every pair of digests is equal. ``--dump
-DIR`` writes one run's outputs as text for a diff. Datasets whose runs replay a front-end log
-(images, laser scans: CARMEN) are not handled here; compare their RUN_DIRs instead.
+DIR`` writes one run's outputs as text for a diff.
+
+A dataset whose runs replay a front-end log (images: the synthetic renders; laser scans:
+CARMEN) is run with ``--log LOG``: each run is then ``omnislam run DATASET --log LOG ...``
+itself (``execute.execute_run``), timed by its "running" stage (the CPU and wall-clock
+seconds its RUN_DIR's config records; loading numba's cached kernels included, compiling
+not: each tree makes one unrecorded run first), and its digest is the SHA-1 of the RUN_DIR's
+files except the timings (``config.yaml``, ``timing.csv``); ``--dump DIR`` writes the RUN_DIR.
+``--frames`` does not apply.
 
     PYTHONPATH=. OMNISLAM_DATA=../shared/data .venv/bin/python benchmarks/fastslam_real_speed.py
         victoria-park [--estimator fastslam1] [--frames 1500] [--repeats 3] [--seed 0]
         [--set KEY=VALUE ...] [--against ../base]
+    ... benchmarks/fastslam_real_speed.py RENDER_DIR --log LOG [--estimator fastslam1] ...
 
 Measured with ``--against`` a checkout of 3df96c6 (before the compiled association likelihoods,
 ``kernels.association_inverses`` / ``association_scores``), seed 0, 2 shared cores, medians of
@@ -24,6 +32,16 @@ CPU seconds: victoria-park fastslam1, first 1500 frames, 3 runs: 57.4 -> 13.1 s 
 mrclam6-r1 ``--set association=unknown`` fastslam1, 5 runs: 2.28 -> 1.57 s (1.45x); outputs
 identical. A whole victoria-park fastslam1 run (``omnislam run``, one each, user + sys CPU):
 624 -> 131 s (4.8x), RUN_DIR files byte-identical.
+
+Measured with ``--log`` against a checkout of f8bdf5c (before the compiled omni-bearing
+triangulations, landmark EKFs and FastSLAM 2.0 proposal, ``kernels.bearing_landmark_updates``
+/ ``refine_bearing_elevation`` ...), the lab40 render with its suite-s25 log
+(``lab40-s0-open3d-d256c450fab4-e991fd350d.npz``), seed 0, 2 shared cores, medians of 3
+alternated runs of the running stage's CPU seconds: fastslam1 5.39 -> 3.02 s (1.79x);
+fastslam1 ``--set islands=3 --set n_particles=300`` 16.14 -> 8.60 s (1.88x); fastslam2
+5.00 -> 1.46 s (3.43x); outputs identical. What is left of fastslam1 is mostly the landmark
+tree's path copying (``tree_scatter``, ~25 %: pointer chasing and copy-on-write of nodes
+after each resampling), the payload copies and the numpy transcendental calls.
 """
 
 from __future__ import annotations
@@ -100,6 +118,32 @@ def one_run(args: argparse.Namespace, options: dict[str, str]) -> dict:
     return {"cpu_s": cpu, "wall_s": wall, "frames": len(frames), "digest": digest}
 
 
+def one_log_run(args: argparse.Namespace, options: dict[str, str]) -> dict:
+    """``omnislam run DATASET --log LOG``: the running stage's CPU and wall seconds and the
+    digest of the RUN_DIR's files but the timings."""
+    import tempfile
+
+    from omnislam.compare.execute import RunSpec, execute_run
+    from omnislam.compare.rundir import CONFIG, write_run_dir
+
+    spec = RunSpec(args.dataset, args.estimator, args.seed, options, log=args.log)
+    record = execute_run(spec)
+    digest = hashlib.sha1()
+    with tempfile.TemporaryDirectory() as scratch:
+        run_dir = Path(args.dump) if args.dump else Path(scratch) / "run"
+        write_run_dir(run_dir, record)
+        for path in sorted(run_dir.iterdir()):
+            if path.name not in (CONFIG, "timing.csv"):
+                digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    config = record.config
+    return {
+        "cpu_s": config.stages_cpu_s["running"],
+        "wall_s": config.stages_wall_s["running"],
+        "frames": config.frames,
+        "digest": digest.hexdigest(),
+    }
+
+
 def spawn(checkout: Path, argv: list[str]) -> dict:
     """One run in a subprocess with ``PYTHONPATH=checkout`` (this script's ``--single``)."""
     env = {**os.environ, "PYTHONPATH": str(checkout)}
@@ -108,6 +152,11 @@ def spawn(checkout: Path, argv: list[str]) -> dict:
     if done.returncode != 0:
         sys.exit(f"run in {checkout} failed:\n{done.stderr}")
     return json.loads(done.stdout.splitlines()[-1])
+
+
+def _without_dump(argv: list[str]) -> list[str]:
+    """``argv`` without its ``--dump DIR``."""
+    return [a for i, a in enumerate(argv) if a != "--dump" and argv[i - 1] != "--dump"]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -119,19 +168,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--against", type=Path, default=None, help="a baseline checkout")
     parser.add_argument("--dump", default=None, help="write one run's outputs.txt here")
+    parser.add_argument("--log", default=None, help="the front-end log the runs replay")
     parser.add_argument("--single", action="store_true", help=argparse.SUPPRESS)
     add_set_option(parser, "loader or estimator option (repeatable)")
     args = parser.parse_args(argv)
     options = set_options(parser, args.options)
     if args.single:
-        print(json.dumps(one_run(args, options)))
+        print(json.dumps((one_log_run if args.log else one_run)(args, options)))
         return 0
     here = Path(__file__).resolve().parents[1]
     child = [a for a in (argv if argv is not None else sys.argv[1:]) if a != "--single"]
     if args.against is not None:  # the two trees alternate; each dumps only on its own
-        child = [a for i, a in enumerate(child) if a != "--dump" and child[i - 1] != "--dump"]
+        child = _without_dump(child)
     trees = {"this": here, **({"against": args.against} if args.against else {})}
     runs: dict[str, list[dict]] = {name: [] for name in trees}
+    if args.log:  # numba compiles kernels it has not cached yet outside the timed runs
+        for tree in trees.values():
+            spawn(tree, _without_dump(child))
     for _ in range(args.repeats):
         for name, tree in trees.items():
             runs[name].append(spawn(tree, child))

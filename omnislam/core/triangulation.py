@@ -19,7 +19,7 @@ import numpy as np
 from omnislam.core.batch_linalg import rows_dot, rows_norm
 
 #: rays whose (ground-projected) directions are closer to parallel than this are rejected
-_PARALLEL_SIN = 1e-9
+PARALLEL_SIN = 1e-9
 
 
 def triangulate_ground_plane(
@@ -42,7 +42,7 @@ def triangulate_ground_plane(
     # o1 + t1 d1 = o2 + t2 d2 in x, y:  [d1 -d2] [t1 t2]^T = o2 - o1
     det = -d1[..., 0] * d2[..., 1] + d1[..., 1] * d2[..., 0]
     norm = np.hypot(d1[..., 0], d1[..., 1]) * np.hypot(d2[..., 0], d2[..., 1])
-    parallel = np.abs(det) <= _PARALLEL_SIN * np.maximum(norm, 1e-300)
+    parallel = np.abs(det) <= PARALLEL_SIN * np.maximum(norm, 1e-300)
     safe = np.where(parallel, 1.0, det)
     bx, by = o2[..., 0] - o1[..., 0], o2[..., 1] - o1[..., 1]
     t1 = (-bx * d2[..., 1] + by * d2[..., 0]) / safe
@@ -73,7 +73,7 @@ def triangulate_midpoint(
     d = rows_dot(d1, w)
     e = rows_dot(d2, w)
     denom = 1.0 - b * b
-    parallel = denom <= _PARALLEL_SIN
+    parallel = denom <= PARALLEL_SIN
     safe = np.where(parallel, 1.0, denom)
     t1 = (b * e - d) / safe
     t2 = (e - b * d) / safe

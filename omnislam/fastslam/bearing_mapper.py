@@ -11,6 +11,10 @@ in ``bearing_landmarks``.
 A chi-square validation gate (``core.gating``) keeps bearings of feature tracks that jumped to
 another point out of the landmark EKFs and the FastSLAM 2.0 proposal; their weight factor is the
 Gaussian likelihood truncated at the gate.
+
+With the compiled kernels (``kernels``) the midpoint triangulations and the updates of
+established landmarks run as loops over the (particle, sighting) pairs, with the same numbers
+as the numpy path written out here (the reference, and the test oracle of the kernels).
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ import math
 import numpy as np
 
 from omnislam.core.gating import chi_square_gate, gate_truncated_log_likelihood
+from omnislam.core.gaussian import LOG_2PI
 from omnislam.core.kalman import ekf_update
 from omnislam.core.measurement import (
     BearingElevation3D,
@@ -36,7 +41,7 @@ from omnislam.fastslam.bearing_landmarks import (
     triangulated_measurement,
     world_rays,
 )
-from omnislam.fastslam.config import BearingUpdate, FastSLAMConfig
+from omnislam.fastslam.config import BearingUpdate, FastSLAMConfig, TriangulationMethod
 from omnislam.fastslam.landmark_store import ABSENT, ESTIMATED, RAY, LandmarkBlock
 from omnislam.fastslam.sightings import Pairs, Sightings
 
@@ -47,6 +52,8 @@ class BearingMapper:
     Args:
         config: the filter's settings (sensor height, bearing update, triangulation, parallax,
             gate, proposal restrictions).
+        kernels: the compiled kernels (``kernels.compiled()``) for the triangulations and the
+            updates of established landmarks, or None for the numpy path (the reference).
 
     Attributes:
         sightings_gated: (particle, sighting) landmark updates rejected by the gate so far.
@@ -58,8 +65,9 @@ class BearingMapper:
     landmark_dim = 3
     ray_dim = RAY_DIM
 
-    def __init__(self, config: FastSLAMConfig) -> None:
+    def __init__(self, config: FastSLAMConfig, kernels: object | None = None) -> None:
         self._config = config
+        self._kernels = kernels
         self._sensor_height_m = config.sensor_height_m
         self._min_parallax_rad = math.radians(config.min_parallax_deg)
         self._range_az_el = RangeAzimuthElevation3D(config.sensor_height_m)
@@ -113,7 +121,7 @@ class BearingMapper:
         triangulated = config.bearing_update is BearingUpdate.TRIANGULATED
         ray_reuse = config.triangulated_ray_reuse if triangulated else 1.0
         log_likelihood = np.zeros(len(block))
-        rays = world_rays(wTr, sightings.unit_vectors_r[obs], self._sensor_height_m)
+        rays = self._world_rays(wTr, sightings.unit_vectors_r, obs)
         sigma = sightings.sigmas_rad[obs]
         absent = np.flatnonzero(block.status == ABSENT)
         ray_only = np.flatnonzero(block.status == RAY)
@@ -136,7 +144,11 @@ class BearingMapper:
                 block.ray[rows] = rays[rows]  # eq. 4.28: keep the latest sighting
 
         # later matches: EKF update (eqs. 4.29-4.37), outliers gated out
-        if est.size:
+        if est.size and self._kernels is not None:
+            self._update_compiled(
+                block, est, rays, wTr, sigma, sightings, obs, ray_reuse, log_likelihood
+            )
+        elif est.size:
             direct = np.ones(est.size, dtype=bool)
             if triangulated:
                 ok, z3, Q = self._triangulated(block, est, rays, wTr, sigma, ray_reuse)
@@ -184,9 +196,7 @@ class BearingMapper:
         Returns:
             ((len(rows),) True where it triangulated, z3 (K, 3), Q (K, 3, 3) of those K rows).
         """
-        points, valid, parallax = triangulate(
-            self._config.triangulation, block.ray[rows], rays[rows]
-        )
+        points, valid, parallax = self._triangulate(block.ray, rays, rows)
         ok = valid & (parallax >= self._min_parallax_rad)
         kept = rows[ok]
         if not kept.size:
@@ -195,6 +205,115 @@ class BearingMapper:
             self._range_az_el, wTr[kept], points[ok], sigma[kept], parallax[ok], ray_reuse
         )
         return ok, z3, Q
+
+    def _world_rays(
+        self, wTr: np.ndarray, unit_vectors_r: np.ndarray, obs: np.ndarray
+    ) -> np.ndarray:
+        """``bearing_landmarks.world_rays`` of the bearings ``obs`` seen from ``wTr``; by the
+        compiled kernel when there is one (the headings' cos and sin stay numpy's)."""
+        if self._kernels is None:
+            return world_rays(wTr, unit_vectors_r[obs], self._sensor_height_m)
+        rays = np.empty((len(wTr), RAY_DIM))
+        cos_theta, sin_theta = np.cos(wTr[..., 2]), np.sin(wTr[..., 2])
+        self._kernels.world_rays(
+            wTr, cos_theta, sin_theta, unit_vectors_r, obs, self._sensor_height_m, rays
+        )
+        return rays
+
+    def _triangulate(
+        self, rays_a: np.ndarray, rays_b: np.ndarray, rows: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``bearing_landmarks.triangulate`` of the rows ``rows`` of two ray tables with the
+        configured method; the midpoint by the compiled kernel when there is one (the
+        parallax's arccos stays numpy's)."""
+        method = self._config.triangulation
+        if self._kernels is None or method is not TriangulationMethod.MIDPOINT:
+            return triangulate(method, rays_a[rows], rays_b[rows])
+        n = rows.size
+        points, cosine = np.empty((n, 3)), np.empty(n)
+        valid = np.empty(n, dtype=bool)
+        self._kernels.midpoint_triangulation(rays_a, rays_b, rows, points, cosine, valid)
+        return points, valid, np.arccos(cosine)
+
+    def _azimuth_elevation(self, wTr: np.ndarray, points_w: np.ndarray) -> np.ndarray:
+        """(2, N) atan2(dy, dx) and atan2(dz, rho) of N points seen from N poses, the angles of
+        the bearing models' ``predict`` before the heading is subtracted and wrapped (numpy's
+        atan2 on the arguments of ``kernels.azimuth_elevation_arguments``)."""
+        arguments = np.empty((4, len(wTr)))
+        self._kernels.azimuth_elevation_arguments(wTr, points_w, self._sensor_height_m, arguments)
+        angles = np.empty((2, len(wTr)))
+        np.arctan2(arguments[0], arguments[1], out=angles[0])
+        np.arctan2(arguments[2], arguments[3], out=angles[1])
+        return angles
+
+    def _update_compiled(
+        self,
+        block: LandmarkBlock,
+        est: np.ndarray,
+        rays: np.ndarray,
+        wTr: np.ndarray,
+        sigma: np.ndarray,
+        sightings: Sightings,
+        obs: np.ndarray,
+        ray_reuse: float,
+        log_likelihood: np.ndarray,
+    ) -> None:
+        """``update``'s later matches of ``block[est]`` by the compiled kernels: the same
+        triangulations, pseudo-measurements, gated EKF updates and truncated likelihoods as
+        ``_triangulated`` and ``_gated_update`` on the numpy path, in one loop over the pairs
+        (``kernels.bearing_landmark_updates``); the transcendental functions are numpy's."""
+        n = est.size
+        wTr_est = wTr[est]
+        if self._config.bearing_update is BearingUpdate.TRIANGULATED:
+            points, valid, parallax = self._triangulate(block.ray, rays, est)
+            triangulated = valid & (parallax >= self._min_parallax_rad)
+            point_angles = self._azimuth_elevation(wTr_est, points)
+            sin_parallax = np.sin(parallax)
+            self.triangulation_fallbacks += int(n - np.count_nonzero(triangulated))
+        else:
+            triangulated = np.zeros(n, dtype=bool)
+            points, point_angles, sin_parallax = np.zeros((n, 3)), np.zeros((2, n)), np.zeros(n)
+        mean_angles = self._azimuth_elevation(wTr_est, block.mean[est])
+        mahalanobis, det = np.empty(n), np.empty(n)
+        accepted = np.empty(n, dtype=bool)
+        self._kernels.bearing_landmark_updates(
+            wTr,
+            block.mean,
+            block.cov,
+            est,
+            triangulated,
+            points,
+            point_angles,
+            sin_parallax,
+            sigma,
+            ray_reuse,
+            obs,
+            sightings.z,
+            sightings.R,
+            mean_angles,
+            self._sensor_height_m,
+            self._triangulated_gate,
+            self._bearing_gate,
+            rays,
+            block.ray,
+            mahalanobis,
+            det,
+            accepted,
+        )
+        # log N(y; 0, S) (core.gaussian) truncated at the gate, as ekf_update and
+        # gate_truncated_log_likelihood compute it for each model
+        self._kernels.gated_log_likelihoods(
+            mahalanobis,
+            np.log(det),
+            triangulated,
+            3 * LOG_2PI,
+            2 * LOG_2PI,
+            self._triangulated_gate,
+            self._bearing_gate,
+            est,
+            log_likelihood,
+        )
+        self.sightings_gated += int(n - np.count_nonzero(accepted))
 
     def _gated_update(
         self,

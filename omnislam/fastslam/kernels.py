@@ -5,7 +5,8 @@ path spends it in ~460 calls of 1-3 us each: the per-call overhead, not the arit
 dominates. These kernels do the same work as one loop over the pairs each:
 
 * ``tree_rows`` / ``tree_scatter``: the landmark tree's walks and its path copying
-  (``landmark_tree.LandmarkTree.gather`` / ``scatter``);
+  (``landmark_tree.LandmarkTree.gather`` / ``scatter``), ``take_rows`` / ``put_rows`` the
+  copies of the payload rows they address;
 * ``ekf_range_bearing``: the 2-D landmark EKF update (``core.kalman.ekf_update`` with
   ``RangeBearing2D``, thesis eqs. 4.33-4.37);
 * ``association_inverses`` / ``association_scores``: the (particle, sighting, candidate) part
@@ -19,7 +20,16 @@ dominates. These kernels do the same work as one loop over the pairs each:
 * ``odometry_prediction``: the odometry model's prediction from exact poses, the start of the
   FastSLAM 2.0 proposal (``core.motion.OdometryMotionModel.predict`` with P = None);
 * ``weighted_moments``: the particle set's weighted mean pose (circular mean heading) and
-  covariance, recorded every step (``particles.ParticleSet.mean_pose`` / ``pose_covariance``).
+  covariance, recorded every step (``particles.ParticleSet.mean_pose`` / ``pose_covariance``);
+* ``world_rays``, ``midpoint_triangulation``, ``azimuth_elevation_arguments``,
+  ``bearing_landmark_updates``, ``gated_log_likelihoods``: the rays, triangulations, landmark
+  EKF updates and weight factors of omni bearings (``bearing_mapper.BearingMapper.update``,
+  thesis eqs. 4.21-4.37); ``refine_bearing_elevation``: their FastSLAM 2.0 proposal, one
+  sighting at a time (``proposal.refine_proposal`` with ``BearingElevation3D``). Their cos /
+  sin / atan2 / arccos / log are numpy's, taken by the caller between the kernels: numpy's SIMD
+  atan2, arccos and log differ from the C library's in the last bit on a few percent of
+  arguments, and with numpy's these kernels give the reference's numbers exactly (the tests
+  demand equality).
 
 The numpy path stays the reference and the test oracle (``tests/fastslam/test_kernels.py``):
 every kernel writes out the reference's arithmetic in the reference's order (products summed
@@ -43,6 +53,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from omnislam.core.triangulation import PARALLEL_SIN
 from omnislam.errors import MissingExtraError
 
 #: columns of the landmark tree's node table (``landmark_tree``)
@@ -51,6 +62,8 @@ _LEFT, _TOKEN, _PAYLOAD = 0, 2, 3
 _EPS = 1e-12
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
+#: sqrt(2), as ``np.sqrt(2.0)`` (both correctly rounded)
+_SQRT2 = math.sqrt(2.0)
 
 _COMPILED: SimpleNamespace | None = None
 
@@ -95,9 +108,12 @@ def compiled() -> SimpleNamespace:
         namespace["_wrap_near"] = jit(_wrap_near)
         namespace["_key_depth"] = jit(_key_depth)
         namespace["_own_copy"] = jit(_own_copy)
+        namespace["_inverse_small"] = jit(_inverse_small)
         _COMPILED = SimpleNamespace(
             tree_rows=jit(tree_rows),
             tree_scatter=jit(tree_scatter),
+            take_rows=jit(take_rows),
+            put_rows=jit(put_rows),
             ekf_range_bearing=jit(ekf_range_bearing),
             association_inverses=jit(association_inverses),
             association_scores=jit(association_scores),
@@ -105,6 +121,12 @@ def compiled() -> SimpleNamespace:
             cholesky_draws=jit(cholesky_draws),
             odometry_prediction=jit(odometry_prediction),
             weighted_moments=jit(weighted_moments),
+            world_rays=jit(world_rays),
+            midpoint_triangulation=jit(midpoint_triangulation),
+            azimuth_elevation_arguments=jit(azimuth_elevation_arguments),
+            bearing_landmark_updates=jit(bearing_landmark_updates),
+            gated_log_likelihoods=jit(gated_log_likelihoods),
+            refine_bearing_elevation=jit(refine_bearing_elevation),
         )
     return _COMPILED
 
@@ -268,6 +290,24 @@ def tree_scatter(
         links[node, _PAYLOAD] = row
         rows[i] = row
     return rows, node_taken, node_used, payload_taken, payload_used, copies, visits
+
+
+def take_rows(source: np.ndarray, rows: np.ndarray, out: np.ndarray) -> None:
+    """out[i] = source[rows[i]] for 2-D arrays (the payload table's fields as (Q, width)
+    views): ``LandmarkBlock.take`` of the gathered rows, one field per call."""
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        for j in range(source.shape[1]):
+            out[i, j] = source[r, j]
+
+
+def put_rows(target: np.ndarray, rows: np.ndarray, source: np.ndarray) -> None:
+    """target[rows[i]] = source[i] for 2-D arrays: ``LandmarkBlock.put`` of the written rows
+    (distinct), one field per call."""
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        for j in range(target.shape[1]):
+            target[r, j] = source[i, j]
 
 
 # -- 2-D range-bearing landmark EKF -------------------------------------------------------------
@@ -651,3 +691,469 @@ def weighted_moments(
     out_cov[0, 0], out_cov[0, 1], out_cov[0, 2] = c00, c01, c02
     out_cov[1, 0], out_cov[1, 1], out_cov[1, 2] = c01, c11, c12
     out_cov[2, 0], out_cov[2, 1], out_cov[2, 2] = c02, c12, c22
+
+
+# -- 3-D landmarks from omni bearings -----------------------------------------------------------
+
+
+def world_rays(
+    wTr: np.ndarray,
+    cos_theta: np.ndarray,
+    sin_theta: np.ndarray,
+    unit_vectors_r: np.ndarray,
+    obs: np.ndarray,
+    sensor_height_m: float,
+    out: np.ndarray,
+) -> None:
+    """Rays in the world of N bearings ``unit_vectors_r[obs]`` seen from the poses ``wTr``.
+
+    ``bearing_landmarks.world_rays`` (``core.se.se2_rotate_vectors``) with the cosines and
+    sines of the headings taken by the caller (numpy's): out = [x, y, h, c u0 - s u1,
+    s u0 + c u1, u2] (N, 6).
+    """
+    for i in range(wTr.shape[0]):
+        o = obs[i]
+        c, s = cos_theta[i], sin_theta[i]
+        u0, u1 = unit_vectors_r[o, 0], unit_vectors_r[o, 1]
+        out[i, 0] = wTr[i, 0]
+        out[i, 1] = wTr[i, 1]
+        out[i, 2] = sensor_height_m
+        out[i, 3] = c * u0 - s * u1
+        out[i, 4] = s * u0 + c * u1
+        out[i, 5] = unit_vectors_r[o, 2]
+
+
+def midpoint_triangulation(
+    rays_a: np.ndarray,
+    rays_b: np.ndarray,
+    rows: np.ndarray,
+    out_points: np.ndarray,
+    out_cosine: np.ndarray,
+    out_valid: np.ndarray,
+) -> None:
+    """Midpoints of N pairs of rays (rows ``rows`` of both tables) and the cosines of the
+    angles between them.
+
+    ``bearing_landmarks.triangulate`` with ``TriangulationMethod.MIDPOINT`` up to the arccos of
+    the parallax (numpy's, left to the caller): ``core.triangulation.triangulate_midpoint`` on
+    the normalised directions, the cosine of the rays' angle clipped to [-1, 1], and valid
+    where the rays are not parallel, both depths are positive and the point is finite. Dot
+    products are summed as ``batch_linalg.rows_dot``, (p0 + p1) + p2.
+
+    Args:
+        rays_a, rays_b: (B, 6) rays [origin_w (3), direction_w (3)].
+        rows: (N,) the rows to triangulate.
+        out_points: (N, 3) the midpoints; out_cosine: (N,) clipped cosines; out_valid: (N,).
+    """
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        o1x, o1y, o1z = rays_a[r, 0], rays_a[r, 1], rays_a[r, 2]
+        a0, a1, a2 = rays_a[r, 3], rays_a[r, 4], rays_a[r, 5]
+        o2x, o2y, o2z = rays_b[r, 0], rays_b[r, 1], rays_b[r, 2]
+        b0, b1, b2 = rays_b[r, 3], rays_b[r, 4], rays_b[r, 5]
+        norm_a = math.sqrt((a0 * a0 + a1 * a1) + a2 * a2)
+        norm_b = math.sqrt((b0 * b0 + b1 * b1) + b2 * b2)
+        u0, u1, u2 = a0 / norm_a, a1 / norm_a, a2 / norm_a
+        v0, v1, v2 = b0 / norm_b, b1 / norm_b, b2 / norm_b
+        w0, w1, w2 = o1x - o2x, o1y - o2y, o1z - o2z
+        b = (u0 * v0 + u1 * v1) + u2 * v2
+        d = (u0 * w0 + u1 * w1) + u2 * w2
+        e = (v0 * w0 + v1 * w1) + v2 * w2
+        denom = 1.0 - b * b
+        parallel = denom <= PARALLEL_SIN
+        safe = 1.0 if parallel else denom
+        t1 = (b * e - d) / safe
+        t2 = (e - b * d) / safe
+        px = 0.5 * ((o1x + t1 * u0) + (o2x + t2 * v0))
+        py = 0.5 * ((o1y + t1 * u1) + (o2y + t2 * v1))
+        pz = 0.5 * ((o1z + t1 * u2) + (o2z + t2 * v2))
+        out_points[i, 0], out_points[i, 1], out_points[i, 2] = px, py, pz
+        cosine = ((a0 * b0 + a1 * b1) + a2 * b2) / (norm_a * norm_b)
+        if cosine < -1.0:
+            cosine = -1.0
+        elif cosine > 1.0:
+            cosine = 1.0
+        out_cosine[i] = cosine
+        out_valid[i] = (
+            not parallel
+            and t1 > 0
+            and t2 > 0
+            and math.isfinite(px)
+            and math.isfinite(py)
+            and math.isfinite(pz)
+        )
+
+
+def azimuth_elevation_arguments(
+    wTr: np.ndarray, points_w: np.ndarray, sensor_height_m: float, out: np.ndarray
+) -> None:
+    """The arguments of the two atan2 of a bearing to N points: out = (dy, dx, dz, rho) (4, N).
+
+    ``core.measurement.BearingElevation3D.predict`` / ``RangeAzimuthElevation3D.predict`` up
+    to their atan2, left to numpy (its SIMD atan2 differs from the C library's in the last
+    bit): azimuth = wrap(atan2(dy, dx) - theta), elevation = atan2(dz, rho), with (dx, dy, dz)
+    the point from the viewpoint (x, y, sensor_height_m) and rho = sqrt(max(dx^2 + dy^2, eps)).
+    Each row of ``out`` is contiguous, as the reference's arrays are.
+    """
+    for i in range(wTr.shape[0]):
+        dx = points_w[i, 0] - wTr[i, 0]
+        dy = points_w[i, 1] - wTr[i, 1]
+        rho2 = dx * dx + dy * dy
+        if rho2 < _EPS:
+            rho2 = _EPS
+        out[0, i] = dy
+        out[1, i] = dx
+        out[2, i] = points_w[i, 2] - sensor_height_m
+        out[3, i] = math.sqrt(rho2)
+
+
+def _inverse_small(S: np.ndarray, k: int, out: np.ndarray) -> float:
+    """S^-1 of a 2x2 or 3x3 matrix into ``out``, returns det S: the closed forms of
+    ``batch_linalg.inverse_entry_major`` (cofactors over the determinant for 3x3)."""
+    if k == 2:
+        a, b, c, d = S[0, 0], S[0, 1], S[1, 0], S[1, 1]
+        det = a * d - b * c
+        out[0, 0], out[0, 1] = d / det, -b / det
+        out[1, 0], out[1, 1] = -c / det, a / det
+        return det
+    a, b, c = S[0, 0], S[0, 1], S[0, 2]
+    d, e, f = S[1, 0], S[1, 1], S[1, 2]
+    g, h, i = S[2, 0], S[2, 1], S[2, 2]
+    adj00, adj01, adj02 = e * i - f * h, c * h - b * i, b * f - c * e
+    adj10, adj11, adj12 = f * g - d * i, a * i - c * g, c * d - a * f
+    adj20, adj21, adj22 = d * h - e * g, b * g - a * h, a * e - b * d
+    det = a * adj00 + b * adj10 + c * adj20
+    out[0, 0], out[0, 1], out[0, 2] = adj00 / det, adj01 / det, adj02 / det
+    out[1, 0], out[1, 1], out[1, 2] = adj10 / det, adj11 / det, adj12 / det
+    out[2, 0], out[2, 1], out[2, 2] = adj20 / det, adj21 / det, adj22 / det
+    return det
+
+
+def bearing_landmark_updates(
+    wTr: np.ndarray,
+    mean: np.ndarray,
+    cov: np.ndarray,
+    rows: np.ndarray,
+    triangulated: np.ndarray,
+    point_w: np.ndarray,
+    point_angles: np.ndarray,
+    sin_parallax: np.ndarray,
+    sigma_rad: np.ndarray,
+    ray_reuse: float,
+    obs: np.ndarray,
+    z: np.ndarray,
+    R: np.ndarray,
+    mean_angles: np.ndarray,
+    sensor_height_m: float,
+    gate_triangulated: float,
+    gate_direct: float,
+    rays: np.ndarray,
+    block_ray: np.ndarray,
+    out_mahalanobis: np.ndarray,
+    out_det: np.ndarray,
+    out_accepted: np.ndarray,
+) -> None:
+    """EKF updates of N established 3-D landmarks from omni bearings, outliers gated out.
+
+    ``bearing_mapper.BearingMapper.update``'s later matches (thesis eqs. 4.29-4.37) per pair:
+    where the pair triangulated, with the pseudo-measurement z = (d, theta, phi) of the
+    triangulated point and its noise Q (``bearing_landmarks.triangulated_measurement``, eqs.
+    4.23 / 4.25) under ``RangeAzimuthElevation3D``; elsewhere directly with z = (azimuth,
+    elevation) under ``BearingElevation3D``. Each is ``core.kalman.ekf_update`` in the plain
+    form: predicted z and landmark Jacobian H at the mean (eqs. 4.31-4.32), y = z - z_hat with
+    the angles wrapped, S = H Sigma H^T + R, K = Sigma H^T S^-1 (cofactor / closed-form
+    inverse), mean + K y and the symmetrised Sigma - K (Sigma H^T)^T, every product summed in
+    index order as ``batch_linalg.product``. A pair whose y^T S^-1 y exceeds its gate leaves
+    its landmark as it was. The atan2 of the point and of the mean are numpy's (the caller's,
+    from ``azimuth_elevation_arguments``), as are the log of det S and the likelihood.
+
+    Args:
+        wTr: (B, 3) poses, mean: (B, 3), cov: (B, 3, 3): the block's, indexed by ``rows``;
+            mean and cov are updated in place.
+        rows: (N,) the block rows of the pairs.
+        triangulated: (N,) bool: the pair's update uses the triangulated point.
+        point_w: (N, 3) triangulated points; point_angles: (2, N) atan2(dy, dx) and
+            atan2(dz, rho) of each point; sin_parallax: (N,) sin of the rays' angle
+            (read where ``triangulated``).
+        sigma_rad: (B,) the bearings' angular std (block rows).
+        ray_reuse: Q is multiplied by this.
+        obs: (B,) the sighting of each block row; z: (K, 2) and R: (K, 2, 2) the sightings.
+        mean_angles: (2, N) atan2(dy, dx) and atan2(dz, rho) of each landmark mean.
+        sensor_height_m: the viewpoint's height.
+        gate_triangulated, gate_direct: the validation gates of 3-D and 2-D innovations.
+        rays: (B, 6) the new sightings' rays; block_ray: (B, 6) the stored ones: an accepted
+            triangulated update stores the new ray (eq. 4.28).
+        out_mahalanobis, out_det: (N,) y^T S^-1 y and det S; out_accepted: (N,) bool.
+    """
+    H = np.zeros((3, 3))
+    Rk = np.zeros((3, 3))
+    y = np.zeros(3)
+    pht = np.zeros((3, 3))
+    S = np.zeros((3, 3))
+    S_inv = np.zeros((3, 3))
+    K = np.zeros((3, 3))
+    c = np.zeros((3, 3))
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        x, yy, theta = wTr[r, 0], wTr[r, 1], wTr[r, 2]
+        dx = mean[r, 0] - x
+        dy = mean[r, 1] - yy
+        dz = mean[r, 2] - sensor_height_m
+        rho2 = dx * dx + dy * dy
+        if rho2 < _EPS:
+            rho2 = _EPS
+        rho = math.sqrt(rho2)
+        d2 = rho2 + dz * dz
+        azimuth = _wrap(mean_angles[0, i] - theta)
+        elevation = mean_angles[1, i]
+        # the bearing rows of H (eq. 4.32 without its range row)
+        h10, h11, h12 = -dy / rho2, dx / rho2, 0.0
+        h20, h21, h22 = -dz * dx / (rho * d2), -dz * dy / (rho * d2), rho / d2
+        if triangulated[i]:
+            k = 3
+            gate = gate_triangulated
+            d = math.sqrt(d2)
+            # z = (d, theta, phi) of the triangulated point (eq. 4.25) and its Q (eq. 4.23)
+            pdx = point_w[i, 0] - x
+            pdy = point_w[i, 1] - yy
+            pdz = point_w[i, 2] - sensor_height_m
+            prho2 = pdx * pdx + pdy * pdy
+            if prho2 < _EPS:
+                prho2 = _EPS
+            z_d = math.sqrt(prho2 + pdz * pdz)
+            z_azimuth = _wrap(point_angles[0, i] - theta)
+            sigma = sigma_rad[r]
+            sine = sin_parallax[i]
+            if sine < 1e-6:
+                sine = 1e-6
+            sigma_d = _SQRT2 * z_d * sigma / sine
+            for a in range(3):
+                for b in range(3):
+                    Rk[a, b] = ray_reuse * 0.0
+            Rk[0, 0] = ray_reuse * (sigma_d * sigma_d)
+            Rk[1, 1] = Rk[2, 2] = ray_reuse * (sigma * sigma)
+            y[0] = z_d - d
+            y[1] = _wrap(z_azimuth - azimuth)
+            y[2] = _wrap(point_angles[1, i] - elevation)
+            H[0, 0], H[0, 1], H[0, 2] = dx / d, dy / d, dz / d
+            H[1, 0], H[1, 1], H[1, 2] = h10, h11, h12
+            H[2, 0], H[2, 1], H[2, 2] = h20, h21, h22
+        else:
+            k = 2
+            gate = gate_direct
+            o = obs[r]
+            for a in range(2):
+                for b in range(2):
+                    Rk[a, b] = R[o, a, b]
+            y[0] = _wrap(z[o, 0] - azimuth)
+            y[1] = _wrap(z[o, 1] - elevation)
+            H[0, 0], H[0, 1], H[0, 2] = h10, h11, h12
+            H[1, 0], H[1, 1], H[1, 2] = h20, h21, h22
+        # P H^T (3 x k), S = H (P H^T) + R (k x k)
+        for a in range(3):
+            for b in range(k):
+                acc = cov[r, a, 0] * H[b, 0]
+                acc += cov[r, a, 1] * H[b, 1]
+                acc += cov[r, a, 2] * H[b, 2]
+                pht[a, b] = acc
+        for a in range(k):
+            for b in range(k):
+                acc = H[a, 0] * pht[0, b]
+                acc += H[a, 1] * pht[1, b]
+                acc += H[a, 2] * pht[2, b]
+                S[a, b] = acc + Rk[a, b]
+        det = _inverse_small(S, k, S_inv)
+        # y^T (S^-1 y)
+        mahalanobis = 0.0
+        for a in range(k):
+            acc = S_inv[a, 0] * y[0]
+            for b in range(1, k):
+                acc += S_inv[a, b] * y[b]
+            if a == 0:
+                mahalanobis = y[0] * acc
+            else:
+                mahalanobis += y[a] * acc
+        out_mahalanobis[i] = mahalanobis
+        out_det[i] = det
+        accepted = mahalanobis <= gate
+        out_accepted[i] = accepted
+        if not accepted:  # an outlier: the landmark stays as it was
+            continue
+        if k == 3:  # eq. 4.28: keep the latest sighting
+            for a in range(6):
+                block_ray[r, a] = rays[r, a]
+        # K = (P H^T) S^-1, mean + K y, Sigma - K (P H^T)^T symmetrised
+        for a in range(3):
+            for b in range(k):
+                acc = pht[a, 0] * S_inv[0, b]
+                for m in range(1, k):
+                    acc += pht[a, m] * S_inv[m, b]
+                K[a, b] = acc
+        for a in range(3):
+            for b in range(3):
+                acc = K[a, 0] * pht[b, 0]
+                for m in range(1, k):
+                    acc += K[a, m] * pht[b, m]
+                c[a, b] = cov[r, a, b] - acc
+        for a in range(3):
+            acc = K[a, 0] * y[0]
+            for m in range(1, k):
+                acc += K[a, m] * y[m]
+            mean[r, a] = mean[r, a] + acc
+        for a in range(3):
+            for b in range(3):
+                cov[r, a, b] = 0.5 * (c[a, b] + c[b, a])
+
+
+def gated_log_likelihoods(
+    mahalanobis: np.ndarray,
+    logdet: np.ndarray,
+    triangulated: np.ndarray,
+    log_normaliser_triangulated: float,
+    log_normaliser_direct: float,
+    gate_triangulated: float,
+    gate_direct: float,
+    rows: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """out[rows[i]] = log N(y; 0, S) truncated at the gate, from ``bearing_landmark_updates``'
+    y^T S^-1 y and numpy's log det S: ``gaussian.log_likelihood_from_mahalanobis``,
+    -0.5 ((d2 + log det S) + k log 2 pi), then ``gating.gate_truncated_log_likelihood``,
+    ll - 0.5 (min(d2, gate) - d2) (NaN propagating as ``np.minimum``)."""
+    for i in range(rows.shape[0]):
+        d2 = mahalanobis[i]
+        if triangulated[i]:
+            normaliser, gate = log_normaliser_triangulated, gate_triangulated
+        else:
+            normaliser, gate = log_normaliser_direct, gate_direct
+        truncated = gate if d2 > gate else d2
+        out[rows[i]] = -0.5 * ((d2 + logdet[i]) + normaliser) - 0.5 * (truncated - d2)
+
+
+def refine_bearing_elevation(
+    pose_mean: np.ndarray,
+    pose_cov: np.ndarray,
+    who: np.ndarray,
+    z: np.ndarray,
+    R: np.ndarray,
+    landmark_mean: np.ndarray,
+    landmark_cov: np.ndarray,
+    angles: np.ndarray,
+    sensor_height_m: float,
+    gate: float,
+    out_mahalanobis: np.ndarray,
+    out_det: np.ndarray,
+) -> None:
+    """Refine the proposals of particles ``who`` (distinct) by one omni bearing each, in place.
+
+    One step of FastSLAM 2.0's sequential proposal (``proposal.refine_proposal`` with
+    ``BearingElevation3D``, thesis eqs. 4.45-4.46 / Montemerlo 2003) for every particle that saw
+    one sighting: z_hat, H_x and H_m at the refined mean, Q = (H_m Sigma_m) H_m^T + R,
+    L = H_x P H_x^T + Q, K = P H_x^T L^-1, mean + K y with the heading wrapped, and the
+    covariance in Joseph form (I - K H_x) P (I - K H_x)^T + (K Q) K^T, symmetrised; every
+    product summed in index order as ``batch_linalg.product``. A pair outside the ``gate``
+    leaves the proposal as it was. The atan2 of the landmarks seen from the refined means are
+    numpy's (the caller's, from ``azimuth_elevation_arguments``), as are the log of det L and
+    the likelihood.
+
+    Args:
+        pose_mean: (P, 3), pose_cov: (P, 3, 3): the particles' proposals, updated in place.
+        who: (N,) distinct particles; z: (2,) and R: (2, 2): the sighting (azimuth,
+            elevation) and its noise; landmark_mean: (N, 3), landmark_cov: (N, 3, 3): the
+            sighted landmark in each particle's map; angles: (2, N) atan2(dy, dx) and
+            atan2(dz, rho) of the landmark from each particle's refined mean.
+        out_mahalanobis, out_det: (N,) y^T L^-1 y and det L.
+    """
+    hm = np.zeros((2, 3))
+    hx = np.zeros((2, 3))
+    b = np.zeros((2, 3))
+    q = np.zeros((2, 2))
+    a = np.zeros((3, 2))
+    k = np.zeros((3, 2))
+    ikh = np.zeros((3, 3))
+    bp = np.zeros((3, 3))
+    c = np.zeros((3, 3))
+    for i in range(who.shape[0]):
+        p = who[i]
+        x, y, theta = pose_mean[p, 0], pose_mean[p, 1], pose_mean[p, 2]
+        dx = landmark_mean[i, 0] - x
+        dy = landmark_mean[i, 1] - y
+        dz = landmark_mean[i, 2] - sensor_height_m
+        rho2 = dx * dx + dy * dy
+        if rho2 < _EPS:
+            rho2 = _EPS
+        rho = math.sqrt(rho2)
+        d2 = rho2 + dz * dz
+        y0 = _wrap(z[0] - _wrap(angles[0, i] - theta))
+        y1 = _wrap(z[1] - angles[1, i])
+        # landmark Jacobian H_m and pose Jacobian H_x = [-H_m[:, :2] | (-1, 0)^T]
+        hm[0, 0], hm[0, 1], hm[0, 2] = -dy / rho2, dx / rho2, 0.0
+        hm[1, 0], hm[1, 1], hm[1, 2] = -dz * dx / (rho * d2), -dz * dy / (rho * d2), rho / d2
+        hx[0, 0], hx[0, 1], hx[0, 2] = -hm[0, 0], -hm[0, 1], -1.0
+        hx[1, 0], hx[1, 1], hx[1, 2] = -hm[1, 0], -hm[1, 1], 0.0
+        # Q = (H_m Sigma_m) H_m^T + R
+        for r in range(2):
+            for col in range(3):
+                acc = hm[r, 0] * landmark_cov[i, 0, col]
+                acc += hm[r, 1] * landmark_cov[i, 1, col]
+                acc += hm[r, 2] * landmark_cov[i, 2, col]
+                b[r, col] = acc
+        for r in range(2):
+            for col in range(2):
+                acc = b[r, 0] * hm[col, 0]
+                acc += b[r, 1] * hm[col, 1]
+                acc += b[r, 2] * hm[col, 2]
+                q[r, col] = acc + R[r, col]
+        P = pose_cov[p]
+        # P H_x^T (3 x 2), L = H_x (P H_x^T) + Q
+        for r in range(3):
+            for col in range(2):
+                acc = P[r, 0] * hx[col, 0]
+                acc += P[r, 1] * hx[col, 1]
+                acc += P[r, 2] * hx[col, 2]
+                a[r, col] = acc
+        s00 = hx[0, 0] * a[0, 0] + hx[0, 1] * a[1, 0] + hx[0, 2] * a[2, 0] + q[0, 0]
+        s01 = hx[0, 0] * a[0, 1] + hx[0, 1] * a[1, 1] + hx[0, 2] * a[2, 1] + q[0, 1]
+        s10 = hx[1, 0] * a[0, 0] + hx[1, 1] * a[1, 0] + hx[1, 2] * a[2, 0] + q[1, 0]
+        s11 = hx[1, 0] * a[0, 1] + hx[1, 1] * a[1, 1] + hx[1, 2] * a[2, 1] + q[1, 1]
+        det = s00 * s11 - s01 * s10
+        i00, i01, i10, i11 = s11 / det, -s01 / det, -s10 / det, s00 / det
+        t0 = i00 * y0 + i01 * y1
+        t1 = i10 * y0 + i11 * y1
+        mahalanobis = y0 * t0 + y1 * t1
+        out_mahalanobis[i] = mahalanobis
+        out_det[i] = det
+        if not mahalanobis <= gate:  # an outlier: the proposal stays as it was
+            continue
+        for r in range(3):
+            k[r, 0] = a[r, 0] * i00 + a[r, 1] * i10
+            k[r, 1] = a[r, 0] * i01 + a[r, 1] * i11
+        step0 = k[0, 0] * y0 + k[0, 1] * y1
+        step1 = k[1, 0] * y0 + k[1, 1] * y1
+        step2 = k[2, 0] * y0 + k[2, 1] * y1
+        # Joseph form (I - K H_x) P (I - K H_x)^T + (K Q) K^T
+        for r in range(3):
+            for col in range(3):
+                ikh[r, col] = (1.0 if r == col else 0.0) - (
+                    k[r, 0] * hx[0, col] + k[r, 1] * hx[1, col]
+                )
+        for r in range(3):
+            for col in range(3):
+                acc = ikh[r, 0] * P[0, col]
+                acc += ikh[r, 1] * P[1, col]
+                acc += ikh[r, 2] * P[2, col]
+                bp[r, col] = acc
+        for r in range(3):
+            d0 = k[r, 0] * q[0, 0] + k[r, 1] * q[1, 0]
+            d1 = k[r, 0] * q[0, 1] + k[r, 1] * q[1, 1]
+            for col in range(3):
+                joseph = bp[r, 0] * ikh[col, 0]
+                joseph += bp[r, 1] * ikh[col, 1]
+                joseph += bp[r, 2] * ikh[col, 2]
+                c[r, col] = joseph + (d0 * k[col, 0] + d1 * k[col, 1])
+        for r in range(3):
+            for col in range(3):
+                P[r, col] = 0.5 * (c[r, col] + c[col, r])
+        pose_mean[p, 0] = x + step0
+        pose_mean[p, 1] = y + step1
+        pose_mean[p, 2] = _wrap(theta + step2)

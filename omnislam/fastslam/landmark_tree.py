@@ -41,6 +41,7 @@ O(1) per allocated row.
 
 from __future__ import annotations
 
+import math
 from enum import Enum
 
 import numpy as np
@@ -54,6 +55,12 @@ _SHARED_TOKEN = 0
 #: columns of the node table
 _LEFT, _TOKEN, _PAYLOAD = 0, 2, 3
 _COLUMNS = 4
+
+
+def _fields(block: LandmarkBlock) -> tuple[np.ndarray, ...]:
+    """The fields of a block as (N, width) views, the layout of ``kernels.take_rows``."""
+    fields = (block.mean, block.cov, block.status, block.existence, block.ray)
+    return tuple(field.reshape(len(block), math.prod(field.shape[1:])) for field in fields)
 
 
 class _Rows:
@@ -250,7 +257,7 @@ class LandmarkTree:
                 self._leaf_height(),
             )
             self.node_visits += int(visits)
-            return self._payload.take(rows)
+            return self._take_compiled(rows)
         key, depth = self._paths(slots)
         self.node_visits += int((depth + 1).sum())
         nodes = self._walk(self._roots[particles], self._prefixes(key, depth))
@@ -347,7 +354,23 @@ class LandmarkTree:
         payloads.free, payloads.used = payloads.free[payload_taken:], int(payload_used)
         self.nodes_allocated += int(copies)
         self.node_visits += int(visits)
-        self._payload.put(rows, block)
+        for table, written in zip(_fields(self._payload), _fields(block), strict=True):
+            self._kernels.put_rows(table, rows, written)
+
+    def _take_compiled(self, rows: np.ndarray) -> LandmarkBlock:
+        """``self._payload.take(rows)`` by ``kernels.take_rows``, field by field (into
+        uninitialised arrays: every entry is written)."""
+        n, d, payload = rows.size, self._dim, self._payload
+        block = LandmarkBlock(
+            np.empty((n, d)),
+            np.empty((n, d, d)),
+            np.empty(n, dtype=payload.status.dtype),
+            np.empty(n, dtype=payload.existence.dtype),
+            np.empty((n, self._ray_dim)),
+        )
+        for table, out in zip(_fields(self._payload), _fields(block), strict=True):
+            self._kernels.take_rows(table, rows, out)
+        return block
 
     def resample(self, ancestors: np.ndarray) -> None:
         """O(P): particle i takes old particle ancestors[i]'s root; see the module docstring

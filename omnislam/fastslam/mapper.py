@@ -70,8 +70,8 @@ class LandmarkMapper(Protocol):
 def make_mapper(
     modality: Modality, config: FastSLAMConfig, kernels: object | None = None
 ) -> LandmarkMapper:
-    """The mapper of ``modality`` (the 2-D one updates with the compiled ``kernels`` when
-    given and gates at ``config.outlier_gate_probability``).
+    """The mapper of ``modality`` (both update with the compiled ``kernels`` when given; the
+    2-D one gates at ``config.outlier_gate_probability``).
 
     Raises:
         ConfigError: no modality, or one FastSLAM does not consume (naming those it does).
@@ -79,7 +79,7 @@ def make_mapper(
     if modality is Modality.RANGE_BEARING_2D:
         return RangeBearingMapper(kernels, config.outlier_gate_probability)
     if modality is Modality.BEARINGS_3D:
-        return BearingMapper(config)
+        return BearingMapper(config, kernels)
     allowed = " or ".join(m.value for m in MODALITIES)
     got = modality.value if isinstance(modality, Modality) else repr(modality)
     raise ConfigError(f"FastSLAM consumes the modality {allowed}, not {got}")

@@ -14,12 +14,13 @@ converged landmarks, capped) and with which model and gate.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
 from omnislam.core.gaussian import log_likelihood_from_mahalanobis
-from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.measurement import BearingElevation3D, RangeBearing2D
 from omnislam.core.motion import MotionModel, OdometryMotionModel
 from omnislam.fastslam.config import ProposalUpdateMode
 from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkBlock, LandmarkStore
@@ -83,6 +84,13 @@ class ProposalSampler:
             and isinstance(mapper.proposal_model, RangeBearing2D)
         )
         self._kernels = kernels if compiled else None
+        # and the compiled sequential proposal over omni bearings
+        bearings = (
+            kernels is not None
+            and mode is ProposalUpdateMode.SEQUENTIAL
+            and isinstance(mapper.proposal_model, BearingElevation3D)
+        )
+        self._bearing_kernels = kernels if bearings else None
         self._draw_kernels = kernels
         self._odometry = motion if isinstance(motion, OdometryMotionModel) else None
 
@@ -156,6 +164,11 @@ class ProposalSampler:
             gated = int(joint.accepted.size - np.count_nonzero(joint.accepted))
         elif self._kernels is not None:
             mean, cov, log_factors, gated = self._refine_compiled(
+                mean, cov, sightings, pairs, block, usable
+            )
+            refined[pairs.particle[usable]] = True
+        elif self._bearing_kernels is not None:
+            mean, cov, log_factors, gated = self._refine_bearings_compiled(
                 mean, cov, sightings, pairs, block, usable
             )
             refined[pairs.particle[usable]] = True
@@ -234,6 +247,62 @@ class ProposalSampler:
         gated = int(np.count_nonzero(rejected))
         if gated:
             mahalanobis = np.minimum(mahalanobis, gate)  # as ``refine_proposal`` truncates
+        log_likelihood = log_likelihood_from_mahalanobis(mahalanobis, np.log(det), 2)
+        log_factors = np.bincount(who, weights=log_likelihood, minlength=len(mean))
+        log_factors = log_factors.astype(float, copy=False)  # int64 when there are no pairs
+        return mean, cov, log_factors, gated
+
+    def _refine_bearings_compiled(
+        self,
+        mean: np.ndarray,
+        cov: np.ndarray,
+        sightings: Sightings,
+        pairs: Pairs,
+        block: LandmarkBlock,
+        usable: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """The sequential refinement by omni bearings: the reference's loop over the sightings
+        in ascending order, each one's particles refined by ``kernels.refine_bearing_elevation``
+        after numpy's atan2 of the landmarks from the refined means; the predictive
+        log-likelihoods (truncated at the gate) summed per particle in that order, and the
+        number of pairs the gate kept out."""
+        kernels = self._bearing_kernels
+        model, gate = self._mapper.proposal_model, self._mapper.proposal_gate
+        rows = np.flatnonzero(usable)
+        rows = rows[np.argsort(pairs.obs[rows], kind="stable")]
+        who, obs = pairs.particle[rows], pairs.obs[rows]
+        landmark_mean, landmark_cov = block.mean[rows], block.cov[rows]
+        mean = np.array(mean, dtype=float)  # contiguous copies, refined in place
+        cov = np.array(cov, dtype=float)
+        n = rows.size
+        mahalanobis, det = np.empty(n), np.empty(n)
+        arguments, angles = np.empty((4, n)), np.empty((2, n))
+        # where the sighting changes: the start of each one's run and the end of the last
+        bounds = np.flatnonzero(np.diff(obs, prepend=-1, append=-1)).tolist()
+        for start, end in itertools.pairwise(bounds):
+            span = slice(start, end)  # one sighting, each of its particles once
+            kernels.azimuth_elevation_arguments(
+                mean[who[span]], landmark_mean[span], model.sensor_height_m, arguments[:, span]
+            )
+            np.arctan2(arguments[0, span], arguments[1, span], out=angles[0, span])
+            np.arctan2(arguments[2, span], arguments[3, span], out=angles[1, span])
+            k = obs[start]
+            kernels.refine_bearing_elevation(
+                mean,
+                cov,
+                who[span],
+                sightings.z[k],
+                sightings.R[k],
+                landmark_mean[span],
+                landmark_cov[span],
+                angles[:, span],
+                model.sensor_height_m,
+                gate,
+                mahalanobis[span],
+                det[span],
+            )
+        gated = int(np.count_nonzero(~(mahalanobis <= gate)))
+        mahalanobis = np.minimum(mahalanobis, gate)  # as ``refine_proposal`` truncates
         log_likelihood = log_likelihood_from_mahalanobis(mahalanobis, np.log(det), 2)
         log_factors = np.bincount(who, weights=log_likelihood, minlength=len(mean))
         log_factors = log_factors.astype(float, copy=False)  # int64 when there are no pairs

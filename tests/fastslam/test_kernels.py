@@ -19,10 +19,17 @@ from fastslam_scenario import (
     make_scenario,
 )
 
+from omnislam.core.gaussian import log_likelihood_from_mahalanobis
 from omnislam.core.kalman import ekf_update
-from omnislam.core.measurement import RangeBearing2D
+from omnislam.core.measurement import (
+    BearingElevation3D,
+    RangeAzimuthElevation3D,
+    RangeBearing2D,
+    unit_vectors_from_azimuth_elevation,
+)
 from omnislam.core.modality import Modality
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
+from omnislam.core.se import wrap_angle
 from omnislam.errors import MissingExtraError
 from omnislam.fastslam import FastSLAMConfig, Kernels, Variant, make_fastslam
 from omnislam.fastslam import kernels as kernel_module
@@ -31,10 +38,14 @@ from omnislam.fastslam.association import (
     association_log_likelihood,
     maximum_likelihood_association,
 )
-from omnislam.fastslam.landmark_store import LandmarkBlock, LandmarkStatus
+from omnislam.fastslam.bearing_landmarks import triangulate, world_rays
+from omnislam.fastslam.bearing_mapper import BearingMapper
+from omnislam.fastslam.config import BearingUpdate, TriangulationMethod
+from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkBlock, LandmarkStatus
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.particles import ParticleSet
 from omnislam.fastslam.proposal import _JITTER, refine_proposal, sample_poses
+from omnislam.fastslam.sightings import Sightings
 
 pytest.importorskip("numba")
 
@@ -257,6 +268,201 @@ def test_tree_kernels_give_the_same_maps_and_counts(k, layout):
     assert trees[0].live_nodes() == trees[1].live_nodes()
 
 
+# -- omni bearings: exact equality with the numpy path ------------------------------------------
+
+
+def _bearing_views(rng, n):
+    """N (pose, landmark, stored ray, new ray) cases around a robot: most rays meet near the
+    landmark, some are parallel or diverge, some stored rays are from the same viewpoint."""
+    poses = np.column_stack([rng.uniform(-1, 1, (n, 2)), rng.uniform(-np.pi, np.pi, n)])
+    landmarks = np.column_stack(
+        [poses[:, :2] + rng.uniform(-6, 6, (n, 2)), rng.uniform(-0.5, 3.0, n)]
+    )
+    earlier = poses + rng.normal(0, [0.3, 0.3, 0.2], (n, 3))
+    earlier[: n // 10] = poses[: n // 10]  # no baseline: parallel rays
+    model = BearingElevation3D(SENSOR_HEIGHT_M)
+
+    def rays(wTr, noise):
+        z, _, _ = model.predict(wTr, landmarks)
+        z = z + rng.normal(0, noise, z.shape)
+        return world_rays(
+            wTr, unit_vectors_from_azimuth_elevation(z[:, 0], z[:, 1]), SENSOR_HEIGHT_M
+        )
+
+    stored, new = rays(earlier, 0.01), rays(poses, 0.01)
+    new[-n // 10 :, 3:] *= -1.0  # pointing away: negative depths
+    return poses, landmarks, stored, new
+
+
+def test_world_rays_kernel_equals_world_rays(k, rng):
+    poses, _, _, new = _bearing_views(rng, 2000)
+    unit_vectors_r = new[rng.permutation(2000), 3:]
+    obs = rng.integers(0, 2000, 2000)
+    rays = np.empty((2000, 6))
+    cos_theta, sin_theta = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    k.world_rays(poses, cos_theta, sin_theta, unit_vectors_r, obs, SENSOR_HEIGHT_M, rays)
+    np.testing.assert_array_equal(rays, world_rays(poses, unit_vectors_r[obs], SENSOR_HEIGHT_M))
+
+
+def test_midpoint_triangulation_kernel_equals_triangulate(k, rng):
+    _, _, stored, new = _bearing_views(rng, 2000)
+    points, valid, parallax = triangulate(TriangulationMethod.MIDPOINT, stored, new)
+    got_points, cosine = np.empty((2000, 3)), np.empty(2000)
+    got_valid = np.empty(2000, dtype=bool)
+    k.midpoint_triangulation(stored, new, np.arange(2000), got_points, cosine, got_valid)
+    assert 0 < valid.sum() < valid.size
+    np.testing.assert_array_equal(got_points, points)
+    np.testing.assert_array_equal(got_valid, valid)
+    np.testing.assert_array_equal(np.arccos(cosine), parallax)
+
+
+def test_azimuth_elevation_arguments_give_the_models_angles(k, rng):
+    poses, landmarks, _, _ = _bearing_views(rng, 2000)
+    landmarks[:5, :2] = poses[:5, :2]  # straight above: rho floored
+    arguments = np.empty((4, 2000))
+    k.azimuth_elevation_arguments(poses, landmarks, SENSOR_HEIGHT_M, arguments)
+    azimuth = wrap_angle(np.arctan2(arguments[0], arguments[1]) - poses[:, 2])
+    elevation = np.arctan2(arguments[2], arguments[3])
+    z_bearing, _, _ = BearingElevation3D(SENSOR_HEIGHT_M).predict(poses, landmarks)
+    z_range, _, _ = RangeAzimuthElevation3D(SENSOR_HEIGHT_M).predict(poses, landmarks)
+    for z in (z_bearing, z_range[:, 1:]):
+        np.testing.assert_array_equal(azimuth, z[:, 0])
+        np.testing.assert_array_equal(elevation, z[:, 1])
+
+
+def _bearing_block(rng, n):
+    """A gathered block of N pairs (a tenth absent, a fifth rays, the rest estimated), their
+    poses and one sighting each (a twentieth of them jumped far off: gated)."""
+    poses, landmarks, stored, new = _bearing_views(rng, n)
+    block = LandmarkBlock.empty(n, 3, 6)
+    status = rng.choice([0, int(RAY), int(ESTIMATED)], n, p=[0.1, 0.2, 0.7]).astype(np.int8)
+    block.status[:] = status
+    block.existence[:] = rng.integers(0, 5, n)
+    block.ray[status > 0] = stored[status > 0]
+    block.mean[status == ESTIMATED] = (landmarks + rng.normal(0, 0.1, (n, 3)))[status == ESTIMATED]
+    a = rng.normal(0, 0.1, (n, 3, 3))
+    block.cov[status == ESTIMATED] = (a @ np.swapaxes(a, 1, 2) + 1e-4 * np.eye(3))[
+        status == ESTIMATED
+    ]
+    unit_vectors_r = new[:, 3:].copy()
+    c, s = np.cos(-poses[:, 2]), np.sin(-poses[:, 2])  # back into the robot frame
+    unit_vectors_r[:, 0], unit_vectors_r[:, 1] = (
+        c * new[:, 3] - s * new[:, 4],
+        s * new[:, 3] + c * new[:, 4],
+    )
+    unit_vectors_r[: n // 20] = unit_vectors_r[rng.permutation(n // 20)][::-1]
+    sigmas = rng.choice([0.002, 0.004], n)
+    z = np.column_stack(
+        [
+            np.arctan2(unit_vectors_r[:, 1], unit_vectors_r[:, 0]),
+            np.arctan2(unit_vectors_r[:, 2], np.hypot(unit_vectors_r[:, 0], unit_vectors_r[:, 1])),
+        ]
+    )
+    R = np.zeros((n, 2, 2))
+    R[:, 0, 0] = R[:, 1, 1] = sigmas**2
+    sightings = Sightings(np.arange(n), z, R, unit_vectors_r, sigmas)
+    return block, poses, sightings
+
+
+@pytest.mark.parametrize("bearing_update", list(BearingUpdate))
+@pytest.mark.parametrize("triangulation", list(TriangulationMethod))
+@pytest.mark.parametrize("gate_probability", [0.999, 1.0])
+def test_bearing_mapper_updates_equal_the_numpy_path_bit_for_bit(
+    k, rng, bearing_update, triangulation, gate_probability
+):
+    n = 3000
+    block, poses, sightings = _bearing_block(rng, n)
+    obs = rng.permutation(n)
+    config = FastSLAMConfig(
+        sensor_height_m=SENSOR_HEIGHT_M,
+        bearing_update=bearing_update,
+        triangulation=triangulation,
+        bearing_gate_probability=gate_probability,
+    )
+    mappers = [BearingMapper(config), BearingMapper(config, k)]
+    blocks = [block.take(slice(None)), block.take(np.arange(n))]
+    likelihoods = [m.update(b, poses, sightings, obs) for m, b in zip(mappers, blocks, strict=True)]
+    np.testing.assert_array_equal(likelihoods[1], likelihoods[0])
+    for name in ("mean", "cov", "status", "existence", "ray"):
+        np.testing.assert_array_equal(getattr(blocks[1], name), getattr(blocks[0], name))
+    assert mappers[1].sightings_gated == mappers[0].sightings_gated
+    assert mappers[1].triangulation_fallbacks == mappers[0].triangulation_fallbacks
+    if gate_probability < 1.0:
+        assert mappers[0].sightings_gated > 0
+    if bearing_update is BearingUpdate.TRIANGULATED:
+        assert 0 < mappers[0].triangulation_fallbacks < np.count_nonzero(block.status == ESTIMATED)
+
+
+@pytest.mark.parametrize("gate", [math.inf, 2.0])
+def test_bearing_proposal_kernel_equals_refine_proposal_bit_for_bit(k, rng, gate):
+    n = 500
+    poses, landmarks, _, _ = _bearing_views(rng, n)
+    model = BearingElevation3D(SENSOR_HEIGHT_M)
+    a = rng.normal(0, 0.05, (n, 3, 3))
+    pose_cov = a @ np.swapaxes(a, 1, 2) + 1e-6 * np.eye(3)
+    b = rng.normal(0, 0.1, (n, 3, 3))
+    landmark_cov = b @ np.swapaxes(b, 1, 2) + 1e-4 * np.eye(3)
+    z = model.predict(poses[0], landmarks[0])[0] + np.array([0.01, -0.02])
+    R = np.diag([0.004**2, 0.003**2])
+    expected = refine_proposal(
+        poses,
+        pose_cov,
+        np.broadcast_to(z, (n, 2)),
+        np.broadcast_to(R, (n, 2, 2)),
+        landmarks,
+        landmark_cov,
+        model,
+        gate,
+    )
+    arguments, angles = np.empty((4, n)), np.empty((2, n))
+    k.azimuth_elevation_arguments(poses, landmarks, SENSOR_HEIGHT_M, arguments)
+    angles[0], angles[1] = np.arctan2(arguments[0], arguments[1]), np.arctan2(*arguments[2:])
+    mean, cov = poses.copy(), pose_cov.copy()
+    mahalanobis, det = np.empty(n), np.empty(n)
+    who = rng.permutation(n)  # any order of distinct particles
+    k.refine_bearing_elevation(
+        mean,
+        cov,
+        who,
+        z,
+        R,
+        landmarks[who],
+        landmark_cov[who],
+        angles[:, who],
+        SENSOR_HEIGHT_M,
+        gate,
+        mahalanobis,
+        det,
+    )
+    np.testing.assert_array_equal(mean, expected.mean)
+    np.testing.assert_array_equal(cov, expected.cov)
+    np.testing.assert_array_equal(mahalanobis <= gate, expected.accepted[who])
+    log_likelihood = log_likelihood_from_mahalanobis(np.minimum(mahalanobis, gate), np.log(det), 2)
+    np.testing.assert_array_equal(log_likelihood, expected.log_likelihood[who])
+    if math.isfinite(gate):
+        assert 0 < expected.accepted.sum() < n
+
+
+def test_payload_row_kernels_equal_take_and_put(k, rng):
+    table = LandmarkBlock.empty(50, 3, 6)
+    names = ("mean", "cov", "status", "existence", "ray")
+    for name in names:
+        field = getattr(table, name)
+        field[:] = rng.integers(-100, 100, field.shape)
+    rows = rng.permutation(50)[:20]
+    taken = table.take(rows)
+    for name in names:
+        field, out = getattr(table, name), getattr(taken, name)
+        got = np.zeros_like(out)
+        k.take_rows(field.reshape(50, -1), rows, got.reshape(20, -1))
+        np.testing.assert_array_equal(got, out)
+        written = out[::-1].copy()
+        expected = field.copy()
+        expected[rows] = written
+        k.put_rows(field.reshape(50, -1), rows, written.reshape(20, -1))
+        np.testing.assert_array_equal(field, expected)
+
+
 def _run(config, frames, modality, initial_pose=None):
     slam = make_fastslam(config, modality, np.random.default_rng(11), initial_pose)
     for frame in frames:
@@ -288,8 +494,8 @@ def test_range_bearing_runs_agree_on_both_paths(variant, unknown_ids):
 
 @pytest.mark.parametrize("variant", list(Variant))
 def test_bearing_runs_agree_on_both_paths(variant):
-    """3-D: the tree, the draws and the motion prediction run compiled; the bearing EKF and its
-    gated proposal stay numpy."""
+    """3-D: the tree, the draws, the motion prediction, the triangulations, the landmark EKFs
+    and the gated sequential proposal run compiled."""
     frames = make_bearing_scenario(2, steps=60).frames
     config = FastSLAMConfig(
         variant=variant,
