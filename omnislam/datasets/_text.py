@@ -199,6 +199,30 @@ def check_range(
         )
 
 
+def check_stream_start(
+    stream: Table, first_needed_s: float, needed_by: Path, tolerance_s: float
+) -> None:
+    """Raise DataError when a stream (odometry, GPS) starts after the data that needs it.
+
+    A file that lost its first lines would otherwise leave the robot standing still until its
+    first sample while the sightings already see it move (or leave the start without truth).
+
+    Args:
+        stream: the stream's table, time in column 0.
+        first_needed_s: the first time another stream (sightings) needs it at [s].
+        needed_by: that stream's file (named in the message).
+        tolerance_s: how much later the stream may start [s].
+    """
+    start_s = float(stream.values[0, 0])
+    if start_s > first_needed_s + tolerance_s:
+        raise DataError(
+            f"starts at time {start_s!r} ({stream.where(0)}), "
+            f"{start_s - first_needed_s:.3f} s after the first record of {Path(needed_by).name} "
+            f"({first_needed_s!r}): the file is truncated",
+            stream.path,
+        )
+
+
 def check_stream_end(
     odometry: Table, last_needed_s: float, needed_by: Path, tolerance_s: float
 ) -> None:

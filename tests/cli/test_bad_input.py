@@ -272,6 +272,21 @@ _park_case(
 )
 _park_case("measurements-empty", "measurements.dat", lambda t: "")
 _park_case("measurements-columns", "measurements.dat", lambda t: replace_line(t, 2, "1.5 8 1.2"))
+_park_case(
+    "inputs-first-lines-lost", "inputs.dat", lambda t: t[len(cut(t, 0.5)) :], "starts at time"
+)
+_park_case(
+    "measurements-bearing-outside-0-pi",
+    "measurements.dat",
+    lambda t: replace_line(t, 2, "1.5 8 4.0 0.3"),
+)
+_park_case(
+    "measurements-negative-diameter",
+    "measurements.dat",
+    lambda t: replace_line(t, 2, "1.5 8 1.2 -0.3"),
+)
+_park_case("gps-cut-at-line-break", "gps.dat", lambda t: cut(t, 0.5), "stops at time")
+_park_case("gps-first-lines-lost", "gps.dat", lambda t: t[len(cut(t, 0.5)) :], "starts at time")
 _park_case("gps-repeated-time", "gps.dat", lambda t: t + "10.000 20 0\n")
 _park_case("gps-not-a-number", "gps.dat", lambda t: replace_line(t, 3, "0.6 y 0"))
 
