@@ -199,6 +199,42 @@ def check_range(
         )
 
 
+def check_integers(table: Table, column: int, name: str) -> None:
+    """Raise DataError at the first row whose ``column`` is not a whole number (an id column).
+
+    Args:
+        table: the rows read by ``read_table``.
+        column: column index.
+        name: the column's name (for the message).
+    """
+    values = table.values[:, column]
+    bad = values != np.round(values)
+    if np.any(bad):
+        row = int(np.argmax(bad))
+        raise DataError(
+            f"{table.where(row)}: {name} {float(values[row])!r} is not an integer", table.path
+        )
+
+
+def check_unique(table: Table, column: int, name: str) -> None:
+    """Raise DataError at the first row whose ``column`` repeats an earlier row's (naming both).
+
+    Args:
+        table: the rows read by ``read_table``.
+        column: column index.
+        name: the column's name (for the message).
+    """
+    first: dict[float, int] = {}
+    for row, value in enumerate(table.values[:, column].tolist()):
+        if value in first:
+            raise DataError(
+                f"{table.where(row)}: {name} {value:g} listed twice (first on "
+                f"{table.where(first[value])})",
+                table.path,
+            )
+        first[value] = row
+
+
 def check_stream_start(
     stream: Table, first_needed_s: float, needed_by: Path, tolerance_s: float
 ) -> None:

@@ -210,7 +210,23 @@ _mrclam_case(
 _mrclam_case("odometry-empty", ODOM, lambda: "")
 _mrclam_case("odometry-binary", ODOM, lambda: "\x00\x01\x02garbage\n")
 _mrclam_case("barcodes-duplicate", "Barcodes.dat", lambda: "1 5\n6 63\n7 63\n")
+_mrclam_case("barcodes-duplicate-subject", "Barcodes.dat", lambda: "1 5\n6 63\n6 64\n")
+_mrclam_case("barcodes-subject-not-an-integer", "Barcodes.dat", lambda: "1 5\n6.5 63\n")
 _mrclam_case("barcodes-empty", "Barcodes.dat", lambda: "")
+_mrclam_case(
+    "landmarks-duplicate-subject",
+    "Landmark_Groundtruth.dat",
+    lambda: "6 2.0 0.5 0.001 0.001\n6 3.0 0.5 0.001 0.001\n",
+)
+_mrclam_case(
+    "measurement-barcode-not-an-integer",
+    MEAS,
+    lambda: replace_line(measurement_text(), 3, "2.0 63.5 1.5 0.2"),
+)
+_mrclam_case("groundtruth-cut-at-line-break", GT, lambda: cut(groundtruth_text(), 0.5), GT)
+_mrclam_case(
+    "odometry-shorter-than-groundtruth", ODOM, lambda: odometry_text(seconds=9.2), "stops at time"
+)
 _mrclam_case("landmarks-columns", "Landmark_Groundtruth.dat", lambda: "6 2.0 0.5\n")
 _mrclam_case("groundtruth-repeated-time", GT, lambda: groundtruth_text() + "10.000 1 0 0\n")
 _mrclam_case(
