@@ -320,9 +320,23 @@ def _gtsam_case(name: str, text: str, needle: str = "graph.txt"):
 _gtsam_case("fields", ODO + "ODOMETRY 1 2 1 0 0 0.0001 0 0 4e-06\n")
 _gtsam_case("not-a-number", ODO + "LANDMARK 1 9 1 one 0.4 0 0.4\n")
 _gtsam_case("unknown-record", ODO + "VERTEX2 1 0 0 0\n")
-_gtsam_case("broken-chain", ODO + "ODOMETRY 5 6 1 0 0 0.0001 0 0 4e-06 0 4e-06\n")
-_gtsam_case("unknown-pose", ODO + "LANDMARK 7 9 1 1 0.4 0 0.4\n")
+_gtsam_case(
+    "broken-chain", ODO + "ODOMETRY 5 6 1 0 0 0.0001 0 0 4e-06 0 4e-06\n", "graph.txt: line 2"
+)
+_gtsam_case("unknown-pose", ODO + "LANDMARK 7 9 1 1 0.4 0 0.4\n", "graph.txt: line 2")
 _gtsam_case("covariance", "ODOMETRY 0 1 1 0 0 -1 0 0 4e-06 0 4e-06\n")
+_gtsam_case(
+    "landmark-negative-variance", ODO + "LANDMARK 1 9 1 0.4 -0.4 0 -0.4\n", "graph.txt: line 2"
+)
+_gtsam_case("landmark-at-the-pose", ODO + "LANDMARK 1 9 0 0 0.4 0 0.4\n", "graph.txt: line 2")
+_gtsam_case("bearing-range-negative-sigma", ODO + "BR 1 9 0.3 5 -0.1 0.5\n", "graph.txt: line 2")
+_gtsam_case("landmark-id-is-a-pose", ODO + "LANDMARK 1 0 1 0.4 0.4 0 0.4\n", "graph.txt: line 2")
+_gtsam_case(
+    "chain-returns-to-a-pose",
+    ODO + "ODOMETRY 1 0 1 0 0 0.0001 0 0 4e-06 0 4e-06\n",
+    "graph.txt: line 2",
+)
+_gtsam_case("step-1e308", "ODOMETRY 0 1 1e308 0 0 0.0001 0 0 4e-06 0 4e-06\n", "graph.txt: line 1")
 
 
 def _carmen_case(name: str, text: str, needle: str = "bad.log"):
