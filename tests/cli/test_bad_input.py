@@ -355,6 +355,10 @@ _carmen_case("odom-short", "ODOM 0 0\n")
 _carmen_case("time-backwards", flaser(10.0) + flaser(1.0))
 _carmen_case("no-scans", "PARAM x 1\n")
 _carmen_case("beam-counts-differ", flaser(1.0) + flaser(2.0, beams=5))
+_carmen_case("range-negative", flaser(1.0).replace("1.0 1.0 1.0 1.0", "1.0 -1.0 1.0 1.0"))
+_carmen_case("range-1e9", flaser(1.0).replace("1.0 1.0 1.0 1.0", "1.0 1e9 1.0 1.0"))
+_carmen_case("beam-count-zero", "FLASER 0 0 0 0 0 0 0 1.0 host 1.0\n", "beam count 0 is not")
+_carmen_case("odom-speed-not-a-number", "ODOM 0 0 0 fast 0 0 1.0 host 1.0\n" + flaser(1.5))
 
 
 @case("carmen-range-not-a-number-slam")
