@@ -681,11 +681,30 @@ def _set_config(key: str, value: str) -> Callable[[Path], None]:
     return change
 
 
+def _set_step(run: Path, value: str) -> None:
+    """``timing.csv`` with the step time of its second frame (line 3) replaced by ``value``."""
+    path = run / "timing.csv"
+    lines = path.read_text().splitlines()
+    frame, stamp, _ = lines[2].split(",")
+    lines[2] = f"{frame},{stamp},{value}"
+    path.write_text("\n".join(lines) + "\n")
+
+
 _run_dir_case(
     "trajectory-fewer-poses", lambda r: _keep_lines(r / "trajectory.tum", 7), "trajectory.tum"
 )
 _run_dir_case(
-    "trajectory-cut-mid-line", lambda r: truncate(r / "trajectory.tum", 0.5), "trajectory.tum"
+    "trajectory-cut-mid-line", lambda r: truncate(r / "trajectory.tum", 0.5), "file truncated?"
+)
+_run_dir_case(
+    "trajectory-stamp-backwards",
+    lambda r: (r / "trajectory.tum").write_text("1 0 0 0 0 0 0 1\n0.5 0 0 0 0 0 0 1\n"),
+    "stamp 0.5 is not after the previous one (1.0)",
+)
+_run_dir_case(
+    "trajectory-binary",
+    lambda r: (r / "trajectory.tum").write_bytes(b"\xff\xfe\x00"),
+    "trajectory.tum",
 )
 _run_dir_case("trajectory-missing", lambda r: (r / "trajectory.tum").unlink(), "trajectory.tum")
 _run_dir_case(
@@ -695,6 +714,24 @@ _run_dir_case(
 )
 _run_dir_case("timing-fewer-rows", lambda r: _keep_lines(r / "timing.csv", 5), "timing.csv")
 _run_dir_case("timing-bad-header", lambda r: (r / "timing.csv").write_text("a,b\n"), "timing.csv")
+_run_dir_case("timing-nan", lambda r: _set_step(r, "nan"), "timing.csv: line 3")
+_run_dir_case("timing-negative", lambda r: _set_step(r, "-0.5"), "timing.csv: line 3")
+_run_dir_case(
+    "timing-binary", lambda r: (r / "timing.csv").write_bytes(b"\xff\xfe\x00"), "timing.csv"
+)
+_run_dir_case(
+    "landmarks-nan",
+    lambda r: (r / "landmarks.csv").write_text("id,x,y,z\n1,nan,0,0\n"),
+    "landmarks.csv: line 2",
+)
+_run_dir_case(
+    "landmarks-duplicate-id",
+    lambda r: (r / "landmarks.csv").write_text("id,x,y,z\n1,1,0,0\n1,2,0,0\n"),
+    "landmarks.csv: line 3",
+)
+_run_dir_case(
+    "ground-truth-missing", lambda r: (r / "ground_truth.tum").unlink(), "ground_truth.tum"
+)
 _run_dir_case(
     "landmarks-bad-header", lambda r: (r / "landmarks.csv").write_text("x,y\n"), "landmarks.csv"
 )
