@@ -256,6 +256,19 @@ def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "same_image_s=-1"), "same_image_s"
 
 
+@case("mrclam-command-delay-nan")
+def _(tmp, fx):
+    argv = run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "command_delay_s=nan")
+    return argv, "command_delay_s"
+
+
+@case("mrclam-sigma-range-inf")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "sigma_range_m=inf"), (
+        "sigma_range_m"
+    )
+
+
 @case("mrclam-unknown-association")
 def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "graphslam", "--set", "association=maybe"), "association"
