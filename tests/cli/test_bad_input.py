@@ -849,6 +849,14 @@ _grid_case(
 )
 _grid_case("seeds-not-integers", GRID_OK + "seeds: [a, b]\n", "seeds")
 _grid_case("seeds-duplicate", GRID_OK + "seeds: [1, 1]\n", "seeds")
+_grid_case("seeds-negative", GRID_OK + "seeds: [-1]\n", "seeds")
+_grid_case("dataset-not-a-name", "datasets: [5]\nestimators: [deadreckoning]\n", "datasets[0]")
+_grid_case(
+    "evaluation-curve-lengths-text", GRID_OK + "evaluation: {curve_lengths: x}\n", "grid.yaml"
+)
+_grid_case(
+    "evaluation-segment-infinite", GRID_OK + "evaluation: {rpe_segment_m: .inf}\n", "grid.yaml"
+)
 _grid_case(
     "estimator-option-wrong-type",
     "datasets: [data/room.log]\n"
@@ -887,6 +895,13 @@ _grid_case(
 @case("compare-grid-missing")
 def _(tmp, fx):
     return ["compare", str(tmp / "none.yaml"), "--out", str(tmp / "results")], "none.yaml"
+
+
+@case("compare-grid-binary")
+def _(tmp, fx):
+    path = grid(tmp, "")
+    path.write_bytes(b"\x00\x01\xff\xfe")
+    return ["compare", str(path), "--out", str(tmp / "results")], "grid.yaml"
 
 
 @case("compare-out-parent-is-a-file")
