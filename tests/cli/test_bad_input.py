@@ -1076,6 +1076,36 @@ def _(tmp, fx):
     return ["view", str(fx.run_dir(tmp)), "--out", str(tmp / "run.txt")], "run.txt"
 
 
+# -- calibrate
+
+
+@case("calibrate-window-zero")
+def _(tmp, fx):
+    pytest.importorskip("cv2")
+    small_png(tmp / "board.png")
+    argv = ["calibrate", str(tmp / "board.png"), "--board", "6x7", "--square", "0.03"]
+    return [*argv, "--window", "0", "--out", str(tmp / "cam.yaml")], "--window"
+
+
+@case("calibrate-ocam-degree-zero")
+def _(tmp, fx):
+    pytest.importorskip("cv2")
+    small_png(tmp / "board.png")
+    argv = ["calibrate", str(tmp / "board.png"), "--model", "ocamcalib", "--board", "6x7"]
+    return [*argv, "--square", "0.03", "--ocam-degree", "0", "--out", str(tmp / "cam.yaml")], (
+        "--ocam-degree"
+    )
+
+
+@case("calibrate-unreadable-image")
+def _(tmp, fx):
+    """The image left out is named in the one error line, not in a warning before it."""
+    pytest.importorskip("cv2")
+    (tmp / "board.jpg").write_text("not an image\n")
+    argv = ["calibrate", str(tmp / "board.jpg"), "--board", "6x7", "--square", "0.03"]
+    return [*argv, "--out", str(tmp / "cam.yaml")], "board.jpg"
+
+
 # ---- the test --------------------------------------------------------------------------------
 
 
