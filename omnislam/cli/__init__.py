@@ -87,7 +87,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 class _HeldBack(logging.Handler):
-    """Holds log records back; ``release`` prints them to the stderr of that moment."""
+    """Holds log records back; ``print_held`` prints them to the stderr of that moment.
+
+    (Not named ``release``: ``logging.Handler.release`` frees the handler's lock after every
+    record, which would print each record as it arrives and never free the lock.)
+    """
 
     def __init__(self, level: int) -> None:
         super().__init__(level)
@@ -97,7 +101,7 @@ class _HeldBack(logging.Handler):
     def emit(self, record: logging.LogRecord) -> None:
         self.records.append(record)
 
-    def release(self) -> None:
+    def print_held(self) -> None:
         for record in self.records:
             print(self.format(record), file=sys.stderr)
         self.records.clear()
@@ -180,7 +184,7 @@ def _main(argv: Sequence[str] | None) -> int:
         return 1
     else:
         if isinstance(handler, _HeldBack):
-            handler.release()
+            handler.print_held()
         return code
     finally:
         logging.captureWarnings(False)

@@ -7,8 +7,10 @@ holds it). The chosen model is initialised and fitted jointly with every board p
 ``reprojection_rms_px``) and a report folder (``report.json``, ``report.md``,
 ``residuals.png``); prints the per-image table and, last, ``rms_px: X``. Existing outputs are
 replaced only with ``--overwrite``. An image whose board
-is not found or whose points disagree with the board is named on stderr with the problem and
-left out; fewer than three usable images stop the command with exit code 2.
+is not found or whose points disagree with the board is named in a warning with the problem and
+left out; fewer than three usable images stop the command with exit code 2 (the one error line
+names the first image left out and why). The stage lines on stderr are progress
+(``omnislam --quiet`` silences them).
 """
 
 from __future__ import annotations
@@ -72,10 +74,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     for variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(variable, BLAS_THREADS)
+    import logging
     import sys
     from pathlib import Path
 
     from omnislam._files import check_overwrite
+    from omnislam._progress import Progress, enabled
     from omnislam.camera.calibration import (
         MIN_VIEWS,
         Board,
@@ -96,7 +100,13 @@ def run(args: argparse.Namespace) -> int:
         check_overwrite(args.save_points, args.overwrite, "points file")
 
     def say(line: str) -> None:
-        print(f"omnislam calibrate: {line}", file=sys.stderr, flush=True)
+        if enabled():
+            print(f"omnislam calibrate: {line}", file=sys.stderr, flush=True)
+
+    if args.window < 1:
+        raise ConfigError(f"--window must be a positive number of pixels, got {args.window}")
+    if args.ocam_degree < 2:
+        raise ConfigError(f"--ocam-degree must be at least 2, got {args.ocam_degree}")
 
     board = None
     if args.board is not None:
@@ -114,8 +124,9 @@ def run(args: argparse.Namespace) -> int:
         size = _image_size(args.images[0])
         if args.mask_radii is not None and size is not None:
             mask = _ring_mask(size, *args.mask_radii)
-        say(f"detecting the {board.cols}x{board.rows} board in {len(args.images)} image(s)")
-        views, skipped, size = detect_views(args.images, board, mask, args.window)
+        detecting = f"calibrate: detecting the {board.cols}x{board.rows} board"
+        with Progress(detecting, len(args.images), "img"):  # quiet when quick (bad input)
+            views, skipped, size = detect_views(args.images, board, mask, args.window)
     else:
         names = [Path(image).name for image in args.images] or None
         views, skipped = read_points(
@@ -126,13 +137,15 @@ def run(args: argparse.Namespace) -> int:
             size = _image_size(args.images[0])
         if size is None:
             raise ConfigError(f"{args.points}: give IMAGES or --image-size WxH")
-    for problem in skipped:
-        say(str(problem))
+    for problem in skipped:  # held back by the CLI unless the command succeeds
+        logging.getLogger(__name__).warning("%s", problem)
+    first_skipped = f" (first left out: {skipped[0]})" if skipped else ""
     if size is None:
-        raise DataError("no readable image")
+        raise DataError(f"no readable image{first_skipped}")
     if len(views) < MIN_VIEWS:
         raise DataError(
             f"{len(views)} usable image(s) left; a calibration needs at least {MIN_VIEWS}"
+            f"{first_skipped}"
         )
     if args.save_points:
         write_points_csv(views, args.save_points)

@@ -90,16 +90,40 @@ class EvaluationOptions:
     curve_lengths: int = 8
 
     def __post_init__(self) -> None:
-        if self.rpe_segment_m is not None and not self.rpe_segment_m > 0:
-            raise ConfigError("rpe_segment_m must be positive (or null: chosen from the travel)")
-        if not self.landmark_gate_m > 0:
-            raise ConfigError("landmark_gate_m must be positive")
+        """Raises ConfigError for a value of the wrong type or out of range (naming the key)."""
+        if self.rpe_segment_m is not None and not _positive_number(self.rpe_segment_m):
+            raise ConfigError(
+                "rpe_segment_m must be a positive number (or null: chosen from the travel), "
+                f"got {self.rpe_segment_m!r}"
+            )
+        if not _positive_number(self.landmark_gate_m):
+            raise ConfigError(
+                f"landmark_gate_m must be a positive number, got {self.landmark_gate_m!r}"
+            )
+        if (
+            not isinstance(self.curve_lengths, int)
+            or isinstance(self.curve_lengths, bool)
+            or self.curve_lengths < 1
+        ):
+            raise ConfigError(
+                f"curve_lengths must be a positive integer, got {self.curve_lengths!r}"
+            )
 
     def segment_for(self, travel_m: float) -> float:
         """The RPE segment length used on a run that travels ``travel_m`` metres [m]."""
         if self.rpe_segment_m is not None:
             return float(self.rpe_segment_m)
         return auto_rpe_segment_m(travel_m)
+
+
+def _positive_number(value: object) -> bool:
+    """True for a finite real number > 0 (not a bool, not a string)."""
+    return (
+        isinstance(value, int | float)
+        and not isinstance(value, bool)
+        and math.isfinite(value)
+        and value > 0
+    )
 
 
 def _finite(value: float | None) -> float | None:

@@ -150,9 +150,9 @@ def _seeds(raw: object, where: str, path: Path) -> list[int]:
     if (
         not isinstance(raw, list)
         or not raw
-        or not all(isinstance(s, int) and not isinstance(s, bool) for s in raw)
+        or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in raw)
     ):
-        raise ConfigError(f"{path}: {where}'seeds' must be a non-empty list of integers")
+        raise ConfigError(f"{path}: {where}'seeds' must be a non-empty list of integers >= 0")
     if len(set(raw)) != len(raw):
         raise ConfigError(f"{path}: {where}'seeds' has duplicates")
     return list(raw)
@@ -175,7 +175,11 @@ def _entries(raw: object, key: str, path: Path) -> list[dict[str, object]]:
         where = f"{key}s[{i}]"
         if isinstance(item, str):
             item = {key: item}
-        name_key = "synthetic" if key == "dataset" and "synthetic" in item else key
+        name_key = (
+            "synthetic"
+            if key == "dataset" and isinstance(item, Mapping) and "synthetic" in item
+            else key
+        )
         if (
             not isinstance(item, Mapping)
             or not isinstance(item.get(name_key), str)
@@ -429,6 +433,8 @@ def load_grid(path: str | Path) -> Grid:
         text = path.read_text()
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read the grid file ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: cannot read the grid file (not a text file)") from None
     return parse_grid(text, path)
 
 

@@ -55,6 +55,8 @@ ESTIMATOR_INFO = "estimator_info.json"
 #: file names an attachment may take (kept small so a RUN_DIR stays a known set of files)
 ATTACHMENTS = (GRAPH_G2O, ESTIMATOR_INFO)
 _COV_COLUMNS = ",".join(f"c{r}{c}" for r in range(3) for c in range(3))
+#: every kind of ground truth but NONE comes with poses (``ground_truth.tum``)
+_KINDS_WITH_TRAJECTORY = frozenset(GroundTruthKind) - {GroundTruthKind.NONE}
 
 
 @dataclass(frozen=True, slots=True)
@@ -172,18 +174,16 @@ def _read_keyed_csv(path: Path, header: str) -> tuple[np.ndarray, np.ndarray]:
         (keys (M,), values (M, columns - 1)).
 
     Raises:
-        DataError: unreadable file, wrong header, column count or non-numeric field (naming the
-            line).
+        DataError: unreadable file, wrong header, column count, non-numeric or non-finite
+            field, or a key listed twice (naming the line).
     """
     path = Path(path)
     columns = header.count(",") + 1
-    try:
-        text = path.read_text().splitlines()
-    except OSError as exc:
-        raise DataError(f"cannot read the file ({exc})", path) from exc
+    text = _read_lines(path)
     if not text or text[0].strip() != header:
         raise DataError(f"line 1: expected the header '{header}'", path)
     keys, values = [], []
+    first_line: dict[int, int] = {}
     for number, line in enumerate(text[1:], start=2):
         if not line.strip():
             continue
@@ -191,10 +191,21 @@ def _read_keyed_csv(path: Path, header: str) -> tuple[np.ndarray, np.ndarray]:
         if len(fields) != columns:
             raise DataError(f"line {number}: expected {columns} columns, got {len(fields)}", path)
         try:
-            keys.append(int(fields[0]))
-            values.append([float(v) for v in fields[1:]])
+            key = int(fields[0])
+            row = [float(v) for v in fields[1:]]
         except ValueError:
             raise DataError(f"line {number}: non-numeric field in {line!r}", path) from None
+        if not all(math.isfinite(v) for v in row):
+            raise DataError(f"line {number}: NaN or infinite value in {line!r}", path)
+        if key in first_line:
+            raise DataError(
+                f"line {number}: {header.split(',')[0]} {key} listed twice (first on line "
+                f"{first_line[key]})",
+                path,
+            )
+        first_line[key] = number
+        keys.append(key)
+        values.append(row)
     return np.asarray(keys, dtype=np.int64), np.asarray(values, dtype=float).reshape(
         -1, columns - 1
     )
@@ -219,12 +230,28 @@ def read_landmarks_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return _read_keyed_csv(path, "id,x,y,z")
 
 
-def _read_timing(path: Path) -> np.ndarray:
-    """``timing.csv`` -> (N,) step seconds."""
+def _read_lines(path: Path) -> list[str]:
+    """The lines of a text file of a RUN_DIR.
+
+    Raises:
+        DataError: missing, unreadable or not text.
+    """
     try:
-        lines = path.read_text().splitlines()
+        return path.read_text().splitlines()
     except OSError as exc:
         raise DataError(f"cannot read the file ({exc})", path) from exc
+    except UnicodeDecodeError:
+        raise DataError("cannot read the file (not a text file)", path) from None
+
+
+def _read_timing(path: Path) -> np.ndarray:
+    """``timing.csv`` -> (N,) step seconds.
+
+    Raises:
+        DataError: unreadable file, wrong header or column count, or a step time that is not a
+            finite number >= 0 (naming the line).
+    """
+    lines = _read_lines(path)
     if not lines or lines[0].strip() != "frame,stamp_s,step_s":
         raise DataError("line 1: expected the header 'frame,stamp_s,step_s'", path)
     steps = []
@@ -233,9 +260,12 @@ def _read_timing(path: Path) -> np.ndarray:
         if len(fields) != 3:
             raise DataError(f"line {number}: expected 3 columns, got {len(fields)}", path)
         try:
-            steps.append(float(fields[2]))
+            step = float(fields[2])
         except ValueError:
             raise DataError(f"line {number}: step_s {fields[2]!r} is not a number", path) from None
+        if not (math.isfinite(step) and step >= 0):
+            raise DataError(f"line {number}: step_s {fields[2]!r} is not a time >= 0", path)
+        steps.append(step)
     return np.asarray(steps, dtype=float)
 
 
@@ -399,7 +429,8 @@ def read_run_dir(path: Path) -> RunRecord:
     """Read a RUN_DIR written by ``write_run_dir``.
 
     Raises:
-        DataError: a missing or malformed file (naming it).
+        DataError: a missing or malformed file (naming it), ``ground_truth.tum`` included when
+            ``config.yaml`` says the run has ground truth.
     """
     path = Path(path)
     config = read_run_config(path)
@@ -426,6 +457,10 @@ def read_run_dir(path: Path) -> RunRecord:
             path / CONFIG,
         ) from None
     gt_trajectory = read_tum(path / GROUND_TRUTH) if (path / GROUND_TRUTH).is_file() else None
+    if gt_trajectory is None and kind in _KINDS_WITH_TRAJECTORY:
+        raise DataError(
+            f"missing, but {CONFIG} says the run has {kind.value} ground truth", path / GROUND_TRUTH
+        )
     if (path / GROUND_TRUTH_LANDMARKS).is_file():
         gt_ids, gt_points = read_landmarks_csv(path / GROUND_TRUTH_LANDMARKS)
     else:

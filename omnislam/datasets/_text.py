@@ -199,6 +199,66 @@ def check_range(
         )
 
 
+def check_integers(table: Table, column: int, name: str) -> None:
+    """Raise DataError at the first row whose ``column`` is not a whole number (an id column).
+
+    Args:
+        table: the rows read by ``read_table``.
+        column: column index.
+        name: the column's name (for the message).
+    """
+    values = table.values[:, column]
+    bad = values != np.round(values)
+    if np.any(bad):
+        row = int(np.argmax(bad))
+        raise DataError(
+            f"{table.where(row)}: {name} {float(values[row])!r} is not an integer", table.path
+        )
+
+
+def check_unique(table: Table, column: int, name: str) -> None:
+    """Raise DataError at the first row whose ``column`` repeats an earlier row's (naming both).
+
+    Args:
+        table: the rows read by ``read_table``.
+        column: column index.
+        name: the column's name (for the message).
+    """
+    first: dict[float, int] = {}
+    for row, value in enumerate(table.values[:, column].tolist()):
+        if value in first:
+            raise DataError(
+                f"{table.where(row)}: {name} {value:g} listed twice (first on "
+                f"{table.where(first[value])})",
+                table.path,
+            )
+        first[value] = row
+
+
+def check_stream_start(
+    stream: Table, first_needed_s: float, needed_by: Path, tolerance_s: float
+) -> None:
+    """Raise DataError when a stream (odometry, GPS) starts after the data that needs it.
+
+    A file that lost its first lines would otherwise leave the robot standing still until its
+    first sample while the sightings already see it move (or leave the start without truth).
+
+    Args:
+        stream: the stream's table, time in column 0.
+        first_needed_s: the first time another stream (sightings) needs it at [s].
+        needed_by: that stream's file (named in the message).
+        tolerance_s: how much later the stream may start [s].
+    """
+    start_s = float(stream.values[0, 0])
+    if start_s > first_needed_s + tolerance_s:
+        raise DataError(
+            f"starts at time {start_s!r} ({stream.where(0)}), "
+            f"{start_s - first_needed_s:.3f} s after the first record of {Path(needed_by).name} "
+            f"({first_needed_s!r}): the file is truncated",
+            stream.path,
+        )
+
+
 def check_stream_end(
     odometry: Table, last_needed_s: float, needed_by: Path, tolerance_s: float
 ) -> None:

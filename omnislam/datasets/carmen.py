@@ -74,6 +74,9 @@ FLASER_FIRST_BEAM_RAD = -np.pi / 2.0
 LOW_RESOLUTION_FRACTION = 0.1
 #: scan period assumed when a low-resolution log gives no time span at all [s]
 NOMINAL_SCAN_PERIOD_S = 0.2
+#: plausible FLASER range [m] (a SICK laser reads at most ~80 m; intel: at most 81.83, aces: 50);
+#: FLASER states no maximum, so a corrupt 1e9 would otherwise become the "no return" range
+MAX_RANGE_M = 200.0
 
 
 def flaser_angles_rad(beams: int) -> np.ndarray:
@@ -132,8 +135,9 @@ def read_carmen_log(path: Path) -> CarmenLog:
     """Parse the ODOM and FLASER records of a CARMEN log (other records are skipped).
 
     Raises:
-        DataError: a malformed ODOM/FLASER record (naming the line), scans of different beam
-            counts, or no FLASER record.
+        DataError: a malformed ODOM/FLASER record (naming the line): a field that is not a
+            finite number, a beam count that is not positive, a range outside
+            ``[0, MAX_RANGE_M]``; scans of different beam counts, or no FLASER record.
     """
     path = Path(path)
     stamps: list[float] = []
@@ -154,6 +158,8 @@ def read_carmen_log(path: Path) -> CarmenLog:
                     f"line {line}: ODOM needs at least 7 fields, got {len(fields) - 1}", path
                 )
             pose = [parse_float(t, path, line, "ODOM pose") for t in fields[1:4]]
+            for token, what in zip(fields[4:7], ("tv", "rv", "accel"), strict=True):
+                parse_float(token, path, line, f"ODOM {what}")
             stamp = parse_float(fields[7], path, line, "ODOM timestamp")
             if previous_was_scan and stamp == 0.0:
                 after_scan[-1] = pose
@@ -164,7 +170,9 @@ def read_carmen_log(path: Path) -> CarmenLog:
             if len(fields) < 2:
                 raise DataError(f"line {line}: FLASER without a beam count", path)
             n = parse_int(fields[1], path, line, "beam count")
-            if n <= 0 or len(fields) < n + 9:
+            if n <= 0:
+                raise DataError(f"line {line}: FLASER beam count {n} is not positive", path)
+            if len(fields) < n + 9:
                 raise DataError(
                     f"line {line}: FLASER with {n} beams needs {n + 9} fields, "
                     f"got {len(fields) - 1}"
@@ -174,7 +182,15 @@ def read_carmen_log(path: Path) -> CarmenLog:
             if beams is not None and n != beams:
                 raise DataError(f"line {line}: FLASER has {n} beams, earlier ones {beams}", path)
             beams = n
-            ranges.append([parse_float(t, path, line, "range") for t in fields[2 : 2 + n]])
+            scan = [parse_float(t, path, line, "range") for t in fields[2 : 2 + n]]
+            outside = [r for r in scan if not 0.0 <= r <= MAX_RANGE_M]
+            if outside:
+                raise DataError(
+                    f"line {line}: range {outside[0]!r} is outside the plausible "
+                    f"[0, {MAX_RANGE_M:g}] m",
+                    path,
+                )
+            ranges.append(scan)
             pose = [parse_float(t, path, line, "pose") for t in fields[2 + n : 5 + n]]
             odom = [parse_float(t, path, line, "odom pose") for t in fields[5 + n : 8 + n]]
             stamps.append(parse_float(fields[8 + n], path, line, "timestamp"))

@@ -43,6 +43,10 @@ FILE_NAME = "victoria_park.txt"
 
 #: fields after the tag, per record type
 _WIDTHS = {"ODOMETRY": 11, "LANDMARK": 7, "BR": 6}
+#: plausible length of one odometry step and of one sighting [m] (victoria_park.txt: at most
+#: 1.5 m and 21 m); anything longer is a corrupt file, not a fast car or a far tree
+MAX_STEP_M = 1000.0
+MAX_RANGE_M = 1000.0
 
 
 def find_gtsam_file() -> Path | None:
@@ -66,12 +70,17 @@ def read_gtsam_graph(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
         sigma_bearing rad]) in file order.
 
     Raises:
-        DataError: unknown record, wrong field count or non-numeric field (naming the line).
+        DataError: unknown record, wrong field count, non-numeric field, a covariance or sigma
+            that is not positive, an implausible step or range, ODOMETRY records that do not
+            form one chain through distinct poses, a sighting from a pose outside the chain or
+            of a landmark whose id is a pose's (naming the line).
     """
     edges: list[tuple[int, int]] = []
     deltas: list[list[float]] = []
     sigmas: list[list[float]] = []
     sightings: list[list[float]] = []
+    edge_lines: list[int] = []
+    sighting_lines: list[int] = []
     for line, fields in iter_records(path):
         tag = fields[0]
         if tag not in _WIDTHS:
@@ -90,27 +99,87 @@ def read_gtsam_graph(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
             cov = np.array([[c11, c12, c13], [c12, c22, c23], [c13, c23, c33]])
             if np.any(np.linalg.eigvalsh(cov) <= 0):
                 raise DataError(f"line {line}: odometry covariance is not positive definite", path)
+            if np.hypot(values[0], values[1]) > MAX_STEP_M:
+                raise DataError(
+                    f"line {line}: odometry step of {np.hypot(values[0], values[1]):g} m is "
+                    f"longer than the plausible {MAX_STEP_M:g} m",
+                    path,
+                )
             edges.append((i, j))
+            edge_lines.append(line)
             deltas.append(values[:3])
             sigmas.append(list(np.sqrt(np.diag(cov))))
         elif tag == "LANDMARK":
-            x, y, v1, _, v3 = values
+            x, y, v1, v2, v3 = values
+            if v1 <= 0 or v3 <= 0 or v1 * v3 - v2 * v2 <= 0:
+                raise DataError(f"line {line}: landmark covariance is not positive definite", path)
             if abs(v1 - v3) < 1e-4:  # gtsam dataset.cpp conversion
                 sigma_bearing, sigma_range = np.sqrt(v1 / 10.0), np.sqrt(v1)
             else:
                 sigma_bearing, sigma_range = 1.0, 1.0
-            sightings.append([i, j, np.hypot(x, y), np.arctan2(y, x), sigma_range, sigma_bearing])
+            range_m = float(np.hypot(x, y))
+            sightings.append([i, j, range_m, np.arctan2(y, x), sigma_range, sigma_bearing])
         else:  # BR
             bearing, range_m, sigma_bearing, sigma_range = values
+            if sigma_bearing <= 0 or sigma_range <= 0:
+                raise DataError(f"line {line}: BR sigmas must be positive", path)
             sightings.append([i, j, range_m, bearing, sigma_range, sigma_bearing])
+        if tag != "ODOMETRY":
+            if not 0 < range_m <= MAX_RANGE_M:
+                raise DataError(
+                    f"line {line}: landmark range {range_m:g} m is outside the plausible "
+                    f"(0, {MAX_RANGE_M:g}]",
+                    path,
+                )
+            sighting_lines.append(line)
     if not edges:
         raise DataError("no ODOMETRY records", path)
+    _check_graph(edges, edge_lines, sightings, sighting_lines, path)
     return (
         np.asarray(edges, dtype=np.int64),
         np.asarray(deltas, dtype=float),
         np.asarray(sigmas, dtype=float),
         np.asarray(sightings, dtype=float).reshape(-1, 6),
     )
+
+
+def _check_graph(
+    edges: list[tuple[int, int]],
+    edge_lines: list[int],
+    sightings: list[list[float]],
+    sighting_lines: list[int],
+    path: Path,
+) -> None:
+    """Raise DataError unless the ODOMETRY records form one chain through distinct poses and
+    every sighting is from a pose of the chain, of a landmark whose id is no pose's (poses and
+    landmarks share one id space); the message names the line."""
+    first_line = {edges[0][0]: edge_lines[0]}
+    for k, ((i, j), line) in enumerate(zip(edges, edge_lines, strict=True)):
+        if k and i != edges[k - 1][1]:
+            raise DataError(
+                f"line {line}: ODOMETRY starts at pose {i}, the chain is at {edges[k - 1][1]}",
+                path,
+            )
+        if j in first_line:
+            raise DataError(
+                f"line {line}: ODOMETRY returns to pose {j} (already in the chain on line "
+                f"{first_line[j]})",
+                path,
+            )
+        first_line[j] = line
+    for (pose, landmark, *_), line in zip(sightings, sighting_lines, strict=True):
+        if int(pose) not in first_line:
+            raise DataError(
+                f"line {line}: the sighting refers to pose {int(pose)}, which is not in the "
+                "odometry chain",
+                path,
+            )
+        if int(landmark) in first_line:
+            raise DataError(
+                f"line {line}: landmark id {int(landmark)} is a pose of the odometry chain "
+                f"(line {first_line[int(landmark)]}; poses and landmarks share one id space)",
+                path,
+            )
 
 
 def is_gtsam_graph_file(path: Path) -> bool:
@@ -162,23 +231,10 @@ def load_gtsam_victoria(
         if path is None:
             raise DataError(f"gtsam's {FILE_NAME} not found: install the 'graph' extra (gtsam)")
     path = Path(path)
-    edges, deltas, sigmas, sightings = read_gtsam_graph(path)
-    chain = edges[:, 0]
-    if np.any(edges[1:, 0] != edges[:-1, 1]):
-        k = int(np.argmax(edges[1:, 0] != edges[:-1, 1])) + 1
-        raise DataError(
-            f"ODOMETRY record {k + 1} starts at pose {edges[k, 0]}, "
-            f"the chain is at {edges[k - 1, 1]}",
-            path,
-        )
-    pose_ids = np.append(chain, edges[-1, 1])
+    edges, deltas, sigmas, sightings = read_gtsam_graph(path)  # one chain, checked
+    pose_ids = np.append(edges[:, 0], edges[-1, 1])
     frame_of_pose = {int(p): k for k, p in enumerate(pose_ids)}
-    frames = np.array([frame_of_pose.get(int(p), -1) for p in sightings[:, 0]], dtype=np.int64)
-    if np.any(frames < 0):
-        bad = int(sightings[int(np.argmax(frames < 0)), 0])
-        raise DataError(
-            f"a sighting refers to pose {bad}, which is not in the odometry chain", path
-        )
+    frames = np.array([frame_of_pose[int(p)] for p in sightings[:, 0]], dtype=np.int64)
     stamps = np.arange(len(pose_ids), dtype=float)
     if odometry_sigma_theta_rad is not None:
         sigmas = sigmas.copy()

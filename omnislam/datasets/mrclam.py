@@ -44,7 +44,15 @@ from omnislam.datasets._common import (
     interpolate_se2,
     odometry_from_poses,
 )
-from omnislam.datasets._text import StampOrder, Table, check_range, check_stream_end, read_table
+from omnislam.datasets._text import (
+    StampOrder,
+    Table,
+    check_integers,
+    check_range,
+    check_stream_end,
+    check_unique,
+    read_table,
+)
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, Sequence
 from omnislam.errors import ConfigError, DataError
 
@@ -130,8 +138,12 @@ MAX_STEP_S = 2.0
 #: tell that they are of different landmarks (mutual exclusion within a frame).
 SAME_IMAGE_S = 0.02
 
-#: the odometry may end this much before the last sighting [s] (dataset 6: it ends after it)
+#: the odometry may end this much before the last sighting [s] (dataset 6: it ends after it),
+#: and this much before the Vicon ground truth (dataset 6: at most 0.017 s before it)
 ODOMETRY_END_TOLERANCE_S = 0.5
+#: the Vicon ground truth may end this much before the last sighting [s] (dataset 6: it ends
+#: 19.8 s after it for robot 1, 126 s before that robot's odometry; later for the others)
+VICON_END_TOLERANCE_S = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -159,29 +171,43 @@ def read_barcodes(path: Path) -> dict[int, int]:
     """``Barcodes.dat`` -> {barcode: subject}.
 
     Raises:
-        DataError: malformed file or a barcode listed twice.
+        DataError: malformed file, a subject or barcode that is not an integer, or listed twice.
     """
     table = read_table(path, ("subject", "barcode"), stamp_order=StampOrder.ANY)
-    mapping: dict[int, int] = {}
-    for row, (subject, barcode) in enumerate(table.values):
-        if barcode in mapping:
-            raise DataError(f"{table.where(row)}: barcode {int(barcode)} listed twice", path)
-        mapping[int(barcode)] = int(subject)
-    return mapping
+    check_integers(table, 0, "subject")
+    check_integers(table, 1, "barcode")
+    check_unique(table, 0, "subject")
+    check_unique(table, 1, "barcode")
+    return {int(barcode): int(subject) for subject, barcode in table.values}
 
 
 def read_landmark_groundtruth(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """``Landmark_Groundtruth.dat`` -> (subject ids (M,), positions (M, 2) [m])."""
+    """``Landmark_Groundtruth.dat`` -> (subject ids (M,), positions (M, 2) [m]).
+
+    Raises:
+        DataError: malformed file, a subject that is not an integer or is listed twice.
+    """
     columns = ("subject", "x[m]", "y[m]", "x_std[m]", "y_std[m]")
     table = read_table(path, columns, stamp_order=StampOrder.ANY)
+    check_integers(table, 0, "subject")
+    check_unique(table, 0, "subject")
     return table.values[:, 0].astype(np.int64), np.array(table.values[:, 1:3])
 
 
 def read_robot_groundtruth(path: Path) -> Trajectory:
     """``RobotN_Groundtruth.dat`` (Vicon) -> Trajectory of the robot's poses in the room frame."""
-    columns = ("time[s]", "x[m]", "y[m]", "theta[rad]")
-    table = read_table(path, columns, stamp_order=StampOrder.INCREASING)
+    table = read_robot_groundtruth_table(path)
     return Trajectory.from_se2(table.values[:, 0], table.values[:, 1:4])
+
+
+def read_robot_groundtruth_table(path: Path) -> Table:
+    """``RobotN_Groundtruth.dat`` -> its rows [time s, x m, y m, theta rad].
+
+    Raises:
+        DataError: malformed file or times not strictly increasing (naming the line).
+    """
+    columns = ("time[s]", "x[m]", "y[m]", "theta[rad]")
+    return read_table(path, columns, stamp_order=StampOrder.INCREASING)
 
 
 def read_robot_odometry_table(path: Path) -> Table:
@@ -211,6 +237,7 @@ def read_robot_measurements(path: Path, barcodes: dict[int, int]) -> Sightings:
     """
     columns = ("time[s]", "barcode", "range[m]", "bearing[rad]")
     table = read_table(path, columns, min_rows=1)
+    check_integers(table, 1, "barcode")
     check_range(table, 2, "range[m]", -np.inf, MAX_RANGE_M)
     values = table.values
     codes = values[:, 1].astype(np.int64)
@@ -325,7 +352,9 @@ def load_mrclam(
         surveyed landmarks).
 
     Raises:
-        DataError: a missing or malformed file (naming it and the line).
+        DataError: a missing or malformed file (naming it and the line), or the odometry or
+            the Vicon file ending before the sightings, or the odometry before the Vicon file
+            (a file cut short).
         ConfigError: a robot number without files.
     """
     folder = Path(folder)
@@ -348,7 +377,20 @@ def load_mrclam(
             ODOMETRY_END_TOLERANCE_S,
         )
     vicon_path = folder / f"Robot{robot}_Groundtruth.dat"
-    vicon = read_robot_groundtruth(vicon_path) if vicon_path.is_file() else None
+    vicon = None
+    if vicon_path.is_file():
+        vicon_table = read_robot_groundtruth_table(vicon_path)
+        if len(sightings.stamps_s):
+            check_stream_end(
+                vicon_table,
+                float(sightings.stamps_s[-1]),
+                files["Measurement"],
+                VICON_END_TOLERANCE_S,
+            )
+        check_stream_end(
+            odometry_table, float(vicon_table.values[-1, 0]), vicon_path, ODOMETRY_END_TOLERANCE_S
+        )
+        vicon = Trajectory.from_se2(vicon_table.values[:, 0], vicon_table.values[:, 1:4])
 
     start_s = float(odometry[0, 0])
     early = sightings.stamps_s < start_s

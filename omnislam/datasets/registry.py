@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import enum
 import importlib
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +32,22 @@ def _bool(text: str) -> bool:
 
 def _positive_float(text: str) -> float:
     value = float(text)
+    if not value > 0:
+        raise ValueError("must be positive")
+    return value
+
+
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError("must be a finite number")
+    return value
+
+
+def _sigma(text: str) -> float:
+    """A standard deviation: positive and finite (an infinite one reaches the estimators as
+    NaN information)."""
+    value = _finite_float(text)
     if not value > 0:
         raise ValueError("must be positive")
     return value
@@ -90,10 +107,10 @@ FORMATS: dict[DatasetFormat, FormatSpec] = {
         {
             "robot": int,
             "association": Association.parse,
-            "sigma_range_m": _positive_float,
-            "sigma_bearing_rad": _positive_float,
+            "sigma_range_m": _sigma,
+            "sigma_bearing_rad": _sigma,
             "depth_ranges": _bool,
-            "command_delay_s": float,
+            "command_delay_s": _finite_float,
             "odometry_noise": _bool,
             "max_step_s": _positive_float,
             "same_image_s": float,
@@ -102,16 +119,16 @@ FORMATS: dict[DatasetFormat, FormatSpec] = {
     DatasetFormat.VICTORIA_PARK: FormatSpec(
         "omnislam.datasets.victoria_park:is_victoria_park_folder",
         "omnislam.datasets.victoria_park:load_victoria_park",
-        {"sigma_range_m": _positive_float, "sigma_bearing_rad": _positive_float},
+        {"sigma_range_m": _sigma, "sigma_bearing_rad": _sigma},
     ),
     DatasetFormat.GTSAM_GRAPH: FormatSpec(
         "omnislam.datasets.gtsam_victoria:is_gtsam_graph_file",
         "omnislam.datasets.gtsam_victoria:load_gtsam_victoria",
         {
             "association": Association.parse,
-            "sigma_range_m": _positive_float,
-            "sigma_bearing_rad": _positive_float,
-            "odometry_sigma_theta_rad": _positive_float,
+            "sigma_range_m": _sigma,
+            "sigma_bearing_rad": _sigma,
+            "odometry_sigma_theta_rad": _sigma,
         },
     ),
     DatasetFormat.CARMEN: FormatSpec(

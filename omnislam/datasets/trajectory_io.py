@@ -25,26 +25,38 @@ from omnislam.errors import DataError
 _FORMAT = "%.17g"
 
 
-def _numeric_rows(path: Path, columns: int) -> Iterator[tuple[int, np.ndarray]]:
-    """Yield (line number, values) for each non-comment line, checking count and numbers."""
+def _numeric_rows(path: Path, columns: int) -> Iterator[tuple[str, np.ndarray]]:
+    """Yield (where, values) for each non-comment line, checking count and numbers.
+
+    ``where`` is ``"line N"`` for messages; on a last line without its line break (a file cut
+    mid-line, whose last number may be cut short too) it says so.
+
+    Raises:
+        DataError: unreadable file, wrong column count, non-numeric or non-finite value.
+    """
     try:
         text = path.read_text()
-    except OSError as exc:
-        raise DataError(f"cannot read file ({exc.strerror})", path) from exc
-    for number, line in enumerate(text.splitlines(), start=1):
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) else "not a text file"
+        raise DataError(f"cannot read file ({reason})", path) from exc
+    lines = text.splitlines()
+    for number, line in enumerate(lines, start=1):
         stripped = line.strip()
         if not stripped or stripped.startswith("#"):
             continue
+        where = f"line {number}"
+        if number == len(lines) and not text.endswith("\n"):
+            where += " (the last, without a line break: file truncated?)"
         fields = stripped.replace(",", " ").split()
         if len(fields) != columns:
-            raise DataError(f"line {number}: expected {columns} values, found {len(fields)}", path)
+            raise DataError(f"{where}: expected {columns} values, found {len(fields)}", path)
         try:
             values = np.array([float(f) for f in fields])
         except ValueError as exc:
-            raise DataError(f"line {number}: not a number ({exc})", path) from exc
+            raise DataError(f"{where}: not a number ({exc})", path) from exc
         if not np.all(np.isfinite(values)):
-            raise DataError(f"line {number}: NaN or infinite value", path)
-        yield number, values
+            raise DataError(f"{where}: NaN or infinite value", path)
+        yield where, values
 
 
 def read_tum(path: str | Path) -> Trajectory:
@@ -56,13 +68,17 @@ def read_tum(path: str | Path) -> Trajectory:
     """
     path = Path(path)
     stamps, xyz, quats = [], [], []
-    for number, values in _numeric_rows(path, 8):
+    for where, values in _numeric_rows(path, 8):
         q_xyzw = values[4:8]
         norm = np.linalg.norm(q_xyzw)
         if abs(norm - 1.0) > 1e-3:
-            raise DataError(f"line {number}: quaternion norm {norm:.6g} is not 1", path)
+            raise DataError(f"{where}: quaternion norm {norm:.6g} is not 1", path)
         if stamps and values[0] <= stamps[-1]:
-            raise DataError(f"line {number}: stamp {values[0]!r} is not after the previous", path)
+            raise DataError(
+                f"{where}: stamp {float(values[0])!r} is not after the previous one "
+                f"({float(stamps[-1])!r})",
+                path,
+            )
         stamps.append(values[0])
         xyz.append(values[1:4])
         quats.append(np.r_[q_xyzw[3], q_xyzw[:3]] / norm)
@@ -90,12 +106,12 @@ def read_kitti(path: str | Path, stamps_s: np.ndarray | None = None) -> Trajecto
     """
     path = Path(path)
     poses = []
-    for number, values in _numeric_rows(path, 12):
+    for where, values in _numeric_rows(path, 12):
         pose = np.eye(4)
         pose[:3, :4] = values.reshape(3, 4)
         R = pose[:3, :3]
         if not np.allclose(R @ R.T, np.eye(3), atol=1e-5) or np.linalg.det(R) < 0:
-            raise DataError(f"line {number}: rotation block is not a rotation", path)
+            raise DataError(f"{where}: rotation block is not a rotation", path)
         # re-orthonormalise the printed rotation so that Trajectory's check holds exactly
         u, _, vt = np.linalg.svd(R)
         pose[:3, :3] = u @ vt

@@ -33,7 +33,14 @@ import numpy as np
 from omnislam.core.ackermann import AckermannGeometry, integrate_ackermann
 from omnislam.core.types import UNKNOWN_ID, Trajectory
 from omnislam.datasets._common import group_sightings, interpolate_se2, odometry_from_poses
-from omnislam.datasets._text import StampOrder, Table, check_range, check_stream_end, read_table
+from omnislam.datasets._text import (
+    StampOrder,
+    Table,
+    check_range,
+    check_stream_end,
+    check_stream_start,
+    read_table,
+)
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, Sequence
 from omnislam.errors import DataError
 
@@ -57,8 +64,13 @@ MAX_SPEED_M_S = 50.0
 MAX_STEERING_RAD = np.pi / 2
 #: plausible laser range [m] (the SICK laser reads at most ~80 m)
 MAX_RANGE_M = 200.0
-#: ``inputs.dat`` may end this much before the last tree detection [s] (it ends after it)
+#: ``inputs.dat`` may end this much before the last tree detection [s] (it ends after it), and
+#: start this much after the first (it starts 0.121 s after it)
 INPUTS_END_TOLERANCE_S = 0.5
+#: ``gps.dat`` may start this much after the first tree detection and end this much before the
+#: last [s] (it starts 0.852 s before the first and ends 0.015 s before the last; inside the run
+#: GPS has gaps of up to 58 s, but the file covers the run from end to end)
+GPS_SPAN_TOLERANCE_S = 1.0
 
 GPS_NOTE = (
     "GPS positions (partial: compared only where GPS exists; no heading, yaw is a placeholder)"
@@ -87,19 +99,33 @@ def read_measurements(path: Path) -> np.ndarray:
 
     The laser bearing is returned as recorded; ``load_victoria_park`` converts it to the robot
     frame (``bearing - pi/2``).
+
+    Raises:
+        DataError: malformed file, a negative or implausible range, a bearing outside the
+            laser's 0..pi or a negative diameter (naming the line).
     """
     table = read_table(path, ("time[s]", "range[m]", "bearing[rad]", "diameter[m]"))
     if np.any(table.values[:, 1] < 0):
         row = int(np.argmax(table.values[:, 1] < 0))
         raise DataError(f"{table.where(row)}: negative range", path)
     check_range(table, 1, "range[m]", 0.0, MAX_RANGE_M)
+    check_range(table, 2, "bearing[rad]", 0.0, np.pi)
+    check_range(table, 3, "diameter[m]", 0.0, np.inf)
     return np.array(table.values)
 
 
 def read_gps(path: Path) -> np.ndarray:
     """``gps.dat`` -> (K, 3) [time s, x m, y m] (strictly increasing times)."""
-    table = read_table(path, ("time[s]", "x[m]", "y[m]"), stamp_order=StampOrder.INCREASING)
-    return np.array(table.values)
+    return np.array(read_gps_table(path).values)
+
+
+def read_gps_table(path: Path) -> Table:
+    """``gps.dat`` -> its rows [time s, x m, y m].
+
+    Raises:
+        DataError: malformed file or times not strictly increasing (naming the line).
+    """
+    return read_table(path, ("time[s]", "x[m]", "y[m]"), stamp_order=StampOrder.INCREASING)
 
 
 def is_victoria_park_folder(path: Path) -> bool:
@@ -130,19 +156,18 @@ def load_victoria_park(
         The Sequence; ground truth is GPS_PARTIAL when ``gps.dat`` exists, else NONE.
 
     Raises:
-        DataError: a missing or malformed file (naming it and the line).
+        DataError: a missing or malformed file (naming it and the line), or ``inputs.dat`` or
+            ``gps.dat`` not covering the tree detections (a file cut short).
     """
     folder = Path(folder)
     geometry = geometry or AckermannGeometry()
     inputs_table = read_inputs_table(folder / "inputs.dat")
     inputs = np.array(inputs_table.values)
     detections = read_measurements(folder / "measurements.dat")
-    check_stream_end(
-        inputs_table,
-        float(detections[-1, 0]),
-        folder / "measurements.dat",
-        INPUTS_END_TOLERANCE_S,
-    )
+    first_s, last_s = float(detections[0, 0]), float(detections[-1, 0])
+    measurements_path = folder / "measurements.dat"
+    check_stream_start(inputs_table, first_s, measurements_path, INPUTS_END_TOLERANCE_S)
+    check_stream_end(inputs_table, last_s, measurements_path, INPUTS_END_TOLERANCE_S)
     frame_stamps = np.unique(detections[:, 0])
     wTl = integrate_ackermann(inputs[:, 0], inputs[:, 1], inputs[:, 2], frame_stamps, geometry)
     range_bearing = group_sightings(
@@ -158,7 +183,10 @@ def load_victoria_park(
     gps_path = folder / "gps.dat"
     gps_coverage = 0.0
     if gps_path.is_file():
-        gps = read_gps(gps_path)
+        gps_table = read_gps_table(gps_path)
+        check_stream_start(gps_table, first_s, measurements_path, GPS_SPAN_TOLERANCE_S)
+        check_stream_end(gps_table, last_s, measurements_path, GPS_SPAN_TOLERANCE_S)
+        gps = np.array(gps_table.values)
         fixes = np.column_stack([gps[:, 1:3], np.zeros(len(gps))])
         valid, positions = interpolate_se2(gps[:, 0], fixes, frame_stamps, GPS_MAX_GAP_S)
         positions[:, 2] = 0.0  # GPS has no heading: placeholder yaw

@@ -210,7 +210,23 @@ _mrclam_case(
 _mrclam_case("odometry-empty", ODOM, lambda: "")
 _mrclam_case("odometry-binary", ODOM, lambda: "\x00\x01\x02garbage\n")
 _mrclam_case("barcodes-duplicate", "Barcodes.dat", lambda: "1 5\n6 63\n7 63\n")
+_mrclam_case("barcodes-duplicate-subject", "Barcodes.dat", lambda: "1 5\n6 63\n6 64\n")
+_mrclam_case("barcodes-subject-not-an-integer", "Barcodes.dat", lambda: "1 5\n6.5 63\n")
 _mrclam_case("barcodes-empty", "Barcodes.dat", lambda: "")
+_mrclam_case(
+    "landmarks-duplicate-subject",
+    "Landmark_Groundtruth.dat",
+    lambda: "6 2.0 0.5 0.001 0.001\n6 3.0 0.5 0.001 0.001\n",
+)
+_mrclam_case(
+    "measurement-barcode-not-an-integer",
+    MEAS,
+    lambda: replace_line(measurement_text(), 3, "2.0 63.5 1.5 0.2"),
+)
+_mrclam_case("groundtruth-cut-at-line-break", GT, lambda: cut(groundtruth_text(), 0.5), GT)
+_mrclam_case(
+    "odometry-shorter-than-groundtruth", ODOM, lambda: odometry_text(seconds=9.2), "stops at time"
+)
 _mrclam_case("landmarks-columns", "Landmark_Groundtruth.dat", lambda: "6 2.0 0.5\n")
 _mrclam_case("groundtruth-repeated-time", GT, lambda: groundtruth_text() + "10.000 1 0 0\n")
 _mrclam_case(
@@ -238,6 +254,19 @@ def _(tmp, fx):
 @case("mrclam-negative-same-image-window")
 def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "same_image_s=-1"), "same_image_s"
+
+
+@case("mrclam-command-delay-nan")
+def _(tmp, fx):
+    argv = run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "command_delay_s=nan")
+    return argv, "command_delay_s"
+
+
+@case("mrclam-sigma-range-inf")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "sigma_range_m=inf"), (
+        "sigma_range_m"
+    )
 
 
 @case("mrclam-unknown-association")
@@ -272,6 +301,21 @@ _park_case(
 )
 _park_case("measurements-empty", "measurements.dat", lambda t: "")
 _park_case("measurements-columns", "measurements.dat", lambda t: replace_line(t, 2, "1.5 8 1.2"))
+_park_case(
+    "inputs-first-lines-lost", "inputs.dat", lambda t: t[len(cut(t, 0.5)) :], "starts at time"
+)
+_park_case(
+    "measurements-bearing-outside-0-pi",
+    "measurements.dat",
+    lambda t: replace_line(t, 2, "1.5 8 4.0 0.3"),
+)
+_park_case(
+    "measurements-negative-diameter",
+    "measurements.dat",
+    lambda t: replace_line(t, 2, "1.5 8 1.2 -0.3"),
+)
+_park_case("gps-cut-at-line-break", "gps.dat", lambda t: cut(t, 0.5), "stops at time")
+_park_case("gps-first-lines-lost", "gps.dat", lambda t: t[len(cut(t, 0.5)) :], "starts at time")
 _park_case("gps-repeated-time", "gps.dat", lambda t: t + "10.000 20 0\n")
 _park_case("gps-not-a-number", "gps.dat", lambda t: replace_line(t, 3, "0.6 y 0"))
 
@@ -289,9 +333,23 @@ def _gtsam_case(name: str, text: str, needle: str = "graph.txt"):
 _gtsam_case("fields", ODO + "ODOMETRY 1 2 1 0 0 0.0001 0 0 4e-06\n")
 _gtsam_case("not-a-number", ODO + "LANDMARK 1 9 1 one 0.4 0 0.4\n")
 _gtsam_case("unknown-record", ODO + "VERTEX2 1 0 0 0\n")
-_gtsam_case("broken-chain", ODO + "ODOMETRY 5 6 1 0 0 0.0001 0 0 4e-06 0 4e-06\n")
-_gtsam_case("unknown-pose", ODO + "LANDMARK 7 9 1 1 0.4 0 0.4\n")
+_gtsam_case(
+    "broken-chain", ODO + "ODOMETRY 5 6 1 0 0 0.0001 0 0 4e-06 0 4e-06\n", "graph.txt: line 2"
+)
+_gtsam_case("unknown-pose", ODO + "LANDMARK 7 9 1 1 0.4 0 0.4\n", "graph.txt: line 2")
 _gtsam_case("covariance", "ODOMETRY 0 1 1 0 0 -1 0 0 4e-06 0 4e-06\n")
+_gtsam_case(
+    "landmark-negative-variance", ODO + "LANDMARK 1 9 1 0.4 -0.4 0 -0.4\n", "graph.txt: line 2"
+)
+_gtsam_case("landmark-at-the-pose", ODO + "LANDMARK 1 9 0 0 0.4 0 0.4\n", "graph.txt: line 2")
+_gtsam_case("bearing-range-negative-sigma", ODO + "BR 1 9 0.3 5 -0.1 0.5\n", "graph.txt: line 2")
+_gtsam_case("landmark-id-is-a-pose", ODO + "LANDMARK 1 0 1 0.4 0.4 0 0.4\n", "graph.txt: line 2")
+_gtsam_case(
+    "chain-returns-to-a-pose",
+    ODO + "ODOMETRY 1 0 1 0 0 0.0001 0 0 4e-06 0 4e-06\n",
+    "graph.txt: line 2",
+)
+_gtsam_case("step-1e308", "ODOMETRY 0 1 1e308 0 0 0.0001 0 0 4e-06 0 4e-06\n", "graph.txt: line 1")
 
 
 def _carmen_case(name: str, text: str, needle: str = "bad.log"):
@@ -310,6 +368,10 @@ _carmen_case("odom-short", "ODOM 0 0\n")
 _carmen_case("time-backwards", flaser(10.0) + flaser(1.0))
 _carmen_case("no-scans", "PARAM x 1\n")
 _carmen_case("beam-counts-differ", flaser(1.0) + flaser(2.0, beams=5))
+_carmen_case("range-negative", flaser(1.0).replace("1.0 1.0 1.0 1.0", "1.0 -1.0 1.0 1.0"))
+_carmen_case("range-1e9", flaser(1.0).replace("1.0 1.0 1.0 1.0", "1.0 1e9 1.0 1.0"))
+_carmen_case("beam-count-zero", "FLASER 0 0 0 0 0 0 0 1.0 host 1.0\n", "beam count 0 is not")
+_carmen_case("odom-speed-not-a-number", "ODOM 0 0 0 fast 0 0 1.0 host 1.0\n" + flaser(1.5))
 
 
 @case("carmen-range-not-a-number-slam")
@@ -632,11 +694,30 @@ def _set_config(key: str, value: str) -> Callable[[Path], None]:
     return change
 
 
+def _set_step(run: Path, value: str) -> None:
+    """``timing.csv`` with the step time of its second frame (line 3) replaced by ``value``."""
+    path = run / "timing.csv"
+    lines = path.read_text().splitlines()
+    frame, stamp, _ = lines[2].split(",")
+    lines[2] = f"{frame},{stamp},{value}"
+    path.write_text("\n".join(lines) + "\n")
+
+
 _run_dir_case(
     "trajectory-fewer-poses", lambda r: _keep_lines(r / "trajectory.tum", 7), "trajectory.tum"
 )
 _run_dir_case(
-    "trajectory-cut-mid-line", lambda r: truncate(r / "trajectory.tum", 0.5), "trajectory.tum"
+    "trajectory-cut-mid-line", lambda r: truncate(r / "trajectory.tum", 0.5), "file truncated?"
+)
+_run_dir_case(
+    "trajectory-stamp-backwards",
+    lambda r: (r / "trajectory.tum").write_text("1 0 0 0 0 0 0 1\n0.5 0 0 0 0 0 0 1\n"),
+    "stamp 0.5 is not after the previous one (1.0)",
+)
+_run_dir_case(
+    "trajectory-binary",
+    lambda r: (r / "trajectory.tum").write_bytes(b"\xff\xfe\x00"),
+    "trajectory.tum",
 )
 _run_dir_case("trajectory-missing", lambda r: (r / "trajectory.tum").unlink(), "trajectory.tum")
 _run_dir_case(
@@ -646,6 +727,24 @@ _run_dir_case(
 )
 _run_dir_case("timing-fewer-rows", lambda r: _keep_lines(r / "timing.csv", 5), "timing.csv")
 _run_dir_case("timing-bad-header", lambda r: (r / "timing.csv").write_text("a,b\n"), "timing.csv")
+_run_dir_case("timing-nan", lambda r: _set_step(r, "nan"), "timing.csv: line 3")
+_run_dir_case("timing-negative", lambda r: _set_step(r, "-0.5"), "timing.csv: line 3")
+_run_dir_case(
+    "timing-binary", lambda r: (r / "timing.csv").write_bytes(b"\xff\xfe\x00"), "timing.csv"
+)
+_run_dir_case(
+    "landmarks-nan",
+    lambda r: (r / "landmarks.csv").write_text("id,x,y,z\n1,nan,0,0\n"),
+    "landmarks.csv: line 2",
+)
+_run_dir_case(
+    "landmarks-duplicate-id",
+    lambda r: (r / "landmarks.csv").write_text("id,x,y,z\n1,1,0,0\n1,2,0,0\n"),
+    "landmarks.csv: line 3",
+)
+_run_dir_case(
+    "ground-truth-missing", lambda r: (r / "ground_truth.tum").unlink(), "ground_truth.tum"
+)
 _run_dir_case(
     "landmarks-bad-header", lambda r: (r / "landmarks.csv").write_text("x,y\n"), "landmarks.csv"
 )
@@ -750,6 +849,14 @@ _grid_case(
 )
 _grid_case("seeds-not-integers", GRID_OK + "seeds: [a, b]\n", "seeds")
 _grid_case("seeds-duplicate", GRID_OK + "seeds: [1, 1]\n", "seeds")
+_grid_case("seeds-negative", GRID_OK + "seeds: [-1]\n", "seeds")
+_grid_case("dataset-not-a-name", "datasets: [5]\nestimators: [deadreckoning]\n", "datasets[0]")
+_grid_case(
+    "evaluation-curve-lengths-text", GRID_OK + "evaluation: {curve_lengths: x}\n", "grid.yaml"
+)
+_grid_case(
+    "evaluation-segment-infinite", GRID_OK + "evaluation: {rpe_segment_m: .inf}\n", "grid.yaml"
+)
 _grid_case(
     "estimator-option-wrong-type",
     "datasets: [data/room.log]\n"
@@ -788,6 +895,13 @@ _grid_case(
 @case("compare-grid-missing")
 def _(tmp, fx):
     return ["compare", str(tmp / "none.yaml"), "--out", str(tmp / "results")], "none.yaml"
+
+
+@case("compare-grid-binary")
+def _(tmp, fx):
+    path = grid(tmp, "")
+    path.write_bytes(b"\x00\x01\xff\xfe")
+    return ["compare", str(path), "--out", str(tmp / "results")], "grid.yaml"
 
 
 @case("compare-out-parent-is-a-file")
@@ -960,6 +1074,36 @@ def _(tmp, fx):
 @case("view-out-not-rrd")
 def _(tmp, fx):
     return ["view", str(fx.run_dir(tmp)), "--out", str(tmp / "run.txt")], "run.txt"
+
+
+# -- calibrate
+
+
+@case("calibrate-window-zero")
+def _(tmp, fx):
+    pytest.importorskip("cv2")
+    small_png(tmp / "board.png")
+    argv = ["calibrate", str(tmp / "board.png"), "--board", "6x7", "--square", "0.03"]
+    return [*argv, "--window", "0", "--out", str(tmp / "cam.yaml")], "--window"
+
+
+@case("calibrate-ocam-degree-zero")
+def _(tmp, fx):
+    pytest.importorskip("cv2")
+    small_png(tmp / "board.png")
+    argv = ["calibrate", str(tmp / "board.png"), "--model", "ocamcalib", "--board", "6x7"]
+    return [*argv, "--square", "0.03", "--ocam-degree", "0", "--out", str(tmp / "cam.yaml")], (
+        "--ocam-degree"
+    )
+
+
+@case("calibrate-unreadable-image")
+def _(tmp, fx):
+    """The image left out is named in the one error line, not in a warning before it."""
+    pytest.importorskip("cv2")
+    (tmp / "board.jpg").write_text("not an image\n")
+    argv = ["calibrate", str(tmp / "board.jpg"), "--board", "6x7", "--square", "0.03"]
+    return [*argv, "--out", str(tmp / "cam.yaml")], "board.jpg"
 
 
 # ---- the test --------------------------------------------------------------------------------
