@@ -1106,6 +1106,91 @@ def _(tmp, fx):
     return [*argv, "--out", str(tmp / "cam.yaml")], "board.jpg"
 
 
+# -- images: truncated or corrupt files (libpng / libjpeg must not print), names, counts
+
+
+@case("synthetic-image-truncated-png")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    truncate(folder / "images" / "000000.png")
+    return run_args(folder, tmp), "000000.png: truncated PNG"
+
+
+@case("synthetic-image-crc-error")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    path = folder / "images" / "000000.png"
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2 : len(data) // 2 + 8] = bytes(8)
+    path.write_bytes(bytes(data))
+    return run_args(folder, tmp), "000000.png: corrupt PNG"
+
+
+def _jpeg(path: Path, width: int = 32, height: int = 24) -> None:
+    import cv2
+
+    cv2.imwrite(str(path), np.full((height, width, 3), 128, np.uint8))
+
+
+def _calibrate_points(tmp: Path, *images: Path) -> list[str]:
+    """``calibrate IMAGES --points pts.csv`` (one corner: the images are read for their size)."""
+    (tmp / "pts.csv").write_text("image,u,v,x_m,y_m\na.jpg,1,2,0,0\n")
+    argv = ["calibrate", *map(str, images), "--points", str(tmp / "pts.csv")]
+    return [*argv, "--out", str(tmp / "cam.yaml")]
+
+
+@case("calibrate-truncated-jpeg")
+def _(tmp, fx):
+    pytest.importorskip("cv2")
+    _jpeg(tmp / "board.jpg", 320, 240)
+    truncate(tmp / "board.jpg")
+    argv = ["calibrate", str(tmp / "board.jpg"), "--board", "6x7", "--square", "0.03"]
+    return [*argv, "--out", str(tmp / "cam.yaml")], "board.jpg: truncated JPEG"
+
+
+@case("calibrate-points-image-truncated")
+def _(tmp, fx):
+    pytest.importorskip("cv2")
+    _jpeg(tmp / "a.jpg")
+    _jpeg(tmp / "b.jpg")
+    truncate(tmp / "b.jpg")
+    return _calibrate_points(tmp, tmp / "a.jpg", tmp / "b.jpg"), "b.jpg: truncated JPEG"
+
+
+@case("calibrate-points-image-not-an-image")
+def _(tmp, fx):
+    pytest.importorskip("cv2")
+    (tmp / "a.jpg").write_text("not an image\n")
+    return _calibrate_points(tmp, tmp / "a.jpg"), "a.jpg"
+
+
+@case("calibrate-points-images-differ-in-size")
+def _(tmp, fx):
+    pytest.importorskip("cv2")
+    _jpeg(tmp / "a.jpg")
+    _jpeg(tmp / "b.jpg", 48, 24)
+    return _calibrate_points(tmp, tmp / "a.jpg", tmp / "b.jpg"), "b.jpg: image is 48x24"
+
+
+@case("calibrate-points-mat-corrupt")
+def _(tmp, fx):
+    import scipy.io
+
+    path = tmp / "pts.mat"
+    scipy.io.savemat(path, {"gridInfo": {"x": np.arange(4000.0)}}, do_compression=True)
+    data = bytearray(path.read_bytes())
+    data[-200:-100] = bytes(100)
+    path.write_bytes(bytes(data))
+    argv = ["calibrate", "--points", str(path), "--image-size", "64x48"]
+    return [*argv, "--out", str(tmp / "cam.yaml")], "pts.mat"
+
+
+@case("calibrate-image-size-zero")
+def _(tmp, fx):
+    argv = _calibrate_points(tmp)
+    return [*argv, "--image-size", "0x768"], "--image-size"
+
+
 # ---- the test --------------------------------------------------------------------------------
 
 
@@ -1119,12 +1204,13 @@ def tree(root: Path) -> set[Path]:
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
-def test_bad_input_is_one_line_exit_2_and_writes_nothing(name, tmp_path, fixtures, capsys):
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(name, tmp_path, fixtures, capfd):
+    """``capfd``: a line a C library prints on the process's stderr (libpng, libjpeg) counts."""
     argv, needle = CASES[name](tmp_path, fixtures)
-    capsys.readouterr()
+    capfd.readouterr()
     before = tree(tmp_path)
     code = main(argv)
-    err = capsys.readouterr().err
+    err = capfd.readouterr().err
     lines = err.strip().splitlines()
     assert code == 2, err
     assert len(lines) == 1, err

@@ -213,14 +213,18 @@ class SyntheticFolder:
         return points, ids
 
     def image(self, index: int) -> np.ndarray:
-        """(H, W, 3) uint8 RGB image of frame ``index``."""
+        """(H, W, 3) uint8 RGB image of frame ``index``.
+
+        Raises:
+            DataError: naming the image: unreadable, truncated or corrupt
+                (``camera.image_file.read_image``), or of another size than the calibration's.
+        """
         from omnislam._optional import require
+        from omnislam.camera.image_file import read_image
 
         cv2 = require("cv2")
         path = self.path / "images" / f"{frame_name(index)}.png"
-        bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
-        if bgr is None:
-            raise DataError("cannot read image", path)
+        bgr = read_image(path)
         if self.rig is not None:
             camera = self.rig.camera
             if bgr.shape[:2] != (camera.height, camera.width):
