@@ -119,7 +119,8 @@ class Fixtures:
             from omnislam.datasets.synthetic.writer import write_synthetic
 
             self._synthetic = self.root / "synthetic"
-            write_synthetic(self._synthetic, simulate(PRESETS["demo"], 0, max_images=1))
+            # three images: one between the first and the last, which the loader does not read
+            write_synthetic(self._synthetic, simulate(PRESETS["demo"], 0, max_images=3))
         copy = tmp / "synth"
         shutil.copytree(self._synthetic, copy)
         return copy
@@ -1124,6 +1125,27 @@ def _(tmp, fx):
     data[len(data) // 2 : len(data) // 2 + 8] = bytes(8)
     path.write_bytes(bytes(data))
     return run_args(folder, tmp), "000000.png: corrupt PNG"
+
+
+@case("synthetic-image-name-not-a-frame")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    shutil.copy(folder / "images" / "000000.png", folder / "images" / "copy.png")
+    return run_args(folder, tmp), "copy.png"
+
+
+@case("synthetic-images-lost")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    (folder / "images" / "000000.png").unlink()
+    return run_args(folder, tmp), "meta.json records 3"
+
+
+@case("synthetic-calibration-missing")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    (folder / "calibration.yaml").unlink()
+    return run_args(folder, tmp), "calibration.yaml"
 
 
 def _jpeg(path: Path, width: int = 32, height: int = 24) -> None:
