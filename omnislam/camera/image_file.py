@@ -19,7 +19,7 @@ import numpy as np
 from omnislam._optional import require
 from omnislam.errors import DataError
 
-__all__ = ["damage", "read_image"]
+__all__ = ["damage", "png_size", "read_image"]
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _JPEG_START = b"\xff\xd8"
@@ -55,6 +55,26 @@ def damage(data: bytes) -> str | None:
     if data.startswith(_JPEG_START) and not data.rstrip(b"\x00").endswith(_JPEG_END):
         return f"truncated JPEG: no end-of-image marker (FF D9) in its {len(data)} bytes"
     return None
+
+
+def png_size(path: str | Path) -> tuple[int, int]:
+    """``(width, height)`` of a PNG file from its header, after checking the whole file
+    (:func:`damage`) without decoding it: every image of a folder can be checked at load time.
+
+    Raises:
+        DataError: naming the file: unreadable, not a PNG, truncated or corrupt.
+    """
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise DataError(f"cannot read image: {exc.strerror or exc}", path) from None
+    if not data.startswith(_PNG_SIGNATURE) or data[12:16] != b"IHDR":
+        raise DataError("not a PNG file", path)
+    problem = _png_damage(data)
+    if problem is not None:
+        raise DataError(problem, path)
+    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
 
 
 def read_image(path: str | Path, grey: bool = False) -> np.ndarray:

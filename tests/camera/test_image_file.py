@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from omnislam.camera.image_file import damage, read_image
+from omnislam.camera.image_file import damage, png_size, read_image
 from omnislam.errors import DataError
 
 cv2 = pytest.importorskip("cv2")
@@ -58,3 +58,15 @@ def test_not_an_image_and_a_missing_file(tmp_path):
 def test_the_real_jpegs_are_whole(shared_data):
     for path in sorted((shared_data / "omni_real").rglob("*.jpg")):
         assert damage(path.read_bytes()) is None, path
+
+
+def test_png_size_reads_the_header_of_a_whole_png(tmp_path, image_file):
+    if image_file.suffix == ".png":
+        assert png_size(image_file) == (32, 24)
+        truncate_to = image_file.read_bytes()[:100]
+        (tmp_path / "cut.png").write_bytes(truncate_to)
+        with pytest.raises(DataError, match="truncated PNG"):
+            png_size(tmp_path / "cut.png")
+    else:
+        with pytest.raises(DataError, match="not a PNG file"):
+            png_size(image_file)

@@ -1127,6 +1127,24 @@ def _(tmp, fx):
     return run_args(folder, tmp), "000000.png: corrupt PNG"
 
 
+@case("synthetic-image-mid-run-truncated")
+def _(tmp, fx):
+    """An image between the first and the last: found at load time, not after a part of the
+    front end (its progress and cache lines before the error)."""
+    folder = fx.synthetic(tmp)
+    middle = sorted((folder / "images").glob("*.png"))[1]
+    truncate(middle)
+    return run_args(folder, tmp, "graphslam"), f"{middle.name}: truncated PNG"
+
+
+@case("synthetic-image-mid-run-wrong-size")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    middle = sorted((folder / "images").glob("*.png"))[1]
+    small_png(middle)
+    return run_args(folder, tmp, "graphslam"), f"{middle.name}: image is 32x24 px"
+
+
 @case("synthetic-image-name-not-a-frame")
 def _(tmp, fx):
     folder = fx.synthetic(tmp)
