@@ -100,6 +100,7 @@ class Fixtures:
         self.root = root
         self._run_dir: Path | None = None
         self._synthetic: Path | None = None
+        self._log: Path | None = None
 
     def run_dir(self, tmp: Path) -> Path:
         if self._run_dir is None:
@@ -124,6 +125,16 @@ class Fixtures:
         copy = tmp / "synth"
         shutil.copytree(self._synthetic, copy)
         return copy
+
+    def log(self, tmp: Path) -> tuple[Path, Path]:
+        """A copy of the synthetic folder and of the front end's log of it."""
+        if self._log is None:
+            (self.root / "for-log").mkdir()
+            folder = self.synthetic(self.root / "for-log")
+            self._log = self.root / "obs.npz"
+            assert main(["frontend", str(folder), "--out", str(self._log)]) == 0
+        shutil.copy(self._log, tmp / "obs.npz")
+        return self.synthetic(tmp), tmp / "obs.npz"
 
 
 def truncate(path: Path, keep: float = 0.5) -> None:
@@ -553,6 +564,71 @@ def _(tmp, fx):
     log = tmp / "obs.npz"
     np.savez_compressed(log, x=np.arange(3))
     return run_args(mrclam(tmp), tmp, "graphslam", "--log", str(log)), "obs.npz"
+
+
+def _log_case(name: str, change: Callable[[dict[str, np.ndarray]], None], needle: str):
+    """``run SYNTH --log obs.npz`` with the arrays of the log changed by ``change``."""
+
+    @case(f"log-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        folder, log = fx.log(tmp)
+        with np.load(log) as data:
+            arrays = {key: data[key] for key in data.files}
+        change(arrays)
+        np.savez_compressed(log, **arrays)
+        return run_args(folder, tmp, "graphslam", "--log", str(log)), needle
+
+    return build
+
+
+def _first_nan(key: str) -> Callable[[dict[str, np.ndarray]], None]:
+    def change(arrays: dict[str, np.ndarray]) -> None:
+        arrays[key] = arrays[key].astype(float)
+        arrays[key].flat[0] = np.nan
+
+    return change
+
+
+def _meta_without(key: str) -> Callable[[dict[str, np.ndarray]], None]:
+    def change(arrays: dict[str, np.ndarray]) -> None:
+        import json
+
+        meta = json.loads(str(arrays["meta"]))
+        del meta[key]
+        arrays["meta"] = np.array(json.dumps(meta))
+
+    return change
+
+
+_log_case("bearing-nan", _first_nan("bearings_vectors"), "obs.npz: frame")
+_log_case("pixel-nan", _first_nan("pixels_pixels"), "obs.npz: malformed")
+_log_case("stamp-nan", _first_nan("stamps_s"), "obs.npz: malformed")
+_log_case(
+    "ids-fewer-than-bearings",
+    lambda a: a.update(bearings_ids=a["bearings_ids"][:-1]),
+    "bearings_ids has shape",
+)
+_log_case("frame-index-out-of-range", lambda a: a.update(index=a["index"] + 1000), "'index'")
+_log_case("odometry-wrong-shape", lambda a: a.update(odometry=a["odometry"][:, :2]), "'odometry'")
+_log_case("meta-without-dataset-id", _meta_without("dataset_id"), "dataset_id")
+
+
+@case("log-cut-short")
+def _(tmp, fx):
+    from dataclasses import replace
+
+    from omnislam.frontend.observation_log import load_observation_log, save_observation_log
+
+    folder, log = fx.log(tmp)
+    full = load_observation_log(log)
+    save_observation_log(replace(full, frames=full.frames[:-3], pixels=full.pixels[:-3]), log)
+    return run_args(folder, tmp, "graphslam", "--log", str(log)), "obs.npz"
+
+
+@case("log-of-another-dataset")
+def _(tmp, fx):
+    _, log = fx.log(tmp)
+    return run_args(mrclam(tmp), tmp, "graphslam", "--log", str(log)), "obs.npz: built for"
 
 
 # -- run: options and output locations
