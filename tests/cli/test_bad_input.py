@@ -244,6 +244,15 @@ _mrclam_case("groundtruth-repeated-time", GT, lambda: groundtruth_text() + "10.0
 _mrclam_case(
     "groundtruth-not-a-number", GT, lambda: replace_line(groundtruth_text(), 5, "0.4 x 0 0")
 )
+_mrclam_case(
+    "groundtruth-theta-1e300", GT, lambda: replace_line(groundtruth_text(), 5, "0.4 0 0 1e300")
+)
+_mrclam_case(
+    "landmark-at-1e308",
+    "Landmark_Groundtruth.dat",
+    lambda: "6 1e308 0.5 0.001 0.001\n",
+    "Landmark_Groundtruth.dat: line 1",
+)
 
 
 @case("mrclam-missing-landmarks-file")
@@ -384,6 +393,10 @@ _carmen_case("range-negative", flaser(1.0).replace("1.0 1.0 1.0 1.0", "1.0 -1.0 
 _carmen_case("range-1e9", flaser(1.0).replace("1.0 1.0 1.0 1.0", "1.0 1e9 1.0 1.0"))
 _carmen_case("beam-count-zero", "FLASER 0 0 0 0 0 0 0 1.0 host 1.0\n", "beam count 0 is not")
 _carmen_case("odom-speed-not-a-number", "ODOM 0 0 0 fast 0 0 1.0 host 1.0\n" + flaser(1.5))
+_carmen_case("odom-x-1e300", "ODOM 1e300 0 0 0 0 0 1.0 host 1.0\n" + flaser(1.5), "bad.log: line 1")
+_carmen_case(
+    "flaser-theta-1e300", flaser(1.0).replace(" 0 0 0 0 0 0 ", " 0 0 1e300 0 0 0 "), "theta[rad]"
+)
 
 
 @case("carmen-range-not-a-number-slam")
