@@ -101,6 +101,7 @@ class Fixtures:
         self._run_dir: Path | None = None
         self._synthetic: Path | None = None
         self._log: Path | None = None
+        self._results: Path | None = None
 
     def run_dir(self, tmp: Path) -> Path:
         if self._run_dir is None:
@@ -135,6 +136,15 @@ class Fixtures:
             assert main(["frontend", str(folder), "--out", str(self._log)]) == 0
         shutil.copy(self._log, tmp / "obs.npz")
         return self.synthetic(tmp), tmp / "obs.npz"
+
+    def results(self, tmp: Path) -> Path:
+        """A copy of a RESULTS_DIR of ``omnislam compare`` (one dead-reckoning cell)."""
+        if self._results is None:
+            path = grid(self.root / "grid", GRID_OK)
+            self._results = self.root / "grid" / "results"
+            assert main(["compare", str(path), "--out", str(self._results), "--workers", "0"]) == 0
+        shutil.copytree(self._results, tmp / "results")
+        return tmp / "results"
 
 
 def truncate(path: Path, keep: float = 0.5) -> None:
@@ -887,6 +897,27 @@ def _(tmp, fx):
 @case("evaluate-negative-rpe-segment")
 def _(tmp, fx):
     return ["evaluate", str(fx.run_dir(tmp)), "--rpe-segment", "-1"], "rpe_segment"
+
+
+def _results_case(name: str, key: str, value: object, needle: str) -> None:
+    """``report RESULTS_DIR`` whose results.json has ``value`` at ``key`` of its first row."""
+
+    @case(f"report-results-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        import json
+
+        results = fx.results(tmp)
+        path = results / "results.json"
+        summary = json.loads(path.read_text())
+        summary["cells"][0][key] = value
+        path.write_text(json.dumps(summary))
+        return ["report", str(results), "--out", str(tmp / "report"), "--no-exports"], needle
+
+
+_results_case("seed-not-an-integer", "seed", "zero", "cells[0]: 'seed'")
+_results_case("status-unknown", "status", 5, "cells[0]: 'status'")
+_results_case("metrics-not-a-mapping", "metrics", [1], "cells[0]: 'metrics'")
+_results_case("cell-outside-the-folder", "cell", "../../elsewhere", "cells[0]: 'cell'")
 
 
 @case("report-missing-results")
