@@ -194,6 +194,9 @@ def _entries(raw: object, key: str, path: Path) -> list[dict[str, object]]:
             raise ConfigError(
                 f"{path}: {where}: 'seeds' and 'images' apply to synthetic datasets only"
             )
+        label = item.get("label")
+        if label is not None and (not isinstance(label, str) or not label.strip()):
+            raise ConfigError(f"{path}: {where}: 'label' must be text, got {label!r}")
         images = item.get("images")
         if images is not None and (
             not isinstance(images, int) or isinstance(images, bool) or images < 1
@@ -280,9 +283,10 @@ def parse_grid(text: str, path: Path) -> Grid:
     """Validate a grid's YAML text (``path`` names it in errors and anchors relative paths).
 
     Raises:
-        ConfigError: malformed YAML, unknown keys, unknown or unavailable estimators, missing
-            datasets or presets, bad seeds or options, duplicate cells, a prior map from an
-            estimator that has no cell on the same dataset and seed.
+        ConfigError: malformed YAML, unknown keys, a name or label that is not text, unknown
+            or unavailable estimators, missing datasets or presets, bad seeds or options,
+            duplicate cells, a prior map from an estimator that has no cell on the same dataset
+            and seed.
     """
     try:
         raw = yaml.safe_load(text)
@@ -293,6 +297,9 @@ def parse_grid(text: str, path: Path) -> Grid:
     unknown = set(raw) - _TOP_KEYS
     if unknown:
         raise ConfigError(f"{path}: unknown keys {sorted(unknown)}; known: {sorted(_TOP_KEYS)}")
+    name = raw.get("name")
+    if name is not None and (not isinstance(name, str) or not name.strip()):
+        raise ConfigError(f"{path}: 'name' must be text (the report's title), got {name!r}")
     datasets_raw = _entries(raw.get("datasets"), "dataset", path)
     estimators = _entries(raw.get("estimators"), "estimator", path)
     seeds = _seeds(raw.get("seeds", [0]), "", path)

@@ -961,6 +961,12 @@ def _grid_case(name: str, body: str, needle: str):
 
 _grid_case("yaml-syntax", "datasets: [data/room.log\nestimators: [deadreckoning]\n", "grid.yaml")
 _grid_case("unknown-key", GRID_OK + "colour: red\n", "colour")
+_grid_case("name-not-text", GRID_OK + "name: [a]\n", "'name'")
+_grid_case(
+    "label-not-text",
+    "datasets: [{dataset: data/room.log, label: [a]}]\nestimators: [deadreckoning]\n",
+    "datasets[0]: 'label'",
+)
 _grid_case("no-estimators", "datasets: [data/room.log]\n", "estimators")
 _grid_case(
     "unknown-estimator", "datasets: [data/room.log]\nestimators: [kalmanator]\n", "kalmanator"
