@@ -507,3 +507,41 @@ overrides:                      # option sets: an estimator they apply to runs o
 evaluation:                     # how every cell is scored (optional)
 {evaluation_text}
 """
+
+
+def check_datasets(grid: Grid) -> None:
+    """Load every dataset on disk of ``grid`` once, before a results folder is written.
+
+    ``parse_grid`` found each dataset's files; this reads them, so that a corrupt file is bad
+    input of ``omnislam compare`` (one line, exit code 2, no results folder) rather than a
+    failed cell in every column of its row. Synthetic presets (``Cell.render``) are skipped:
+    they are rendered later, by the runner. Each dataset is loaded with the loader options of
+    its first cell (options choose how the files are read, not which). The loaders' warnings
+    are left to the cells, which load the datasets again.
+
+    Raises:
+        DataError: naming the dataset's malformed file (and line).
+    """
+    import logging
+
+    from omnislam._progress import Progress
+    from omnislam.datasets.registry import load_dataset, resolve
+
+    first: dict[str, Cell] = {}
+    for cell in grid.cells:
+        if cell.render is None:
+            first.setdefault(cell.spec.dataset, cell)
+    if not first:
+        return
+    loaders = logging.getLogger("omnislam.datasets")
+    level = loaders.level
+    loaders.setLevel(logging.ERROR)
+    try:
+        with Progress(f"compare: checking {len(first)} dataset(s)") as progress:
+            for dataset, cell in first.items():
+                progress.update(doing=dataset)
+                resolved = resolve(dataset)
+                names = resolved.option_names()
+                load_dataset(resolved, {k: v for k, v in cell.spec.options.items() if k in names})
+    finally:
+        loaders.setLevel(level)

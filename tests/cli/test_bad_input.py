@@ -1019,6 +1019,15 @@ _grid_case(
 )
 
 
+@case("compare-dataset-corrupt")
+def _(tmp, fx):
+    """A corrupt dataset file is bad input of the grid (was a failed cell per column, exit 1
+    and a results folder)."""
+    path = grid(tmp, "datasets: [data/room.log, bad.log]\nestimators: [deadreckoning]\n")
+    (tmp / "bad.log").write_text(flaser(1.0).replace("1.0 1.0 1.0 1.0", "1.0 x 1.0 1.0"))
+    return ["compare", str(path), "--out", str(tmp / "results"), "--workers", "0"], "bad.log"
+
+
 @case("compare-grid-missing")
 def _(tmp, fx):
     return ["compare", str(tmp / "none.yaml"), "--out", str(tmp / "results")], "none.yaml"
