@@ -349,6 +349,7 @@ _park_case("gps-cut-at-line-break", "gps.dat", lambda t: cut(t, 0.5), "stops at 
 _park_case("gps-first-lines-lost", "gps.dat", lambda t: t[len(cut(t, 0.5)) :], "starts at time")
 _park_case("gps-repeated-time", "gps.dat", lambda t: t + "10.000 20 0\n")
 _park_case("gps-not-a-number", "gps.dat", lambda t: replace_line(t, 3, "0.6 y 0"))
+_park_case("gps-x-1e308", "gps.dat", lambda t: replace_line(t, 3, "0.6 1e308 0"), "gps.dat: line 4")
 
 
 def _gtsam_case(name: str, text: str, needle: str = "graph.txt"):
