@@ -10,11 +10,13 @@ class OmnislamError(Exception):
 class DataError(OmnislamError):
     """A file or array given to omnislam is malformed, inconsistent or missing.
 
-    The message names the file (when there is one) and what is wrong with it.
+    The message names the file (when there is one) and what is wrong with it; ``reason`` is
+    what is wrong alone (for a caller that names the file its own way).
     """
 
     def __init__(self, message: str, path: object | None = None) -> None:
         self.path = path
+        self.reason = message
         super().__init__(f"{path}: {message}" if path is not None else message)
 
 

@@ -121,9 +121,9 @@ def run(args: argparse.Namespace) -> int:
         from omnislam.camera.calibration.detect import detect_views
 
         mask = None
-        size = _image_size(args.images[0])
-        if args.mask_radii is not None and size is not None:
-            mask = _ring_mask(size, *args.mask_radii)
+        if args.mask_radii is not None:  # sized after the first image that can be read
+            size = _first_image_size(args.images)
+            mask = _ring_mask(size, *args.mask_radii) if size is not None else None
         detecting = f"calibrate: detecting the {board.cols}x{board.rows} board"
         with Progress(detecting, len(args.images), "img"):  # quiet when quick (bad input)
             views, skipped, size = detect_views(args.images, board, mask, args.window)
@@ -134,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
         )
         size = _parse_size(args.image_size) if args.image_size else None
         if size is None and args.images:
-            size = _image_size(args.images[0])
+            size = _common_image_size(args.images)
         if size is None:
             raise ConfigError(f"{args.points}: give IMAGES or --image-size WxH")
     for problem in skipped:  # held back by the CLI unless the command succeeds
@@ -161,19 +161,67 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _parse_size(text: str) -> tuple[int, int]:
+    """``--image-size WxH`` as ``(width, height)``.
+
+    Raises:
+        ConfigError: naming the option: not ``WxH`` or a size that is not positive.
+    """
     from omnislam.errors import ConfigError
 
     width, sep, height = text.lower().partition("x")
     if not sep or not width.isdigit() or not height.isdigit():
         raise ConfigError(f"--image-size must be WxH, got {text!r}")
+    if int(width) < 1 or int(height) < 1:
+        raise ConfigError(f"--image-size must be positive pixel counts, got {text!r}")
     return int(width), int(height)
 
 
-def _image_size(path: str) -> tuple[int, int] | None:
+def _image_size(path: str) -> tuple[int, int]:
+    """``(width, height)`` of an image file.
+
+    Raises:
+        DataError: naming the image when it cannot be read (truncated, corrupt, not an image).
+    """
     from omnislam.camera.calibration.detect import read_grey
 
     image = read_grey(path)
-    return None if image is None else (image.shape[1], image.shape[0])
+    return image.shape[1], image.shape[0]
+
+
+def _common_image_size(paths: list[str]) -> tuple[int, int]:
+    """The size of the images of a points file, every one read (the points are measured in
+    them: one that cannot be read or has another size is bad input, not a name to skip).
+
+    Raises:
+        DataError: naming the first image that cannot be read or differs from the first's size.
+    """
+    from pathlib import Path
+
+    from omnislam.errors import DataError
+
+    size = _image_size(paths[0])
+    for path in paths[1:]:
+        other = _image_size(path)
+        if other != size:
+            raise DataError(
+                f"image is {other[0]}x{other[1]} px, {Path(paths[0]).name} is "
+                f"{size[0]}x{size[1]}: the images of one calibration share one size",
+                path,
+            )
+    return size
+
+
+def _first_image_size(paths: list[str]) -> tuple[int, int] | None:
+    """The size of the first image that can be read (None when none can: detection, which
+    skips an unreadable image, then reports it)."""
+    from omnislam.errors import DataError
+
+    for path in paths:
+        try:
+            return _image_size(path)
+        except DataError:
+            continue
+    return None
 
 
 def _ring_mask(size: tuple[int, int], inner: float, outer: float):  # noqa: ANN202

@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     from contextlib import ExitStack
 
     from omnislam._files import check_overwrite
-    from omnislam.compare.grid import load_grid
+    from omnislam.compare.grid import check_datasets, load_grid
     from omnislam.compare.grid_progress import GridProgress
     from omnislam.compare.runner import (
         GRID_COPY,
@@ -109,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
             "pass --resume to continue it (finished cells are kept) or --overwrite to compute "
             "it again",
         )
+    check_datasets(grid)  # a corrupt dataset file is bad input, before the results folder
     with ExitStack() as stack:
         if args.scheduler is None:
             factory = local_executor_factory(

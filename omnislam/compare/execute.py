@@ -402,15 +402,15 @@ def frontend_log_for(
     from omnislam.frontend.pipeline import cached_frontend
 
     path = folder / log_file_name(dataset)
-    if progress:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    cached_frontend(sequence, path, progress=progress, pipelined=True, on_image=on_image)
+    if progress:  # after it: bad input found on the way (an image) stays the one stderr line
         what = f"{len(sequence.image_frames)} images" if images else "laser scans"
         print(
             f"omnislam: shared front end on {dataset} ({what}; cached in {path})",
             file=sys.stderr,
             flush=True,
         )
-    path.parent.mkdir(parents=True, exist_ok=True)
-    cached_frontend(sequence, path, progress=progress, pipelined=True, on_image=on_image)
     return path
 
 

@@ -194,6 +194,9 @@ def _entries(raw: object, key: str, path: Path) -> list[dict[str, object]]:
             raise ConfigError(
                 f"{path}: {where}: 'seeds' and 'images' apply to synthetic datasets only"
             )
+        label = item.get("label")
+        if label is not None and (not isinstance(label, str) or not label.strip()):
+            raise ConfigError(f"{path}: {where}: 'label' must be text, got {label!r}")
         images = item.get("images")
         if images is not None and (
             not isinstance(images, int) or isinstance(images, bool) or images < 1
@@ -280,9 +283,10 @@ def parse_grid(text: str, path: Path) -> Grid:
     """Validate a grid's YAML text (``path`` names it in errors and anchors relative paths).
 
     Raises:
-        ConfigError: malformed YAML, unknown keys, unknown or unavailable estimators, missing
-            datasets or presets, bad seeds or options, duplicate cells, a prior map from an
-            estimator that has no cell on the same dataset and seed.
+        ConfigError: malformed YAML, unknown keys, a name or label that is not text, unknown
+            or unavailable estimators, missing datasets or presets, bad seeds or options,
+            duplicate cells, a prior map from an estimator that has no cell on the same dataset
+            and seed.
     """
     try:
         raw = yaml.safe_load(text)
@@ -293,6 +297,9 @@ def parse_grid(text: str, path: Path) -> Grid:
     unknown = set(raw) - _TOP_KEYS
     if unknown:
         raise ConfigError(f"{path}: unknown keys {sorted(unknown)}; known: {sorted(_TOP_KEYS)}")
+    name = raw.get("name")
+    if name is not None and (not isinstance(name, str) or not name.strip()):
+        raise ConfigError(f"{path}: 'name' must be text (the report's title), got {name!r}")
     datasets_raw = _entries(raw.get("datasets"), "dataset", path)
     estimators = _entries(raw.get("estimators"), "estimator", path)
     seeds = _seeds(raw.get("seeds", [0]), "", path)
@@ -500,3 +507,41 @@ overrides:                      # option sets: an estimator they apply to runs o
 evaluation:                     # how every cell is scored (optional)
 {evaluation_text}
 """
+
+
+def check_datasets(grid: Grid) -> None:
+    """Load every dataset on disk of ``grid`` once, before a results folder is written.
+
+    ``parse_grid`` found each dataset's files; this reads them, so that a corrupt file is bad
+    input of ``omnislam compare`` (one line, exit code 2, no results folder) rather than a
+    failed cell in every column of its row. Synthetic presets (``Cell.render``) are skipped:
+    they are rendered later, by the runner. Each dataset is loaded with the loader options of
+    its first cell (options choose how the files are read, not which). The loaders' warnings
+    are left to the cells, which load the datasets again.
+
+    Raises:
+        DataError: naming the dataset's malformed file (and line).
+    """
+    import logging
+
+    from omnislam._progress import Progress
+    from omnislam.datasets.registry import load_dataset, resolve
+
+    first: dict[str, Cell] = {}
+    for cell in grid.cells:
+        if cell.render is None:
+            first.setdefault(cell.spec.dataset, cell)
+    if not first:
+        return
+    loaders = logging.getLogger("omnislam.datasets")
+    level = loaders.level
+    loaders.setLevel(logging.ERROR)
+    try:
+        with Progress(f"compare: checking {len(first)} dataset(s)") as progress:
+            for dataset, cell in first.items():
+                progress.update(doing=dataset)
+                resolved = resolve(dataset)
+                names = resolved.option_names()
+                load_dataset(resolved, {k: v for k, v in cell.spec.options.items() if k in names})
+    finally:
+        loaders.setLevel(level)

@@ -168,6 +168,45 @@ def _cell_from_run_dir(path: Path, status: str = "run") -> ReportCell:
     )
 
 
+#: statuses a row of results.json can have (``runner.CellStatus``)
+ROW_STATUSES = ("computed", "reused", "failed")
+#: keys of a row of results.json that are text, and those that may also be null
+_ROW_TEXT = ("cell", "dataset", "column", "estimator", "status")
+_ROW_OPTIONAL = {"error": str, "metrics": dict}
+
+
+def _check_cell_row(row: object, number: int, path: Path) -> None:
+    """One row of ``results.json`` against the types the runner writes.
+
+    Raises:
+        DataError: naming the file, the row (``cells[k]``) and the key: not a mapping, a missing
+            or non-text label, a cell that is not a plain folder name, a seed that is not an
+            integer, an unknown status, an error that is not text or metrics not a mapping.
+    """
+
+    def bad(message: str) -> DataError:
+        return DataError(f"malformed cell row cells[{number}]: {message}", path)
+
+    if not isinstance(row, dict):
+        raise bad(f"must be a mapping, got {type(row).__name__}")
+    for key in _ROW_TEXT:
+        if not isinstance(row.get(key), str) or not row[key]:
+            raise bad(f"{key!r} must be text, got {row.get(key)!r}")
+    if Path(row["cell"]).name != row["cell"] or row["cell"] in (".", ".."):
+        raise bad(f"'cell' must be a folder name of cells/, got {row['cell']!r}")
+    seed = row.get("seed")
+    if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool)):
+        raise bad(f"'seed' must be an integer or null, got {seed!r}")
+    if row["status"] not in ROW_STATUSES:
+        raise bad(f"'status' must be one of {', '.join(ROW_STATUSES)}, got {row['status']!r}")
+    for key, kind in _ROW_OPTIONAL.items():
+        if row.get(key) is not None and not isinstance(row[key], kind):
+            raise bad(
+                f"{key!r} must be {'text' if kind is str else 'a mapping'} or null, got "
+                f"{type(row[key]).__name__}"
+            )
+
+
 def collect_cells(results_dir: str | Path) -> tuple[str, list[ReportCell]]:
     """Read what a report is made of.
 
@@ -189,12 +228,25 @@ def collect_cells(results_dir: str | Path) -> tuple[str, list[ReportCell]]:
     if (root / RESULTS_JSON).is_file():
         try:
             summary = json.loads((root / RESULTS_JSON).read_text())
-            rows = summary["cells"]
-            title = str(summary.get("grid") or root.name)
-        except (OSError, ValueError, KeyError, TypeError) as exc:
+        except (OSError, ValueError) as exc:
             raise DataError(f"malformed results file ({exc})", root / RESULTS_JSON) from exc
+        if not isinstance(summary, dict) or "cells" not in summary:
+            raise DataError("malformed results file (no 'cells' list)", root / RESULTS_JSON)
+        rows, grid = summary["cells"], summary.get("grid")
+        if grid is not None and not isinstance(grid, str):
+            raise DataError(
+                f"malformed results file ('grid' must be text, got {type(grid).__name__})",
+                root / RESULTS_JSON,
+            )
+        title = grid or root.name
+        if not isinstance(rows, list):
+            raise DataError(
+                f"malformed results file ('cells' must be a list, got {type(rows).__name__})",
+                root / RESULTS_JSON,
+            )
         cells = []
-        for row in rows:
+        for number, row in enumerate(rows):
+            _check_cell_row(row, number, root / RESULTS_JSON)
             try:
                 run_dir = root / CELLS / row["cell"]
                 ok = row["status"] != "failed" and (run_dir / CONFIG).is_file()

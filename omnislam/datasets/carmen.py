@@ -77,6 +77,12 @@ NOMINAL_SCAN_PERIOD_S = 0.2
 #: plausible FLASER range [m] (a SICK laser reads at most ~80 m; intel: at most 81.83, aces: 50);
 #: FLASER states no maximum, so a corrupt 1e9 would otherwise become the "no return" range
 MAX_RANGE_M = 200.0
+#: plausible |x|, |y| [m] and |theta| [rad] of an ODOM or FLASER pose: intel reaches 16.6 m,
+#: 22.6 m and 3.25 rad, aces 23.9 m, 40.0 m and 3.19 rad (the corrected poses and the raw
+#: odometry alike); a building's log stays far inside, a corrupt 1e300 does not (the limits
+#: leave room for a larger site and an odometry heading that is not wrapped)
+MAX_POSITION_M = 1.0e4
+MAX_HEADING_RAD = 1.0e3
 
 
 def flaser_angles_rad(beams: int) -> np.ndarray:
@@ -131,13 +137,36 @@ class CarmenLog:
     corrected: bool
 
 
+def _parse_pose(tokens: list[str], path: Path, line: int, what: str) -> list[float]:
+    """``x y theta`` of a record, each finite and within ``MAX_POSITION_M``/``MAX_HEADING_RAD``.
+
+    Raises:
+        DataError: naming the line and the field.
+    """
+    pose = [parse_float(t, path, line, what) for t in tokens]
+    for value, limit, name in zip(
+        pose,
+        (MAX_POSITION_M, MAX_POSITION_M, MAX_HEADING_RAD),
+        ("x[m]", "y[m]", "theta[rad]"),
+        strict=True,
+    ):
+        if abs(value) > limit:
+            raise DataError(
+                f"line {line}: {what} {name} {value!r} is outside the plausible range "
+                f"[{-limit:g}, {limit:g}]",
+                path,
+            )
+    return pose
+
+
 def read_carmen_log(path: Path) -> CarmenLog:
     """Parse the ODOM and FLASER records of a CARMEN log (other records are skipped).
 
     Raises:
         DataError: a malformed ODOM/FLASER record (naming the line): a field that is not a
             finite number, a beam count that is not positive, a range outside
-            ``[0, MAX_RANGE_M]``; scans of different beam counts, or no FLASER record.
+            ``[0, MAX_RANGE_M]``, a pose beyond ``MAX_POSITION_M`` or ``MAX_HEADING_RAD``;
+            scans of different beam counts, or no FLASER record.
     """
     path = Path(path)
     stamps: list[float] = []
@@ -157,7 +186,7 @@ def read_carmen_log(path: Path) -> CarmenLog:
                 raise DataError(
                     f"line {line}: ODOM needs at least 7 fields, got {len(fields) - 1}", path
                 )
-            pose = [parse_float(t, path, line, "ODOM pose") for t in fields[1:4]]
+            pose = _parse_pose(fields[1:4], path, line, "ODOM pose")
             for token, what in zip(fields[4:7], ("tv", "rv", "accel"), strict=True):
                 parse_float(token, path, line, f"ODOM {what}")
             stamp = parse_float(fields[7], path, line, "ODOM timestamp")
@@ -191,8 +220,8 @@ def read_carmen_log(path: Path) -> CarmenLog:
                     path,
                 )
             ranges.append(scan)
-            pose = [parse_float(t, path, line, "pose") for t in fields[2 + n : 5 + n]]
-            odom = [parse_float(t, path, line, "odom pose") for t in fields[5 + n : 8 + n]]
+            pose = _parse_pose(fields[2 + n : 5 + n], path, line, "pose")
+            odom = _parse_pose(fields[5 + n : 8 + n], path, line, "odom pose")
             stamps.append(parse_float(fields[8 + n], path, line, "timestamp"))
             lines.append(line)
             poses.append(pose)

@@ -118,6 +118,12 @@ MAX_RANGE_M = 100.0
 #: 6: at most 0.592); beyond 1 rad the file is not a camera's, and its "range" column cannot be
 #: the optical-axis depth (``DEPTH_BIAS_M``; cos(bearing) would reach 0 and turn negative)
 MAX_BEARING_RAD = 1.0
+#: plausible |x|, |y| of a Vicon pose or a surveyed landmark [m] and |theta| of a Vicon pose
+#: [rad]: dataset 6 keeps the robots within 4.70 m and 5.57 m of the origin, the landmarks
+#: within 3.47 m and 4.53 m (the room is 15 m x 8 m), and Vicon wraps theta to [-pi, pi]
+#: (at most 3.1416); a corrupt 1e300 is not a pose
+MAX_POSITION_M = 1000.0
+MAX_HEADING_RAD = 100.0
 
 #: Longest odometry step between two frames [s]: where sightings are further apart, frames
 #: without sightings are inserted at equal spacing so that no step is longer. Dataset 6 has gaps
@@ -185,12 +191,15 @@ def read_landmark_groundtruth(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """``Landmark_Groundtruth.dat`` -> (subject ids (M,), positions (M, 2) [m]).
 
     Raises:
-        DataError: malformed file, a subject that is not an integer or is listed twice.
+        DataError: malformed file, a subject that is not an integer or is listed twice, a
+            position beyond ``MAX_POSITION_M`` (naming the line).
     """
     columns = ("subject", "x[m]", "y[m]", "x_std[m]", "y_std[m]")
     table = read_table(path, columns, stamp_order=StampOrder.ANY)
     check_integers(table, 0, "subject")
     check_unique(table, 0, "subject")
+    for column, name in ((1, "x[m]"), (2, "y[m]")):
+        check_range(table, column, name, -MAX_POSITION_M, MAX_POSITION_M)
     return table.values[:, 0].astype(np.int64), np.array(table.values[:, 1:3])
 
 
@@ -204,10 +213,15 @@ def read_robot_groundtruth_table(path: Path) -> Table:
     """``RobotN_Groundtruth.dat`` -> its rows [time s, x m, y m, theta rad].
 
     Raises:
-        DataError: malformed file or times not strictly increasing (naming the line).
+        DataError: malformed file, times not strictly increasing, or a pose beyond
+            ``MAX_POSITION_M`` or ``MAX_HEADING_RAD`` (naming the line).
     """
     columns = ("time[s]", "x[m]", "y[m]", "theta[rad]")
-    return read_table(path, columns, stamp_order=StampOrder.INCREASING)
+    table = read_table(path, columns, stamp_order=StampOrder.INCREASING)
+    check_range(table, 1, "x[m]", -MAX_POSITION_M, MAX_POSITION_M)
+    check_range(table, 2, "y[m]", -MAX_POSITION_M, MAX_POSITION_M)
+    check_range(table, 3, "theta[rad]", -MAX_HEADING_RAD, MAX_HEADING_RAD)
+    return table
 
 
 def read_robot_odometry_table(path: Path) -> Table:

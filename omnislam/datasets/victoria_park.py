@@ -64,6 +64,9 @@ MAX_SPEED_M_S = 50.0
 MAX_STEERING_RAD = np.pi / 2
 #: plausible laser range [m] (the SICK laser reads at most ~80 m)
 MAX_RANGE_M = 200.0
+#: plausible |x|, |y| of a GPS position [m]: the run stays within 183.6 m and 222.6 m of the
+#: origin the data's authors chose near its start; a corrupt 1e308 is not a position
+MAX_GPS_POSITION_M = 1.0e4
 #: ``inputs.dat`` may end this much before the last tree detection [s] (it ends after it), and
 #: start this much after the first (it starts 0.121 s after it)
 INPUTS_END_TOLERANCE_S = 0.5
@@ -123,9 +126,13 @@ def read_gps_table(path: Path) -> Table:
     """``gps.dat`` -> its rows [time s, x m, y m].
 
     Raises:
-        DataError: malformed file or times not strictly increasing (naming the line).
+        DataError: malformed file, times not strictly increasing or a position beyond
+            ``MAX_GPS_POSITION_M`` (naming the line).
     """
-    return read_table(path, ("time[s]", "x[m]", "y[m]"), stamp_order=StampOrder.INCREASING)
+    table = read_table(path, ("time[s]", "x[m]", "y[m]"), stamp_order=StampOrder.INCREASING)
+    check_range(table, 1, "x[m]", -MAX_GPS_POSITION_M, MAX_GPS_POSITION_M)
+    check_range(table, 2, "y[m]", -MAX_GPS_POSITION_M, MAX_GPS_POSITION_M)
+    return table
 
 
 def is_victoria_park_folder(path: Path) -> bool:

@@ -223,6 +223,18 @@ def _read_meta(path: Path, data: Any | None = None) -> dict[str, Any]:
         raise StaleLogError(
             f"log format version {meta.get('version')!r}, expected {LOG_FORMAT_VERSION}", path
         )
+    for key, kind in (("dataset_id", str), ("config_hash", str), ("config", dict),
+                      ("stats", dict), ("odometry_source", str)):
+        if key in meta and not isinstance(meta[key], kind):
+            raise DataError(
+                f"malformed observation log (meta {key!r} must be a {kind.__name__}, got "
+                f"{type(meta[key]).__name__})", path)
+        if key in ("dataset_id", "config_hash") and key not in meta:
+            raise DataError(f"malformed observation log (meta has no {key!r})", path)
+    if meta.get("odometry_source", "wheel") not in ("wheel", "laser"):
+        raise DataError(
+            f"malformed observation log (meta odometry_source {meta['odometry_source']!r}, "
+            "expected 'wheel' or 'laser')", path)
     return meta
 
 
@@ -259,9 +271,10 @@ def load_observation_log(
             )
         try:
             arrays = {key: data[key] for key in data.files if key != "meta"}
-            frames, pixels = _frames_from_arrays(arrays)
-        except (*NPZ_ERRORS, IndexError) as exc:
+        except NPZ_ERRORS as exc:
             raise DataError(f"malformed observation log ({npz_reason(exc)})", path) from None
+    _check_arrays(arrays, path)
+    frames, pixels = _frames_from_arrays(arrays, path)
     return ObservationLog(
         dataset_id=meta["dataset_id"],
         config_hash=meta["config_hash"],
@@ -287,6 +300,77 @@ def _floor_ids_from(path: Path, meta: dict[str, Any]) -> int | None:
     return first  # type: ignore[return-value]
 
 
+#: record prefix -> its per-record arrays (after the prefix) and their shape after the first axis
+_RECORDS: dict[str, dict[str, tuple[int, ...]]] = {
+    "bearings": {key: tail for key, (_, tail, _) in _BEARINGS.items()},
+    "pixels": {"pixels": (2,)},
+    "rb": {key: tail for key, (_, tail, _) in _RANGE_BEARING.items()},
+    "lines": {**{key: tail for key, (_, tail, _) in _LINES.items()}, "profiles": (3, None)},
+}
+
+
+def _check_arrays(a: dict[str, np.ndarray], path: Path) -> None:
+    """The arrays of a log file against its layout (module docstring), before any record is
+    built from them: frames ``0..N-1`` with finite, increasing stamps, one odometry row per
+    frame, per record type a presence mask and increasing CSR offsets that cover its arrays
+    exactly, and finite keypoint pixels.
+
+    Raises:
+        DataError: naming the file and the first array that breaks the layout.
+    """
+
+    def bad(message: str) -> DataError:
+        return DataError(f"malformed observation log ({message})", path)
+
+    def numeric(key: str, kind: str) -> np.ndarray:
+        if key not in a:
+            raise bad(f"no {key!r} array")
+        array = a[key]
+        if array.dtype.kind not in kind:
+            raise bad(f"{key!r} has dtype {array.dtype}")
+        return array
+
+    index = numeric("index", "iu")
+    n = index.shape[0]
+    if index.ndim != 1 or not np.array_equal(index, np.arange(n)):
+        raise bad(f"'index' must be the frames 0..{n - 1} in order")
+    stamps = numeric("stamps_s", "fiu")
+    if stamps.shape != (n,):
+        raise bad(f"'stamps_s' has shape {stamps.shape}, expected ({n},)")
+    if not np.all(np.isfinite(stamps)):
+        k = int(np.flatnonzero(~np.isfinite(stamps))[0])
+        raise bad(f"'stamps_s' of frame {k} is {stamps[k]}")
+    if n > 1 and np.any(np.diff(stamps) <= 0):
+        k = int(np.flatnonzero(np.diff(stamps) <= 0)[0]) + 1
+        raise bad(f"'stamps_s' of frame {k} does not follow frame {k - 1}'s")
+    for key, shape in (("odometry", (n, 3)), ("odometry_cov", (n, 3, 3))):
+        if key in a and numeric(key, "fiu").shape != shape:
+            raise bad(f"{key!r} has shape {a[key].shape}, expected {shape}")
+    if "odometry" not in a:
+        raise bad("no 'odometry' array")
+    for prefix, fields in _RECORDS.items():
+        present = numeric(f"{prefix}_present", "b")
+        offsets = numeric(f"{prefix}_offsets", "iu")
+        if present.shape != (n,) or offsets.shape != (n + 1,):
+            raise bad(f"{prefix}_present and {prefix}_offsets must have {n} and {n + 1} entries, "
+                      f"got {present.shape[0] if present.ndim else 0} and "
+                      f"{offsets.shape[0] if offsets.ndim else 0}")
+        if offsets[0] != 0 or np.any(np.diff(offsets) < 0):
+            raise bad(f"{prefix}_offsets must start at 0 and never decrease")
+        total = int(offsets[-1])
+        for key, tail in fields.items():
+            array = numeric(f"{prefix}_{key}", "fiu" if key != "ids" else "iu")
+            wanted = (total, *tail)
+            if array.ndim != len(wanted) or any(
+                w is not None and w != got for w, got in zip(wanted, array.shape, strict=True)
+            ):
+                shown = ", ".join("any" if w is None else str(w) for w in wanted)
+                raise bad(f"{prefix}_{key} has shape {array.shape}, expected ({shown}) "
+                          f"({prefix}_offsets ends at {total})")
+    if not np.all(np.isfinite(a["pixels_pixels"])):
+        raise bad("a keypoint pixel is NaN or infinite")
+
+
 def _slices(arrays: dict[str, np.ndarray], prefix: str, i: int) -> slice | None:
     if not arrays[f"{prefix}_present"][i]:
         return None
@@ -295,35 +379,57 @@ def _slices(arrays: dict[str, np.ndarray], prefix: str, i: int) -> slice | None:
 
 
 def _frames_from_arrays(
-    a: dict[str, np.ndarray],
+    a: dict[str, np.ndarray], path: Path
 ) -> tuple[tuple[FrameInput, ...], tuple[np.ndarray | None, ...]]:
+    """The frames of checked arrays (``_check_arrays``).
+
+    Raises:
+        DataError: naming the file and the frame whose record is invalid (a NaN bearing, a
+            negative range or sigma, a vector that is not a unit vector, ...).
+    """
     frames: list[FrameInput] = []
     pixels: list[np.ndarray | None] = []
     for i, index in enumerate(a["index"]):
-        s = _slices(a, "bearings", i)
-        bearings = None if s is None else Bearings(
-            a["bearings_ids"][s], a["bearings_vectors"][s], a["bearings_sigmas"][s]
-        )
-        p = _slices(a, "pixels", i)
-        pixels.append(None if p is None else np.array(a["pixels_pixels"][p]))
-        r = _slices(a, "rb", i)
-        rb = None if r is None else RangeBearing(
-            a["rb_ids"][r], a["rb_ranges"][r], a["rb_bearings"][r], a["rb_sigma_range"][r],
-            a["rb_sigma_bearing"][r],
-        )
-        v = _slices(a, "lines", i)
-        lines = None if v is None else VerticalLines(
-            a["lines_bearings"][v], a["lines_sigma"][v], a["lines_profiles"][v],
-            a["lines_means_left"][v], a["lines_means_right"][v], a["lines_ids"][v],
-        )
-        cov = a["odometry_cov"][i] if "odometry_cov" in a else None
-        if cov is not None and np.any(np.isnan(cov)):
-            cov = None
-        frames.append(FrameInput(
-            index=int(index),
-            odometry=Odometry(a["odometry"][i], float(a["stamps_s"][i]), cov),
-            bearings=bearings,
-            range_bearing=rb,
-            vertical_lines=lines,
-        ))
+        try:
+            frame, pixel = _frame_from_arrays(a, i, int(index))
+        except DataError as exc:
+            raise DataError(f"frame {i}: {exc}", path) from None
+        frames.append(frame)
+        pixels.append(pixel)
     return tuple(frames), tuple(pixels)
+
+
+def _frame_from_arrays(
+    a: dict[str, np.ndarray], i: int, index: int
+) -> tuple[FrameInput, np.ndarray | None]:
+    """Frame ``i`` of the arrays and its keypoints' pixels (None without bearings)."""
+    s = _slices(a, "bearings", i)
+    bearings = None if s is None else Bearings(
+        a["bearings_ids"][s], a["bearings_vectors"][s], a["bearings_sigmas"][s]
+    )
+    p = _slices(a, "pixels", i)
+    pixel = None if p is None else np.array(a["pixels_pixels"][p])
+    r = _slices(a, "rb", i)
+    rb = None if r is None else RangeBearing(
+        a["rb_ids"][r], a["rb_ranges"][r], a["rb_bearings"][r], a["rb_sigma_range"][r],
+        a["rb_sigma_bearing"][r],
+    )
+    v = _slices(a, "lines", i)
+    lines = None if v is None else VerticalLines(
+        a["lines_bearings"][v], a["lines_sigma"][v], a["lines_profiles"][v],
+        a["lines_means_left"][v], a["lines_means_right"][v], a["lines_ids"][v],
+    )
+    cov = a["odometry_cov"][i] if "odometry_cov" in a else None
+    if cov is not None and np.any(np.isnan(cov)):
+        cov = None
+    frame = FrameInput(
+        index=index,
+        odometry=Odometry(a["odometry"][i], float(a["stamps_s"][i]), cov),
+        bearings=bearings,
+        range_bearing=rb,
+        vertical_lines=lines,
+    )
+    k = 0 if bearings is None else len(bearings)
+    if (pixel is None) != (bearings is None) or (pixel is not None and pixel.shape != (k, 2)):
+        raise DataError("its keypoint pixels do not match its bearings")
+    return frame, pixel

@@ -23,6 +23,7 @@ import numpy as np
 
 from omnislam._optional import require
 from omnislam.core.types import UNKNOWN_ID, VerticalLines
+from omnislam.errors import DataError
 from omnislam.frontend.config import VerticalEdgeConfig
 
 #: peaks closer than this many bins/columns are one line (non-maximum suppression)
@@ -106,6 +107,10 @@ class VerticalLineExtractor:
         rig: the ``omnislam.camera.CameraRig``; a pinhole camera is treated as perspective,
             any other model as omnidirectional with a vertical axis.
         config: thresholds and profile size.
+
+    Raises:
+        DataError: an omnidirectional rig that images neither end of the vertical through
+            its viewpoint (no image of the mirror axis to measure azimuths about).
     """
 
     def __init__(self, rig: object, config: VerticalEdgeConfig) -> None:
@@ -118,8 +123,17 @@ class VerticalLineExtractor:
         if self.perspective:
             return
         viewpoint = rig.viewpoint_r  # type: ignore[attr-defined]
-        centre, _ = rig.project_r(viewpoint[None, :] + [[0.0, 0.0, -1.0]])  # type: ignore[attr-defined]
-        self.cu, self.cv = (float(x) for x in centre[0])
+        # the image of the mirror axis: where the vertical below the viewpoint projects, or the
+        # vertical above it for a camera that looks up at its mirror (which cannot image below)
+        ends = viewpoint[None, :] + [[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]]
+        centre, _ = rig.project_r(ends)  # type: ignore[attr-defined]
+        imaged = np.all(np.isfinite(centre), axis=1)
+        if not imaged.any():
+            raise DataError(
+                "the camera rig images neither end of the vertical through its viewpoint: "
+                "vertical lines need the mirror axis vertical (check the rig's rTc)"
+            )
+        self.cu, self.cv = (float(x) for x in centre[int(np.argmax(imaged))])
         self.mask = camera.mask()
         rows, cols = np.nonzero(self.mask)
         self.flat = rows * self.mask.shape[1] + cols  # ring pixels, row-major
@@ -230,6 +244,10 @@ def extract_vertical_lines(image: np.ndarray, rig: object, config: VerticalEdgeC
         rig: the ``omnislam.camera.CameraRig``; a pinhole camera is treated as perspective,
             any other model as omnidirectional with a vertical axis.
         config: thresholds and profile size.
+
+    Raises:
+        DataError: an omnidirectional rig that images neither end of the vertical through
+            its viewpoint (no image of the mirror axis to measure azimuths about).
     """
     return VerticalLineExtractor(rig, config).extract(image)
 

@@ -100,6 +100,8 @@ class Fixtures:
         self.root = root
         self._run_dir: Path | None = None
         self._synthetic: Path | None = None
+        self._log: Path | None = None
+        self._results: Path | None = None
 
     def run_dir(self, tmp: Path) -> Path:
         if self._run_dir is None:
@@ -119,10 +121,30 @@ class Fixtures:
             from omnislam.datasets.synthetic.writer import write_synthetic
 
             self._synthetic = self.root / "synthetic"
-            write_synthetic(self._synthetic, simulate(PRESETS["demo"], 0, max_images=1))
+            # three images: one between the first and the last, which the loader does not read
+            write_synthetic(self._synthetic, simulate(PRESETS["demo"], 0, max_images=3))
         copy = tmp / "synth"
         shutil.copytree(self._synthetic, copy)
         return copy
+
+    def log(self, tmp: Path) -> tuple[Path, Path]:
+        """A copy of the synthetic folder and of the front end's log of it."""
+        if self._log is None:
+            (self.root / "for-log").mkdir()
+            folder = self.synthetic(self.root / "for-log")
+            self._log = self.root / "obs.npz"
+            assert main(["frontend", str(folder), "--out", str(self._log)]) == 0
+        shutil.copy(self._log, tmp / "obs.npz")
+        return self.synthetic(tmp), tmp / "obs.npz"
+
+    def results(self, tmp: Path) -> Path:
+        """A copy of a RESULTS_DIR of ``omnislam compare`` (one dead-reckoning cell)."""
+        if self._results is None:
+            path = grid(self.root / "grid", GRID_OK)
+            self._results = self.root / "grid" / "results"
+            assert main(["compare", str(path), "--out", str(self._results), "--workers", "0"]) == 0
+        shutil.copytree(self._results, tmp / "results")
+        return tmp / "results"
 
 
 def truncate(path: Path, keep: float = 0.5) -> None:
@@ -232,6 +254,15 @@ _mrclam_case("groundtruth-repeated-time", GT, lambda: groundtruth_text() + "10.0
 _mrclam_case(
     "groundtruth-not-a-number", GT, lambda: replace_line(groundtruth_text(), 5, "0.4 x 0 0")
 )
+_mrclam_case(
+    "groundtruth-theta-1e300", GT, lambda: replace_line(groundtruth_text(), 5, "0.4 0 0 1e300")
+)
+_mrclam_case(
+    "landmark-at-1e308",
+    "Landmark_Groundtruth.dat",
+    lambda: "6 1e308 0.5 0.001 0.001\n",
+    "Landmark_Groundtruth.dat: line 1",
+)
 
 
 @case("mrclam-missing-landmarks-file")
@@ -318,6 +349,7 @@ _park_case("gps-cut-at-line-break", "gps.dat", lambda t: cut(t, 0.5), "stops at 
 _park_case("gps-first-lines-lost", "gps.dat", lambda t: t[len(cut(t, 0.5)) :], "starts at time")
 _park_case("gps-repeated-time", "gps.dat", lambda t: t + "10.000 20 0\n")
 _park_case("gps-not-a-number", "gps.dat", lambda t: replace_line(t, 3, "0.6 y 0"))
+_park_case("gps-x-1e308", "gps.dat", lambda t: replace_line(t, 3, "0.6 1e308 0"), "gps.dat: line 4")
 
 
 def _gtsam_case(name: str, text: str, needle: str = "graph.txt"):
@@ -372,6 +404,10 @@ _carmen_case("range-negative", flaser(1.0).replace("1.0 1.0 1.0 1.0", "1.0 -1.0 
 _carmen_case("range-1e9", flaser(1.0).replace("1.0 1.0 1.0 1.0", "1.0 1e9 1.0 1.0"))
 _carmen_case("beam-count-zero", "FLASER 0 0 0 0 0 0 0 1.0 host 1.0\n", "beam count 0 is not")
 _carmen_case("odom-speed-not-a-number", "ODOM 0 0 0 fast 0 0 1.0 host 1.0\n" + flaser(1.5))
+_carmen_case("odom-x-1e300", "ODOM 1e300 0 0 0 0 0 1.0 host 1.0\n" + flaser(1.5), "bad.log: line 1")
+_carmen_case(
+    "flaser-theta-1e300", flaser(1.0).replace(" 0 0 0 0 0 0 ", " 0 0 1e300 0 0 0 "), "theta[rad]"
+)
 
 
 @case("carmen-range-not-a-number-slam")
@@ -552,6 +588,71 @@ def _(tmp, fx):
     log = tmp / "obs.npz"
     np.savez_compressed(log, x=np.arange(3))
     return run_args(mrclam(tmp), tmp, "graphslam", "--log", str(log)), "obs.npz"
+
+
+def _log_case(name: str, change: Callable[[dict[str, np.ndarray]], None], needle: str):
+    """``run SYNTH --log obs.npz`` with the arrays of the log changed by ``change``."""
+
+    @case(f"log-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        folder, log = fx.log(tmp)
+        with np.load(log) as data:
+            arrays = {key: data[key] for key in data.files}
+        change(arrays)
+        np.savez_compressed(log, **arrays)
+        return run_args(folder, tmp, "graphslam", "--log", str(log)), needle
+
+    return build
+
+
+def _first_nan(key: str) -> Callable[[dict[str, np.ndarray]], None]:
+    def change(arrays: dict[str, np.ndarray]) -> None:
+        arrays[key] = arrays[key].astype(float)
+        arrays[key].flat[0] = np.nan
+
+    return change
+
+
+def _meta_without(key: str) -> Callable[[dict[str, np.ndarray]], None]:
+    def change(arrays: dict[str, np.ndarray]) -> None:
+        import json
+
+        meta = json.loads(str(arrays["meta"]))
+        del meta[key]
+        arrays["meta"] = np.array(json.dumps(meta))
+
+    return change
+
+
+_log_case("bearing-nan", _first_nan("bearings_vectors"), "obs.npz: frame")
+_log_case("pixel-nan", _first_nan("pixels_pixels"), "obs.npz: malformed")
+_log_case("stamp-nan", _first_nan("stamps_s"), "obs.npz: malformed")
+_log_case(
+    "ids-fewer-than-bearings",
+    lambda a: a.update(bearings_ids=a["bearings_ids"][:-1]),
+    "bearings_ids has shape",
+)
+_log_case("frame-index-out-of-range", lambda a: a.update(index=a["index"] + 1000), "'index'")
+_log_case("odometry-wrong-shape", lambda a: a.update(odometry=a["odometry"][:, :2]), "'odometry'")
+_log_case("meta-without-dataset-id", _meta_without("dataset_id"), "dataset_id")
+
+
+@case("log-cut-short")
+def _(tmp, fx):
+    from dataclasses import replace
+
+    from omnislam.frontend.observation_log import load_observation_log, save_observation_log
+
+    folder, log = fx.log(tmp)
+    full = load_observation_log(log)
+    save_observation_log(replace(full, frames=full.frames[:-3], pixels=full.pixels[:-3]), log)
+    return run_args(folder, tmp, "graphslam", "--log", str(log)), "obs.npz"
+
+
+@case("log-of-another-dataset")
+def _(tmp, fx):
+    _, log = fx.log(tmp)
+    return run_args(mrclam(tmp), tmp, "graphslam", "--log", str(log)), "obs.npz: built for"
 
 
 # -- run: options and output locations
@@ -799,6 +900,27 @@ def _(tmp, fx):
     return ["evaluate", str(fx.run_dir(tmp)), "--rpe-segment", "-1"], "rpe_segment"
 
 
+def _results_case(name: str, key: str, value: object, needle: str) -> None:
+    """``report RESULTS_DIR`` whose results.json has ``value`` at ``key`` of its first row."""
+
+    @case(f"report-results-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        import json
+
+        results = fx.results(tmp)
+        path = results / "results.json"
+        summary = json.loads(path.read_text())
+        summary["cells"][0][key] = value
+        path.write_text(json.dumps(summary))
+        return ["report", str(results), "--out", str(tmp / "report"), "--no-exports"], needle
+
+
+_results_case("seed-not-an-integer", "seed", "zero", "cells[0]: 'seed'")
+_results_case("status-unknown", "status", 5, "cells[0]: 'status'")
+_results_case("metrics-not-a-mapping", "metrics", [1], "cells[0]: 'metrics'")
+_results_case("cell-outside-the-folder", "cell", "../../elsewhere", "cells[0]: 'cell'")
+
+
 @case("report-missing-results")
 def _(tmp, fx):
     return ["report", str(tmp / "missing"), "--out", str(tmp / "report")], "missing"
@@ -840,6 +962,12 @@ def _grid_case(name: str, body: str, needle: str):
 
 _grid_case("yaml-syntax", "datasets: [data/room.log\nestimators: [deadreckoning]\n", "grid.yaml")
 _grid_case("unknown-key", GRID_OK + "colour: red\n", "colour")
+_grid_case("name-not-text", GRID_OK + "name: [a]\n", "'name'")
+_grid_case(
+    "label-not-text",
+    "datasets: [{dataset: data/room.log, label: [a]}]\nestimators: [deadreckoning]\n",
+    "datasets[0]: 'label'",
+)
 _grid_case("no-estimators", "datasets: [data/room.log]\n", "estimators")
 _grid_case(
     "unknown-estimator", "datasets: [data/room.log]\nestimators: [kalmanator]\n", "kalmanator"
@@ -890,6 +1018,15 @@ _grid_case(
     "datasets: [data/room.log]\nestimators:\n  - {estimator: graphslam, options: {preset: [a]}}\n",
     "preset",
 )
+
+
+@case("compare-dataset-corrupt")
+def _(tmp, fx):
+    """A corrupt dataset file is bad input of the grid (was a failed cell per column, exit 1
+    and a results folder)."""
+    path = grid(tmp, "datasets: [data/room.log, bad.log]\nestimators: [deadreckoning]\n")
+    (tmp / "bad.log").write_text(flaser(1.0).replace("1.0 1.0 1.0 1.0", "1.0 x 1.0 1.0"))
+    return ["compare", str(path), "--out", str(tmp / "results"), "--workers", "0"], "bad.log"
 
 
 @case("compare-grid-missing")
@@ -1106,6 +1243,130 @@ def _(tmp, fx):
     return [*argv, "--out", str(tmp / "cam.yaml")], "board.jpg"
 
 
+# -- images: truncated or corrupt files (libpng / libjpeg must not print), names, counts
+
+
+@case("synthetic-image-truncated-png")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    truncate(folder / "images" / "000000.png")
+    return run_args(folder, tmp), "000000.png: truncated PNG"
+
+
+@case("synthetic-image-crc-error")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    path = folder / "images" / "000000.png"
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2 : len(data) // 2 + 8] = bytes(8)
+    path.write_bytes(bytes(data))
+    return run_args(folder, tmp), "000000.png: corrupt PNG"
+
+
+@case("synthetic-image-mid-run-truncated")
+def _(tmp, fx):
+    """An image between the first and the last: found at load time, not after a part of the
+    front end (its progress and cache lines before the error)."""
+    folder = fx.synthetic(tmp)
+    middle = sorted((folder / "images").glob("*.png"))[1]
+    truncate(middle)
+    return run_args(folder, tmp, "graphslam"), f"{middle.name}: truncated PNG"
+
+
+@case("synthetic-image-mid-run-wrong-size")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    middle = sorted((folder / "images").glob("*.png"))[1]
+    small_png(middle)
+    return run_args(folder, tmp, "graphslam"), f"{middle.name}: image is 32x24 px"
+
+
+@case("synthetic-image-name-not-a-frame")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    shutil.copy(folder / "images" / "000000.png", folder / "images" / "copy.png")
+    return run_args(folder, tmp), "copy.png"
+
+
+@case("synthetic-images-lost")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    (folder / "images" / "000000.png").unlink()
+    return run_args(folder, tmp), "meta.json records 3"
+
+
+@case("synthetic-calibration-missing")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    (folder / "calibration.yaml").unlink()
+    return run_args(folder, tmp), "calibration.yaml"
+
+
+def _jpeg(path: Path, width: int = 32, height: int = 24) -> None:
+    import cv2
+
+    cv2.imwrite(str(path), np.full((height, width, 3), 128, np.uint8))
+
+
+def _calibrate_points(tmp: Path, *images: Path) -> list[str]:
+    """``calibrate IMAGES --points pts.csv`` (one corner: the images are read for their size)."""
+    (tmp / "pts.csv").write_text("image,u,v,x_m,y_m\na.jpg,1,2,0,0\n")
+    argv = ["calibrate", *map(str, images), "--points", str(tmp / "pts.csv")]
+    return [*argv, "--out", str(tmp / "cam.yaml")]
+
+
+@case("calibrate-truncated-jpeg")
+def _(tmp, fx):
+    pytest.importorskip("cv2")
+    _jpeg(tmp / "board.jpg", 320, 240)
+    truncate(tmp / "board.jpg")
+    argv = ["calibrate", str(tmp / "board.jpg"), "--board", "6x7", "--square", "0.03"]
+    return [*argv, "--out", str(tmp / "cam.yaml")], "board.jpg: truncated JPEG"
+
+
+@case("calibrate-points-image-truncated")
+def _(tmp, fx):
+    pytest.importorskip("cv2")
+    _jpeg(tmp / "a.jpg")
+    _jpeg(tmp / "b.jpg")
+    truncate(tmp / "b.jpg")
+    return _calibrate_points(tmp, tmp / "a.jpg", tmp / "b.jpg"), "b.jpg: truncated JPEG"
+
+
+@case("calibrate-points-image-not-an-image")
+def _(tmp, fx):
+    pytest.importorskip("cv2")
+    (tmp / "a.jpg").write_text("not an image\n")
+    return _calibrate_points(tmp, tmp / "a.jpg"), "a.jpg"
+
+
+@case("calibrate-points-images-differ-in-size")
+def _(tmp, fx):
+    pytest.importorskip("cv2")
+    _jpeg(tmp / "a.jpg")
+    _jpeg(tmp / "b.jpg", 48, 24)
+    return _calibrate_points(tmp, tmp / "a.jpg", tmp / "b.jpg"), "b.jpg: image is 48x24"
+
+
+@case("calibrate-points-mat-corrupt")
+def _(tmp, fx):
+    import scipy.io
+
+    path = tmp / "pts.mat"
+    scipy.io.savemat(path, {"gridInfo": {"x": np.arange(4000.0)}}, do_compression=True)
+    data = bytearray(path.read_bytes())
+    data[-200:-100] = bytes(100)
+    path.write_bytes(bytes(data))
+    argv = ["calibrate", "--points", str(path), "--image-size", "64x48"]
+    return [*argv, "--out", str(tmp / "cam.yaml")], "pts.mat"
+
+
+@case("calibrate-image-size-zero")
+def _(tmp, fx):
+    argv = _calibrate_points(tmp)
+    return [*argv, "--image-size", "0x768"], "--image-size"
+
+
 # ---- the test --------------------------------------------------------------------------------
 
 
@@ -1119,12 +1380,13 @@ def tree(root: Path) -> set[Path]:
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
-def test_bad_input_is_one_line_exit_2_and_writes_nothing(name, tmp_path, fixtures, capsys):
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(name, tmp_path, fixtures, capfd):
+    """``capfd``: a line a C library prints on the process's stderr (libpng, libjpeg) counts."""
     argv, needle = CASES[name](tmp_path, fixtures)
-    capsys.readouterr()
+    capfd.readouterr()
     before = tree(tmp_path)
     code = main(argv)
-    err = capsys.readouterr().err
+    err = capfd.readouterr().err
     lines = err.strip().splitlines()
     assert code == 2, err
     assert len(lines) == 1, err

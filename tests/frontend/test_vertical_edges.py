@@ -122,3 +122,19 @@ def test_the_surveyed_mc_of_a_door_frame_line_has_the_dark_frame_on_one_side(cor
             passed.append(bool(np.isfinite(photometric_scores(band, mean, PhotometricConfig()))))
     assert len(passed) >= 20
     assert np.mean(passed) >= MIN_PHOTOMETRIC_PASS
+
+
+def test_a_camera_looking_up_at_its_mirror_measures_about_the_image_centre():
+    """A unified camera whose axis points up (under its mirror, as a real catadioptric camera)
+    cannot image the vertical below its viewpoint; the axis above it is the image centre (this
+    was a NaN centre and an internal error on the real VMR lab images)."""
+    from omnislam.camera.rig import CameraRig
+    from omnislam.camera.unified import UnifiedCamera
+    from omnislam.frontend.vertical_edges import VerticalLineExtractor
+
+    camera = UnifiedCamera(xi=1.0, gamma1=40.0, gamma2=40.0, cu=49.5, cv=39.5, width=100,
+                           height=80)
+    extractor = VerticalLineExtractor(CameraRig(camera, np.eye(4)), CONFIG)
+    assert (extractor.cu, extractor.cv) == pytest.approx((49.5, 39.5))
+    image = np.full((80, 100, 3), 128, dtype=np.uint8)
+    assert len(extractor.extract(image)) == 0

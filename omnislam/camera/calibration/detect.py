@@ -24,6 +24,8 @@ import numpy as np
 
 from omnislam._optional import require
 from omnislam.camera.calibration.board import Board, BoardView, Skipped
+from omnislam.camera.image_file import read_image
+from omnislam.errors import DataError
 
 #: half-size of the sub-pixel window [px] (the toolboxes' wintx)
 DEFAULT_WINDOW_PX = 4
@@ -74,10 +76,14 @@ def detect_corners(
     return refined.reshape(-1, 2).astype(float)
 
 
-def read_grey(path: str | Path) -> np.ndarray | None:
-    """An image file as a (H, W) uint8 grey array, or None when OpenCV cannot read it."""
-    cv2 = require("cv2")
-    return cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+def read_grey(path: str | Path) -> np.ndarray:
+    """An image file as a (H, W) uint8 grey array.
+
+    Raises:
+        DataError: naming the file: unreadable, truncated or corrupt, or not an image
+            (``camera.image_file.read_image``).
+    """
+    return read_image(path, grey=True)
 
 
 def detect_views(
@@ -99,9 +105,10 @@ def detect_views(
     points_b = board.points_b()
     for path in paths:
         name = Path(path).name
-        image = read_grey(path)
-        if image is None:
-            skipped.append(Skipped(name, "cannot read the image"))
+        try:
+            image = read_grey(path)
+        except DataError as exc:
+            skipped.append(Skipped(name, exc.reason))
             continue
         shape = (image.shape[1], image.shape[0])
         if size is None:

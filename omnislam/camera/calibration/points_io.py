@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import csv
 import io
+import struct
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -76,8 +78,8 @@ def read_points_mat(
         ``(views, skipped)`` in the file's order.
 
     Raises:
-        DataError: unreadable file, no ``gridInfo`` with ``x`` and ``X``, or a wrong number of
-            names.
+        DataError: unreadable or corrupt file, no ``gridInfo`` with ``x`` and ``X``, or a
+            wrong number of names.
     """
     import scipy.io
 
@@ -86,6 +88,8 @@ def read_points_mat(
         mat = scipy.io.loadmat(path)
     except (OSError, ValueError, NotImplementedError) as exc:
         raise DataError(f"cannot read MATLAB file: {exc}", path) from exc
+    except (zlib.error, IndexError, EOFError, struct.error) as exc:  # damaged compressed data
+        raise DataError(f"corrupt MATLAB file ({type(exc).__name__}: {exc})", path) from None
     if "gridInfo" not in mat:
         raise DataError("no 'gridInfo' struct (the calibration toolbox's points)", path)
     grid = mat["gridInfo"]

@@ -213,14 +213,18 @@ class SyntheticFolder:
         return points, ids
 
     def image(self, index: int) -> np.ndarray:
-        """(H, W, 3) uint8 RGB image of frame ``index``."""
+        """(H, W, 3) uint8 RGB image of frame ``index``.
+
+        Raises:
+            DataError: naming the image: unreadable, truncated or corrupt
+                (``camera.image_file.read_image``), or of another size than the calibration's.
+        """
         from omnislam._optional import require
+        from omnislam.camera.image_file import read_image
 
         cv2 = require("cv2")
         path = self.path / "images" / f"{frame_name(index)}.png"
-        bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
-        if bgr is None:
-            raise DataError("cannot read image", path)
+        bgr = read_image(path)
         if self.rig is not None:
             camera = self.rig.camera
             if bgr.shape[:2] != (camera.height, camera.width):
@@ -296,6 +300,11 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
         association: KNOWN hands the pole sightings' true ids to the estimators; UNKNOWN
             replaces them by ``UNKNOWN_ID`` (the thesis's experiments, where the filter must
             associate by itself; evaluation still uses the true map).
+
+    Raises:
+        DataError: naming the file: a malformed or inconsistent file, images lost or named
+            after no frame, images without ``calibration.yaml``, or a first or last image that
+            cannot be read or has another size than the calibration's.
     """
     folder = SyntheticFolder(path)
     root = folder.path
@@ -317,8 +326,7 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
         sightings.append(RangeBearing(ids, rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5]))
     laser = _read_laser(root / "laser.npz", n)
     landmarks = _read_csv(root / "landmarks.csv", 4)
-    images = sorted(int(p.stem) for p in (root / "images").glob("*.png")) if (
-        root / "images").is_dir() else []
+    images = _image_frames(root, folder.meta, n)
     gt_traj = folder.groundtruth
     meta = folder.meta
     world = folder.world
@@ -337,7 +345,10 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
         walls_w=walls.reshape(-1, 2, 2),
         initial_pose_w=se2_from_se3(gt_traj.poses_w[0]),
     )
-    if images and folder.rig is not None:
+    if images and folder.rig is None:
+        raise DataError("file missing: the folder has images but no calibration",
+                        root / "calibration.yaml")
+    if images:
         _check_image_size(folder, images)
     return Sequence(
         name=root.name,
@@ -371,8 +382,55 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
     )
 
 
+def _image_frames(root: Path, meta: dict[str, object], frames: int) -> list[int]:
+    """The frame indices of ``images/NNNNNN.png``, checked against the folder.
+
+    Raises:
+        DataError: an image whose name is not a frame index of the folder (naming it), or
+            fewer or more images than ``meta.json`` records (images lost or added).
+    """
+    folder = root / "images"
+    paths = sorted(folder.glob("*.png")) if folder.is_dir() else []
+    images = []
+    for path in paths:
+        if not path.stem.isdigit() or int(path.stem) >= frames:
+            raise DataError(
+                f"an image's name must be its frame's index, 0 to {frames - 1} "
+                f"(odometry.csv has {frames} rows)",
+                path,
+            )
+        images.append(int(path.stem))
+    expected = meta.get("images", len(images))
+    if not isinstance(expected, int) or isinstance(expected, bool) or expected < 0:
+        raise DataError(f"'images' must be a count of images, got {expected!r}", root / "meta.json")
+    if len(images) != expected:
+        raise DataError(
+            f"{len(images)} images, meta.json records {expected} (images lost or added?)",
+            folder,
+        )
+    return sorted(images)
+
+
 def _check_image_size(folder: SyntheticFolder, images: list[int]) -> None:
-    """The first and last images against the calibration's size, at load time (not after a
-    front-end pass that would find no tracks); ``SyntheticFolder.image`` checks every one."""
+    """Every image at load time (not midway through a front-end pass): whole (PNG chunk CRCs
+    and end) and of the calibration's size, from its header; the first and last are decoded
+    too. About 1 ms per 1 MB image (``SyntheticFolder.image`` checks each one again).
+
+    Raises:
+        DataError: naming the first image that is not a whole PNG of the calibration's size.
+    """
+    from omnislam.camera.image_file import png_size
+
+    assert folder.rig is not None
+    camera = folder.rig.camera
+    for index in images:
+        path = folder.path / "images" / f"{frame_name(index)}.png"
+        width, height = png_size(path)
+        if (width, height) != (camera.width, camera.height):
+            raise DataError(
+                f"image is {width}x{height} px, the calibration "
+                f"({folder.path / 'calibration.yaml'}) is for {camera.width}x{camera.height}",
+                path,
+            )
     for index in sorted({images[0], images[-1]}):
         folder.image(index)
