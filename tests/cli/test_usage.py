@@ -57,3 +57,9 @@ def test_a_usage_error_names_the_command(capsys, command):
         main([command, "--bogus"])
     assert raised.value.code == 2
     assert capsys.readouterr().err.startswith(f"omnislam {command}: error: ")
+
+
+def test_an_estimator_named_twice_is_listed_once(capsys):
+    assert main(["estimators", "deadreckoning", "deadreckoning"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("deadreckoning: ") == 1
