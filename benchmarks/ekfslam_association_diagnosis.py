@@ -27,6 +27,7 @@ The estimator runs with its defaults; ``--set key=value`` overrides them (both r
 from __future__ import annotations
 
 import collections
+import sys
 
 import numpy as np
 from association_diagnosis import diagnose_each
@@ -192,6 +193,7 @@ def diagnose(dataset: str, options: dict[str, str]) -> None:
     frames = list(sequence.frame_inputs())
     truth = {f.index: f.range_bearing for f in frames if f.range_bearing is not None}
     with_ids = EKFSLAM(apply_options(EKFSLAMConfig(), options))
+    print(f"{dataset}: running ekfslam with the ids, then without ...", file=sys.stderr, flush=True)
     for frame in frames:
         with_ids.step(frame)
     estimator = Recording(apply_options(EKFSLAMConfig(ignore_ids=True), options), truth)

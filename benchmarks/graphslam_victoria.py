@@ -68,7 +68,13 @@ def main(argv=None):
     totals = {"omnislam": [], "bare": []}
     medians = {"omnislam": [], "bare": []}
     estimator = isam = None
-    for _ in range(args.repeats):
+    for repeat in range(args.repeats):
+        print(
+            f"victoria_park.txt: pass {repeat + 1}/{args.repeats}: running graphslam, "
+            "then gtsam's bare iSAM2 ...",
+            file=sys.stderr,
+            flush=True,
+        )
         estimator, steps = run_omnislam(frames)
         totals["omnislam"].append(steps.sum())
         medians["omnislam"].append(np.median(steps))

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -62,6 +63,7 @@ def main() -> None:
             print(f"{args.full}: full synth run {time.perf_counter() - start:.1f} s")
         print(f"load average after: {load_average()}")
         return
+    print(f"{args.preset}: simulating the route and its laser ...", file=sys.stderr, flush=True)
     sim = simulate(PRESETS[args.preset], 0, max_images=args.frames + 1, backend="numpy")
     print(f"preset {args.preset}: {len(sim.world.quads)} quads, 640x640, "
           f"supersample {args.supersample}, median of {args.frames} frames")
@@ -69,6 +71,8 @@ def main() -> None:
         if backend == "open3d" and not available("open3d"):
             print("open3d: not installed")
             continue
+        print(f"{args.preset}: rendering {args.frames + 1} frames with {backend} ...",
+              file=sys.stderr, flush=True)
         seconds = time_backend(sim, backend, args.supersample)
         print(f"{backend:>7}: {1000 * seconds:7.1f} ms/frame  {1 / seconds:5.1f} fps")
     print(f"load average after: {load_average()}")

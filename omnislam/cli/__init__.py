@@ -56,6 +56,20 @@ class _OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
+class _SubcommandParser(_OneLineParser):
+    """The parser of a command (``omnislam dataset list``): arguments it does not know are its
+    usage error, naming it (argparse hands them up to ``omnislam``, which named only itself).
+    Nested commands inherit the class (``add_subparsers`` defaults to the parent's class)."""
+
+    def parse_known_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        namespace, extras = super().parse_known_args(args, namespace)
+        if extras:
+            self.error(f"unrecognized arguments: {' '.join(extras)}")
+        return namespace, extras
+
+
 def build_parser() -> argparse.ArgumentParser:
     import omnislam
 
@@ -80,7 +94,9 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="print warnings as they happen and the traceback of an unexpected error",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    sub = parser.add_subparsers(
+        dest="command", metavar="COMMAND", required=True, parser_class=_SubcommandParser
+    )
     for module in COMMANDS.values():
         importlib.import_module(f"omnislam.cli.{module}").add_parser(sub)
     return parser

@@ -110,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(
             f"unknown estimator {unknown[0]!r}; known: {', '.join(ESTIMATORS)}"
         )
-    names = args.names or list(ESTIMATORS)
+    names = list(dict.fromkeys(args.names)) or list(ESTIMATORS)  # each named one once
     described = [describe(name) for name in names]
     harness = harness_options()
     loaders = loader_options()

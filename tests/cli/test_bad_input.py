@@ -560,6 +560,134 @@ def _(tmp, fx):
     return run_args(folder, tmp), "world.json"
 
 
+def _csv_cell(path: Path, line: int, column: int, value: str) -> None:
+    """Set one cell of a synthetic CSV (``line`` 1-based, the header is line 1)."""
+    lines = path.read_text().splitlines()
+    cells = lines[line - 1].split(",")
+    cells[column] = value
+    lines[line - 1] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _synthetic_csv_case(name: str, file: str, column: int, value: str, needle: str) -> None:
+    @case(f"synthetic-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        folder = fx.synthetic(tmp)
+        _csv_cell(folder / file, 2, column, value)
+        return run_args(folder, tmp), f"{file}: line 2: {needle}"
+
+
+_synthetic_csv_case("landmark-1e308", "landmarks.csv", 1, "1e308", "x[m] 1e+308")
+_synthetic_csv_case("landmark-nan", "landmarks.csv", 2, "nan", "NaN")
+_synthetic_csv_case("landmark-id-not-an-integer", "landmarks.csv", 0, "2.5", "id 2.5")
+_synthetic_csv_case("landmark-id-negative", "landmarks.csv", 0, "-7", "id -7")
+_synthetic_csv_case("odometry-step-1e308", "odometry.csv", 1, "1e308", "dx[m] 1e+308")
+_synthetic_csv_case("odometry-stamp-not-groundtruth", "odometry.csv", 0, "0.05", "stamp 0.05")
+_synthetic_csv_case("pole-range-1e308", "poles.csv", 2, "1e308", "range_m 1e+308")
+_synthetic_csv_case("pole-bearing-100", "poles.csv", 3, "100", "bearing_rad 100")
+_synthetic_csv_case("pole-sigma-zero", "poles.csv", 4, "0", "sigma_range_m 0")
+_synthetic_csv_case("pole-range-nan", "poles.csv", 2, "nan", "NaN")
+_synthetic_csv_case("pole-frame-not-an-integer", "poles.csv", 0, "0.5", "frame 0.5")
+_synthetic_csv_case("pole-landmark-unknown", "poles.csv", 1, "999", "landmark 999")
+_synthetic_csv_case("line-colour-1e308", "line_colours.csv", 2, "1e308", "colours")
+_synthetic_csv_case("line-colour-count-negative", "line_colours.csv", 1, "-5", "count -5")
+
+
+@case("synthetic-landmark-listed-twice")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    path = folder / "landmarks.csv"
+    first = path.read_text().splitlines()[1].split(",")[0]
+    _csv_cell(path, 3, 0, first)
+    return run_args(folder, tmp), "landmarks.csv: line 3: id"
+
+
+@case("synthetic-groundtruth-position-1e308")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    path = folder / "groundtruth.tum"
+    lines = path.read_text().splitlines()
+    fields = lines[2].split()
+    fields[1] = "1e308"
+    lines[2] = " ".join(fields)
+    path.write_text("\n".join(lines) + "\n")
+    return run_args(folder, tmp), "groundtruth.tum: stamp"
+
+
+def _world_case(name: str, edit: Callable[[dict], None], needle: str) -> None:
+    @case(f"synthetic-world-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        import json
+
+        folder = fx.synthetic(tmp)
+        doc = json.loads((folder / "world.json").read_text())
+        edit(doc)
+        (folder / "world.json").write_text(json.dumps(doc))
+        return run_args(folder, tmp), f"world.json: {needle}"
+
+
+def _set(*keys: object, value: object) -> Callable[[dict], None]:
+    def edit(doc: dict) -> None:
+        node = doc
+        for key in keys[:-1]:
+            node = node[key]
+        node[keys[-1]] = value
+
+    return edit
+
+
+_world_case("quad-nan", _set("quads", 0, "origin_w", 0, value=float("nan")), "quads[0].origin_w")
+_world_case("quad-1e308", _set("quads", 0, "edge_v_w", 2, value=1e308), "quads[0].edge_v_w")
+_world_case("quad-degenerate", _set("quads", 0, "edge_u_w", value=[0, 0, 0]), "quads[0]")
+_world_case("pole-1e308", _set("poles", 0, 1, value=1e308), "poles[0]")
+_world_case("pole-radius-negative", _set("poles", 0, 3, value=-0.06), "poles[0]: radius")
+_world_case("vertical-line-nan", _set("vertical_lines", 0, 2, value=float("nan")), "vertical_lines")
+_world_case("wall-zero-length", _set("walls_2d", 0, value=[1.0, 2.0, 1.0, 2.0]), "walls_2d[0]")
+_world_case("wall-1e308", _set("walls_2d", 0, 0, value=1e308), "walls_2d[0]")
+_world_case("empty-object", lambda doc: doc.clear(), "unsupported world format")
+
+
+@case("synthetic-world-a-list")
+def _(tmp, fx):
+    folder = fx.synthetic(tmp)
+    (folder / "world.json").write_text("[1, 2]\n")
+    return run_args(folder, tmp), "world.json: malformed"
+
+
+def _meta_case(name: str, edit: Callable[[dict], None], needle: str) -> None:
+    @case(f"synthetic-meta-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        import json
+
+        folder = fx.synthetic(tmp)
+        doc = json.loads((folder / "meta.json").read_text())
+        edit(doc)
+        (folder / "meta.json").write_text(json.dumps(doc))
+        return run_args(folder, tmp), f"meta.json: {needle}"
+
+
+_meta_case("preset-missing", lambda doc: doc.pop("preset"), "key 'preset' missing")
+_meta_case("frames-wrong", _set("frames", value=7), "'frames' is 7")
+
+
+def _gt_map_case(name: str, change: Callable[[Path], None], needle: str) -> None:
+    @case(f"synthetic-gt-map-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        folder = fx.synthetic(tmp)
+        path = sorted((folder / "gt").glob("*.npz"))[1]
+        change(path)
+        return run_args(folder, tmp), f"{path.name}: {needle}"
+
+
+_gt_map_case("missing", Path.unlink, "cannot read")
+_gt_map_case("truncated", truncate, "cannot read")
+_gt_map_case(
+    "wrong-size",
+    lambda p: np.savez(p, surface_id=np.zeros((2, 2), np.int32)),
+    "surface_id is int32 (2, 2)",
+)
+
+
 # -- observation logs
 
 

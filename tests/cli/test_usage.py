@@ -22,6 +22,11 @@ def test_run_help_names_every_registered_estimator(capsys):
         (["run", "x", "--estimator", "y", "--out", "z", "--seed", "abc"], "--seed"),
         (["compare"], "required"),
         (["evaluate", "R", "--no-such-flag"], "--no-such-flag"),
+        (["dataset", "list", "extra"], "omnislam dataset list: error: unrecognized arguments"),
+        (["dataset", "--bogus"], "omnislam dataset: error: unrecognized arguments: --bogus"),
+        (["estimators", "--bogus"], "omnislam estimators: error: unrecognized arguments"),
+        (["demo", "--bogus"], "omnislam demo: error: unrecognized arguments: --bogus"),
+        (["run", "x", "--estimator", "y", "--out", "z", "--bogus"], "omnislam run: error:"),
     ],
 )
 def test_a_usage_error_is_one_line_and_exit_2(capsys, argv, needle):
@@ -30,3 +35,31 @@ def test_a_usage_error_is_one_line_and_exit_2(capsys, argv, needle):
     assert raised.value.code == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and needle in lines[0] and "error:" in lines[0]
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        "dataset",
+        "estimators",
+        "frontend",
+        "run",
+        "evaluate",
+        "compare",
+        "report",
+        "demo",
+        "view",
+        "calibrate",
+    ],
+)
+def test_a_usage_error_names_the_command(capsys, command):
+    with pytest.raises(SystemExit) as raised:
+        main([command, "--bogus"])
+    assert raised.value.code == 2
+    assert capsys.readouterr().err.startswith(f"omnislam {command}: error: ")
+
+
+def test_an_estimator_named_twice_is_listed_once(capsys):
+    assert main(["estimators", "deadreckoning", "deadreckoning"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("deadreckoning: ") == 1

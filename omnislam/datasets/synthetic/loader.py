@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,10 +19,21 @@ from omnislam._files import NPZ_ERRORS, npz_reason
 from omnislam.core.se import se2_from_se3
 from omnislam.core.types import UNKNOWN_ID, PriorMap, RangeBearing
 from omnislam.datasets._common import Association
+from omnislam.datasets._text import Table, check_integers, check_range, check_unique
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, LaserScans, Sequence
 from omnislam.datasets.synthetic.raycast import plane_distances
+from omnislam.datasets.synthetic.world import MAX_COORDINATE_M
 from omnislam.datasets.synthetic.writer import FORMAT_NAME, FORMAT_VERSION, frame_name
 from omnislam.errors import DataError
+
+#: plausible odometry step of one frame (10 Hz) [m] and [rad]: the presets' largest, measured
+#: and true, are 0.073 m (campus1500) and 0.067 rad (demo); 10 m and pi leave a margin of over
+#: 100x and 40x, and a corrupt 1e308 is not a step
+MAX_STEP_M = 10.0
+MAX_STEP_RAD = math.pi
+#: a pole sighting's range may exceed the laser's ``max_range_m`` by this much (range noise:
+#: sigma 0.01 m in every preset) [m]
+POLE_RANGE_MARGIN_M = 1.0
 
 
 def is_synthetic_folder(path: str | Path) -> bool:
@@ -43,11 +55,19 @@ def _read_meta(folder: Path) -> dict[str, object]:
         raise DataError(f"not an {FORMAT_NAME} folder", path)
     if meta.get("version") != FORMAT_VERSION:
         raise DataError(f"unsupported format version {meta.get('version')!r}", path)
+    missing = [key for key in ("preset", "seed", "source") if key not in meta]
+    if missing:
+        raise DataError(f"key {missing[0]!r} missing", path)
     return meta
 
 
-def _read_csv(path: Path, columns: int) -> np.ndarray:
-    """Numeric CSV with one header line -> (rows, columns) float array."""
+def _read_csv(path: Path, columns: int, *, finite: bool = True) -> Table:
+    """Numeric CSV with one header line -> its (rows, columns) float values and line numbers.
+
+    Raises:
+        DataError: naming the file: unreadable, no header, a wrong column count, a value that
+            is not a number, or (``finite``) the line of the first NaN or infinite value.
+    """
     try:
         with path.open() as handle:
             header = handle.readline()
@@ -65,7 +85,17 @@ def _read_csv(path: Path, columns: int) -> np.ndarray:
     data = data.reshape(-1, columns) if data.size == 0 else data
     if data.shape[1] != columns:
         raise DataError(f"expected {columns} columns, got {data.shape[1]}", path)
-    return data
+    # the lines np.loadtxt read: every line after the header that is not blank or a comment
+    numbers = [
+        number
+        for number, line in enumerate(body.splitlines(), start=2)
+        if line.split("#", 1)[0].strip()
+    ]
+    table = Table(path, data, np.asarray(numbers, dtype=np.int64).reshape(data.shape[0]))
+    if finite and not np.all(np.isfinite(data)):
+        row = int(np.argmax(~np.all(np.isfinite(data), axis=1)))
+        raise DataError(f"{table.where(row)}: NaN or infinite value", path)
+    return table
 
 
 @dataclass(frozen=True, slots=True)
@@ -101,6 +131,15 @@ class SyntheticFolder:
         calibration = self.path / "calibration.yaml"
         self.rig = load_rig(calibration) if calibration.exists() else None
         self.groundtruth = read_tum(self.path / "groundtruth.tum")
+        positions = self.groundtruth.poses_w[:, :3, 3]
+        far = ~np.all(np.abs(positions) <= MAX_COORDINATE_M, axis=1)
+        if far.any():
+            k = int(np.argmax(far))
+            raise DataError(
+                f"stamp {float(self.groundtruth.stamps_s[k])!r}: position "
+                f"{positions[k].tolist()} is beyond {MAX_COORDINATE_M:g} m",
+                self.path / "groundtruth.tum",
+            )
         self._pixel_rays_r: np.ndarray | None = None  # (H, W, 3), computed on first use
 
     def _rays_r_at(self, rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int]
@@ -120,9 +159,21 @@ class SyntheticFolder:
         path = self.path / "gt" / f"{frame_name(index)}.npz"
         try:
             with np.load(path, allow_pickle=False) as data:
-                return np.asarray(data["surface_id"], dtype=np.int32)
+                ids = np.asarray(data["surface_id"], dtype=np.int32)
         except NPZ_ERRORS as exc:
             raise DataError(f"cannot read ground-truth map ({npz_reason(exc)})", path) from None
+        except (TypeError, ValueError) as exc:
+            raise DataError(f"surface_id is not an integer array ({exc})", path) from None
+        if ids.ndim != 2:
+            raise DataError(f"surface_id is {ids.shape}, expected (height, width)", path)
+        bad = (ids < -1) | (ids >= len(self.quads))
+        if bad.any():
+            raise DataError(
+                f"surface id {int(ids[bad][0])} is not a quad of world.json "
+                f"(-1 or 0 to {len(self.quads) - 1})",
+                path,
+            )
+        return ids
 
     def ground_truth_maps(self, index: int) -> GroundTruthMaps:
         """World points and surface ids of frame ``index`` (see ``writer`` for how)."""
@@ -247,16 +298,26 @@ def _line_colours(path: Path, landmark_ids: np.ndarray) -> tuple[np.ndarray, np.
     without images)."""
     if not path.exists():
         return None
-    table = _read_csv(path, 8)
+    table = _read_csv(path, 8, finite=False)
+    if not np.all(np.isfinite(table.values[:, :2])):
+        row = int(np.argmax(~np.all(np.isfinite(table.values[:, :2]), axis=1)))
+        raise DataError(f"{table.where(row)}: id and count must be numbers", path)
+    check_integers(table, 0, "id")
+    check_unique(table, 0, "id")
+    check_integers(table, 1, "count")
+    check_range(table, 1, "count", 0, math.inf)
     row = {int(i): k for k, i in enumerate(landmark_ids)}
     left = np.full((len(landmark_ids), 3), np.nan)
     right = np.full((len(landmark_ids), 3), np.nan)
-    for line, values in enumerate(table, start=2):
+    for index, values in enumerate(table.values):
+        line = table.where(index)
         k = row.get(int(values[0]))
         if k is None:
-            raise DataError(f"line {line}: landmark {int(values[0])} is not in landmarks.csv", path)
-        if not np.all(np.isfinite(values[2:]) | np.isnan(values[2:])):
-            raise DataError(f"line {line}: colours must be finite or empty", path)
+            raise DataError(f"{line}: landmark {int(values[0])} is not in landmarks.csv", path)
+        colours = values[2:]
+        # an 8-bit colour's mean, or NaN (never seen); inf, -5 or 1e308 is not a colour
+        if not np.all(((colours >= 0) & (colours <= 255)) | np.isnan(colours)):
+            raise DataError(f"{line}: colours must be in [0, 255] or empty", path)
         left[k], right[k] = values[2:5], values[5:8]
     return left, right
 
@@ -308,15 +369,25 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
     """
     folder = SyntheticFolder(path)
     root = folder.path
-    odometry = _read_csv(root / "odometry.csv", 7)
+    odometry_table = _read_csv(root / "odometry.csv", 7)
+    odometry = odometry_table.values
     n = odometry.shape[0]
     if n == 0 or len(folder.groundtruth) != n:
         raise DataError(f"{n} odometry rows but {len(folder.groundtruth)} poses",
                         root / "odometry.csv")
-    poles = _read_csv(root / "poles.csv", 6)
+    recorded = folder.meta.get("frames", n)
+    if recorded != n or isinstance(recorded, bool):
+        raise DataError(f"'frames' is {recorded!r}, odometry.csv has {n} rows",
+                        root / "meta.json")
+    _check_odometry(odometry_table, folder.groundtruth.stamps_s)
+    laser = _read_laser(root / "laser.npz", n)
+    landmarks_table = _read_csv(root / "landmarks.csv", 4)
+    _check_landmarks(landmarks_table)
+    landmarks = landmarks_table.values
+    poles_table = _read_csv(root / "poles.csv", 6)
+    _check_poles(poles_table, n, landmarks[:, 0], laser.max_range_m)
+    poles = poles_table.values
     frames = poles[:, 0].astype(np.int64)
-    if frames.size and (frames.min() < 0 or frames.max() >= n):
-        raise DataError("frame index out of range", root / "poles.csv")
     sightings = []
     for i in range(n):
         rows = poles[frames == i]
@@ -324,8 +395,6 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
         if association is Association.UNKNOWN:
             ids = np.full_like(ids, UNKNOWN_ID)
         sightings.append(RangeBearing(ids, rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5]))
-    laser = _read_laser(root / "laser.npz", n)
-    landmarks = _read_csv(root / "landmarks.csv", 4)
     images = _image_frames(root, folder.meta, n)
     gt_traj = folder.groundtruth
     meta = folder.meta
@@ -382,6 +451,68 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
     )
 
 
+def _check_odometry(table: Table, groundtruth_stamps_s: np.ndarray) -> None:
+    """``odometry.csv`` against the folder: the stamps of ``groundtruth.tum`` (both are the
+    frames' times), steps within ``MAX_STEP_M`` and ``MAX_STEP_RAD``.
+
+    Raises:
+        DataError: naming ``odometry.csv`` and the line.
+    """
+    stamps_s = table.values[:, 0]
+    # both files print the same floats with 17 digits: equal to the last bits
+    differ = np.abs(stamps_s - groundtruth_stamps_s) > 1e-9 * np.maximum(1.0, np.abs(stamps_s))
+    if differ.any():
+        row = int(np.argmax(differ))
+        raise DataError(
+            f"{table.where(row)}: stamp {float(stamps_s[row])!r} is not the stamp of pose {row} "
+            f"in groundtruth.tum ({float(groundtruth_stamps_s[row])!r})",
+            table.path,
+        )
+    names = ("dx[m]", "dy[m]", "dtheta[rad]", "true_dx[m]", "true_dy[m]", "true_dtheta[rad]")
+    for column, name in enumerate(names, start=1):
+        limit = MAX_STEP_RAD if "theta" in name else MAX_STEP_M
+        check_range(table, column, name, -limit, limit)
+
+
+def _check_landmarks(table: Table) -> None:
+    """``landmarks.csv``: whole, unique, non-negative ids; coordinates within
+    ``MAX_COORDINATE_M``.
+
+    Raises:
+        DataError: naming ``landmarks.csv`` and the line.
+    """
+    check_integers(table, 0, "id")
+    check_range(table, 0, "id", 0, math.inf)
+    check_unique(table, 0, "id")
+    for column, name in enumerate(("x[m]", "y[m]", "z[m]"), start=1):
+        check_range(table, column, name, -MAX_COORDINATE_M, MAX_COORDINATE_M)
+
+
+def _check_poles(table: Table, frames: int, landmark_ids: np.ndarray, max_range_m: float
+                 ) -> None:
+    """``poles.csv`` against the folder: frames of ``odometry.csv``, landmarks of
+    ``landmarks.csv``, ranges the laser (``laser.npz``) can measure, bearings in [-pi, pi],
+    positive sigmas.
+
+    Raises:
+        DataError: naming ``poles.csv`` and the line.
+    """
+    check_integers(table, 0, "frame")
+    check_range(table, 0, "frame", 0, frames - 1)
+    check_integers(table, 1, "landmark_id")
+    unknown = ~np.isin(table.values[:, 1], landmark_ids)
+    if unknown.any():
+        row = int(np.argmax(unknown))
+        raise DataError(
+            f"{table.where(row)}: landmark {int(table.values[row, 1])} is not in landmarks.csv",
+            table.path,
+        )
+    check_range(table, 2, "range_m", 0.0, max_range_m + POLE_RANGE_MARGIN_M)
+    check_range(table, 3, "bearing_rad", -math.pi, math.pi)
+    check_range(table, 4, "sigma_range_m", 0.0, math.inf, inclusive=False)
+    check_range(table, 5, "sigma_bearing_rad", 0.0, math.inf, inclusive=False)
+
+
 def _image_frames(root: Path, meta: dict[str, object], frames: int) -> list[int]:
     """The frame indices of ``images/NNNNNN.png``, checked against the folder.
 
@@ -432,5 +563,31 @@ def _check_image_size(folder: SyntheticFolder, images: list[int]) -> None:
                 f"({folder.path / 'calibration.yaml'}) is for {camera.width}x{camera.height}",
                 path,
             )
+        _check_ground_truth_map(folder.path / "gt" / f"{frame_name(index)}.npz",
+                                (camera.height, camera.width))
     for index in sorted({images[0], images[-1]}):
         folder.image(index)
+
+
+def _check_ground_truth_map(path: Path, shape: tuple[int, int]) -> None:
+    """An image's ``gt/NNNNNN.npz`` from its array's header (0.1 ms, no decompression of the
+    map): present, an integer ``surface_id`` of the image's size. Its ids are checked when the
+    map is read (``SyntheticFolder.surface_ids``).
+
+    Raises:
+        DataError: naming the file.
+    """
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive, archive.open("surface_id.npy") as member:
+            fmt = np.lib.format
+            version = fmt.read_magic(member)
+            read = fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
+            found, _, dtype = read(member)
+    except NPZ_ERRORS as exc:
+        raise DataError(f"cannot read ground-truth map ({npz_reason(exc)})", path) from None
+    if found != shape or dtype.kind not in "iu":
+        raise DataError(
+            f"surface_id is {dtype} {found}, the image's is an integer map of {shape}", path
+        )

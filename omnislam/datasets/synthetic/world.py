@@ -31,6 +31,11 @@ from omnislam.errors import DataError
 WORLD_FORMAT_VERSION = 1
 #: a door frame stands this far in front of its wall [m]
 FRAME_OFFSET_M = 0.02
+#: plausible |coordinate| of a point of a world or of its ground truth [m] (quad corners and
+#: edges, poles, vertical lines, 2-D walls, landmarks.csv, groundtruth.tum): the presets' worlds
+#: lie within 150 m of their origin (campus1500: 150 m, its landmarks 149.98 m, its route
+#: 148.7 m; demo: 6 m), so 1e4 m leaves a margin of 66x; a corrupt 1e308 is not a position
+MAX_COORDINATE_M = 1.0e4
 
 
 class SurfaceKind(enum.Enum):
@@ -265,36 +270,85 @@ class World:
 
     @classmethod
     def from_json(cls, text: str, path: Path | None = None) -> World:
-        """Parse ``to_json`` output; raises DataError naming ``path`` on malformed input."""
+        """Parse ``to_json`` output; raises DataError naming ``path`` on malformed input.
+
+        Besides the layout, the geometry is checked (naming the entry): every number finite
+        and every coordinate within ``MAX_COORDINATE_M``, no degenerate quad, poles of positive
+        radius and height, 2-D walls of positive length.
+        """
         try:
             doc = json.loads(text)
+            if not isinstance(doc, dict):
+                raise DataError("malformed world description: not a JSON object", path)
             if doc.get("format_version") != WORLD_FORMAT_VERSION:
                 raise DataError(f"unsupported world format {doc.get('format_version')}", path)
+            quads = []
+            for i, q in enumerate(doc["quads"]):
+                for key in ("origin_w", "edge_u_w", "edge_v_w"):
+                    _check_coordinates(f"quads[{i}].{key}", q[key], path)
+                try:
+                    quads.append(
+                        Quad(
+                            kind=SurfaceKind(q["kind"]),
+                            origin_w=q["origin_w"],
+                            edge_u_w=q["edge_u_w"],
+                            edge_v_w=q["edge_v_w"],
+                            texture=int(q["texture"]),
+                            object_id=int(q["object_id"]),
+                        )
+                    )
+                except DataError:
+                    raise DataError(f"quads[{i}]: degenerate quad (its edges are parallel)",
+                                    path) from None
+            poles = []
+            for i, p in enumerate(doc["poles"]):
+                pole = Pole(int(p[0]), *map(float, p[1:]))
+                _check_coordinates(f"poles[{i}]", (pole.x_m, pole.y_m), path)
+                if not (0 < pole.radius_m <= MAX_COORDINATE_M and 0 < pole.height_m
+                        <= MAX_COORDINATE_M):
+                    raise DataError(
+                        f"poles[{i}]: radius {pole.radius_m!r} m and height {pole.height_m!r} m "
+                        f"must be positive (and at most {MAX_COORDINATE_M:g} m)", path)
+                poles.append(pole)
+            lines = []
+            for i, v in enumerate(doc["vertical_lines"]):
+                line = VerticalLine(int(v[0]), float(v[1]), float(v[2]))
+                _check_coordinates(f"vertical_lines[{i}]", (line.x_m, line.y_m), path)
+                lines.append(line)
+            walls = []
+            for i, w in enumerate(doc["walls_2d"]):
+                wall = Wall2D(*map(float, w))
+                _check_coordinates(f"walls_2d[{i}]", w, path)
+                if wall.x0_m == wall.x1_m and wall.y0_m == wall.y1_m:
+                    raise DataError(f"walls_2d[{i}]: a wall of zero length", path)
+                walls.append(wall)
             return cls(
                 name=str(doc["name"]),
                 seed=int(doc["seed"]),
                 textures=tuple(TextureSpec.from_dict(t) for t in doc["textures"]),
-                quads=tuple(
-                    Quad(
-                        kind=SurfaceKind(q["kind"]),
-                        origin_w=q["origin_w"],
-                        edge_u_w=q["edge_u_w"],
-                        edge_v_w=q["edge_v_w"],
-                        texture=int(q["texture"]),
-                        object_id=int(q["object_id"]),
-                    )
-                    for q in doc["quads"]
-                ),
-                poles=tuple(Pole(int(p[0]), *map(float, p[1:])) for p in doc["poles"]),
-                vertical_lines=tuple(
-                    VerticalLine(int(v[0]), float(v[1]), float(v[2])) for v in doc["vertical_lines"]
-                ),
-                walls_2d=tuple(Wall2D(*map(float, w)) for w in doc["walls_2d"]),
+                quads=tuple(quads),
+                poles=tuple(poles),
+                vertical_lines=tuple(lines),
+                walls_2d=tuple(walls),
             )
-        except DataError:
+        except DataError as exc:
+            if exc.path is None:  # a check of the records (a quad's texture): name the file
+                raise DataError(str(exc), path) from None
             raise
-        except (KeyError, TypeError, ValueError, IndexError) as exc:
+        except (KeyError, TypeError, ValueError, IndexError, OverflowError) as exc:
             raise DataError(f"malformed world description: {exc!r}", path) from exc
+
+
+def _check_coordinates(key: str, values: object, path: Path | None) -> None:
+    """Raise DataError naming ``key`` when a coordinate of a world.json entry is NaN, infinite
+    or beyond ``MAX_COORDINATE_M``."""
+    coordinates = np.asarray([float(c) for c in values], dtype=float)  # type: ignore[union-attr]
+    if not np.all(np.abs(coordinates) <= MAX_COORDINATE_M):  # False for NaN
+        raise DataError(
+            f"{key}: coordinates {coordinates.tolist()} must be finite and within "
+            f"{MAX_COORDINATE_M:g} m",
+            path,
+        )
 
 
 # --- building -----------------------------------------------------------------------------

@@ -183,7 +183,7 @@ def test_a_table_with_its_header_only_is_empty_and_quiet(tmp_path, recwarn):
 
     path = tmp_path / "poles.csv"
     path.write_text("frame,id,range_m,bearing_rad,sigma_range_m,sigma_bearing_rad\n")
-    assert _read_csv(path, 6).shape == (0, 6)  # corridor21 has no poles
+    assert _read_csv(path, 6).values.shape == (0, 6)  # corridor21 has no poles
     assert not [w for w in recwarn if issubclass(w.category, UserWarning)]
 
 
