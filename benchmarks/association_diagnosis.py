@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import sys
 
 import numpy as np
 from harness_cells import set_options
@@ -100,6 +101,7 @@ def diagnose(dataset: str, options: dict[str, str]) -> None:
         estimator = make_estimator(
             "graphslam", info, dict(estimator_options), np.random.default_rng(0)
         )
+        print(f"{dataset}: running graphslam without the ids ...", file=sys.stderr, flush=True)
         for frame in frames:
             estimator.step(frame)
         estimator.estimate()

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import sys
 
 import numpy as np
 from association_diagnosis import landmarks_decided
@@ -113,6 +114,8 @@ class _Recorder:
 
 def diagnose(dataset: str, options: dict[str, str], threshold_m: float, stretch: int) -> None:
     """Run, score and print one dataset (see the module docstring)."""
+    shown = " ".join(f"{k}={v}" for k, v in options.items())
+    print(f"{dataset}: running graphslam {shown} ...", file=sys.stderr, flush=True)
     recorder = _Recorder()
     recorder.install()
     try:

@@ -169,6 +169,7 @@ def main() -> None:
     print(f"{args.dataset}: pass 2, {args.final} {final_options} ...", file=sys.stderr)
     solved, _, seconds = run(args.final, relabelled, estimator_options)
     score(f"pass 2, {args.final} on pass 1's associations", solved, seconds)
+    print(f"{args.dataset}: {args.final} on the true ids {final_options} ...", file=sys.stderr)
     with_ids, _, seconds = run(args.final, labelled, estimator_options)
     score(f"{args.final} on the true ids", with_ids, seconds)
     gap = ate(solved.trajectory, with_ids.trajectory, Alignment.SE2).rmse_m

@@ -127,9 +127,11 @@ def main() -> int:
     sequence = load_synthetic(args.dataset)
     folder = SyntheticFolder(args.dataset)
     log = run_frontend(sequence, config, max_images=args.images, progress=True)
+    print(f"{args.dataset}: the true points of every sighting ...", file=sys.stderr, flush=True)
     s = evaluation.true_sightings(log, lambda i: folder.ground_truth_maps(i).points_w)
     angular = evaluation.bearing_residuals(log, s, folder.groundtruth.poses_w,
                                            sequence.calibration.viewpoint_r)
+    print(f"{args.dataset}: SIFT again for the keypoints' sizes ...", file=sys.stderr, flush=True)
     sizes = keypoint_sizes(sequence, log, config)
     residual, size, dof = pixel_residuals(log, s, sizes, folder, sequence.calibration)
 

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import sys
 
 import numpy as np
 from association_diagnosis import hidden_ids, landmarks_decided
@@ -86,6 +87,11 @@ def decisions(dataset: str, rate: float, seed: int, trace: tuple[int, int] | Non
         truth = ground_truth.trajectory
         truth_se2 = np.array(truth.se2, dtype=float)
         truth_se2[:, 2] = np.unwrap(truth_se2[:, 2])  # interpolated without a jump at +-pi
+    print(
+        f"{dataset}: running graphslam without the ids, {added} false detections added ...",
+        file=sys.stderr,
+        flush=True,
+    )
     range_bearing.RangeBearingGraph._add_decided = recording
     try:
         estimator = make_estimator(
@@ -167,6 +173,8 @@ def in_view(dataset: str, seed: int, options) -> None:
 
     range_bearing.RangeBearingGraph._add_decided = recording
     isam.GraphSLAM.step = stepping
+    shown = " ".join(f"{k}={v}" for k, v in options.items())
+    print(f"{dataset}: running graphslam {shown} ...", file=sys.stderr, flush=True)
     try:
         record = execute_run(RunSpec(dataset, "graphslam", seed, dict(options)))
     finally:

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import collections
 import itertools
+import sys
 
 import numpy as np
 from association_diagnosis import diagnose_each, hidden_ids
@@ -137,6 +138,9 @@ def diagnose(dataset: str, options: dict[str, str]) -> None:
     fs_association.SightingAssociation._unknown = recording
     try:
         motion = filt._motion
+        print(
+            f"{dataset}: running {estimator_name} without the ids ...", file=sys.stderr, flush=True
+        )
         for frame in frames:
             current["frame"] = frame
             filt.step(frame)

@@ -30,6 +30,7 @@ lost within an episode)::
 from __future__ import annotations
 
 import argparse
+import sys
 from collections import defaultdict
 from pathlib import Path
 
@@ -66,6 +67,11 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     estimator = make_estimator(args.estimator, sequence_info(sequence, frames), options, rng)
     probe = _Probe(estimator, truth)
+    print(
+        f"{args.data}: running {args.estimator} with {args.particles} particles ...",
+        file=sys.stderr,
+        flush=True,
+    )
     for frame in frames:
         probe.frame = frame.index
         estimator.step(frame)

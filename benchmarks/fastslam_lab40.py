@@ -21,6 +21,7 @@ landmark, and the estimator's run time (sum of its step times; the machine's loa
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -155,6 +156,7 @@ def main() -> None:
     rows = []
     for cell, data, cell_log in jobs:
         for seed in args.seeds:
+            print(f"  running {cell.label} seed {seed} ...", file=sys.stderr, flush=True)
             row = run_cell(cell, data, cell_log, seed)
             rows.append(row)
             print_row(row)

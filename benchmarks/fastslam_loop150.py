@@ -43,6 +43,7 @@ import argparse
 import dataclasses
 import itertools
 import math
+import sys
 import tempfile
 import time
 from dataclasses import dataclass
@@ -298,6 +299,7 @@ def main() -> None:
         print("extra FastSLAM options:", " ".join(f"{k}={v}" for k, v in extra.items()))
     rows: list[Row] = []
     for seed in args.seeds:
+        print(f"{PRESET} seed {seed}: simulating the route ...", file=sys.stderr, flush=True)
         if args.keep is not None:
             folder = args.keep / f"{PRESET}-s{seed}"
             sequence = laser_only_sequence(seed, folder, args.backend, not args.no_bias)
@@ -314,6 +316,9 @@ def main() -> None:
             for count in args.particles
         ]
         for estimator, options in runs:
+            particles = options.get("n_particles")
+            label = estimator if particles is None else f"{estimator}@{particles}"
+            print(f"{PRESET} seed {seed}: running {label} ...", file=sys.stderr, flush=True)
             row, _ = run_one(sequence, estimator, options, seed)
             rows.append(row)
             print_row(row)

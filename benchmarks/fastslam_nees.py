@@ -22,6 +22,7 @@ evaluate``'s NEES takes it (first pose anchored, ``compare.metrics.pose_nees``):
 from __future__ import annotations
 
 import argparse
+import sys
 import tempfile
 from pathlib import Path
 
@@ -83,6 +84,7 @@ def main() -> None:
     options = set_options(parser, args.set)
     for robot in args.robots:
         for estimator in args.estimators:
+            print(f"mrclam6-r{robot}: running {estimator} ...", file=sys.stderr, flush=True)
             record = execute_run(RunSpec(f"mrclam6-r{robot}", estimator, args.seed, options))
             truth = record.ground_truth.trajectory
             diagnose(f"mrclam6-r{robot} {estimator}", record.estimate, truth)
@@ -90,10 +92,12 @@ def main() -> None:
         import fastslam_loop150 as loop
 
         for seed in args.loop150_seeds:
+            print(f"loop150 seed {seed}: simulating the route ...", file=sys.stderr, flush=True)
             with tempfile.TemporaryDirectory() as tmp:
                 sequence = loop.laser_only_sequence(seed, Path(tmp) / "loop150", None)
             for estimator in args.estimators:
                 used = {"n_particles": str(LOOP150_PARTICLES[estimator]), **options}
+                print(f"loop150 seed {seed}: running {estimator} ...", file=sys.stderr, flush=True)
                 _, slam = loop.run_one(sequence, estimator, used, args.seed)
                 label = f"loop150-s{seed} {estimator}@{used['n_particles']}"
                 diagnose(label, slam.estimate(), sequence.ground_truth.trajectory)

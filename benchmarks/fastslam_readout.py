@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 import numpy as np
 from harness_cells import set_options
@@ -51,7 +52,12 @@ def main() -> None:
     for estimator in args.estimators:
         trajectories, ates, evidences = [], [], []
         truth = None
-        for seed in args.seeds:
+        for i, seed in enumerate(args.seeds):
+            print(
+                f"{args.dataset}: running {estimator} seed {seed} ({i + 1}/{len(args.seeds)}) ...",
+                file=sys.stderr,
+                flush=True,
+            )
             record = execute_run(RunSpec(args.dataset, estimator, seed, options, args.log))
             truth = record.ground_truth.trajectory
             trajectories.append(record.estimate.trajectory)

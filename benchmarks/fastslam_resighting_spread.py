@@ -14,6 +14,7 @@ pairs. A MR.CLAM dataset with ``:u`` runs with its ids hidden::
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 
@@ -46,6 +47,8 @@ def spreads(dataset: str) -> np.ndarray:
         return original(self, sightings, unknown, poses, pose_cov, weights)
 
     association.SightingAssociation._unknown = recording
+    shown = " ".join(f"{k}={v}" for k, v in options.items())
+    print(f"{dataset}: running fastslam2 {shown} ...", file=sys.stderr, flush=True)
     try:
         execute_run(RunSpec(dataset, "fastslam2", 0, options))
     finally:

@@ -14,6 +14,7 @@ first pose anchored (no fit: how far the estimate has moved from the start). Gap
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 from fastslam_mrclam import graphslam_online_trajectory
@@ -48,8 +49,10 @@ def main() -> None:
     dataset = f"mrclam6-r{args.robot}"
     sequence = load_dataset(resolve(dataset), {})
     truth = sequence.ground_truth.trajectory
+    print(f"{dataset}: running graphslam-online ...", file=sys.stderr, flush=True)
     runs = {"graphslam-online": graphslam_online_trajectory(dataset, {})}
     for seed in args.seeds:
+        print(f"{dataset}: running {args.estimator} seed {seed} ...", file=sys.stderr, flush=True)
         record = execute_run(RunSpec(dataset, args.estimator, seed, options))
         runs[f"{args.estimator} s{seed}"] = record.estimate.trajectory
     scored = {name: errors(trajectory, truth) for name, trajectory in runs.items()}

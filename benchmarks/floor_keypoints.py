@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 
 import numpy as np
 
@@ -49,6 +50,11 @@ def main() -> None:
           f"({extractors[flat].budget(mask.shape, mask)} keypoints); "
           f"floor keypoints (>= {FLOOR_MIN_DEPRESSION_DEG:g} deg below the horizon) / all, "
           f"for {', '.join(variants)}:")
+    print(
+        f"{args.dataset}: SIFT with {len(extractors)} budgets on {len(images)} images ...",
+        file=sys.stderr,
+        flush=True,
+    )
     for frame in images.tolist():
         image = sequence.image(frame)
         row = []

@@ -141,6 +141,8 @@ def main() -> None:
         items = config.items()
         options = {k: v for k, v in items if not k.startswith("P:")}
         params = {k[2:]: v for k, v in items if k.startswith("P:")}
+        shown = " ".join(f"{k}={v}" for k, v in items) or "the defaults"
+        print(f"{args.name}: running graphslam with {shown} ...", file=sys.stderr, flush=True)
         run(data, options, params, args.growth and i == 0)
         session_module.ISAM2Session._new_isam, session_module.ISAM2Session.update = original
 

@@ -23,6 +23,7 @@ the laser odometry does under sightings that already correct the wheels.
 from __future__ import annotations
 
 import argparse
+import sys
 import tempfile
 import time
 from collections import Counter
@@ -95,6 +96,12 @@ def with_and_without(dataset: str, estimators: list[str]) -> None:
                 laser_odometry=LaserOdometryConfig(enabled=on, with_images=True)
             )
             path = Path(tmp) / f"{on}.npz"
+            print(
+                f"{Path(dataset).name}: {'laser' if on else 'wheel'} odometry: the front end's "
+                f"laser, then running {', '.join(estimators)} ...",
+                file=sys.stderr,
+                flush=True,
+            )
             save_observation_log(run_frontend(sequence, config, max_images=0), path)
             for estimator in estimators:
                 spec = RunSpec(dataset, estimator, 0, {"modality": "range-bearing-2d"}, str(path))

@@ -17,6 +17,7 @@ corrected poses carry errors of their own (cm), so d2 is an upper bound of the s
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import replace
 
 import numpy as np
@@ -39,6 +40,13 @@ def consecutive_pairs(dataset: str, log_path: str | None) -> list[tuple[np.ndarr
     """(point_a, point_b, range_a, range_b, bearing_a, bearing_b, heading_a, heading_b) of each
     sighting and its nearest neighbour in the previous scan, placed with the corrected poses."""
     sequence = load_dataset(resolve(dataset), {})
+    if log_path is None:
+        print(
+            f"{dataset}: the shared front end's log (from the cache, else run on the scans), "
+            "then pairing consecutive sightings ...",
+            file=sys.stderr,
+            flush=True,
+        )
     path = log_path or frontend_log_for(sequence, dataset, cache_dir() / LOGS)
     log = load_observation_log(path, dataset_id=dataset_fingerprint(sequence))
     wTr = sequence.ground_truth.trajectory.se2

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 
 import numpy as np
 
@@ -71,6 +72,11 @@ def main() -> None:
     for preset in PRESETS.values():
         if args.no_bias:
             preset = dataclasses.replace(preset, odometry_bias=NO_BIAS)
+        print(
+            f"{preset.name}: driving the route, seeds {' '.join(map(str, args.seeds))} ...",
+            file=sys.stderr,
+            flush=True,
+        )
         rows = [dead_reckoning_drift(preset, s) for s in args.seeds]
 
         def span(values: list[float], fmt: str) -> str:

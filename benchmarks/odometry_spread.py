@@ -15,6 +15,7 @@ against the corrected poses::
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 
@@ -36,6 +37,11 @@ def _error(delta: np.ndarray, truth: np.ndarray) -> np.ndarray:
 def spread(dataset: str) -> None:
     """Print the medians of the module docstring for one dataset."""
     sequence = load_dataset(resolve(dataset), {})
+    print(
+        f"{dataset}: the shared front end's log (from the cache, else run on the scans) ...",
+        file=sys.stderr,
+        flush=True,
+    )
     path = frontend_log_for(sequence, dataset, cache_dir() / LOGS)
     log = load_observation_log(path, dataset_id=dataset_fingerprint(sequence))
     alphas = OdometryMotionModel(DEFAULT_MOTION_NOISE)

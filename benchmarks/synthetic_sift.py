@@ -13,6 +13,7 @@ Frames are rendered in memory (nothing written).
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 
@@ -50,6 +51,7 @@ def main() -> None:
     parser.add_argument("--blind", action="store_true", help="only the landmark-free corridor")
     args = parser.parse_args()
     cv2 = require("cv2")
+    print(f"{args.preset}: simulating the route ...", file=sys.stderr, flush=True)
     sim = simulate(PRESETS[args.preset], 0)
     renderer = Renderer(sim.world, sim.rig)
     landmark_surface = sim.world.landmark_surface_mask()
@@ -63,6 +65,11 @@ def main() -> None:
         first_lap = np.cumsum(np.r_[0, np.diff(inside.astype(int)) < 0]) == 0
         frames = frames[inside & first_lap]
     counts, on_landmarks = [], []
+    print(
+        f"{args.preset}: rendering {frames.size} frames and detecting SIFT ...",
+        file=sys.stderr,
+        flush=True,
+    )
     for index in frames:
         frame = renderer.render(sim.poses_w[index])
         kps = keypoints(cv2, sift, frame, mask)

@@ -102,6 +102,11 @@ def main() -> None:
     parser.add_argument("--paper-frames", type=int, default=5)
     parser.add_argument("--paper-max-size", type=int, default=10_000)
     args = parser.parse_args()
+    print(
+        f"corridor21: rendering (once, into {args.out}) and the front end (cached) ...",
+        file=sys.stderr,
+        flush=True,
+    )
     setup = ukf_corridor21.prepare(Path(args.out), args.noise, args.seed)
     print(f"data: {setup.folder}; {len(setup.prior)} landmarks in the world's map")
     print(
@@ -111,8 +116,18 @@ def main() -> None:
     print("|---|---|---|---|---|")
     for size in args.sizes:
         prior = grown_map(setup.prior, size, np.random.default_rng(size))
+        print(
+            f"{size} extra landmarks: running the UKF over the sequence ...",
+            file=sys.stderr,
+            flush=True,
+        )
         ours = time_run(setup, prior, {}, None)
         if size <= args.paper_max_size:
+            print(
+                f"{size} extra landmarks: the paper's step 4 on {args.paper_frames} frames ...",
+                file=sys.stderr,
+                flush=True,
+            )
             paper = time_run(setup, prior, PAPER, args.paper_frames)
             paper_cell = f"{paper['cpu_ms']:.1f} ({paper['wall_ms']:.1f}), {paper['frames']}"
         else:
