@@ -63,3 +63,11 @@ def test_an_estimator_named_twice_is_listed_once(capsys):
     assert main(["estimators", "deadreckoning", "deadreckoning"]) == 0
     out = capsys.readouterr().out
     assert out.count("deadreckoning: ") == 1
+
+
+def test_a_local_cluster_of_no_workers_is_refused(capsys, tmp_path):
+    # --workers 0 means in-process; a LocalCluster of it used to start one worker per core
+    argv = ["compare", str(tmp_path / "g.yaml"), "--out", str(tmp_path / "r")]
+    assert main([*argv, "--scheduler", "local", "--workers", "0"]) == 2
+    assert "--scheduler local needs --workers >= 1" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
