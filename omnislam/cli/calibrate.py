@@ -3,10 +3,10 @@
 Corners come from OpenCV's detector on each image (refined to sub-pixel on the original) or
 from a points file (``--points FILE.mat|.csv``; the board then comes from the file when it
 holds it). The chosen model is initialised and fitted jointly with every board pose
-(:mod:`omnislam.camera.calibration`). Writes, atomically, the camera YAML (with
-``reprojection_rms_px``) and a report folder (``report.json``, ``report.md``,
-``residuals.png``); prints the per-image table and, last, ``rms_px: X``. Existing outputs are
-replaced only with ``--overwrite``. An image whose board
+(:mod:`omnislam.camera.calibration`). Writes the camera YAML atomically (with
+``reprojection_rms_px``) and a report folder (``report.json``, ``report.md``, and
+``residuals.png`` when matplotlib is installed); prints the per-image table and, last,
+``rms_px: X``. Existing outputs are replaced only with ``--overwrite``. An image whose board
 is not found or whose points disagree with the board is named in a warning with the problem and
 left out; fewer than three usable images stop the command with exit code 2 (the one error line
 names the first image left out and why). The stage lines on stderr are progress
@@ -21,10 +21,14 @@ import os
 #: BLAS threads of this command: the problem is small, and threaded BLAS on a loaded machine
 #: slowed each SVD of the solver 100-300x (measured 99 s vs 4.0 s for the VMR fit)
 BLAS_THREADS = "1"
+#: default sub-pixel half-window of the corner refinement (``--window``) [px]
+WINDOW_PX = 4
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("calibrate", help="fit a camera model to checkerboard images")
+    p = sub.add_parser(
+        "calibrate", help="fit a camera model to checkerboard images", description=__doc__
+    )
     p.add_argument("images", nargs="*", metavar="IMAGE", help="images of the board")
     p.add_argument(
         "--model",
@@ -60,9 +64,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         type=float,
         default=None,
         metavar=("INNER", "OUTER"),
-        help="detect only on the ring between these radii about the image centre [px]",
+        help="detect only on the ring between these radii about the image centre [px] "
+        "(detection only, not with --points)",
     )
-    p.add_argument("--window", type=int, default=4, help="sub-pixel half-window [px] (4)")
+    p.add_argument(
+        "--window",
+        type=int,
+        default=None,
+        help=f"sub-pixel half-window [px] ({WINDOW_PX}; detection only, not with --points)",
+    )
     p.add_argument("--ocam-degree", type=int, default=4, help="OCamCalib pol degree (4)")
     p.add_argument("--save-points", default=None, metavar="CSV", help="write the corners used")
     p.add_argument(
@@ -103,8 +113,15 @@ def run(args: argparse.Namespace) -> int:
         if enabled():
             print(f"omnislam calibrate: {line}", file=sys.stderr, flush=True)
 
-    if args.window < 1:
-        raise ConfigError(f"--window must be a positive number of pixels, got {args.window}")
+    if args.points is not None:  # options of the detection that a points file would ignore
+        for flag, given in (("--window", args.window), ("--mask-radii", args.mask_radii)):
+            if given is not None:
+                raise ConfigError(f"{flag} applies to corner detection, not to --points")
+    elif args.image_size is not None:
+        raise ConfigError("--image-size applies to --points (detection reads the images' size)")
+    window = WINDOW_PX if args.window is None else args.window
+    if window < 1:
+        raise ConfigError(f"--window must be a positive number of pixels, got {window}")
     if args.ocam_degree < 2:
         raise ConfigError(f"--ocam-degree must be at least 2, got {args.ocam_degree}")
 
@@ -126,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
             mask = _ring_mask(size, *args.mask_radii) if size is not None else None
         detecting = f"calibrate: detecting the {board.cols}x{board.rows} board"
         with Progress(detecting, len(args.images), "img"):  # quiet when quick (bad input)
-            views, skipped, size = detect_views(args.images, board, mask, args.window)
+            views, skipped, size = detect_views(args.images, board, mask, window)
     else:
         names = [Path(image).name for image in args.images] or None
         views, skipped = read_points(

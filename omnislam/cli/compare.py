@@ -53,7 +53,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--workers",
         type=int,
         default=None,
-        help="local worker processes (0 = in-process; with --scheduler local: cluster size)",
+        help="local worker processes (default: one per core; 0 = in-process; with "
+        "--scheduler local: the cluster's size, >= 1)",
     )
     p.add_argument(
         "--scheduler",
@@ -98,6 +99,8 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--workers cannot be combined with a remote --scheduler")
     if args.workers is not None and args.workers < 0:
         raise ConfigError(f"--workers must be >= 0, got {args.workers}")
+    if args.scheduler == "local" and args.workers == 0:  # 0 means in-process, not a cluster
+        raise ConfigError("--scheduler local needs --workers >= 1 (its cluster's size)")
     grid = load_grid(args.grid)
     check_results_dir(args.out)
     if not args.resume:  # (check_results_dir refused a folder that is not a results folder)

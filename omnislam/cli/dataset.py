@@ -28,7 +28,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     synth.add_argument("preset", help="preset name (see `omnislam dataset list`)")
     synth.add_argument("--out", required=True, help="output folder")
     synth.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    synth.add_argument("--frames", type=int, default=None, help="number of frames")
+    synth.add_argument(
+        "--frames",
+        type=int,
+        default=None,
+        metavar="N",
+        help="end the run at its N-th image (default: the whole route); the odometry frames "
+        "up to that image are kept",
+    )
     synth.add_argument(
         "--image-every",
         type=int,

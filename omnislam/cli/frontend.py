@@ -3,7 +3,8 @@
 Runs the shared front end once over a dataset and writes its ObservationLog (compressed npz),
 to replay with ``omnislam run DATASET --log LOG``. Progress (images done, rate, ETA) goes to
 stderr. An existing LOG is refused unless ``--overwrite`` (rebuild it) or ``--resume`` (keep it
-when it was built from the same dataset and configuration, else rebuild it).
+when it was built from the same dataset, configuration, ``--frames`` and ``--seed``, else
+rebuild it).
 """
 
 from __future__ import annotations
@@ -27,12 +28,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--resume",
         action="store_true",
-        help="keep an existing LOG built from the same dataset and configuration",
+        help="keep an existing LOG built from the same dataset, configuration, --frames and "
+        "--seed (else rebuild it)",
     )
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    import dataclasses
     from pathlib import Path
 
     import numpy as np
@@ -70,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     )
     check_output_location(out, "observation log")
     sequence = load_dataset(args.dataset)
-    key_hash = log_key(config, args.frames)
+    key_hash = log_key(config, args.frames, args.seed)
     if out.exists() and args.resume:
         try:
             load_observation_log(
@@ -88,6 +91,8 @@ def run(args: argparse.Namespace) -> int:
         progress=True,
         pipelined=True,
     )
+    if log.config_hash != key_hash:  # the seed is the CLI's: run_frontend takes a generator
+        log = dataclasses.replace(log, config_hash=key_hash)
     save_observation_log(log, out)
     stats = log.stats
     print(

@@ -27,7 +27,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("results_dir", metavar="RESULTS_DIR", help="output of `omnislam compare`")
     p.add_argument("--out", required=True, metavar="DIR", help="report folder")
     p.add_argument("--title", default=None, help="report title (default: the grid's name)")
-    p.add_argument("--no-exports", action="store_true", help="skip exports/ (TUM, KITTI, PLY)")
+    p.add_argument("--no-exports", action="store_true", help="skip exports/ (TUM, KITTI, PLY, g2o)")
     p.add_argument(
         "--no-figures", action="store_true", help="verdicts and tables only (a small report)"
     )

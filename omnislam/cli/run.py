@@ -25,7 +25,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "(`omnislam estimators` lists them with their options)",
     )
     p.add_argument("--out", required=True, metavar="RUN_DIR", help="output folder")
-    p.add_argument("--seed", type=int, default=None, help="random seed")
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help="random seed of the estimator and of the harness's perturbations (default: fresh "
+        "entropy, a run that cannot be repeated)",
+    )
     p.add_argument(
         "--set",
         dest="options",

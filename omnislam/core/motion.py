@@ -40,8 +40,8 @@ class MotionNoise:
         a_ww: rotation std per radian of rotation.
         min_sigma: (3,) floor of the stds of (rot1, trans, rot2) [rad, m, rad], so that a robot
             standing still still has a (small) positive-definite covariance.
-        reference_step_m: None (default): eq. 4.41 for every step. Else d0 [m], the step
-            length at which the alphas hold: a step that translates further than d0 gets eq.
+        reference_step_m: the step length d0 [m] at which the alphas hold; None (the
+            default): eq. 4.41 for every step. A step that translates further than d0 gets eq.
             4.41's stds times sqrt(d0 / |trans|) (``OdometryMotionModel.component_sigmas``), so
             its variances grow *linearly* with its length, as n steps of d0 would add up, and as
             odometry errors that accumulate with the distance travelled do (Siegwart &

@@ -101,10 +101,14 @@ def schedule_images(
     return np.array(chosen, dtype=np.int64)
 
 
-def log_key(config: FrontendConfig, max_images: int | None = None) -> str:
-    """The configuration key of a log: ``config_hash``, suffixed when images were limited."""
+def log_key(config: FrontendConfig, max_images: int | None = None, seed: int = DEFAULT_SEED) -> str:
+    """The configuration key of a log: ``config_hash``, suffixed when images were limited and
+    when the RANSAC generator had another seed than ``DEFAULT_SEED`` (the seed changes the
+    tracks, so ``omnislam frontend --resume`` must not keep a log of another seed)."""
     key = config_hash(config)
-    return key if max_images is None else f"{key}-first{max_images}"
+    if max_images is not None:
+        key = f"{key}-first{max_images}"
+    return key if seed == DEFAULT_SEED else f"{key}-seed{seed}"
 
 
 def _has_own_sightings(sequence: Any) -> bool:

@@ -151,7 +151,8 @@ class UKFConfig:
             (conservative), 1.1 and 2.0 cm (``benchmarks/ukf_corridor21.py --ablation``).
         initial_sigma_xy_m, initial_sigma_theta_rad: std of the start pose (the map's
             ``initial_pose_w``).
-        sigma_bearing_rad: bearing std when the sightings state none; None: theirs.
+        sigma_bearing_rad: bearing std of every sighting, in place of the one the sightings
+            state [rad]; None: theirs (``localiser.VerticalLineUKF._sightings``).
         pixels_per_rad: image scale of sightings without a camera (MR.CLAM) [px / rad]; the
             default is corridor21's focal length.
         fov_rad: full field of view of sightings without a camera (before widening) [rad].
@@ -172,7 +173,8 @@ class UKFConfig:
             correct sightings that end such a stretch were gated out too (robots 1-5: 0.124 /
             0.094 / 0.069 / 0.225 / 0.127 m; at 1 - 1e-12 0.112 / 0.093 / 0.068 / 0.126 /
             0.098 m; ``benchmarks/ukf_mrclam.py``).
-        photometric: PhotometricMode.
+        photometric: whether step 4 uses the photometric gate and score C'_ij: auto (when
+            the map and the sightings both carry colour), on or off (PhotometricMode).
         association, colour: see their classes.
     """
 

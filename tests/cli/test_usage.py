@@ -63,3 +63,27 @@ def test_an_estimator_named_twice_is_listed_once(capsys):
     assert main(["estimators", "deadreckoning", "deadreckoning"]) == 0
     out = capsys.readouterr().out
     assert out.count("deadreckoning: ") == 1
+
+
+def test_a_local_cluster_of_no_workers_is_refused(capsys, tmp_path):
+    # --workers 0 means in-process; a LocalCluster of it used to start one worker per core
+    argv = ["compare", str(tmp_path / "g.yaml"), "--out", str(tmp_path / "r")]
+    assert main([*argv, "--scheduler", "local", "--workers", "0"]) == 2
+    assert "--scheduler local needs --workers >= 1" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize(
+    ("extra", "needle"),
+    [
+        (["--points", "p.csv", "--window", "3"], "--window applies to corner detection"),
+        (["--points", "p.csv", "--mask-radii", "10", "90"], "--mask-radii applies to corner"),
+        (["a.png", "--board", "6x7", "--square", "0.03", "--image-size", "64x48"], "--points"),
+    ],
+)
+def test_calibrate_refuses_options_its_corner_source_would_ignore(capsys, tmp_path, extra, needle):
+    files = [str(tmp_path / a) if a.endswith((".csv", ".png")) else a for a in extra]
+    assert main(["calibrate", *files, "--out", str(tmp_path / "cam.yaml")]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0]
+    assert not any(tmp_path.iterdir())

@@ -37,6 +37,21 @@ def test_writes_a_log_and_reuses_it(demo_folder, tmp_path, capsys):
     assert load_observation_log(out).config["sift"]["edge_threshold"] == 10.0
 
 
+def test_resume_rebuilds_a_log_of_another_seed(demo_folder, tmp_path, capsys):
+    out = tmp_path / "demo.npz"
+    config = tmp_path / "fe.yaml"
+    config.write_text("laser: {enabled: false}\n")
+    argv = [str(demo_folder), "--out", str(out), "--frames", "2", "--config", str(config)]
+    assert _run([*argv, "--seed", "1"]) == 0
+    assert load_observation_log(out).config_hash.endswith("-first2-seed1")
+    capsys.readouterr()
+    assert _run([*argv, "--seed", "1", "--resume"]) == 0
+    assert "up to date" in capsys.readouterr().err
+    assert _run([*argv, "--resume"]) == 0  # the default seed: not the log of seed 1
+    assert "rebuilding" in capsys.readouterr().err
+    assert load_observation_log(out).config_hash.endswith("-first2")
+
+
 def test_a_bad_config_is_a_config_error(demo_folder, tmp_path):
     config = tmp_path / "bad.yaml"
     config.write_text("tracks: {window: 3}\n")
