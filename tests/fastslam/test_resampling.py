@@ -106,6 +106,29 @@ def test_each_scheme_has_its_own_joint_distribution():
         assert abs(np.mean(np.array(light) != 1) - not_one) < 0.04, scheme.__name__
 
 
+class _Draw:
+    """A generator whose uniform draws are one value of [0, 1): the ends of the interval."""
+
+    def __init__(self, value):
+        self.value = value
+
+    def random(self, size=None):
+        return self.value if size is None else np.full(size, self.value)
+
+
+def test_resampling_at_the_ends_of_the_uniform_interval():
+    """A draw of 0 puts the pointers on the cumulative sums' steps: with dyadic equal weights
+    (exact sums) every particle is copied once. A draw just below 1 rounds the last pointer
+    (u + P - 1) / P to 1.0: it must still name a particle (an index < P)."""
+    for p in (4, 8):
+        for scheme in (systematic_resample, stratified_resample):
+            np.testing.assert_array_equal(scheme(np.full(p, 1.0 / p), _Draw(0.0)), np.arange(p))
+    for p in (4, 10, 1000):
+        for scheme in (systematic_resample, stratified_resample):
+            ancestors = scheme(np.full(p, 1.0 / p), _Draw(np.nextafter(1.0, 0.0)))
+            assert ancestors.min() >= 0 and ancestors.max() == p - 1, scheme.__name__
+
+
 def test_island_resampling_with_a_threshold_of_one_always_resamples():
     bounds = island_bounds(6, 2)
     log_w = normalize_per_island(np.zeros(6), bounds)  # ESS equal to the island size
