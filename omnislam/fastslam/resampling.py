@@ -48,7 +48,10 @@ def coefficient_of_variation(log_weights: np.ndarray) -> float:
 def _search(weights: np.ndarray, positions: np.ndarray) -> np.ndarray:
     cumulative = np.cumsum(weights)
     cumulative[-1] = 1.0  # guard against round-off below the last position
-    return np.searchsorted(cumulative, positions, side="right").astype(np.int64)
+    # a draw u just below 1 rounds the last pointer (u + P - 1) / P to 1.0 itself, which
+    # side="right" places past the last particle
+    index = np.searchsorted(cumulative, positions, side="right")
+    return np.minimum(index, len(weights) - 1).astype(np.int64)
 
 
 def systematic_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from omnislam.compare.metrics import (
+    ORIGIN_HEADING_BASELINE_M,
     Alignment,
     DeltaUnit,
     LandmarkAssociation,
@@ -55,6 +56,25 @@ def test_umeyama_recovers_a_similarity():
     assert np.allclose(R, T[:3, :3]) and np.allclose(t, T[:3, 3]) and s == pytest.approx(1.7)
 
 
+def test_umeyama_of_mirrored_points_is_the_best_proper_rotation():
+    """Against a mirror image the unconstrained optimum is a reflection; Umeyama's sign
+    correction must return the best *proper* rotation and its scale. In 2-D both have a closed
+    form (Procrustes): theta* = atan2(sum xs x xt, sum xs . xt), s* = sum xt . R xs / sum |xs|^2.
+    """
+    rng = np.random.default_rng(8)
+    src = rng.normal(size=(40, 2)) * [3.0, 1.0]
+    dst = src * [-1.0, 1.0] + rng.normal(0, 0.1, size=src.shape) + [2.0, -1.0]  # mirrored in x
+    xs, xt = src - src.mean(axis=0), dst - dst.mean(axis=0)
+    theta = np.arctan2(np.sum(xs[:, 0] * xt[:, 1] - xs[:, 1] * xt[:, 0]), np.sum(xs * xt))
+    R_star = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+    s_star = np.sum(xt * (xs @ R_star.T)) / np.sum(xs**2)
+    R, t, s = umeyama(src, dst, with_scale=True)
+    assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(R, R_star, atol=1e-12)
+    assert s == pytest.approx(s_star, rel=1e-12)
+    np.testing.assert_allclose(t, dst.mean(axis=0) - s_star * R_star @ src.mean(axis=0), atol=1e-12)
+
+
 @pytest.mark.parametrize(
     "alignment", [Alignment.ORIGIN, Alignment.SE2, Alignment.SE3, Alignment.SIM3]
 )
@@ -94,6 +114,33 @@ def test_origin_alignment_without_ground_truth_heading_uses_the_start_of_the_run
         truth_has_orientation=False,
     )
     assert result.rmse_m < 1e-6
+
+
+def test_origin_alignment_without_heading_fits_only_the_first_baseline_of_travel():
+    """Position-only truth: ORIGIN fits on the pairs within ORIGIN_HEADING_BASELINE_M of travel,
+    so drift after the baseline shows in full and the start stays exact."""
+    stamps, poses = random_path(np.random.default_rng(9))
+    gt_xy = poses[:, :2]
+    travel = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(gt_xy, axis=0), axis=1))]
+    late = travel > ORIGIN_HEADING_BASELINE_M + 5.0
+    assert late.sum() > len(stamps) // 2  # the run is much longer than the baseline
+    drifted = poses.copy()
+    drifted[late, 1] += 3.0  # 3 m lateral offset, well after the baseline
+    truth_xy = moved(poses, 1.0, 2.0, 0.4)
+    truth_xy[:, 2] = 0.0  # GPS: no heading
+    result = ate(
+        Trajectory.from_se2(stamps, moved(drifted, -4.0, 0.5, -1.1)),
+        Trajectory.from_se2(stamps, truth_xy),
+        Alignment.ORIGIN,
+        truth_has_orientation=False,
+    )
+    np.testing.assert_allclose(result.errors_m[~late], 0.0, atol=1e-9)
+    np.testing.assert_allclose(result.errors_m[late], 3.0, rtol=1e-9)
+
+
+def test_association_keeps_the_closest_estimate_for_each_truth_stamp():
+    i_est, i_gt = associate(np.array([0.995, 1.002, 1.009]), np.array([1.0]), 0.01)
+    assert list(i_est) == [1] and list(i_gt) == [0]
 
 
 def test_association_by_nearest_stamp_within_tolerance():

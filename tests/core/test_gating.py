@@ -81,3 +81,17 @@ def test_a_point_lies_on_a_landmark_within_its_sighting_noise():
     assert lies_on_a_landmark(np.array([3.1, 0.05]), covariance, landmarks, gate)
     assert not lies_on_a_landmark(np.array([3.5, 0.0]), covariance, landmarks, gate)
     assert not lies_on_a_landmark(np.zeros(2), covariance, np.zeros((0, 2)), gate)
+
+
+def test_a_landmark_seen_within_the_window_holds_nothing_and_an_overrule_counts_as_seen():
+    """A gated sighting of a landmark the back end used within ``window_frames`` (inclusive)
+    is not held; an overrule marks the landmark seen, so the next gated ones are not held."""
+    held = GatedResightings(chi_square_gate(0.999, 2), votes=2, window_frames=10)
+    held.seen(7, 5)
+    for frame in (10, 11, 15):  # 5, 6 and 10 frames after the landmark was used
+        assert held.offer(7, _resighting(frame, 1.0)) == []
+    assert held.offer(7, _resighting(16, 1.0)) == []  # 11 frames after: held, one vote
+    assert [r.payload for r in held.offer(7, _resighting(17, 1.0))] == [16, 17]
+    for frame in (18, 19, 27):  # within the window of the overrule at 17: not held
+        assert held.offer(7, _resighting(frame, 1.0)) == []
+    assert held.readmitted == 2

@@ -9,22 +9,28 @@ from omnislam.core.jacobian import numerical_jacobian
 from omnislam.core.kalman import ekf_update, initialize_from_inverse, kalman_update
 from omnislam.core.measurement import RangeAzimuthElevation3D, RangeBearing2D
 
+MODELS = [RangeBearing2D(), RangeAzimuthElevation3D(0.8)]
 
-def _case(rng, n=5):
+
+def _case(rng, model, n=5):
+    d, k = model.dim_landmark, model.dim_z
     poses = np.column_stack([rng.normal(0, 1, (n, 2)), rng.uniform(-np.pi, np.pi, n)])
-    landmarks = poses[:, :2] + rng.uniform(2, 5, (n, 2))
-    A = rng.normal(size=(n, 2, 2)) * 0.1
-    cov = A @ np.swapaxes(A, 1, 2) + 0.01 * np.eye(2)
-    R = np.broadcast_to(np.diag([0.1**2, 0.02**2]), (n, 2, 2)).copy()
-    z, _, _ = RangeBearing2D().predict(poses, landmarks + rng.normal(0, 0.1, (n, 2)))
+    landmarks = np.zeros((n, d))
+    landmarks[:, :2] = poses[:, :2] + rng.uniform(2, 5, (n, 2))
+    if d == 3:
+        landmarks[:, 2] = rng.uniform(0.5, 2.5, n)
+    A = rng.normal(size=(n, d, d)) * 0.1
+    cov = A @ np.swapaxes(A, 1, 2) + 0.01 * np.eye(d)
+    R = np.broadcast_to(np.diag([0.1**2, 0.02**2, 0.03**2][:k]), (n, k, k)).copy()
+    z, _, _ = model.predict(poses, landmarks + rng.normal(0, 0.1, (n, d)))
     return poses, landmarks, cov, z, R
 
 
+@pytest.mark.parametrize("model", MODELS, ids=lambda m: type(m).__name__)
 @pytest.mark.parametrize("joseph", [False, True])
-def test_ekf_update_matches_information_form(rng, joseph):
+def test_ekf_update_matches_information_form(rng, joseph, model):
     """Sigma' = (Sigma^-1 + H^T R^-1 H)^-1, mu' = mu + Sigma' H^T R^-1 y (thesis 4.35-4.37)."""
-    poses, landmarks, cov, z, R = _case(rng)
-    model = RangeBearing2D()
+    poses, landmarks, cov, z, R = _case(rng, model)
     update = ekf_update(poses, landmarks, cov, z, R, model, joseph=joseph)
     z_hat, _, H = model.predict(poses, landmarks)
     y = model.residual(z, z_hat)
@@ -38,6 +44,21 @@ def test_ekf_update_matches_information_form(rng, joseph):
         ll = -0.5 * (y[i] @ np.linalg.solve(S, y[i]) + np.log(np.linalg.det(2 * np.pi * S)))
         np.testing.assert_allclose(update.log_likelihood[i], ll, rtol=1e-9)
         np.testing.assert_allclose(update.mahalanobis[i], y[i] @ np.linalg.solve(S, y[i]))
+
+
+def test_a_bearing_across_pi_updates_like_the_same_bearing_unwrapped():
+    """A landmark behind the robot is predicted at bearing pi - 0.01; a measured -pi + 0.01 is
+    the same direction as pi + 0.01, so both must give the same update (innovation 0.02 rad)."""
+    pose = np.array([[0.0, 0.0, 0.0]])
+    landmark = np.array([[-4.0, 4.0 * np.tan(0.01)]])  # bearing pi - 0.01
+    cov = 0.04 * np.eye(2)[None]
+    R = np.diag([0.1**2, 0.02**2])[None]
+    model = RangeBearing2D()
+    across = ekf_update(pose, landmark, cov, np.array([[4.0, -np.pi + 0.01]]), R, model)
+    unwrapped = ekf_update(pose, landmark, cov, np.array([[4.0, np.pi + 0.01]]), R, model)
+    np.testing.assert_allclose(across.mean, unwrapped.mean, rtol=1e-12)
+    np.testing.assert_allclose(across.mahalanobis, unwrapped.mahalanobis, rtol=1e-9)
+    assert across.mahalanobis[0] < 9.0  # 0.02 rad is within a few sigma, not 2 pi away
 
 
 @pytest.mark.parametrize(("n", "k"), [(2, 1), (3, 2), (3, 3), (2, 3)])
@@ -65,9 +86,7 @@ def test_kalman_update_matches_the_dense_kalman_filter(rng, n, k):
         np.testing.assert_array_equal(step.cov, np.swapaxes(step.cov, 0, 1))
 
 
-@pytest.mark.parametrize(
-    "model", [RangeBearing2D(), RangeAzimuthElevation3D(0.8)], ids=lambda m: type(m).__name__
-)
+@pytest.mark.parametrize("model", MODELS, ids=lambda m: type(m).__name__)
 def test_first_estimate_propagates_the_noise_through_the_numerical_inverse_jacobian(rng, model):
     """Sigma = J_z R J_z^T (thesis 4.26-4.27) with J_z checked against central differences."""
     k = model.dim_z

@@ -218,6 +218,28 @@ def test_stated_odometry_motion_samples_and_predicts_the_stated_covariance():
     np.testing.assert_allclose(draws.mean(axis=0), mean, atol=1e-3)
     # 20000 draws: each covariance entry within ~1 % of the diagonal's scale (1 sigma)
     np.testing.assert_allclose(np.cov(draws.T), cov, atol=0.05 * np.max(np.diag(cov)))
-    P = np.diag([0.01, 0.02, 0.03])
+    P = np.array([[0.01, 0.002, 0.001], [0.002, 0.02, -0.003], [0.001, -0.003, 0.03]])
     _, cov_p = model.predict(start, P, delta)
-    assert np.all(np.linalg.eigvalsh(cov_p - cov) > 0)  # the prior's uncertainty is added
+    # the prior's uncertainty is carried through the composition's numerical pose Jacobian
+    J_a = numerical_jacobian(lambda x: se2_compose(x, delta), start)
+    np.testing.assert_allclose(cov_p, J_a @ P @ J_a.T + cov, rtol=JACOBIAN_RTOL, atol=1e-15)
+
+
+def test_reversing_is_decomposed_as_a_short_turn_and_a_negative_translation():
+    """dx < 0: rot1 = atan2(-dy, -dx), trans = -|d| (module docstring), on the scalar and the
+    vector paths, so a motion reversed costs the noise of the same motion driven forwards
+    (not a rot1 near pi)."""
+    reverse = np.array([[-0.3, 0.05, 0.1], [-0.6, -0.2, -0.4]])
+    forward = reverse * [-1.0, -1.0, 1.0]
+    rot1 = np.arctan2(-reverse[:, 1], -reverse[:, 0])
+    expected = np.column_stack(
+        [rot1, -np.hypot(reverse[:, 0], reverse[:, 1]), wrap_angle(reverse[:, 2] - rot1)]
+    )
+    for k in range(2):
+        np.testing.assert_allclose(MODEL.decompose(reverse[k]), expected[k], atol=1e-15)
+        np.testing.assert_allclose(
+            MODEL.component_sigmas(MODEL.decompose(reverse[k])),
+            MODEL.component_sigmas(MODEL.decompose(forward[k])),
+            rtol=1e-12,
+        )
+    np.testing.assert_allclose(MODEL.decompose(reverse), expected, atol=1e-15)

@@ -15,10 +15,12 @@ from omnislam.ekfslam import EKFSLAM, EKFSLAMConfig, SlamGaussian
 N_LANDMARKS = 5
 
 
-def random_state(rng: np.random.Generator, n: int = N_LANDMARKS) -> SlamGaussian:
+def random_state(
+    rng: np.random.Generator, n: int = N_LANDMARKS, heading: float = 0.4
+) -> SlamGaussian:
     """A state with n landmarks and a random SPD covariance (capacity smaller than n, so the
     arrays had to grow)."""
-    state = SlamGaussian(np.array([0.3, -0.2, 0.4]), np.eye(3) * 0.01, capacity=2)
+    state = SlamGaussian(np.array([0.3, -0.2, heading]), np.eye(3) * 0.01, capacity=2)
     for _ in range(n):
         state.augment(np.array([rng.uniform(2, 6), rng.uniform(-np.pi, np.pi)]), np.eye(2) * 0.01)
     d = state.dim
@@ -85,10 +87,13 @@ def test_prediction_equals_dense_ekf(rng, delta_cov):
     assert np.array_equal(state.cov, state.cov.T)
 
 
-def test_sparse_update_equals_dense_joseph_ekf(rng):
-    state = random_state(rng)
+@pytest.mark.parametrize("heading", [0.4, np.pi - 0.005])
+def test_sparse_update_equals_dense_joseph_ekf(rng, heading):
+    """Near pi the first update turns the heading past pi: the state must wrap it too."""
+    state = random_state(rng, heading=heading)
     R = np.diag([0.05, 0.01]) ** 2
     x, P = state.mean.copy(), state.cov.copy()
+    headings = []
     for slot in (3, 0, 4):  # several sequential updates, each against the oracle's
         lm = state.mean[3 + 2 * slot : 5 + 2 * slot]
         rel = lm - state.mean[:2]
@@ -98,6 +103,22 @@ def test_sparse_update_equals_dense_joseph_ekf(rng):
         np.testing.assert_allclose(state.mean, x, rtol=0, atol=ORACLE_ATOL)
         np.testing.assert_allclose(state.cov, P, rtol=0, atol=ORACLE_ATOL)
         assert np.array_equal(state.cov, state.cov.T)  # stored as one triangle
+        headings.append(x[2])
+    assert (np.min(headings) < 0) == (heading > 3)  # the case near pi did cross it
+
+
+@pytest.mark.parametrize("heading", [0.4, np.pi - 0.005])
+def test_a_batch_of_one_sighting_is_the_sequential_update(heading):
+    """``update_batch`` of one sighting is ``update`` exactly, the heading wrapped alike."""
+    a, b = (random_state(np.random.default_rng(3), heading=heading) for _ in range(2))
+    R = np.diag([0.05, 0.01]) ** 2
+    rel = a.mean[9:11] - a.mean[:2]  # slot 3
+    z = np.array([np.hypot(*rel) + 0.1, np.arctan2(rel[1], rel[0]) - a.mean[2] - 0.05])
+    a.update_batch(np.array([3]), z[None], R[None])
+    b.update(3, z, R)
+    np.testing.assert_allclose(a.mean, b.mean, rtol=0, atol=ORACLE_ATOL)
+    np.testing.assert_allclose(a.cov, b.cov, rtol=0, atol=ORACLE_ATOL)
+    assert -np.pi <= a.mean[2] < np.pi
 
 
 def test_mahalanobis_of_all_landmarks_equals_dense_innovation(rng):

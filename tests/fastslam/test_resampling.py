@@ -90,3 +90,48 @@ def test_islands_are_normalised_and_resampled_apart():
         )
         is None
     )
+
+
+def test_each_scheme_has_its_own_joint_distribution():
+    """Weights (1, 3, 3, 1) / 8 over 4 particles: one systematic draw keeps exactly one of the
+    two light particles (u < 1/2 keeps the first, u >= 1/2 the last); stratified draws keep
+    each independently with probability 1/2, so both or neither half of the time; multinomial
+    draws give them Binomial(4, 1/4) copies together, not one copy with 1 - 4 (1/4) (3/4)^3
+    = 0.578. 2000 draws: a standard error of 0.011, the tolerance ~3.5 of them."""
+    weights = np.array([1.0, 3.0, 3.0, 1.0]) / 8
+    rng = np.random.default_rng(2)
+    expected = {systematic_resample: 0.0, stratified_resample: 0.5, multinomial_resample: 0.578}
+    for scheme, not_one in expected.items():
+        light = [np.isin(scheme(weights, rng), [0, 3]).sum() for _ in range(2000)]
+        assert abs(np.mean(np.array(light) != 1) - not_one) < 0.04, scheme.__name__
+
+
+class _Draw:
+    """A generator whose uniform draws are one value of [0, 1): the ends of the interval."""
+
+    def __init__(self, value):
+        self.value = value
+
+    def random(self, size=None):
+        return self.value if size is None else np.full(size, self.value)
+
+
+def test_resampling_at_the_ends_of_the_uniform_interval():
+    """A draw of 0 puts the pointers on the cumulative sums' steps: with dyadic equal weights
+    (exact sums) every particle is copied once. A draw just below 1 rounds the last pointer
+    (u + P - 1) / P to 1.0: it must still name a particle (an index < P)."""
+    for p in (4, 8):
+        for scheme in (systematic_resample, stratified_resample):
+            np.testing.assert_array_equal(scheme(np.full(p, 1.0 / p), _Draw(0.0)), np.arange(p))
+    for p in (4, 10, 1000):
+        for scheme in (systematic_resample, stratified_resample):
+            ancestors = scheme(np.full(p, 1.0 / p), _Draw(np.nextafter(1.0, 0.0)))
+            assert ancestors.min() >= 0 and ancestors.max() == p - 1, scheme.__name__
+
+
+def test_island_resampling_with_a_threshold_of_one_always_resamples():
+    bounds = island_bounds(6, 2)
+    log_w = normalize_per_island(np.zeros(6), bounds)  # ESS equal to the island size
+    ancestors = island_resample(log_w, bounds, 1.0, systematic_resample, np.random.default_rng(0))
+    assert ancestors is not None
+    np.testing.assert_array_equal(ancestors, np.arange(6))

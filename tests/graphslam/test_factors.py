@@ -96,17 +96,30 @@ def test_planar_prior_ignores_x_y_yaw_and_holds_z_roll_pitch():
     np.testing.assert_allclose(prior.error(_values((fx.pose_key(0), lifted))), 0.5, rtol=1e-6)
 
 
+#: M-estimator weights w(|e|) of a whitened residual e with threshold k (Zhang's tutorial):
+#: Huber 1 inside k and k / |e| outside, Cauchy 1 / (1 + (|e| / k)^2), none 1
+KERNEL_WEIGHTS = {
+    RobustKernel.NONE: lambda e, k: 1.0,
+    RobustKernel.HUBER: lambda e, k: 1.0 if e <= k else k / e,
+    RobustKernel.CAUCHY: lambda e, k: 1.0 / (1.0 + (e / k) ** 2),
+}
+
+
 @pytest.mark.parametrize("kernel", [k for k in RobustKernel if k is not RobustKernel.AUTO])
 def test_robust_models_downweight_only_with_a_kernel(kernel):
-    models = fx.NoiseModels(kernel, 1.345 if kernel is RobustKernel.HUBER else 2.3849)
+    threshold = 1.345 if kernel is RobustKernel.HUBER else 2.3849
+    models = fx.NoiseModels(kernel, threshold)
     model = models.diagonal(0.1, 0.2)
     assert models.diagonal(0.1, 0.2) is model  # cached
-    big = np.array([10.0, 0.0])
-    weight = model.weight(big) if kernel is not RobustKernel.NONE else np.ones(2)
+    base = model if kernel is RobustKernel.NONE else model.noise()
+    np.testing.assert_allclose(base.sigmas(), [0.1, 0.2])
     if kernel is RobustKernel.NONE:
         assert isinstance(model, gtsam.noiseModel.Diagonal)
-    else:
-        assert np.all(np.asarray(weight) < 0.2)
+    for whitened in ([0.3, 0.4], [10.0, 0.0], [-3.0, 4.0]):
+        e = float(np.linalg.norm(whitened))
+        expected = KERNEL_WEIGHTS[kernel](e, threshold)
+        weight = 1.0 if kernel is RobustKernel.NONE else model.weight(np.array(whitened))
+        assert weight == pytest.approx(expected, rel=1e-12), whitened
 
 
 def test_odometry_conditioning_floors_translation_given_rotation():

@@ -45,23 +45,36 @@ def test_point_behind_the_rays_is_rejected():
     assert delayed.stats().triangulations_rejected == 1
 
 
-def test_consistent_insertion_ignores_a_wrong_first_sighting():
+@pytest.mark.parametrize("release_disagreeing", [True, False])
+def test_consistent_insertion_ignores_a_wrong_first_sighting(release_disagreeing):
+    """The wrong first sighting disagrees (10 m at 0.1 m sigma): the landmark starts at the
+    mean of the two agreeing ones; the wrong factor is released for a robust kernel, or
+    dropped and counted as rejected."""
     gate = 9.21
-    consistent = ConsistentInsertion(min_consistent=2, gate=gate)
+    consistent = ConsistentInsertion(2, gate, release_disagreeing=release_disagreeing)
     cov = 0.01 * np.eye(2)
     consistent.hold(4, np.array([10.0, 0.0]), cov, "wrong")
     assert consistent.try_insert(4) is None
     consistent.hold(4, np.array([0.0, 0.0]), cov, "right1")
     assert consistent.try_insert(4) is None
+    assert consistent.stats().tracks_pending == 1 and consistent.stats().sightings_pending == 2
     consistent.hold(4, np.array([0.05, 0.0]), cov, "right2")
     insertion = consistent.try_insert(4)
     assert insertion is not None
     np.testing.assert_allclose(insertion.point_w, [0.025, 0.0])
-    assert insertion.factors == ["wrong", "right1", "right2"]
+    if release_disagreeing:
+        assert insertion.factors == ["wrong", "right1", "right2"] and consistent.rejected == 0
+    else:
+        assert insertion.factors == ["right1", "right2"] and consistent.rejected == 1
+    stats = consistent.stats()
+    assert stats.tracks_inserted == 1 and stats.tracks_pending == 0
+    assert consistent.try_insert(4) is None  # inserted once, then forgotten
 
 
-@pytest.mark.parametrize("n", [1])
-def test_min_consistent_one_inserts_at_once(n):
-    consistent = ConsistentInsertion(n, 9.21)
+def test_min_consistent_one_inserts_at_once():
+    consistent = ConsistentInsertion(1, 9.21)
     consistent.hold(2, np.array([1.0, 2.0]), np.eye(2), "f")
-    assert consistent.try_insert(2) is not None
+    insertion = consistent.try_insert(2)
+    assert insertion is not None
+    np.testing.assert_array_equal(insertion.point_w, [1.0, 2.0])
+    assert insertion.factors == ["f"] and consistent.stats().tracks_inserted == 1
