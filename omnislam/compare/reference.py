@@ -9,10 +9,10 @@ contestants):
 1. the graph of the file's odometry (its stated covariances) and sightings (their landmark ids,
    known association whatever the run used), built from gtsam factors one frame at a time
    (``graph_frames``), through a plain ``gtsam.ISAM2`` pass (``isam2_pass``: relinearisation
-   threshold 0.1 checked every update, DESIGN.md "iSAM2 settings"; the first pose held at the
+   threshold 0.1 checked every update, docs/design.md "iSAM2 settings"; the first pose held at the
    origin by a 1 mm / 1 mrad prior);
 2. ``gtsam.LevenbergMarquardtOptimizer`` on every factor, started from the iSAM2 solution.
-   DESIGN.md: LM from dead reckoning stops in a local minimum 19 m RMS off, from the iSAM2
+   docs/design.md: LM from dead reckoning stops in a local minimum 19 m RMS off, from the iSAM2
    solution it reaches the optimum in 2-3 iterations.
 
 ``benchmarks/graphslam_victoria.py`` times the same ``isam2_pass`` against omnislam's iSAM2.

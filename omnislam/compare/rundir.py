@@ -1,6 +1,6 @@
 """RUN_DIR: what one ``omnislam run`` leaves on disk, as ``read_run_dir`` / ``write_run_dir``.
 
-Files (DESIGN.md, command-line contract):
+Files (the README's RUN_DIR paragraph; docs/design.md, "Data flow and contracts"):
 
 * ``trajectory.tum``: one estimated pose per frame (TUM format; z = 0 for planar runs).
 * ``landmarks.csv``: ``id,x,y,z`` of the estimated map (header only when there is none).

@@ -1,4 +1,4 @@
-"""Frozen record types that travel between modules (DESIGN.md "shared contracts").
+"""Frozen record types that travel between modules (docs/design.md, "Data flow and contracts").
 
 Arrays are converted once, validated, and made read-only, so a record cannot be changed by
 whoever receives it. Frames and units are in the names: ``wTr`` is the robot in the world,

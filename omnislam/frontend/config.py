@@ -247,7 +247,7 @@ class TrackConfig:
         prune_after_failures: a feature of a recognised object that failed to match this many
             times in a row is removed from the map (thesis 4.2).
         min_track_length: tracks with fewer sightings are dropped from the log at the end;
-            3 because a bearing-only landmark needs 3 sightings to be initialised (DESIGN.md,
+            3 because a bearing-only landmark needs 3 sightings to be initialised (docs/design.md,
             "Landmark insertion").
         sigma_px: keypoint localisation std at size 0 [px] ...
         sigma_px_per_size: ... plus this times the keypoint's SIFT diameter (2 sigma): the

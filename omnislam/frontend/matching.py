@@ -3,7 +3,7 @@
 Thesis 4.2: nearest neighbour in descriptor space (Euclidean), rejected when the ratio of the
 nearest to the second-nearest distance exceeds a threshold; against a large map the search is
 approximate (Best-Bin-First kd-tree, Beis & Lowe 1997), here FLANN's randomised kd-trees.
-Measured on this machine (DESIGN.md): brute force costs 4.8 ms for 1000 x 1000 descriptors and
+Measured on this machine (docs/design.md): brute force costs 4.8 ms for 1000 x 1000 descriptors and
 FLANN 13 ms at 90 % exact, so brute force is used between consecutive images and FLANN only
 against the map. Object-level validation (thesis 4.2) accepts a group's matches only when
 enough of the group matched.

@@ -2,8 +2,8 @@
 
 The graph is built exactly as the incremental estimator builds it (every ``step`` is an iSAM2
 update); ``estimate()`` then runs LM on all factors, **warm-started from the iSAM2 solution**.
-DESIGN.md: LM from dead reckoning on gtsam's victoria_park.txt stopped in a local minimum (poses
-19 m RMS off), while from the iSAM2 solution it reached the optimum in 2 iterations.
+docs/design.md: LM from dead reckoning on gtsam's victoria_park.txt stopped in a local minimum
+(poses 19 m RMS off), while from the iSAM2 solution it reached the optimum in 2 iterations.
 Covariances, when configured, come from ``gtsam.Marginals`` at the LM solution.
 """
 

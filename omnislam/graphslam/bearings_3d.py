@@ -3,7 +3,7 @@
 Each bearing of a track becomes a ``BearingFactor3D(viewpoint, point, Unit3)`` (``factors.py``;
 the Pose3 variables are the sensor viewpoints, ``poses.ViewpointPoses``). A track that is not
 in the graph yet is held back until it can be triangulated (``builder.DelayedLandmarks``:
->= ``min_sightings`` sightings spanning >= ``min_parallax_deg``; DESIGN.md "Landmark
+>= ``min_sightings`` sightings spanning >= ``min_parallax_deg``; docs/design.md "Landmark
 insertion") and enters as a ``Point3`` with its held-back factors and the weak prior. Bearings
 without a track id are ignored (counted).
 

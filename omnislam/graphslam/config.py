@@ -1,9 +1,9 @@
 """Configuration of the GTSAM back end: robust kernels, factorisation, one frozen config record.
 
 Every default is documented next to its field, with the reason it has that value. The measured
-facts behind the iSAM2 and insertion defaults are in DESIGN.md ("Facts measured on this machine
-kind"). Which observation stream the graph is built from is not configured here: it is the
-``core.modality.Modality`` the registry resolves once and hands to ``GraphSLAM`` (``--set
+facts behind the iSAM2 and insertion defaults are in docs/design.md ("Facts measured when the
+design was fixed"). Which observation stream the graph is built from is not configured here: it
+is the ``core.modality.Modality`` the registry resolves once and hands to ``GraphSLAM`` (``--set
 modality=NAME`` overrides the shared rule).
 """
 
@@ -147,9 +147,9 @@ class GraphSLAMConfig:
             odometry factor [m] (omni bearings; default 1 mm: the robot drives on a plane).
         planar_sigma_rad: std of roll and pitch in the same factors [rad] (default 1 mrad).
         relinearize_threshold: iSAM2 relinearisation threshold on the tangent-space delta
-            (default 0.1; stable on all seeds, DESIGN.md).
+            (default 0.1; stable on all seeds, docs/design.md).
         relinearize_skip: iSAM2 checks for relinearisation every this many updates (default 1:
-            the GTSAM default of 10 diverged on one of four seeds, DESIGN.md).
+            the GTSAM default of 10 diverged on one of four seeds, docs/design.md).
         adaptive_reorder_threshold: when iSAM2's Bayes tree holds more than this many times
             the non-zeros a fresh batch ordering would give, GTSAM re-orders and re-eliminates
             the whole tree (``ISAM2Params.enableAdaptiveReorder``, GTSAM 4.3); None disables

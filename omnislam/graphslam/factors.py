@@ -1,6 +1,7 @@
 """Noise models, keys and factor construction for the GTSAM back end.
 
-All factors are GTSAM built-ins (DESIGN.md: a Python ``CustomFactor`` was 3x slower per update):
+All factors are GTSAM built-ins (docs/design.md: a Python ``CustomFactor`` was 3x slower per
+update):
 
 * odometry: ``BetweenFactorPose2`` / ``BetweenFactorPose3``; the 3x3 robot-frame covariance of
   the delta [dx, dy, dtheta] (``OdometryMotionModel.covariance``) is lifted into Pose3's tangent

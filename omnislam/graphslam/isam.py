@@ -14,7 +14,7 @@ the next key frame's between-factor (``poses.py``) and costs no update. Each key
 2. turns the frame's sightings into factors and new landmarks (the modality's graph builder:
    ``bearings_3d.py``, ``range_bearing.py``, ``vertical_lines.py``);
 3. runs one iSAM2 update (``session.py``; Cholesky, rebuilt with QR if it fails) and reads back
-   **only the newest pose**; the full estimate is computed only in ``estimate()`` (DESIGN.md:
+   **only the newest pose**; the full estimate is computed only in ``estimate()`` (docs/design.md:
    reading everything every step cost as much as the update). Omni bearings, by default: the
    update goes to a fixed-lag smoother over the last ``online_lag_key_frames`` key frames, and
    ``estimate()`` is LM over the whole graph (``session.FixedLagSession``): iSAM2 over the

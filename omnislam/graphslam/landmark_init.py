@@ -1,4 +1,4 @@
-"""Delayed insertion of bearing-only landmarks (DESIGN.md "Landmark insertion").
+"""Delayed insertion of bearing-only landmarks (docs/design.md "Landmark insertion").
 
 A bearing fixes no depth: a landmark added to iSAM2 after one bearing leaves its linear system
 rank deficient and GTSAM throws "Indeterminate linear system". A track is therefore held back

@@ -4,7 +4,7 @@
 rather than about the graph's content:
 
 * the parameters (``GraphSLAMConfig``: relinearisation threshold and skip, factorisation,
-  adaptive re-ordering; DESIGN.md "iSAM2 settings");
+  adaptive re-ordering; docs/design.md "iSAM2 settings");
 * ``update``: one ``ISAM2.update`` per frame. With ``Factorization.AUTO`` a Cholesky failure
   ("Indeterminate linear system") re-adds every factor so far, linearised at iSAM2's current
   linearisation point (the new variables at their initial guesses), to a fresh QR-factorising
@@ -14,7 +14,7 @@ rather than about the graph's content:
   association's candidate landmarks, moved to the top of the Bayes tree where their marginals
   are cheap to read);
 * the bookkeeping of what iSAM2 did (fallbacks, whole-tree re-orderings, Bayes-tree fill-in);
-* reads of the estimate: one variable (the newest pose each step; DESIGN.md: reading everything
+* reads of the estimate: one variable (the newest pose each step; docs/design.md: reading everything
   every step cost as much as the update), the full estimate, marginal covariances.
 """
 
