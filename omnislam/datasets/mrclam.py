@@ -383,24 +383,19 @@ def load_mrclam(
     odometry_table = read_robot_odometry_table(files["Odometry"])
     odometry = np.array(odometry_table.values)
     sightings = read_robot_measurements(files["Measurement"], barcodes)
-    if len(sightings.stamps_s):
-        check_stream_end(
-            odometry_table,
-            float(sightings.stamps_s[-1]),
-            files["Measurement"],
-            ODOMETRY_END_TOLERANCE_S,
-        )
     vicon_path = folder / f"Robot{robot}_Groundtruth.dat"
-    vicon = None
-    if vicon_path.is_file():
-        vicon_table = read_robot_groundtruth_table(vicon_path)
-        if len(sightings.stamps_s):
+    vicon_table = read_robot_groundtruth_table(vicon_path) if vicon_path.is_file() else None
+    # the odometry and the Vicon file must each reach the last sighting (a file cut short)
+    for table, tolerance_s in (
+        (odometry_table, ODOMETRY_END_TOLERANCE_S),
+        (vicon_table, VICON_END_TOLERANCE_S),
+    ):
+        if table is not None and len(sightings.stamps_s):
             check_stream_end(
-                vicon_table,
-                float(sightings.stamps_s[-1]),
-                files["Measurement"],
-                VICON_END_TOLERANCE_S,
+                table, float(sightings.stamps_s[-1]), files["Measurement"], tolerance_s
             )
+    vicon = None
+    if vicon_table is not None:
         check_stream_end(
             odometry_table, float(vicon_table.values[-1, 0]), vicon_path, ODOMETRY_END_TOLERANCE_S
         )

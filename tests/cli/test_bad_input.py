@@ -614,16 +614,22 @@ def _(tmp, fx):
     return run_args(folder, tmp), "groundtruth.tum: stamp"
 
 
-def _world_case(name: str, edit: Callable[[dict], None], needle: str) -> None:
-    @case(f"synthetic-world-{name}")
+def _json_case(file: str, name: str, edit: Callable[[dict], None], needle: str) -> None:
+    """A case that edits one JSON file of a synthetic folder (``world.json``, ``meta.json``)."""
+
+    @case(f"synthetic-{file.removesuffix('.json')}-{name}")
     def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
         import json
 
         folder = fx.synthetic(tmp)
-        doc = json.loads((folder / "world.json").read_text())
+        doc = json.loads((folder / file).read_text())
         edit(doc)
-        (folder / "world.json").write_text(json.dumps(doc))
-        return run_args(folder, tmp), f"world.json: {needle}"
+        (folder / file).write_text(json.dumps(doc))
+        return run_args(folder, tmp), f"{file}: {needle}"
+
+
+def _world_case(name: str, edit: Callable[[dict], None], needle: str) -> None:
+    _json_case("world.json", name, edit, needle)
 
 
 def _set(*keys: object, value: object) -> Callable[[dict], None]:
@@ -655,15 +661,7 @@ def _(tmp, fx):
 
 
 def _meta_case(name: str, edit: Callable[[dict], None], needle: str) -> None:
-    @case(f"synthetic-meta-{name}")
-    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
-        import json
-
-        folder = fx.synthetic(tmp)
-        doc = json.loads((folder / "meta.json").read_text())
-        edit(doc)
-        (folder / "meta.json").write_text(json.dumps(doc))
-        return run_args(folder, tmp), f"meta.json: {needle}"
+    _json_case("meta.json", name, edit, needle)
 
 
 _meta_case("preset-missing", lambda doc: doc.pop("preset"), "key 'preset' missing")
