@@ -241,3 +241,89 @@ def test_kept_support_changes_nothing_when_decide_drops_nothing(rng):
             np.testing.assert_array_equal(decisions, plain)
         else:  # it only ever drops more
             assert np.all(decisions[plain != Decision.PAIRED] == plain[plain != Decision.PAIRED])
+
+
+def reachable_hypotheses(pairings: Pairings, probability: float) -> list[tuple[int, float]]:
+    """(pairings, D2_H) of every hypothesis JCBB can reach: each pairing individually
+    compatible, no candidate twice in a frame, and every prefix (in sighting order) inside the
+    joint gate of its pairings -- the branch and bound's tree, enumerated without a bound."""
+    k, m = pairings.sightings, pairings.candidates
+    d2_ind = pairings.individual()
+    gate_one = chi_square_gate(probability, 2)
+    gates = joint_gates(probability, 2, k)
+    found = []
+    for assignment in itertools.product(range(-1, m), repeat=k):
+        a = np.array(assignment)
+        paired = np.flatnonzero(a != UNPAIRED)
+        if any(d2_ind[i, a[i]] > gate_one for i in paired):
+            continue
+        if any(
+            a[i] == a[j] and pairings.groups[i] == pairings.groups[j]
+            for i, j in itertools.combinations(paired, 2)
+        ):
+            continue
+        prefixes_in = True
+        for end in range(1, k + 1):
+            prefix = np.where(np.arange(k) < end, a, UNPAIRED)
+            count = int(np.sum(prefix != UNPAIRED))
+            if count and pairings.joint(prefix) > gates[count]:
+                prefixes_in = False
+                break
+        if prefixes_in:
+            found.append((len(paired), pairings.joint(a)))
+    return found
+
+
+def test_runner_up_is_the_second_least_d2_among_the_largest_hypotheses(rng):
+    """The runner-up ``decide`` weighs against the best has as many pairings as the best and
+    the next D2_H: a hypothesis with fewer pairings, or a best dethroned and forgotten, would
+    make the ambiguity margin compare the wrong two."""
+    checked = 0
+    for _ in range(60):
+        k, m, n = int(rng.integers(2, 5)), int(rng.integers(2, 5)), int(rng.integers(2, 6))
+        pairings = random_pairings(rng, k, m, n)
+        result = jcbb(pairings, 0.95)
+        found = reachable_hypotheses(pairings, 0.95)
+        most = max(count for count, _ in found)
+        d2s = sorted(d2 for count, d2 in found if count == most)
+        assert result.pairings == most
+        if most == 0 or len(d2s) == 1:
+            assert result.runner_up is None and result.runner_up_d2 == np.inf
+            continue
+        checked += 1
+        assert result.runner_up is not None
+        assert int(np.sum(result.runner_up != UNPAIRED)) == most
+        assert result.runner_up_d2 == pytest.approx(d2s[1], rel=D2_RTOL)
+        assert pairings.joint(result.runner_up) == pytest.approx(d2s[1], rel=D2_RTOL)
+    assert checked >= 10  # the draws hold runner-ups to check
+
+
+def test_individual_probability_sets_the_gate_of_the_candidates():
+    """One pairing with D2 = 4 (chi-square 2 dof: inside the 0.99 gate 9.21, outside the 0.5
+    gate 1.39): the joint gate alone pairs it, a narrower individual gate leaves it out."""
+    sigma = np.sqrt(0.5)  # S = P + R = 1 (each 0.5 I), so D2 = |nu|^2
+    pairings = translation_pairings(np.array([[2.0, 0.0]]), np.array([[0.0, 0.0]]), sigma, sigma)
+    assert pairings.individual()[0, 0] == pytest.approx(4.0, rel=1e-12)
+    assert jcbb(pairings, 0.99).pairings == 1
+    assert jcbb(pairings, 0.99, individual_probability=0.5).pairings == 0
+
+
+def test_innovation_widening_is_the_largest_generalised_std(rng):
+    """sqrt of the largest eigenvalue of R^-1 S (S = H P H^T + R), against scipy's generalised
+    symmetric eigensolver; an anisotropic case makes the largest differ from the smallest."""
+    from scipy.linalg import eigh
+
+    for _ in range(10):
+        pairings = random_pairings(rng, 2, 3, 4)
+        H, R = pairings.jacobians[1, 2], pairings.noise[1]
+        S = H @ pairings.covariance @ H.T + R
+        expected = np.sqrt(eigh(S, R, eigvals_only=True)[-1])
+        assert innovation_widening(pairings, 1, 2) == pytest.approx(expected, rel=1e-10)
+    # P = diag(4, 1), R = diag(0.01, 0.04), H = -I: R^-1 S = diag(401, 26)
+    anisotropic = Pairings(
+        np.zeros((1, 1, 2)),
+        -np.eye(2)[None, None],
+        np.diag([4.0, 1.0]),
+        np.diag([0.01, 0.04])[None],
+    )
+    assert innovation_widening(anisotropic, 0, 0) == pytest.approx(np.sqrt(401.0), rel=1e-12)

@@ -131,3 +131,31 @@ def test_residual_wraps_angles_only():
     model = RangeBearing2D()
     r = model.residual(np.array([5.0, np.pi - 0.01]), np.array([1.0, -np.pi + 0.01]))
     np.testing.assert_allclose(r, [4.0, -0.02], atol=1e-12)
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda m: type(m).__name__)
+def test_predicted_azimuth_is_the_robot_frame_angle_wrapped(rng, model):
+    """Every model's azimuth is atan2 of the landmark in the robot frame, in [-pi, pi): the
+    headings span [-pi, pi), so atan2(dy, dx) - theta spans (-2 pi, 2 pi) unwrapped (the
+    Jacobians and inverses, periodic in the angle, cannot tell)."""
+    poses, landmarks = _scene(rng, model, n=200)
+    z, _, _ = model.predict(poses, landmarks)
+    in_robot = se2_transform_points(se2_inverse(poses), landmarks[:, :2])
+    azimuth = z[:, model.angular.index(True)]
+    assert np.all((azimuth >= -np.pi) & (azimuth < np.pi))
+    np.testing.assert_allclose(azimuth, np.arctan2(in_robot[:, 1], in_robot[:, 0]), atol=1e-12)
+    assert np.any(
+        np.abs(
+            np.arctan2(landmarks[:, 1] - poses[:, 1], landmarks[:, 0] - poses[:, 0]) - poses[:, 2]
+        )
+        > np.pi
+    )  # some need the wrap
+
+
+def test_residual_wraps_a_measurement_without_its_component_axis():
+    """A bearing-only residual of shape (n,) (or a scalar) has no component axis: the mask
+    (True,) broadcasts and every entry is wrapped."""
+    model = Bearing2D()
+    np.testing.assert_allclose(model.residual(np.pi - 0.01, -np.pi + 0.01), -0.02, atol=1e-12)
+    r = model.residual(np.array([np.pi - 0.01, 0.3, -np.pi]), np.array([-np.pi + 0.01, 0.1, 3.0]))
+    np.testing.assert_allclose(r, [-0.02, 0.2, np.pi - 3.0], atol=1e-12)

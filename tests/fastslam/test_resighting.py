@@ -113,3 +113,116 @@ def test_the_gate_decides_by_mahalanobis_distance_alone():
         pose, wide, mean, cov, valid, z, R, model, -6.0, gate=chi_square_gate(0.999, 2)
     )
     assert choice[0, 0] == 0 and ll[0, 0] == -6.0
+
+
+def _random_spd(rng: np.random.Generator, shape: tuple[int, ...], n: int) -> np.ndarray:
+    A = rng.normal(0.0, 0.3, (*shape, n, n))
+    return A @ np.swapaxes(A, -1, -2) + 0.01 * np.eye(n)
+
+
+@pytest.mark.parametrize("pose_cov_kind", ["none", "per particle", "per candidate"])
+def test_association_log_likelihood_is_the_gaussian_of_the_full_innovation_covariance(
+    rng, pose_cov_kind
+):
+    """log N(z_k; h(x, mu_c), S) with S = H_m Sigma_c H_m^T + H_x P H_x^T + R_k and the
+    bearing residual wrapped, entry by entry against scipy's Gaussian (the compiled path is
+    tested against this numpy one; dropping the landmark's covariance passed both)."""
+    from scipy.stats import multivariate_normal
+
+    from omnislam.fastslam.association import association_log_likelihood
+
+    p, k, c = 3, 2, 4
+    model = RangeBearing2D()
+    poses = np.column_stack([rng.uniform(-1, 1, (p, 2)), rng.uniform(-np.pi, np.pi, p)])
+    mean = rng.uniform(-5, 5, (p, c, 2))
+    cov = _random_spd(rng, (p, c), 2)
+    valid = np.ones((p, c), dtype=bool)
+    valid[1, 2] = False
+    z = np.column_stack([rng.uniform(1, 6, k), rng.uniform(-np.pi, np.pi, k)])
+    R = _random_spd(rng, (k,), 2) * 0.1
+    pose_cov = {
+        "none": None,
+        "per particle": _random_spd(rng, (p,), 3),
+        "per candidate": _random_spd(rng, (p, c), 3),
+    }[pose_cov_kind]
+    ll, d2 = association_log_likelihood(poses, pose_cov, mean, cov, valid, z, R, model)
+    for i in range(p):
+        for m in range(c):
+            z_hat, H_x, H_m = model.predict(poses[i], mean[i, m])
+            S_m = H_m @ cov[i, m] @ H_m.T
+            if pose_cov is not None:
+                P = pose_cov[i] if pose_cov.ndim == 3 else pose_cov[i, m]
+                S_m = S_m + H_x @ P @ H_x.T
+            for j in range(k):
+                if not valid[i, m]:
+                    assert ll[i, j, m] == -np.inf and d2[i, j, m] == np.inf
+                    continue
+                y = model.residual(z[j], z_hat)
+                S = S_m + R[j]
+                expected = multivariate_normal(np.zeros(2), S).logpdf(y)
+                assert ll[i, j, m] == pytest.approx(expected, rel=1e-10, abs=1e-10)
+                assert d2[i, j, m] == pytest.approx(y @ np.linalg.solve(S, y), rel=1e-10)
+
+
+def test_sighting_association_adds_both_spreads_to_the_prediction_about_the_weighted_mean(
+    monkeypatch,
+):
+    """With FastSLAM 2.0's prediction covariance, the filter's pose spread and the resighting
+    spread, each candidate's pose term is their sum (P + C_pose + C_gap(c)); the candidates
+    are looked up about the weighted mean pose within the farthest sighting plus the margin."""
+    from omnislam.fastslam import association
+    from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkBlock
+    from omnislam.fastslam.sightings import Sightings
+
+    p, c = 2, 3
+    candidates = np.array([4, 7, 9])
+    looked_up = {}
+
+    class Registry:
+        def near(self, center_xy, radius_m):
+            looked_up.update(center=center_xy, radius=radius_m)
+            return candidates
+
+        def add(self, external_ids, count):
+            return np.arange(100, 100 + count)
+
+    class Store:
+        def gather(self, particles, slots):
+            block = LandmarkBlock.empty(len(particles), 2, 0)
+            block.status[:] = ESTIMATED
+            return block
+
+    prediction = np.broadcast_to(np.diag([1.0, 2.0, 3.0]), (p, 3, 3)).copy()
+    extra = np.diag([10.0, 20.0, 30.0])
+    gap = np.arange(p * c)[:, None, None] * np.ones((p * c, 3, 3))
+    gap = gap.reshape(p, c, 3, 3)
+
+    class PoseSpreadStub:
+        def world_frame(self, n):
+            return np.broadcast_to(extra, (n, 3, 3))
+
+    class GapStub:
+        def world_frame(self, slots, headings):
+            np.testing.assert_array_equal(slots, candidates)
+            return gap
+
+    seen = {}
+
+    def capture(poses, pose_cov, *args, **kwargs):
+        seen["pose_cov"] = pose_cov
+        return np.full((p, 1), association.NEW_LANDMARK), np.zeros((p, 1))
+
+    monkeypatch.setattr(association, "maximum_likelihood_association", capture)
+    matcher = association.SightingAssociation(
+        Registry(), Store(), 2.0, -6.0, spread=GapStub(), pose_spread=PoseSpreadStub()
+    )
+    sightings = Sightings(
+        np.array([-1, -1]), np.array([[3.0, 0.0], [5.0, 1.0]]), np.zeros((2, 2, 2))
+    )
+    poses = np.array([[0.0, 0.0, 0.0], [4.0, 2.0, 0.5]])
+    weights = np.array([0.75, 0.25])
+    matcher._unknown(sightings, np.array([0]), poses, prediction, weights)
+    expected = prediction[:, None] + extra + gap
+    np.testing.assert_allclose(seen["pose_cov"], expected)
+    np.testing.assert_allclose(looked_up["center"], [1.0, 0.5])
+    assert looked_up["radius"] == pytest.approx(3.0 + 2.0)

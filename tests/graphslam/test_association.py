@@ -53,3 +53,14 @@ def test_empty_map_makes_everything_new():
         np.zeros((2, 2)), np.tile(np.eye(2), (2, 1, 1)), np.zeros((0, 2)), 0.1, gates
     )
     assert indices.tolist() == [NEW_LANDMARK, NEW_LANDMARK] and np.all(np.isinf(d2))
+
+
+def test_the_closer_sighting_takes_a_shared_landmark_whatever_its_order():
+    """Two sightings gate on one landmark (d2 = 1 and 0.25 with S = 0.02 I): the closer
+    one, listed second, takes it; the farther is ambiguous, with its own d2 kept."""
+    gates = Gates.from_probabilities(0.99, 0.9999)
+    points = np.array([[0.1414213562373095, 0.0], [0.0, 0.07071067811865475]])
+    covs = np.tile(0.01 * np.eye(2), (2, 1, 1))
+    indices, d2 = associate(points, covs, np.zeros((1, 2)), 0.1, gates)
+    assert indices.tolist() == [AMBIGUOUS, 0]
+    np.testing.assert_allclose(d2, [1.0, 0.25], rtol=1e-12)

@@ -203,3 +203,43 @@ def test_by_default_ids_are_the_association_where_every_sighting_carries_one(rng
     assert not np.array_equal(run(sightings, None), run(sightings, False))
     # hidden ids (a dataset's association=unknown): steps 3-5, as with use_ids=false
     np.testing.assert_array_equal(run(hidden, None), run(hidden, False))
+
+
+def _ukf_at_heading(theta: float, heading_var: float):
+    from omnislam.ukf.filter import PoseUKF
+
+    P = np.diag([1e-4, 1e-4, heading_var])
+    return PoseUKF(np.array([0.0, 0.0, theta]), P, OdometryMotionModel(MotionNoise()))
+
+
+def test_an_update_turning_the_heading_past_pi_wraps_it():
+    """Heading pi - 0.005 (variance 0.01) and a bearing 0.05 rad short of the prediction
+    (std 0.02): the update turns the heading by ~+0.048 (the EKF gain 0.01 / 0.0104), past
+    pi; the state holds it wrapped, within a tenth of the step of the linear answer."""
+    ukf = _ukf_at_heading(np.pi - 0.005, 0.01)
+    landmark = np.array([[-3.0, 0.5]])
+    predicted = Bearing2D().predict(ukf.x, landmark[0])[0][0]
+    ukf.update(np.array([predicted - 0.05]), landmark, np.array([0.02]))
+    assert -np.pi <= ukf.x[2] < np.pi
+    linear = np.pi - 0.005 + 0.05 * 0.01 / (0.01 + 0.02**2)
+    assert abs(wrap_angle(ukf.x[2] - linear)) < 0.1 * 0.048
+
+
+def test_innovation_gate_distance_is_y2_over_h_p_h_plus_sigma2():
+    ukf = _ukf_at_heading(0.3, 0.01)
+    landmarks = np.array([[3.0, 1.0], [-2.0, 2.0]])
+    bearings = np.array([0.1, 2.0])
+    sigmas = np.array([0.02, 0.05])
+    z, H, _ = Bearing2D().predict(ukf.x, landmarks)
+    y = wrap_angle(bearings - z[:, 0])
+    s = np.array([H[k, 0] @ ukf.P @ H[k, 0] + sigmas[k] ** 2 for k in range(2)])
+    np.testing.assert_allclose(ukf.innovations(bearings, landmarks, sigmas), y**2 / s, rtol=1e-12)
+
+
+def test_predicted_bearing_deviations_are_wrapped_across_pi():
+    """A landmark straight behind: the sigma points' bearings straddle +-pi; the deviations
+    from the circular mean are small (about sqrt(3) times the heading std) not ~2 pi."""
+    ukf = _ukf_at_heading(0.0, 0.01)
+    prediction = ukf.predict_bearings(np.array([[-4.0, 0.0]]))
+    assert np.max(np.abs(prediction.deviations)) < 0.5
+    assert prediction.variance[0] == pytest.approx(0.01 + 1e-4 / 16, rel=0.05)
