@@ -442,11 +442,20 @@ def _(tmp, fx):
 # -- synthetic folders and camera files
 
 
-@case("synthetic-image-wrong-size")
-def _(tmp, fx):
-    folder = fx.synthetic(tmp)
-    small_png(folder / "images" / "000000.png")
-    return run_args(folder, tmp), "000000.png"
+def _image_case(
+    name: str, damage: Callable[[Path], None], needle: str, which: int = 0, *extra: str
+) -> None:
+    """A case that damages image ``which`` of a synthetic folder; ``needle`` follows its name."""
+
+    @case(f"synthetic-image-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        folder = fx.synthetic(tmp)
+        image = sorted((folder / "images").glob("*.png"))[which]
+        damage(image)
+        return run_args(folder, tmp, *extra), f"{image.name}{needle}"
+
+
+_image_case("wrong-size", small_png, "")
 
 
 @case("synthetic-principal-point-outside")
@@ -1372,39 +1381,19 @@ def _(tmp, fx):
 # -- images: truncated or corrupt files (libpng / libjpeg must not print), names, counts
 
 
-@case("synthetic-image-truncated-png")
-def _(tmp, fx):
-    folder = fx.synthetic(tmp)
-    truncate(folder / "images" / "000000.png")
-    return run_args(folder, tmp), "000000.png: truncated PNG"
-
-
-@case("synthetic-image-crc-error")
-def _(tmp, fx):
-    folder = fx.synthetic(tmp)
-    path = folder / "images" / "000000.png"
+def _zero_eight_bytes(path: Path) -> None:
+    """Eight bytes in the middle of the file zeroed: a PNG chunk's CRC no longer matches."""
     data = bytearray(path.read_bytes())
     data[len(data) // 2 : len(data) // 2 + 8] = bytes(8)
     path.write_bytes(bytes(data))
-    return run_args(folder, tmp), "000000.png: corrupt PNG"
 
 
-@case("synthetic-image-mid-run-truncated")
-def _(tmp, fx):
-    """An image between the first and the last: found at load time, not after a part of the
-    front end (its progress and cache lines before the error)."""
-    folder = fx.synthetic(tmp)
-    middle = sorted((folder / "images").glob("*.png"))[1]
-    truncate(middle)
-    return run_args(folder, tmp, "graphslam"), f"{middle.name}: truncated PNG"
-
-
-@case("synthetic-image-mid-run-wrong-size")
-def _(tmp, fx):
-    folder = fx.synthetic(tmp)
-    middle = sorted((folder / "images").glob("*.png"))[1]
-    small_png(middle)
-    return run_args(folder, tmp, "graphslam"), f"{middle.name}: image is 32x24 px"
+_image_case("truncated-png", truncate, ": truncated PNG")
+_image_case("crc-error", _zero_eight_bytes, ": corrupt PNG")
+# an image between the first and the last: found at load time, not after a part of the front
+# end (its progress and cache lines before the error)
+_image_case("mid-run-truncated", truncate, ": truncated PNG", 1, "graphslam")
+_image_case("mid-run-wrong-size", small_png, ": image is 32x24 px", 1, "graphslam")
 
 
 @case("synthetic-image-name-not-a-frame")
