@@ -287,17 +287,17 @@ def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "same_image_s=-1"), "same_image_s"
 
 
-@case("mrclam-command-delay-nan")
-def _(tmp, fx):
-    argv = run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "command_delay_s=nan")
-    return argv, "command_delay_s"
+def _mrclam_option_case(name: str, option: str) -> None:
+    """A case that gives the MR.CLAM loader a bad ``--set KEY=VALUE``; the line names KEY."""
+
+    @case(f"mrclam-{name}")
+    def build(tmp: Path, _fx: Fixtures) -> tuple[list[str], str]:
+        argv = run_args(mrclam(tmp), tmp, "deadreckoning", "--set", option)
+        return argv, option.partition("=")[0]
 
 
-@case("mrclam-sigma-range-inf")
-def _(tmp, fx):
-    return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "sigma_range_m=inf"), (
-        "sigma_range_m"
-    )
+_mrclam_option_case("command-delay-nan", "command_delay_s=nan")
+_mrclam_option_case("sigma-range-inf", "sigma_range_m=inf")
 
 
 @case("mrclam-unknown-association")
@@ -569,12 +569,12 @@ def _(tmp, fx):
     return run_args(folder, tmp), "world.json"
 
 
-def _csv_cell(path: Path, line: int, column: int, value: str) -> None:
-    """Set one cell of a synthetic CSV (``line`` 1-based, the header is line 1)."""
+def _csv_cell(path: Path, line: int, column: int, value: str, sep: str = ",") -> None:
+    """Set one cell of a synthetic CSV, or of a TUM file with ``sep=" "`` (``line`` 1-based)."""
     lines = path.read_text().splitlines()
-    cells = lines[line - 1].split(",")
+    cells = lines[line - 1].split(sep)
     cells[column] = value
-    lines[line - 1] = ",".join(cells)
+    lines[line - 1] = sep.join(cells)
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -614,12 +614,7 @@ def _(tmp, fx):
 @case("synthetic-groundtruth-position-1e308")
 def _(tmp, fx):
     folder = fx.synthetic(tmp)
-    path = folder / "groundtruth.tum"
-    lines = path.read_text().splitlines()
-    fields = lines[2].split()
-    fields[1] = "1e308"
-    lines[2] = " ".join(fields)
-    path.write_text("\n".join(lines) + "\n")
+    _csv_cell(folder / "groundtruth.tum", 3, 1, "1e308", sep=" ")
     return run_args(folder, tmp), "groundtruth.tum: stamp"
 
 
