@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 
 from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.perturb import add_clutter, reassign_ids
+from omnislam.compare.perturb import (
+    add_clutter,
+    clutter_stream,
+    parse_clutter_rate,
+    parse_fraction,
+    reassign_ids,
+)
 from omnislam.core.types import UNKNOWN_ID, Bearings, FrameInput, Odometry, RangeBearing
 from omnislam.errors import ConfigError
 
@@ -46,6 +52,7 @@ def test_reassigned_sightings_take_another_id_of_their_own_frame(rng):
             assert np.all(a.landmark_ids[a.landmark_ids == UNKNOWN_ID] == UNKNOWN_ID)
             assert np.all(b.landmark_ids[a.landmark_ids == UNKNOWN_ID] == UNKNOWN_ID)
             assert set(b.landmark_ids[moved].tolist()) <= set(a.landmark_ids.tolist())
+            assert np.all(b.landmark_ids[moved] != UNKNOWN_ID)  # never made unlabelled
     assert changed == count
     labelled = 300 * 15
     # binomial(4500, 0.2): sd 27, the count lands within 4 sd of 900
@@ -76,6 +83,14 @@ def test_a_frame_with_a_single_id_borrows_a_wrong_one_from_the_whole_input():
     assert count > 0
     ids = np.concatenate([f.range_bearing.landmark_ids for f in out])
     assert set(ids.tolist()) <= {4, 9} and not np.array_equal(ids, [4, 4, 9, 9])
+    # nor does it borrow UNKNOWN_ID from frames without labels: 40 sightings, each would
+    # take it with probability 1/2 if it counted as an id of the input
+    unlabelled = lonely(40, UNKNOWN_ID)
+    many = [lonely(k, (4, 9)[k % 2]) for k in range(20)] + [unlabelled]
+    out, count = reassign_ids(many, 0.99, np.random.default_rng(0))
+    assert count > 30
+    ids = np.concatenate([f.range_bearing.landmark_ids for f in out[:20]])
+    assert set(ids.tolist()) <= {4, 9}
     alone, none = reassign_ids([lonely(0, 4)], 0.99, np.random.default_rng(0))
     assert none == 0 and alone[0].range_bearing.landmark_ids.tolist() == [4, 4]
 
@@ -84,6 +99,16 @@ def test_a_frame_with_a_single_id_borrows_a_wrong_one_from_the_whole_input():
 def test_a_fraction_outside_0_1_is_refused(fraction):
     with pytest.raises(ConfigError, match="wrong_id_fraction"):
         reassign_ids([], fraction, np.random.default_rng(0))
+    with pytest.raises(ConfigError, match="wrong_id_fraction"):
+        parse_fraction(str(fraction))
+
+
+def test_the_option_texts_parse_to_their_values():
+    assert parse_fraction("0") == 0.0 and parse_fraction("0.25") == 0.25
+    assert parse_clutter_rate("0") == 0.0 and parse_clutter_rate("1.5") == 1.5
+    for parse in (parse_fraction, parse_clutter_rate):
+        with pytest.raises(ConfigError):
+            parse("x")
 
 
 def test_the_harness_option_relabels_sightings_and_records_it(shared_data):
@@ -145,6 +170,34 @@ def test_clutter_is_poisson_per_sensed_frame_unlabelled_and_inside_the_datas_spa
 def test_a_clutter_rate_that_is_not_a_finite_non_negative_number_is_refused(rate, rng):
     with pytest.raises(ConfigError, match="clutter_per_frame"):
         add_clutter(frames(3, rng), rate, np.random.default_rng(0))
+
+
+def test_a_sensed_frame_without_sightings_gets_clutter_too():
+    """The sensor reported and saw nothing: still Poisson(rate); 200 such frames at rate 2
+    all without clutter has probability e^-400."""
+    seen = FrameInput(
+        0,
+        Odometry(np.zeros(3), 0.0),
+        range_bearing=RangeBearing(np.array([1, 2]), np.array([1.0, 5.0]), np.zeros(2), 0.1, 0.01),
+    )
+    empty = RangeBearing(np.zeros(0, np.int64), np.zeros(0), np.zeros(0), 0.1, 0.01)
+    blank = [
+        FrameInput(k, Odometry(np.zeros(3), float(k)), range_bearing=empty) for k in range(1, 201)
+    ]
+    out, added = add_clutter([seen, *blank], 2.0, np.random.default_rng(0))
+    on_blank = sum(len(f.range_bearing) for f in out[1:])
+    assert on_blank > 0 and added - on_blank == len(out[0].range_bearing) - 2
+
+
+def test_the_clutter_stream_is_neither_the_estimators_nor_the_wrong_ids():
+    """``execute_run`` seeds the estimator with the seed itself and the wrong ids with the
+    first spawned child: clutter must draw from neither (with and without clutter the
+    estimator's numbers, and the wrong ids, stay the same)."""
+    clutter = clutter_stream(3).random(4)
+    estimator = np.random.default_rng(3).random(4)
+    wrong_ids = np.random.default_rng(np.random.SeedSequence(3).spawn(1)[0]).random(4)
+    assert not np.allclose(clutter, estimator) and not np.allclose(clutter, wrong_ids)
+    np.testing.assert_array_equal(clutter, clutter_stream(3).random(4))
 
 
 def test_clutter_needs_range_bearing_sightings(rng):

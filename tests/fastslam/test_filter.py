@@ -345,6 +345,82 @@ def test_existence_index_deletes_a_phantom_landmark():
     assert set(range(len(scenario.landmarks_w))) & set(ids.tolist())  # real ones survive
 
 
+def test_predicted_visible_is_the_sensor_field_from_each_pose():
+    """Thesis 5.1.2's field: range [min, max] inclusive, |bearing| <= half fov in the pose's
+    frame, and for 3-D landmarks the elevation above the viewpoint's height within the band."""
+    from omnislam.fastslam.existence import predicted_visible
+
+    field = ExistenceIndexConfig(max_range_m=4.0, min_range_m=1.0, half_fov_rad=np.pi / 2)
+    # heading pi/2: a landmark 2 m along +y is ahead, one 2 m along -y behind
+    poses = np.tile([1.0, 1.0, np.pi / 2], (6, 1))
+    landmarks = np.array([[1.0, 3.0], [1.0, -1.0], [1.0, 5.0], [1.0, 5.01], [1.0, 1.5], [3.0, 1.0]])
+    # ahead, behind, at 4 m, past 4 m, at 0.5 m, to the side (bearing -pi/2)
+    expected = [True, False, True, False, False, True]
+    np.testing.assert_array_equal(predicted_visible(field, poses, landmarks), expected)
+    band = ExistenceIndexConfig(
+        max_range_m=10.0, min_elevation_rad=-0.1, max_elevation_rad=np.pi / 4
+    )
+    # viewpoint 1 m high, 2 m away: heights 2.9 m (43.5 deg), 3.1 m (46.4 deg), 0.85 m (-4.3 deg)
+    # and 0.5 m (-14 deg) about it; from the floor the 2.9 m one would be at 55 deg
+    high = np.array([[2.0, 0.0, 2.9], [2.0, 0.0, 3.1], [2.0, 0.0, 0.85], [2.0, 0.0, 0.5]])
+    poses = np.zeros((4, 3))
+    np.testing.assert_array_equal(
+        predicted_visible(band, poses, high, sensor_height_m=1.0), [True, False, True, False]
+    )
+
+
+def test_existence_index_decrements_only_estimated_landmarks_in_view_and_unseen():
+    """One apply: an unseen estimated landmark in view loses one (1 -> 0 stays; 0 -> -1 is
+    deleted: status ABSENT, zeroed), a sighted one, a ray-only one and one out of range keep
+    theirs; candidates lie within max range + margin of the weighted mean pose."""
+    from omnislam.fastslam.dense_store import DenseLandmarkStore
+    from omnislam.fastslam.existence import ExistenceIndex
+    from omnislam.fastslam.landmark_store import ABSENT, ESTIMATED, RAY, LandmarkBlock
+    from omnislam.fastslam.sightings import Pairs
+    from omnislam.fastslam.slot_registry import SlotRegistry
+
+    store = DenseLandmarkStore(1, 2)
+    registry = SlotRegistry(store)
+    # slots: 0 index 1, 1 index 0, 2 sighted (index 0), 3 ray-only (index 0), 4 at 6 m
+    positions = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0], [6.0, 0.0]])
+    slots = registry.add(np.arange(5), 5)
+    registry.record_positions(slots, positions)
+    block = LandmarkBlock.empty(5, 2, 0)
+    block.mean[:] = positions
+    block.cov[:] = np.eye(2)
+    block.status[:] = LandmarkStatus.ESTIMATED
+    block.status[3] = LandmarkStatus.RAY
+    block.existence[:] = [1, 0, 0, 0, 0]
+    store.scatter(np.zeros(5, np.int64), slots, block)
+    index = ExistenceIndex(ExistenceIndexConfig(max_range_m=4.0), 3.0, 0.0)
+    seen = Pairs(np.array([0]), np.array([2]), np.array([0]), np.array([False]))
+    index.apply(store, registry, np.zeros((1, 3)), np.ones(1), seen)
+    after = store.particle_map(0)
+    np.testing.assert_array_equal(after.existence[:5], [0, 0, 0, 0, 0])
+    np.testing.assert_array_equal(after.status[:5], [ESTIMATED, ABSENT, ESTIMATED, RAY, ESTIMATED])
+    assert np.all(after.mean[1] == 0) and np.all(after.cov[1] == 0)
+    np.testing.assert_array_equal(after.mean[[0, 2, 3, 4]], positions[[0, 2, 3, 4]])
+    assert index.pruned == 1
+    # two particles, nearly all weight on the second at (0, 0): the first, 30 m away, has its
+    # landmark there too, but only slots within 7 m of the weighted mean (0.03, 0) are examined
+    store = DenseLandmarkStore(2, 2)
+    registry = SlotRegistry(store)
+    slots = registry.add(np.arange(2), 2)
+    registry.record_positions(slots, np.array([[1.0, 0.0], [31.0, 0.0]]))
+    block = LandmarkBlock.empty(4, 2, 0)
+    block.mean[:] = [[1.0, 0.0], [31.0, 0.0], [1.0, 0.0], [31.0, 0.0]]
+    block.status[:] = LandmarkStatus.ESTIMATED
+    block.existence[:] = 5
+    store.scatter(np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1]), block)
+    poses = np.array([[30.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    none = Pairs(*(np.zeros(0, np.int64) for _ in range(3)), np.zeros(0, bool))
+    index.apply(store, registry, poses, np.array([1e-3, 1 - 1e-3]), none)
+    # slot 0 is examined: the second particle (landmark 1 m away) loses one, the first (29 m)
+    # not; slot 1 (31 m from the mean) is not examined although 1 m from the first particle
+    got = store.gather(np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])).existence
+    np.testing.assert_array_equal(got, [5, 5, 4, 5])
+
+
 @pytest.mark.parametrize("update", list(BearingUpdate))
 def test_bearing_only_3d_mode(update):
     """Omni bearings: first sighting stores a ray, the next triangulates, later ones update."""

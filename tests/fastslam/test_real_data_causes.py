@@ -164,3 +164,36 @@ def test_a_gap_without_sightings_is_sampled_as_one_composed_step(variant):
     # 4000 draws: a variance is within ~2.2 % (1 sigma)
     np.testing.assert_allclose(np.diag(np.cov(poses.T)), np.diag(cov), rtol=0.1)
     assert slam.info().frames == 6 and slam.info().frames_with_sightings == 1
+
+
+def test_a_composed_gap_holds_its_start_and_restarts_empty_after_closing():
+    """``ComposedGap``: the frames of a gap report start (+) D_j from the poses at its start
+    (a copy: later changes to the particles' array do not move it), D_j and C_j composed by
+    ``compose_odometry``; closing returns the whole gap and the next gap starts from zero."""
+    from omnislam.core.motion import compose_odometry
+    from omnislam.core.se import se2_compose
+    from omnislam.fastslam.gap import ComposedGap
+
+    steps = [np.array([0.4, 0.05, 0.2]), np.array([0.3, -0.1, -0.5]), np.array([0.2, 0.0, 0.1])]
+    covs = [np.diag([0.01, 0.02, 0.003]) * (j + 1) for j in range(3)]
+    delta, cov = np.zeros(3), np.zeros((3, 3))
+    composed = []
+    for d, c in zip(steps, covs, strict=True):
+        delta, cov = compose_odometry(delta, cov, d, c)
+        composed.append((delta, cov))
+    poses = np.array([[0.0, 0.0, 0.0], [1.0, -2.0, 2.5]])
+    start = poses.copy()
+    gap = ComposedGap()
+    for j in range(2):
+        got = gap.extend(poses, steps[j], covs[j])
+        np.testing.assert_allclose(got, se2_compose(start, composed[j][0]), atol=1e-12)
+        poses += 0.5  # the particles' array moves on (sampled elsewhere): not the gap's start
+    np.testing.assert_allclose(gap.covariance, composed[1][1], atol=1e-15)
+    first, whole, motion = gap.close(steps[2], covs[2])
+    np.testing.assert_array_equal(first, start)
+    np.testing.assert_allclose(whole, composed[2][0], atol=1e-12)
+    np.testing.assert_allclose(motion.covariance, composed[2][1], atol=1e-15)
+    assert not gap.open
+    got = gap.extend(poses, steps[0], covs[0])
+    np.testing.assert_allclose(got, se2_compose(poses, steps[0]), atol=1e-12)
+    np.testing.assert_allclose(gap.covariance, covs[0], atol=1e-15)

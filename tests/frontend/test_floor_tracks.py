@@ -133,6 +133,39 @@ def test_keypoints_above_the_band_are_not_floor_candidates():
     assert seen.track_ids.size == 0
 
 
+def test_a_track_waits_window_images_and_no_longer():
+    """``window_images`` 3: a floor point seen in image 0 is continued in image 3 (three images
+    later), in image 4 it starts a new track; keypoints that are no candidates are skipped."""
+    desc = np.full((1, 128), 512 / np.sqrt(128), dtype=np.float32)
+    ray = _rays_to(np.array([[1.0, 0.0]]), np.zeros(3))
+    nothing = np.zeros((0, 3))
+    for later, expected in ((3, [0]), (4, [1])):
+        tracker = FloorTracker(VIEWPOINT, FloorTrackConfig(enabled=True, window_images=3))
+        tracker.process(ray, desc, np.zeros(3))
+        for _ in range(later - 1):
+            tracker.process(nothing, desc[:0], np.zeros(3))
+        assert tracker.process(ray, desc, np.zeros(3)).track_ids.tolist() == expected
+    skipped = tracker.process(ray, desc, np.zeros(3), candidates=np.array([False]))
+    assert skipped.track_ids.size == 0
+
+
+def test_the_viewpoints_offset_turns_with_the_robot():
+    """A viewpoint 0.2 m ahead of the robot's origin: one floor point seen from (0, 0, 0) and
+    from (0.5, 0, pi/2) is one track (without the offset the two floor points would be
+    0.2 sqrt(2) = 0.28 m apart, beyond the 4 cm gate)."""
+    viewpoint = np.array([0.2, 0.0, HEIGHT_M])
+    tracker = FloorTracker(viewpoint, FloorTrackConfig(enabled=True))
+    desc = np.full((1, 128), 512 / np.sqrt(128), dtype=np.float32)
+    point = np.array([1.0, 0.6])
+    ids = []
+    for pose in (np.zeros(3), np.array([0.5, 0.0, np.pi / 2])):
+        c, s = np.cos(pose[2]), np.sin(pose[2])
+        rel = (point - pose[:2]) @ np.array([[c, -s], [s, c]]) - viewpoint[:2]
+        ray = np.array([[rel[0], rel[1], -HEIGHT_M]])
+        ids += tracker.process(ray, desc, pose).track_ids.tolist()
+    assert ids == [0, 0]
+
+
 @pytest.mark.parametrize(
     "kwargs",
     [

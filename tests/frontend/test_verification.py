@@ -144,6 +144,79 @@ def test_too_few_matches_are_rejected_not_guessed():
     assert result.kind is ModelKind.NONE and result.n_inliers == 0
 
 
+def test_the_epipolar_error_is_the_larger_angle_to_either_epipolar_plane():
+    """asin(|f1^T E f2| / min(|E f2|, |E^T f1|)): of f1 to the plane of normal E f2 and of f2
+    to the plane of normal E^T f1 (one numerator), the larger angle."""
+    rng = np.random.default_rng(8)
+    pose, f1, f2 = _scene(rng, n=50)
+    f2 = f2 + rng.normal(scale=0.01, size=f2.shape)
+    f2 /= np.linalg.norm(f2, axis=1, keepdims=True)
+    E = pose.essential()
+    n1, n2 = f2 @ E.T, f1 @ E
+    angle_1 = np.arcsin(np.abs(np.sum(f1 * n1, axis=1)) / np.linalg.norm(n1, axis=1))
+    angle_2 = np.arcsin(np.abs(np.sum(f2 * n2, axis=1)) / np.linalg.norm(n2, axis=1))
+    assert np.max(np.abs(angle_1 - angle_2) / np.maximum(angle_1, angle_2)) > 0.1
+    expected = np.maximum(angle_1, angle_2)
+    np.testing.assert_allclose(epipolar_errors(E, f1, f2), expected, rtol=1e-9)
+
+
+def test_a_planar_motion_moves_an_offset_viewpoint_by_the_turn_too():
+    """p_1 = R p_2 + t between viewpoint frames (the robot frames shifted by v): a point at
+    p_r2 in robot frame 2 is at Rz p_r2 + (dx, dy, 0) in robot frame 1."""
+    delta, v = np.array([0.4, -0.2, 0.7]), np.array([0.1, 0.05, 0.85])
+    pose = RelativePose.from_planar_motion(delta, v)
+    c, s = np.cos(delta[2]), np.sin(delta[2])
+    Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    p_r2 = np.array([[2.0, 1.0, 0.3], [-1.0, 3.0, 1.2]])
+    p_r1 = p_r2 @ Rz.T + np.array([delta[0], delta[1], 0.0])
+    np.testing.assert_allclose(p_r1 - v, (p_r2 - v) @ pose.R.T + pose.t, atol=1e-12)
+
+
+def test_kabsch_returns_a_rotation_for_bearings_in_one_plane():
+    """Kabsch with the determinant's sign corrected: horizontal bearings (the orthogonal
+    matrix is free to reflect z) give Rz(0.3) itself, mirrored ones a proper rotation."""
+    from omnislam.frontend.verification import rotation_from_bearings
+
+    az = np.linspace(-3.0, 3.0, 12)
+    f1 = np.column_stack([np.cos(az), np.sin(az), np.zeros(12)])
+    R = RelativePose.from_planar_motion(np.array([0.0, 0.0, 0.3]), np.zeros(3)).R
+    got = rotation_from_bearings(f1, f1 @ R)  # f2 = R^T f1
+    np.testing.assert_allclose(got, R, atol=EXACT_RAD)
+    # bearings mirrored in z: the best orthogonal matrix is the mirror, the answer a rotation
+    rng = np.random.default_rng(11)
+    g1 = rng.normal(size=(20, 3))
+    g1 /= np.linalg.norm(g1, axis=1, keepdims=True)
+    got = rotation_from_bearings(g1, g1 * np.array([1.0, 1.0, -1.0]))
+    np.testing.assert_allclose(got @ got.T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(got) > 0
+
+
+def test_the_rotation_model_allows_the_parallax_of_near_points():
+    """A baseline of 1.5 cm (< min_baseline_m): points 1-6 m away move by up to
+    baseline / depth = 0.015 rad, which the threshold 0.004 + baseline / NEAR_DEPTH_M allows."""
+    rng = np.random.default_rng(9)
+    _, f1, f2 = _scene(rng, n=100, delta=(0.015, 0.0, 0.3), viewpoint=(0.0, 0.0, 0.0))
+    prior = RelativePose.from_planar_motion(np.array([0.015, 0.0, 0.3]), np.zeros(3))
+    result = verify_matches(f1, f2, prior, VerificationConfig(), np.random.default_rng(0))
+    assert result.kind is ModelKind.ROTATION and result.n_inliers == 100
+    # a baseline of exactly min_baseline_m is epipolar geometry's
+    _, f1, f2 = _scene(rng, n=100, delta=(0.02, 0.0, 0.1), viewpoint=(0.0, 0.0, 0.0))
+    prior = RelativePose.from_planar_motion(np.array([0.02, 0.0, 0.1]), np.zeros(3))
+    assert prior.baseline_m == VerificationConfig().min_baseline_m
+    result = verify_matches(f1, f2, prior, VerificationConfig(), np.random.default_rng(0))
+    assert result.kind is ModelKind.ESSENTIAL
+
+
+def test_the_rotation_guard_compares_turns_modulo_a_full_turn():
+    """Odometry turned pi - 0.005, the images -pi + 0.005: 0.01 rad apart, not 2 pi - 0.01."""
+    rng = np.random.default_rng(10)
+    _, f1, f2 = _scene(rng, n=150, delta=(0.3, 0.1, -np.pi + 0.005))
+    odometry = np.array([0.3, 0.1, np.pi - 0.005])
+    prior = RelativePose.from_planar_motion(odometry, np.array([0.0, 0.0, 0.85]))
+    result = verify_matches(f1, f2, prior, VerificationConfig(), np.random.default_rng(0))
+    assert result.n_inliers == 150
+
+
 def _bearings(points_1, pose):
     """Unit bearings of points (viewpoint frame 1) from both viewpoints."""
     points_2 = (points_1 - pose.t) @ pose.R

@@ -16,10 +16,10 @@ from graphslam_scenarios import SENSOR_HEIGHT_M
 from omnislam.core.measurement import unit_vectors_from_azimuth_elevation
 from omnislam.core.modality import Modality
 from omnislam.core.se import se2_between, wrap_angle
-from omnislam.core.types import Bearings, FrameInput, Odometry
+from omnislam.core.types import UNKNOWN_ID, Bearings, FrameInput, Odometry
 from omnislam.errors import ConfigError
 from omnislam.graphslam import GraphSLAM, GraphSLAMConfig
-from omnislam.graphslam.floor_scale import FloorScale, KnownScale
+from omnislam.graphslam.floor_scale import MIN_PAIRS, FloorScale, KnownScale
 from omnislam.graphslam.session import FixedLagSession
 
 WHEEL_SCALE = 1.03  # the odometry says 3% more than was driven
@@ -110,6 +110,46 @@ def test_points_fixed_in_the_robot_frame_are_no_floor():
         replace(f, bearings=Bearings(np.array([7, 8]), body, np.full(2, SIGMA_RAD))) for f in frames
     ]
     assert _observe_all(frames).scale == 1.0
+
+
+def _straight(xs, lateral=(0.3, 0.4, 0.5, 0.6), unknown=False):
+    """Frames of a robot driving along x through ``xs`` (odometry exact) past floor points
+    every 5 cm along the path at the given lateral offsets, seen exactly while 35 deg or
+    more below the horizon; with ``unknown`` each frame also sees one floor point of its own
+    with UNKNOWN_ID, all on one line along the path (as one track they would pair)."""
+    grid = np.array([(x, y) for x in np.arange(-1.0, xs[-1] + 1.0, 0.05) for y in lateral])
+    frames, previous = [], xs[0]
+    for k, x in enumerate(xs):
+        to = grid - (x, 0.0)
+        rays = np.column_stack([to, np.full(len(to), -SENSOR_HEIGHT_M)])
+        rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+        seen = np.flatnonzero(rays[:, 2] <= -np.sin(np.radians(35.0)))
+        ids, rays = seen, rays[seen]
+        if unknown:
+            extra = np.array([[0.4 - 0.5 * x, -0.35, -SENSOR_HEIGHT_M]])  # at (0.4 + x / 2, -0.35)
+            ids = np.append(ids, UNKNOWN_ID)
+            rays = np.vstack([rays, extra / np.linalg.norm(extra)])
+        delta = np.array([x - previous, 0.0, 0.0])
+        previous = x
+        bearings = Bearings(ids, rays, np.full(len(ids), SIGMA_RAD))
+        frames.append(FrameInput(index=k, odometry=Odometry(delta, float(k)), bearings=bearings))
+    return frames
+
+
+def test_pairs_need_a_baseline_a_landmark_id_and_the_frames_own_poses():
+    """Exact floor bearings on a straight drive with growing steps (x_k = 0.004 k^2):
+    pairs over less than MIN_BASELINE_M (5 cm) are not used; sightings without an id never
+    pair; refined over the true poses the scale is 1 (frame i's pose, not a neighbour's: with
+    growing steps a pair's baseline would be off by (i + j) / (i + j - 2))."""
+    assert _observe_all(_straight(0.002 * np.arange(20))).pairs == 0  # 3.8 cm in all
+    xs = 0.004 * np.arange(30) ** 2
+    floor = _observe_all(_straight(xs))
+    assert floor.inliers >= MIN_PAIRS and floor.scale == pytest.approx(1.0, abs=1e-6)
+    with_unknown = _observe_all(_straight(xs, unknown=True))
+    assert with_unknown.pairs == floor.pairs and with_unknown.scale == floor.scale
+    poses = np.column_stack([xs, np.zeros((len(xs), 2))])
+    refined = floor.refined(poses)
+    assert refined.scale == pytest.approx(1.0, abs=1e-6) and refined.inliers == floor.inliers
 
 
 def _ate_scale(estimate, poses):

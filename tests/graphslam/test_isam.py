@@ -273,6 +273,51 @@ def test_unknown_association_recovers_the_map():
     assert scenario.ate(estimate.trajectory.se2) < 0.5 * scenario.ate(scenario.dead_reckoning)
 
 
+def test_unknown_association_over_a_window_of_frames_recovers_the_map():
+    """``association_lag_frames=2``: each frame's unlabelled sightings are decided by JCBB
+    together with the two frames after it (the last ones at the flush); the map and the
+    trajectory are those of the frame-by-frame association's test above."""
+    scenario = simulate_planar(np.random.default_rng(2))
+    estimator = GraphSLAM(RB, _config(association_lag_frames=2), scenario.poses_true[0])
+    estimate = run(estimator, hide_ids(scenario.frames))
+    info = estimator.info()
+    seen = len({int(i) for f in scenario.frames for i in f.range_bearing.landmark_ids})
+    assert info.landmarks_created == len(estimate.landmark_ids)
+    assert seen - 3 <= info.landmarks_created <= seen + 3
+    assert info.sightings_associated > 0.5 * sum(len(f.range_bearing) for f in scenario.frames)
+    assert scenario.ate(estimate.trajectory.se2) < 0.5 * scenario.ate(scenario.dead_reckoning)
+
+
+def test_a_frame_waits_for_lag_frames_and_the_flush_decides_the_rest():
+    """``WindowAssociation`` with a lag of 2 on an empty map (every sighting NEW): frames are
+    decided oldest first once two more frames wait, and ``flush`` decides those left."""
+    from omnislam.core.compatibility import Decision
+    from omnislam.core.types import RangeBearing
+    from omnislam.graphslam.builder import LandmarkRegistry
+    from omnislam.graphslam.window_association import WindowAssociation
+
+    class NoPoses:  # nothing is in the graph: no pose marginal to read
+        def exists(self, key):
+            return False
+
+    window = WindowAssociation(
+        _config(association_lag_frames=2),
+        NoPoses(),
+        LandmarkRegistry(),
+        None,
+        lambda k: np.zeros(3),
+    )
+    rb = RangeBearing(np.array([-1, -1]), np.array([2.0, 3.0]), np.array([0.1, -0.4]), 0.05, 0.01)
+    step = (0, np.zeros(3), np.eye(3))
+    assert window.push(1, rb, np.zeros(3), step) == [] and len(window) == 1
+    assert window.push(2, rb, np.zeros(3), step) == []
+    decided = window.push(3, rb, np.zeros(3), step)
+    assert [d.k for d in decided] == [1] and len(window) == 2
+    assert decided[0].decisions.tolist() == [Decision.NEW] * 2
+    assert decided[0].candidate_ids.tolist() == [-1, -1]
+    assert [d.k for d in window.flush()] == [2, 3] and len(window) == 0
+
+
 def test_reordering_the_candidates_changes_the_tree_not_the_estimate(monkeypatch):
     """``association_reorder_candidates``: the association's candidate landmarks are
     re-eliminated with the next update -- the same linear system in another order, so the same

@@ -173,6 +173,23 @@ def test_track_budget_grace_frees_the_places_of_tracks_never_used():
         TrackBudget(4, grace_images=0)
 
 
+def test_track_budget_counts_the_sectors_of_tracks_admitted_before():
+    """Budget 2 over 4 sectors: track 0 (sector 0) admitted in the first image; the second
+    image has room for one and takes the new track in the empty sector 2, not the one in
+    sector 0 beside track 0 (the admitted tracks load their sectors). A ray at azimuth pi
+    exactly lies in sector 0 (the wrap of (pi + pi) / 2pi * sectors) and is admitted."""
+    az = np.array([-3 * np.pi / 4, -3 * np.pi / 4 + 0.1, np.pi / 4])
+    rays = np.column_stack([np.cos(az), np.sin(az), np.zeros(3)])
+    budget = TrackBudget(2, sectors=4)
+    assert budget.admit(np.array([0]), rays[:1]).tolist() == [True]
+    assert budget.admit(np.arange(3), rays).tolist() == [True, False, True]
+    back = TrackBudget(1, sectors=4)
+    assert back.admit(np.array([7]), np.array([[-1.0, 0.0, 0.0]])).tolist() == [True]
+    # a track seen twice in one image takes one place of the budget
+    twice = TrackBudget(2, sectors=4)
+    assert twice.admit(np.array([5, 5, 6]), np.tile(rays[:1], (3, 1))).all()
+
+
 def test_budget_keeps_the_graph_to_admitted_tracks_with_all_their_sightings(rng):
     scenario = simulate_omni(rng)
     base = dict(sensor_height_m=SENSOR_HEIGHT_M, keyframe_spacing_m=0.0)

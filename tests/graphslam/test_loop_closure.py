@@ -47,7 +47,7 @@ def _graph(
     **overrides: float,
 ):
     """Session, registry and merger with A, B seen before the gap, ``seen_after_gap`` after."""
-    config = GraphSLAMConfig(loop_closure=True, loop_closure_every_frames=1, **overrides)
+    config = GraphSLAMConfig(loop_closure=True, **{"loop_closure_every_frames": 1, **overrides})
     session = ISAM2Session(config)
     registry = LandmarkRegistry()
     merger = LandmarkMerger(config, session, registry, lambda lid: lid >= CREATED_ID_BASE)
@@ -142,6 +142,40 @@ def test_one_pairing_is_not_enough_and_landmarks_seen_together_stay_apart():
         {A2: TRUE_XY[A], B2: TRUE_XY[B]}, drift, also_old=True, loop_closure_min_landmarks=1
     )
     assert [(m.duplicate, m.kept) for m in _check(session, merger)] == [(B2, B)]
+
+
+def test_the_reach_grows_with_the_local_landmarks_own_spread():
+    """With a landmark std of 5 cm the fixed part of the reach, sqrt(4 chi2_2(0.9999)) 0.05 =
+    0.43 m, is short of the duplicates' 0.5 m offset: the reach's 2 x spread term (the weak
+    loop step's 0.5 m std) is what lets them be found, and merged."""
+    drift = np.array([0.4, 0.3, 0.0])
+    session, _, merger = _graph(
+        {A2: TRUE_XY[A], B2: TRUE_XY[B]}, drift, association_landmark_sigma_m=0.05
+    )
+    assert {(m.duplicate, m.kept) for m in _check(session, merger)} == {(A2, A), (B2, B)}
+
+
+def test_the_local_map_is_matched_every_few_frames_and_holds_recent_landmarks_only():
+    drift = np.array([0.4, 0.3, 0.0])
+    seen = {A2: TRUE_XY[A], B2: TRUE_XY[B]}
+    session, _, merger = _graph(seen, drift, loop_closure_every_frames=2)
+    assert _check(session, merger) == [] and merger.checks == 0  # first call: no match
+    assert len(_check(session, merger, 5)) == 2 and merger.checks == 1
+    # A', B' last seen in frame 3: outside a 5-frame window at frame 9, inside at frame 8
+    session, _, merger = _graph(seen, drift, loop_closure_window_frames=5)
+    assert _check(session, merger, 9) == [] and merger.checks == 0
+    assert len(_check(session, merger, 8)) == 2
+
+
+def test_a_merged_landmark_carries_on_with_the_duplicates_frames():
+    """After A' -> A: A' 's frames (2, 3) count as A's (landmarks seen with A' were seen with
+    A), its last sighting is A's, and a later sighting of A' is recorded for A."""
+    drift = np.array([0.4, 0.3, 0.0])
+    session, _, merger = _graph({A2: TRUE_XY[A], B2: TRUE_XY[B]}, drift)
+    _check(session, merger)
+    assert merger._frames[A] == {0, 1, 2, 3} and merger._last_seen[A] == 3
+    merger.seen(A2, 7)
+    assert 7 in merger._frames[A] and merger._last_seen[A] == 7 and A2 not in merger._frames
 
 
 def test_landmarks_with_given_ids_are_never_merged():

@@ -128,6 +128,44 @@ def test_squared_distances_are_the_factors_own_whitened_error():
             assert d2[r, c] == pytest.approx(2 * moved.error(values), rel=1e-9, abs=1e-12)
 
 
+def test_a_sighting_outside_every_gate_stays_where_it_is():
+    """Frame 1's sighting, given to A, is of a point 0.3 m beside B: B is the nearest landmark
+    but, at 0.005 rad and 2 cm, far outside the 2-dof gate; nothing moves."""
+    graph, _ = problem([(0, A, A), (0, B, B), (2, A, A)])
+    x, y, th = POSES[1]
+    d = TRUE[B] + [0.0, 0.3] - [x, y]
+    noise = gtsam.noiseModel.Diagonal.Sigmas(SIGMAS)
+    bearing = gtsam.Rot2(np.arctan2(d[1], d[0]) - th)
+    graph.add(gtsam.BearingRangeFactor2D(X(1), A, bearing, np.hypot(*d), noise))
+    values = exact(graph)
+    d2 = squared_distances(values, [_row(graph, 6)], [A, B])[0]
+    assert d2[1] < d2[0] and d2[1] > GATE
+    out = reassociate(graph, values, lambda key: True, GATE, 3, lm)
+    assert out.moved == 0 and landmark_of(out.graph, 1, 0) == A
+
+
+def test_a_landmark_that_took_a_sighting_may_give_its_own_in_the_same_round():
+    """Frame 1's sighting of B was given to A, frame 2's of C to B (B's only one): B takes
+    frame 1's first, so it may give frame 2's to C in the same round: one round moves both and
+    the second moves nothing."""
+    graph, _ = problem([(0, A, A), (0, C, C), (1, A, B), (2, B, C)])
+    out = reassociate(graph, exact(graph), lambda key: True, GATE, 3, lm)
+    assert out.moved == 2 and out.rounds == 2
+    assert landmark_of(out.graph, 1, 0) == B and landmark_of(out.graph, 2, 0) == C
+
+
+def test_robust_sightings_are_gated_by_their_gaussian_sigmas():
+    graph, _ = problem([(0, A, A), (0, B, B), (2, A, A)])
+    x, y, th = POSES[1]
+    d = TRUE[B] - [x, y]
+    huber = gtsam.noiseModel.mEstimator.Huber.Create(1.345)
+    noise = gtsam.noiseModel.Robust.Create(huber, gtsam.noiseModel.Diagonal.Sigmas(SIGMAS))
+    bearing = gtsam.Rot2(np.arctan2(d[1], d[0]) - th)
+    graph.add(gtsam.BearingRangeFactor2D(X(1), A, bearing, np.hypot(*d), noise))
+    out = reassociate(graph, exact(graph), lambda key: True, GATE, 3, lm)
+    assert out.moved == 1 and landmark_of(out.graph, 1, 0) == B
+
+
 DATASET6 = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "mrclam"
 
 

@@ -5,12 +5,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.stats import chi2
 
 from omnislam.camera.pinhole import PinholeCamera
 from omnislam.camera.rig import CameraRig
-from omnislam.ukf.association import associate_landmarks, set_score, validate
+from omnislam.ukf.association import PoseConsistency, associate_landmarks, set_score, validate
 from omnislam.ukf.candidates import occluded, select_candidates
 from omnislam.ukf.config import AssociationConfig, PhotometricConfig
+from omnislam.ukf.filter import BearingPrediction
 from omnislam.ukf.image_line import AngularLine, PerspectiveLine, image_line_from_rig
 from omnislam.ukf.photometric import colour_differences, mc_from_pmc, photometric_scores
 from omnislam.ukf.tracking import track_lines
@@ -161,3 +163,77 @@ def test_a_single_pair_is_used_only_when_no_other_pair_passed_its_gates():
         np.array([100.0]), np.array([101.0, 96.0]), np.zeros((1, 2)), paper
     )
     assert nearest.candidates.tolist() == [0]  # the smaller |u_shift|
+    # two projections gated on one landmark: the pair the windows keep is no evidence either
+    rivals = associate_landmarks(
+        np.array([100.0, 104.0]), np.array([101.0]), np.zeros((2, 1)), CONFIG
+    )
+    assert len(rivals) == 0
+
+
+def _consistency(innovations, line_variance, covariance, probability=0.999):
+    """PoseConsistency with Pzz = ``covariance`` (deviations whose weighted outer product it
+    is: one sigma point per column of its Cholesky factor, weight 1)."""
+    deviations = np.linalg.cholesky(np.asarray(covariance, float)).T
+    prediction = BearingPrediction(np.zeros(len(deviations)), deviations, np.ones(len(deviations)))
+    return PoseConsistency(
+        np.asarray(innovations, float), np.asarray(line_variance, float), prediction, probability
+    )
+
+
+def test_the_pregate_is_the_1_dof_chi_square_gate_on_each_pair():
+    """y^2 / (sigma_i^2 + Pzz_jj) against chi2_1(0.999) = 10.83 (chi2_2 would be 13.82)."""
+    gate = chi2.ppf(0.999, 1)
+    s = 0.5 + 1.5  # line variance + the prediction's
+    y = np.sqrt(s * np.array([[0.9 * gate, 1.1 * gate]]))
+    consistency = _consistency(y, [0.5], np.diag([1.5, 1.5]))
+    np.testing.assert_allclose(consistency.pair_distances(), [[0.9 * gate, 1.1 * gate]])
+    assert consistency.pregate().tolist() == [[True, False]]
+
+
+def test_the_consistent_subset_needs_both_the_joint_and_each_pairs_gate():
+    """Independent pairs (S = 2 I): pair k's distance given the others is y_k^2 / 2.
+    Three pairs of y = 2.9 sqrt(2): each 8.41 < chi2_1 = 10.83, jointly 25.2 > chi2_3 = 16.27, two
+    16.8 > chi2_2 = 13.82: one pair is left. Five with one y = 3.4 sqrt(2): jointly 11.56 < chi2_5 =
+    20.5, but that pair's 11.56 > 10.83: the other four are left."""
+    lines = np.arange(5)
+    root2 = np.sqrt(2.0)
+    three = _consistency(np.diag([2.9, 2.9, 2.9]) * root2, np.full(3, 1.5), 0.5 * np.eye(3))
+    assert three.consistent_subset(lines[:3], lines[:3]).size == 1
+    five = _consistency(np.diag([0, 0, 3.4, 0, 0]) * root2, np.full(5, 1.5), 0.5 * np.eye(5))
+    assert five.consistent_subset(lines, lines).tolist() == [0, 1, 3, 4]
+    # the same innovation 4.5 on two landmarks sharing the pose error (Pzz 1.6, correlation
+    # 0.99): alone 12.6 > 10.83 each, together 12.7 < 13.82 and 0.08 each given the other
+    shared = np.array([[1.0, 0.99], [0.99, 1.0]])
+    common = _consistency(np.diag([4.5, 4.5]), [1e-3, 1e-3], shared * 1.6)
+    assert common.consistent_subset(lines[:2], lines[:2]).tolist() == [0, 1]
+
+
+def test_the_nearest_line_is_measured_without_the_pairs_own_line_noise():
+    """One pair (line 0, landmark 0): the prediction has mean 0 and variance Pzz = 1; line l
+    is (y_l0)^2 / (Pzz + R_l) from it: line 0 (R 1, y 1.5) 1.125, line 1 (R 0, y 1.2) 1.44, so
+    line 0 is the nearest (counting R_0 twice, 0.75 against 0.72, it would not be)."""
+    consistency = _consistency([[1.5], [1.2]], [1.0, 0.0], [[1.0]])
+    assert consistency.nearest_lines(np.array([0]), np.array([0])).tolist() == [True]
+    farther = _consistency([[1.5], [1.0]], [1.0, 0.0], [[1.0]])
+    assert farther.nearest_lines(np.array([0]), np.array([0])).tolist() == [False]
+
+
+def test_a_window_ends_at_the_last_pair_within_its_spread_inclusive():
+    """One 3 px window: shifts 0 and exactly 3 px share it (two pairs); a window ending before
+    the second would leave ambiguous single pairs only (no association)."""
+    config = AssociationConfig(windows_px=(3.0,))
+    best = associate_landmarks(
+        np.array([100.0, 203.0]), np.array([100.0, 200.0]), np.zeros((2, 2)), config
+    )
+    assert best.lines.tolist() == [0, 1] and best.candidates.tolist() == [0, 1]
+
+
+def test_among_equal_matchings_the_window_keeps_shifts_nearest_its_median():
+    """Lines 100 and 102.5 compete for the landmark at 101 (shifts -1, +1.5; equal C'_ij);
+    the line at 300 matches 300 (shift 0). The 3 px window holds all three, median 0: the
+    matching keeps the shift -1 (deviation 1 < 1.5), and no window holds only (0, 1.5)'s
+    rival: the answer is lines 0 and 2."""
+    best = associate_landmarks(
+        np.array([100.0, 102.5, 300.0]), np.array([101.0, 300.0]), np.zeros((3, 2)), CONFIG
+    )
+    assert sorted(best.lines.tolist()) == [0, 2]
