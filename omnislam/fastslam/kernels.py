@@ -109,6 +109,7 @@ def compiled() -> SimpleNamespace:
         namespace["_key_depth"] = jit(_key_depth)
         namespace["_own_copy"] = jit(_own_copy)
         namespace["_inverse_small"] = jit(_inverse_small)
+        namespace["_bearing_rows"] = jit(_bearing_rows)
         _COMPILED = SimpleNamespace(
             tree_rows=jit(tree_rows),
             tree_scatter=jit(tree_scatter),
@@ -807,6 +808,21 @@ def azimuth_elevation_arguments(
         out[3, i] = math.sqrt(rho2)
 
 
+def _bearing_rows(dx: float, dy: float, dz: float, h: np.ndarray) -> float:
+    """The azimuth and elevation rows of a bearing's Jacobian with respect to the landmark
+    (thesis eq. 4.32 without its range row), for the landmark at (dx, dy, dz) from the viewpoint,
+    into ``h`` (2, 3); returns d^2 = rho^2 + dz^2, rho^2 floored at ``_EPS``. The pose's
+    Jacobian is minus its first two columns with -1 / 0 for the heading."""
+    rho2 = dx * dx + dy * dy
+    if rho2 < _EPS:
+        rho2 = _EPS
+    rho = math.sqrt(rho2)
+    d2 = rho2 + dz * dz
+    h[0, 0], h[0, 1], h[0, 2] = -dy / rho2, dx / rho2, 0.0
+    h[1, 0], h[1, 1], h[1, 2] = -dz * dx / (rho * d2), -dz * dy / (rho * d2), rho / d2
+    return d2
+
+
 def _inverse_small(S: np.ndarray, k: int, out: np.ndarray) -> float:
     """S^-1 of a 2x2 or 3x3 matrix into ``out``, returns det S: the closed forms of
     ``batch_linalg.inverse_entry_major`` (cofactors over the determinant for 3x3)."""
@@ -886,6 +902,7 @@ def bearing_landmark_updates(
         out_mahalanobis, out_det: (N,) y^T S^-1 y and det S; out_accepted: (N,) bool.
     """
     H = np.zeros((3, 3))
+    hb = np.zeros((2, 3))
     Rk = np.zeros((3, 3))
     y = np.zeros(3)
     pht = np.zeros((3, 3))
@@ -899,16 +916,9 @@ def bearing_landmark_updates(
         dx = mean[r, 0] - x
         dy = mean[r, 1] - yy
         dz = mean[r, 2] - sensor_height_m
-        rho2 = dx * dx + dy * dy
-        if rho2 < _EPS:
-            rho2 = _EPS
-        rho = math.sqrt(rho2)
-        d2 = rho2 + dz * dz
+        d2 = _bearing_rows(dx, dy, dz, hb)  # the bearing rows of H
         azimuth = _wrap(mean_angles[0, i] - theta)
         elevation = mean_angles[1, i]
-        # the bearing rows of H (eq. 4.32 without its range row)
-        h10, h11, h12 = -dy / rho2, dx / rho2, 0.0
-        h20, h21, h22 = -dz * dx / (rho * d2), -dz * dy / (rho * d2), rho / d2
         if triangulated[i]:
             k = 3
             gate = gate_triangulated
@@ -936,8 +946,9 @@ def bearing_landmark_updates(
             y[1] = _wrap(z_azimuth - azimuth)
             y[2] = _wrap(point_angles[1, i] - elevation)
             H[0, 0], H[0, 1], H[0, 2] = dx / d, dy / d, dz / d
-            H[1, 0], H[1, 1], H[1, 2] = h10, h11, h12
-            H[2, 0], H[2, 1], H[2, 2] = h20, h21, h22
+            for b in range(3):
+                H[1, b] = hb[0, b]
+                H[2, b] = hb[1, b]
         else:
             k = 2
             gate = gate_direct
@@ -947,8 +958,9 @@ def bearing_landmark_updates(
                     Rk[a, b] = R[o, a, b]
             y[0] = _wrap(z[o, 0] - azimuth)
             y[1] = _wrap(z[o, 1] - elevation)
-            H[0, 0], H[0, 1], H[0, 2] = h10, h11, h12
-            H[1, 0], H[1, 1], H[1, 2] = h20, h21, h22
+            for b in range(3):
+                H[0, b] = hb[0, b]
+                H[1, b] = hb[1, b]
         # P H^T (3 x k), S = H (P H^T) + R (k x k)
         for a in range(3):
             for b in range(k):
@@ -1079,16 +1091,10 @@ def refine_bearing_elevation(
         dx = landmark_mean[i, 0] - x
         dy = landmark_mean[i, 1] - y
         dz = landmark_mean[i, 2] - sensor_height_m
-        rho2 = dx * dx + dy * dy
-        if rho2 < _EPS:
-            rho2 = _EPS
-        rho = math.sqrt(rho2)
-        d2 = rho2 + dz * dz
         y0 = _wrap(z[0] - _wrap(angles[0, i] - theta))
         y1 = _wrap(z[1] - angles[1, i])
         # landmark Jacobian H_m and pose Jacobian H_x = [-H_m[:, :2] | (-1, 0)^T]
-        hm[0, 0], hm[0, 1], hm[0, 2] = -dy / rho2, dx / rho2, 0.0
-        hm[1, 0], hm[1, 1], hm[1, 2] = -dz * dx / (rho * d2), -dz * dy / (rho * d2), rho / d2
+        _bearing_rows(dx, dy, dz, hm)
         hx[0, 0], hx[0, 1], hx[0, 2] = -hm[0, 0], -hm[0, 1], -1.0
         hx[1, 0], hx[1, 1], hx[1, 2] = -hm[1, 0], -hm[1, 1], 0.0
         # Q = (H_m Sigma_m) H_m^T + R

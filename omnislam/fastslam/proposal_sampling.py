@@ -243,14 +243,8 @@ class ProposalSampler:
             det,
             gate,
         )
-        rejected = mahalanobis > gate
-        gated = int(np.count_nonzero(rejected))
-        if gated:
-            mahalanobis = np.minimum(mahalanobis, gate)  # as ``refine_proposal`` truncates
-        log_likelihood = log_likelihood_from_mahalanobis(mahalanobis, np.log(det), 2)
-        log_factors = np.bincount(who, weights=log_likelihood, minlength=len(mean))
-        log_factors = log_factors.astype(float, copy=False)  # int64 when there are no pairs
-        return mean, cov, log_factors, gated
+        gated = int(np.count_nonzero(mahalanobis > gate))
+        return mean, cov, _summed_log_likelihoods(mahalanobis, det, who, gate, len(mean)), gated
 
     def _refine_bearings_compiled(
         self,
@@ -302,8 +296,16 @@ class ProposalSampler:
                 det[span],
             )
         gated = int(np.count_nonzero(~(mahalanobis <= gate)))
-        mahalanobis = np.minimum(mahalanobis, gate)  # as ``refine_proposal`` truncates
-        log_likelihood = log_likelihood_from_mahalanobis(mahalanobis, np.log(det), 2)
-        log_factors = np.bincount(who, weights=log_likelihood, minlength=len(mean))
-        log_factors = log_factors.astype(float, copy=False)  # int64 when there are no pairs
-        return mean, cov, log_factors, gated
+        return mean, cov, _summed_log_likelihoods(mahalanobis, det, who, gate, len(mean)), gated
+
+
+def _summed_log_likelihoods(
+    mahalanobis: np.ndarray, det: np.ndarray, who: np.ndarray, gate: float, n: int
+) -> np.ndarray:
+    """(n,) each particle's sum of its pairs' predictive log-likelihoods (2-D innovations of
+    squared Mahalanobis distance ``mahalanobis`` and covariance determinant ``det``), each
+    distance truncated at ``gate`` as ``refine_proposal`` truncates it."""
+    truncated = np.minimum(mahalanobis, gate)
+    log_likelihood = log_likelihood_from_mahalanobis(truncated, np.log(det), 2)
+    log_factors = np.bincount(who, weights=log_likelihood, minlength=n)
+    return log_factors.astype(float, copy=False)  # int64 when there are no pairs
