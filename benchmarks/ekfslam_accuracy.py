@@ -127,13 +127,13 @@ def laser_alone(dataset: str, log: str | None) -> float | None:
     from omnislam.compare.cache import LOGS, cache_dir
     from omnislam.compare.execute import frontend_log_for
     from omnislam.compare.metrics import Alignment, ate
-    from omnislam.core.types import Trajectory
+    from omnislam.core.types import OdometrySource, Trajectory
     from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
 
     sequence = load_dataset(resolve(dataset), {})
     path = log if log is not None else frontend_log_for(sequence, dataset, cache_dir() / LOGS)
     replay = load_observation_log(path, dataset_id=dataset_fingerprint(sequence))
-    if replay.odometry_source != "laser":
+    if replay.odometry_source is not OdometrySource.LASER:
         return None
     deltas = np.array([f.odometry.delta for f in replay.frames])
     poses = se2_integrate(deltas)

@@ -54,6 +54,7 @@ from harness_cells import set_options
 
 from omnislam.compare.metrics import Alignment, ate, pose_nees
 from omnislam.core.modality import modalities_of
+from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Trajectory
 from omnislam.datasets.sequence import Sequence
 from omnislam.datasets.synthetic.loader import load_synthetic
@@ -61,7 +62,7 @@ from omnislam.datasets.synthetic.presets import PRESETS
 from omnislam.datasets.synthetic.routes import NO_BIAS
 from omnislam.datasets.synthetic.simulate import simulate
 from omnislam.datasets.synthetic.writer import write_synthetic
-from omnislam.estimators import SequenceInfo, make_estimator, resolve_estimator_modality
+from omnislam.estimators import make_estimator, resolve_estimator_modality
 from omnislam.fastslam import FastSLAM
 from omnislam.fastslam.config import TrajectoryMode
 

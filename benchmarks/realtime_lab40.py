@@ -64,9 +64,10 @@ from omnislam.compare.execute import (
 )
 from omnislam.compare.metrics import Alignment, LandmarkAssociation, ate, landmark_error
 from omnislam.core.se import se2_between
+from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Trajectory
 from omnislam.datasets.registry import load_dataset
-from omnislam.estimators import SequenceInfo, make_estimator
+from omnislam.estimators import make_estimator
 
 #: graph variants: label -> (estimator, --set options)
 VARIANTS: dict[str, tuple[str, dict[str, str]]] = {

@@ -9,6 +9,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from omnislam.core.se import se2_integrate
+from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Estimate, FrameInput, Trajectory
 from omnislam.errors import ConfigError
 
@@ -43,7 +44,7 @@ class DeadReckoning:
 
 
 def make_estimator(
-    info: object, options: Mapping[str, str], rng: np.random.Generator
+    info: SequenceInfo, options: Mapping[str, str], rng: np.random.Generator
 ) -> DeadReckoning:
     """Factory for ``omnislam.estimators``; dead reckoning takes no options and no randomness."""
     del info, rng

@@ -12,52 +12,14 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from omnislam.core.modality import MODALITY_OPTION, Modality, resolve_modality
-from omnislam.core.types import Estimator, PriorMap
+from omnislam.core.sequence_info import SequenceInfo
+from omnislam.core.types import Estimator
 from omnislam.errors import ConfigError
-
-
-@dataclass(frozen=True, slots=True)
-class SequenceInfo:
-    """What an estimator may know about a run before it sees the frames.
-
-    Attributes:
-        name: the sequence's name.
-        frames: number of frames.
-        modalities: the observation streams the frames carry (with the front-end log's).
-        modality: the stream the estimator consumes, resolved by ``make_estimator``
-            (``core.modality.resolve_modality``); None before that.
-        known_association: sightings carry landmark ids (not UNKNOWN_ID).
-        sigma_range_m, sigma_bearing_rad: the loader's sighting noise, when it states one.
-        sensor_height_m: height of the omni camera's single viewpoint above the ground plane
-            (from the calibration rig), when the sequence has a camera.
-        prior_map: the map known before the run (``Sequence.prior_map``, or the landmarks of
-            an earlier RUN_DIR), for localisers; None when there is none.
-        calibration: the sequence's camera rig (``omnislam.camera.CameraRig``) when it has
-            images, for estimators that express pixel thresholds as angles (the UKF); else None.
-        facts: the sequence's ``info`` mapping (free-form, for logging).
-        odometry_source: where the frames' odometry comes from: ``"wheel"`` (the dataset's) or
-            ``"laser"`` (the front end's scan matching, ``ObservationLog.odometry_source``,
-            with a covariance measured per step).
-    """
-
-    name: str
-    frames: int
-    modalities: frozenset[Modality] = frozenset()
-    modality: Modality | None = None
-    known_association: bool = False
-    sigma_range_m: float | None = None
-    sigma_bearing_rad: float | None = None
-    sensor_height_m: float | None = None
-    prior_map: PriorMap | None = None
-    calibration: object | None = None
-    facts: Mapping[str, str] = field(default_factory=dict)
-    odometry_source: str = "wheel"
-
 
 #: factory(info, options, rng) -> Estimator
 EstimatorFactory = Callable[[SequenceInfo, Mapping[str, str], np.random.Generator], Estimator]
@@ -84,6 +46,9 @@ class EstimatorEntry:
             graph places them on the floor (``graphslam.floor_points``); a filter would take
             them as ordinary landmarks and, on lab40, FastSLAM 2.0's map came out ~3 % small
             with them (docs/results.md, "The joint floor solve's viewpoints").
+        wheel_odometry: it always steps on the dataset's own odometry, even where the front
+            end's log carries laser odometry that replaces it for the others (dead reckoning:
+            the baseline the SLAM estimators are compared with).
     """
 
     target: str
@@ -93,6 +58,7 @@ class EstimatorEntry:
     config: str = ""
     preset: str = ""
     floor_tracks: bool = False
+    wheel_odometry: bool = False
 
 
 _SLAM_2D_3D = frozenset({Modality.RANGE_BEARING_2D, Modality.BEARINGS_3D})
@@ -106,6 +72,7 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
         "omnislam.deadreckoning:check_options",
         summary="the odometry composed, sightings ignored: the baseline every SLAM back end "
         "must beat",
+        wheel_odometry=True,
     ),
     "graphslam": EstimatorEntry(
         "omnislam.graphslam:make_estimator",
@@ -160,6 +127,15 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
 }
 
 
+def unknown_estimator_message(name: str) -> str:
+    """The one line for an estimator name the registry does not hold, with the nearest names."""
+    import difflib
+
+    near = difflib.get_close_matches(name, list(ESTIMATORS), n=2, cutoff=0.6)
+    hint = f" (did you mean {' or '.join(repr(n) for n in near)}?)" if near else ""
+    return f"unknown estimator {name!r}{hint}; known: {', '.join(ESTIMATORS)}"
+
+
 def estimator_factory(name: str) -> EstimatorFactory:
     """The factory registered under ``name``.
 
@@ -167,7 +143,7 @@ def estimator_factory(name: str) -> EstimatorFactory:
         ConfigError: unknown name (listing the known ones) or a back end not available yet.
     """
     if name not in ESTIMATORS:
-        raise ConfigError(f"unknown estimator {name!r}; known: {', '.join(ESTIMATORS)}")
+        raise ConfigError(unknown_estimator_message(name))
     target = ESTIMATORS[name].target
     module_name, attribute = target.split(":")
     module = importlib.import_module(module_name)
@@ -187,7 +163,7 @@ def estimator_defaults(name: str) -> tuple[object | None, tuple[str, ...]]:
         ConfigError: unknown estimator.
     """
     if name not in ESTIMATORS:
-        raise ConfigError(f"unknown estimator {name!r}; known: {', '.join(ESTIMATORS)}")
+        raise ConfigError(unknown_estimator_message(name))
     entry = ESTIMATORS[name]
     if not entry.config:
         return None, ()
@@ -234,7 +210,7 @@ def resolve_estimator_modality(
             names the data's modalities and the estimator's).
     """
     if name not in ESTIMATORS:
-        raise ConfigError(f"unknown estimator {name!r}; known: {', '.join(ESTIMATORS)}")
+        raise ConfigError(unknown_estimator_message(name))
     accepted = ESTIMATORS[name].modalities
     text = options.get(MODALITY_OPTION)
     override = None if text is None else Modality.parse(text)

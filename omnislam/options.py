@@ -1,15 +1,21 @@
 """``--set key=value`` overrides applied to a component's frozen configuration dataclass.
 
 Options arrive as strings from the command line or a grid YAML; each component declares its
-configuration as a frozen dataclass with typed fields, and ``apply_options`` converts the strings
-to those types (int, float, bool, str, Enum by value, tuples "a,b,c", nested dataclasses by
-dotted keys such as ``motion_noise.a_vv=0.1``, optional nested configs with ``none``). Unknown
-keys and unconvertible values raise ConfigError naming the key, so a typo never passes silently.
+configuration as a tree of frozen dataclasses with typed fields (one section per collaborator:
+``association.gate_probability``), and ``apply_options`` converts the strings to those types
+(int, float, bool, str, Enum by value, tuples "a,b,c", nested dataclasses by dotted keys such as
+``motion_noise.a_vv=0.1``, optional nested configs with ``none``). Unknown keys and
+unconvertible values raise ConfigError naming the key, so a typo never passes silently: a key
+that lives in a section now names its dotted key, another one the nearest known keys.
+
+A configuration names the few options most users set in a class attribute ``MAIN_OPTIONS``
+(dotted keys); ``omnislam estimators`` lists those first and the rest by section (``--all``).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import enum
 import types
 import typing
@@ -73,10 +79,14 @@ def apply_options(config: C, options: Mapping[str, str], *, prefix: str = "") ->
         prefix: key prefix used in error messages (for nested configs).
 
     Raises:
-        ConfigError: unknown key (the known ones are listed) or a value of the wrong type.
+        ConfigError: unknown key (naming its dotted key when it lives in a section, else the
+            nearest known keys) or a value of the wrong type.
     """
     if not dataclasses.is_dataclass(config) or isinstance(config, type):
         raise TypeError("apply_options needs a dataclass instance")
+    if not prefix:
+        for key in options:
+            _check_key(config, key)
     hints = typing.get_type_hints(type(config))
     fields = {f.name for f in dataclasses.fields(config) if f.init}
     direct: dict[str, Any] = {}
@@ -107,6 +117,38 @@ def apply_options(config: C, options: Mapping[str, str], *, prefix: str = "") ->
         raise ConfigError(f"invalid options {', '.join(options)}: {exc}") from exc
 
 
+def _check_key(config: Any, key: str) -> None:
+    """Raise ConfigError unless ``key`` is an option of ``config``: a field, a dotted field of a
+    section, or an optional section itself (``maybe=none``).
+
+    The message of an unknown key names where it went when a section holds a field of that
+    name (``'n_particles'; it is set as 'particles.n_particles'``), else the nearest known keys and
+    the sections.
+    """
+    leaves = [o.key for o in describe_options(config)]
+    sections = sorted({k.rsplit(".", 1)[0] for k in leaves if "." in k})
+    if key in leaves or key in sections:
+        return
+    moved = [k for k in leaves if k.rsplit(".", 1)[-1] == key.rsplit(".", 1)[-1]]
+    if len(moved) == 1:
+        raise ConfigError(f"unknown option {key!r}; it is set as {moved[0]!r}")
+    near = difflib.get_close_matches(key, leaves, n=3, cutoff=0.7) or moved
+    hint = f" (did you mean {' or '.join(repr(k) for k in near)}?)" if near else ""
+    tops = sorted({k.split(".", 1)[0] for k in leaves})
+    if len(tops) > 12:
+        heads = sorted({k.split(".", 1)[0] for k in sections})
+        known = f"sections: {', '.join(heads)} ('omnislam estimators --all' lists every key)"
+    else:
+        known = f"known: {', '.join(tops)}"
+    raise ConfigError(f"unknown option {key!r}{hint}; {known}")
+
+
+def main_options(config: Any) -> tuple[str, ...]:
+    """The dotted keys a configuration names as the few that matter (its ``MAIN_OPTIONS``
+    class attribute; empty when it names none)."""
+    return tuple(getattr(type(config), "MAIN_OPTIONS", ()))
+
+
 # --------------------------------------------------------------------------------------------
 # What the options are: for ``omnislam estimators`` (read from the dataclasses themselves)
 # --------------------------------------------------------------------------------------------
@@ -134,6 +176,11 @@ class OptionDoc:
     def summary(self) -> str:
         """The first sentence of ``meaning``."""
         return first_sentence(self.meaning)
+
+    @property
+    def section(self) -> str:
+        """The section the option lives in (its key up to the last dot; "" at the top)."""
+        return self.key.rsplit(".", 1)[0] if "." in self.key else ""
 
 
 #: words whose full stop does not end a sentence

@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 
 from omnislam.core.se import se2_compose
+from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Estimator, FrameInput, Odometry
 from omnislam.deadreckoning import DeadReckoning
 from omnislam.errors import ConfigError
-from omnislam.estimators import ESTIMATORS, SequenceInfo, make_estimator
+from omnislam.estimators import ESTIMATORS, make_estimator
 
 
 def frames(steps):

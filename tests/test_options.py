@@ -73,3 +73,39 @@ def test_validation_of_the_config_itself_is_kept():
         apply_options(FastSLAMConfig(), {"n_particles": "0"})
     config = apply_options(FastSLAMConfig(), {"motion_noise.a_vv": "0.2", "store": "dense"})
     assert config.motion_noise.a_vv == 0.2 and config.store.value == "dense"
+
+
+@dataclass(frozen=True)
+class Solver:
+    threshold: float = 0.1
+    skip: int = 1
+
+
+@dataclass(frozen=True)
+class Sectioned:
+    MAIN_OPTIONS = ("solver.threshold",)
+
+    n_particles: int = 10
+    solver: Solver = field(default_factory=Solver)
+
+
+def test_a_key_that_lives_in_a_section_names_its_dotted_key():
+    with pytest.raises(ConfigError, match=r"unknown option 'threshold'; it is set as "
+                       r"'solver.threshold'"):
+        apply_options(Sectioned(), {"threshold": "0.2"})
+    assert apply_options(Sectioned(), {"solver.threshold": "0.2"}).solver.threshold == 0.2
+
+
+def test_a_misspelt_key_gets_the_nearest_known_ones():
+    with pytest.raises(ConfigError, match=r"'n_particle' \(did you mean 'n_particles'\?\)"):
+        apply_options(Sectioned(), {"n_particle": "5"})
+    with pytest.raises(ConfigError, match=r"'solver.skp' \(did you mean 'solver.skip'\?\)"):
+        apply_options(Sectioned(), {"solver.skp": "5"})
+
+
+def test_main_options_come_from_the_class_attribute():
+    from omnislam.options import describe_options, main_options
+
+    assert main_options(Sectioned()) == ("solver.threshold",)
+    assert main_options(Outer()) == ()
+    assert [o.section for o in describe_options(Sectioned())] == ["", "solver", "solver"]

@@ -1,9 +1,10 @@
-"""``omnislam estimators [NAME ...] [--json]``: every registered estimator and its options.
+"""``omnislam estimators [NAME ...] [--all] [--json]``: the registered estimators and their options.
 
 For each estimator of the registry (``omnislam.estimators.ESTIMATORS``): what it is, the
-observation streams it consumes, whether this installation can run it, its presets, and every
-``--set KEY=VALUE`` option with its default and meaning, read from the estimator's
-configuration dataclass and the ``Attributes:`` section of its docstring
+observation streams it consumes, whether this installation can run it, its presets, and its
+main ``--set KEY=VALUE`` options with their defaults and meaning, then the sections its other
+options live in; ``--all`` lists every option, section by section. Everything is read from the
+estimator's configuration dataclasses and the ``Attributes:`` sections of their docstrings
 (``omnislam.options.describe_options``), so the list cannot drift from the code. The options
 the harness takes for every estimator (``modality``, ``prior_map``, ``wrong_id_fraction``,
 ``clutter_per_frame``) end the list.
@@ -61,7 +62,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("names", nargs="*", metavar="NAME", help="only these estimators")
-    p.add_argument("--json", action="store_true", help="print JSON (full option descriptions)")
+    p.add_argument("--all", action="store_true", help="every option, section by section")
+    p.add_argument("--json", action="store_true", help="print JSON (every option, in full)")
     p.set_defaults(handler=run)
 
 
@@ -79,11 +81,12 @@ def _availability(name: str) -> str:
 def describe(name: str) -> dict[str, object]:
     """What ``omnislam estimators`` says about one estimator (the JSON object)."""
     from omnislam.estimators import ESTIMATORS, estimator_defaults
-    from omnislam.options import describe_options
+    from omnislam.options import describe_options, main_options
 
     entry = ESTIMATORS[name]
     config, presets = estimator_defaults(name)
     options = [] if config is None else describe_options(config)
+    main = () if config is None else main_options(config)
     return {
         "name": name,
         "summary": entry.summary,
@@ -91,25 +94,73 @@ def describe(name: str) -> dict[str, object]:
         "status": _availability(name),
         "presets": list(presets),
         "preset": entry.preset or None,
+        "main_options": list(main),
         "options": [
-            {"key": o.key, "kind": o.kind, "default": o.default, "meaning": o.meaning}
+            {
+                "key": o.key,
+                "section": o.section,
+                "kind": o.kind,
+                "default": o.default,
+                "meaning": o.meaning,
+            }
             for o in options
         ],
     }
+
+
+def _option_lines(options: list[dict], indent: str) -> list[str]:
+    """``KEY=DEFAULT  [KIND]  first sentence`` per option, the columns aligned."""
+    from omnislam.options import first_sentence
+
+    width = max(len(f"{o['key']}={o['default']}") for o in options)
+    lines = []
+    for o in options:
+        setting = f"{o['key']}={o['default']}"
+        meaning = first_sentence(str(o["meaning"])).replace("``", "")
+        leaf = str(o["key"]).rsplit(".", 1)[-1]
+        if leaf in FROM_THE_DATA:
+            meaning += f" {FROM_THE_DATA[leaf]}"
+        lines.append(f"{indent}{setting.ljust(width)}  [{o['kind']}]  {meaning}")
+    return lines
+
+
+def _print_options(d: dict, every: bool) -> None:
+    """The options of one described estimator: the main ones and the sections' names, or
+    (``every``) all of them section by section."""
+    options: list[dict] = d["options"]
+    if not options:
+        print("  options: none")
+        return
+    main = [o for key in d["main_options"] for o in options if o["key"] == key]
+    if every or not main:
+        print("  options (--set KEY=VALUE; the default shown, then what it takes):")
+        sections = dict.fromkeys(o["section"] for o in options)
+        for section in sections:
+            members = [o for o in options if o["section"] == section]
+            if section:
+                print(f"   [{section}]")
+            print("\n".join(_option_lines(members, "    ")))
+        return
+    print("  main options (--set KEY=VALUE; the default shown, then what it takes):")
+    print("\n".join(_option_lines(main, "    ")))
+    counts: dict[str, int] = {}
+    for o in options:
+        if o not in main:
+            top = str(o["key"]).split(".", 1)[0] if o["section"] else "(top level)"
+            counts[top] = counts.get(top, 0) + 1
+    listed = ", ".join(f"{name} ({n})" for name, n in counts.items())
+    print(f"  more options, by section (--all lists them): {listed}")
 
 
 def run(args: argparse.Namespace) -> int:
     import json
 
     from omnislam.errors import ConfigError
-    from omnislam.estimators import ESTIMATORS
-    from omnislam.options import first_sentence
+    from omnislam.estimators import ESTIMATORS, unknown_estimator_message
 
     unknown = [n for n in args.names if n not in ESTIMATORS]
     if unknown:
-        raise ConfigError(
-            f"unknown estimator {unknown[0]!r}; known: {', '.join(ESTIMATORS)}"
-        )
+        raise ConfigError(unknown_estimator_message(unknown[0]))
     names = list(dict.fromkeys(args.names)) or list(ESTIMATORS)  # each named one once
     described = [describe(name) for name in names]
     harness = harness_options()
@@ -139,18 +190,7 @@ def run(args: argparse.Namespace) -> int:
                 for p in d["presets"]  # type: ignore[union-attr]
             )
             print(f"  presets (--set preset=NAME): {presets}")
-        options = d["options"]
-        if not options:
-            print("  options: none")
-        else:
-            width = max(len(f"{o['key']}={o['default']}") for o in options)  # type: ignore[union-attr]
-            print("  options (--set KEY=VALUE; the default shown, then what it takes):")
-            for o in options:  # type: ignore[union-attr]
-                setting = f"{o['key']}={o['default']}"
-                meaning = first_sentence(str(o["meaning"])).replace("``", "")
-                if o["key"] in FROM_THE_DATA:
-                    meaning += f" {FROM_THE_DATA[str(o['key'])]}"
-                print(f"    {setting.ljust(width)}  [{o['kind']}]  {meaning}")
+        _print_options(d, args.all)
         print()
     print("options of every estimator (taken by the harness):")
     width = max(len(k) for k in harness)

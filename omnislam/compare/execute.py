@@ -28,7 +28,7 @@ from collections.abc import Callable, Mapping
 from contextlib import nullcontext
 from dataclasses import asdict, dataclass, field, is_dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -47,13 +47,11 @@ from omnislam.compare.prior import PRIOR_MAP_OPTION, prior_map_from_run_dir
 from omnislam.compare.reference import reference_for
 from omnislam.compare.rundir import ATTACHMENTS, ESTIMATOR_INFO, RunConfig, RunRecord
 from omnislam.core.modality import Modality, modalities_of
-from omnislam.core.types import UNKNOWN_ID, Bearings, Exporting, Introspectable
+from omnislam.core.sequence_info import SequenceInfo
+from omnislam.core.types import UNKNOWN_ID, Bearings, Exporting, Introspectable, OdometrySource
 from omnislam.datasets.sequence import GroundTruth
 from omnislam.errors import ConfigError, DataError
 from omnislam.frontend.timing import cpu_with_children_s
-
-if TYPE_CHECKING:
-    from omnislam.estimators import SequenceInfo
 
 _STATUS = Path("/proc/self/status")
 _CLEAR_REFS = Path("/proc/self/clear_refs")
@@ -216,7 +214,10 @@ def execute_run(
         replay = _load_log(sequence, log)
         # a log's laser odometry replaces the wheel odometry for the SLAM estimators; dead
         # reckoning stays the wheel odometry, the baseline they are compared with
-        laser = replay.odometry_source == "laser" and spec.estimator != "deadreckoning"
+        laser = (
+            replay.odometry_source is OdometrySource.LASER
+            and not ESTIMATORS[spec.estimator].wheel_odometry
+        )
         frames = _own_sighting_ids(
             sequence, list(sequence.frame_inputs(replay.frames, odometry=laser)), log
         )
@@ -228,7 +229,9 @@ def execute_run(
         perturbed, reassigned = reassign_ids(iter(frames), wrong_fraction, perturb_rng)
         frames = list(perturbed)
     # what the data is (ids, sigmas) is told before the clutter, which is a fault injected
-    info = sequence_info(sequence, frames, "laser" if laser else "wheel")
+    info = sequence_info(
+        sequence, frames, OdometrySource.LASER if laser else OdometrySource.WHEEL
+    )
     clutter_added = 0
     if clutter_rate > 0:
         frames, clutter_added = add_clutter(frames, clutter_rate, clutter_stream(spec.seed))
@@ -290,21 +293,18 @@ def execute_run(
 
 
 def sequence_info(
-    sequence: Any, frames: list[Any], odometry_source: str = "wheel"
+    sequence: Any, frames: list[Any], odometry_source: OdometrySource = OdometrySource.WHEEL
 ) -> SequenceInfo:
-    """What the estimators are told about a run (``estimators.SequenceInfo``), from the frames
-    as fed: their modalities, whether every range-bearing sighting carries a true id, the
+    """What the estimators are told about a run (``core.sequence_info.SequenceInfo``), from the
+    frames as fed: their modalities, whether every range-bearing sighting carries a true id, the
     sightings' first sigmas, the rig, the prior map.
 
     Args:
         sequence: the loaded Sequence.
         frames: the FrameInputs the estimator will step through (a front-end log's, with the
             loader's own sighting ids: ``_own_sighting_ids``).
-        odometry_source: ``"laser"`` when the frames carry the log's laser odometry, else
-            ``"wheel"``.
+        odometry_source: LASER when the frames carry the log's laser odometry.
     """
-    from omnislam.estimators import SequenceInfo
-
     # the range-bearing sightings as fed (a front-end log adds its laser landmarks, which have
     # no ids, to the loader's)
     sightings = [f.range_bearing for f in frames if f.range_bearing is not None]

@@ -7,6 +7,7 @@ whoever receives it. Frames and units are in the names: ``wTr`` is the robot in 
 
 from __future__ import annotations
 
+import enum
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
@@ -32,6 +33,19 @@ def _frozen(array: object, dtype: type, shape: tuple[int | None, ...], name: str
 
 def _set(obj: object, name: str, value: object) -> None:
     object.__setattr__(obj, name, value)
+
+
+class OdometrySource(enum.StrEnum):
+    """Where a run's odometry comes from.
+
+    WHEEL: the dataset's own (wheel encoders or commanded velocities), with the loader's stated
+        covariance where it gives one (a nominal formula of the step).
+    LASER: the front end's scan matching (``frontend.scan_matching``), with a covariance measured
+        per step from the scan's geometry; it replaces the wheels' for the SLAM estimators.
+    """
+
+    WHEEL = "wheel"
+    LASER = "laser"
 
 
 @dataclass(frozen=True, slots=True)

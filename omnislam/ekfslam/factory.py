@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from omnislam.core.modality import Modality
+from omnislam.core.sequence_info import SequenceInfo
 from omnislam.ekfslam.bearings import BearingEKFSLAM
 from omnislam.ekfslam.config import EKFSLAMConfig
 from omnislam.ekfslam.filter import EKFSLAM
@@ -15,7 +16,7 @@ from omnislam.options import apply_options
 
 
 def make_estimator(
-    info: object, options: Mapping[str, str], rng: np.random.Generator
+    info: SequenceInfo, options: Mapping[str, str], rng: np.random.Generator
 ) -> EKFSLAM | BearingEKFSLAM:
     """EKF-SLAM from the default ``EKFSLAMConfig`` with ``--set`` overrides.
 
@@ -28,10 +29,10 @@ def make_estimator(
         ConfigError: an unknown option or a bad value, or a modality other than these two.
     """
     del rng
-    modality = getattr(info, "modality", None)
+    modality = info.modality
     config = EKFSLAMConfig()
     if modality is Modality.BEARINGS_3D:
-        height = getattr(info, "sensor_height_m", None)
+        height = info.sensor_height_m
         if height is not None and "sensor_height_m" not in options:
             config = config.with_(sensor_height_m=float(height))
         return BearingEKFSLAM(apply_options(config, options))

@@ -12,6 +12,7 @@ from dataclasses import dataclass, replace
 from enum import Enum
 
 from omnislam.core.motion import MotionNoise
+from omnislam.core.types import OdometrySource
 from omnislam.errors import ConfigError
 
 #: FastSLAM's default odometry noise: twice the alpha coefficients of the thesis's simulator
@@ -41,7 +42,7 @@ class StatedOdometryNoise(Enum):
     covariance (``Odometry.covariance``); frames without one always use the alpha model.
 
     AUTO: from the stated covariance when the odometry is *measured* per step -- the front
-        end's laser odometry (``SequenceInfo.odometry_source == "laser"``: scans registered by
+        end's laser odometry (``SequenceInfo.odometry_source`` LASER: scans registered by
         ICP, covariance from the point-to-line Hessian, calibrated against the corrected CARMEN
         poses to a median NEES of 1.9-2.3 for chi-square(3)'s 2.37) -- and from the alpha model
         (``motion_noise``) when it is wheel odometry, whose stated covariance, where a loader
@@ -56,11 +57,11 @@ class StatedOdometryNoise(Enum):
     ON = "true"
     OFF = "false"
 
-    def resolve(self, odometry_source: str) -> bool:
-        """Whether a filter whose frames carry odometry from ``odometry_source`` ("wheel" or
-        "laser", ``ObservationLog.odometry_source``) samples from a stated covariance."""
+    def resolve(self, odometry_source: OdometrySource) -> bool:
+        """Whether a filter whose frames carry odometry from ``odometry_source``
+        (``ObservationLog.odometry_source``) samples from a stated covariance."""
         if self is StatedOdometryNoise.AUTO:
-            return odometry_source == "laser"
+            return odometry_source is OdometrySource.LASER
         return self is StatedOdometryNoise.ON
 
 

@@ -8,6 +8,8 @@ import numpy as np
 
 from omnislam.core.modality import MODALITY_OPTION, Modality
 from omnislam.core.motion import OdometryMotionModel
+from omnislam.core.sequence_info import SequenceInfo
+from omnislam.core.types import OdometrySource
 from omnislam.errors import ConfigError
 from omnislam.fastslam.config import PRESETS, FastSLAMConfig, Variant
 from omnislam.fastslam.filter import FastSLAM
@@ -22,11 +24,11 @@ def make_fastslam(
     modality: Modality,
     rng: np.random.Generator,
     initial_pose: np.ndarray | None = None,
-    odometry_source: str = "wheel",
+    odometry_source: OdometrySource = OdometrySource.WHEEL,
 ) -> FastSLAM:
     """A FastSLAM of ``config`` on ``modality``, its motion model built from
     ``config.motion_noise`` (the thesis's odometry model, eqs. 4.38-4.44); ``odometry_source``
-    ("wheel" or "laser") as ``FastSLAM`` takes it.
+    as ``FastSLAM`` takes it.
 
     Raises:
         ConfigError: a modality FastSLAM does not consume.
@@ -42,7 +44,8 @@ def make_fastslam(
     )
 
 
-def _config(variant: Variant, info: object, options: Mapping[str, str]) -> FastSLAMConfig:
+def _config(
+    variant: Variant, info: SequenceInfo | None, options: Mapping[str, str]) -> FastSLAMConfig:
     """The configuration of ``variant``: its preset (or ``preset=NAME``) with ``--set``."""
     options = dict(options)
     if _REMOVED_OPTION in options:
@@ -56,18 +59,17 @@ def _config(variant: Variant, info: object, options: Mapping[str, str]) -> FastS
     config: FastSLAMConfig = PRESETS[preset]
     if config.variant is not variant:
         raise ConfigError(f"preset {preset!r} is {config.variant.value}, not {variant.value}")
-    height = getattr(info, "sensor_height_m", None)
+    height = None if info is None else info.sensor_height_m
     if height is not None and "sensor_height_m" not in options:
         config = config.with_(sensor_height_m=float(height))
     return apply_options(config, options)
 
 
 def _make(
-    variant: Variant, info: object, options: Mapping[str, str], rng: np.random.Generator
+    variant: Variant, info: SequenceInfo, options: Mapping[str, str], rng: np.random.Generator
 ) -> FastSLAM:
-    modality = getattr(info, "modality", None)
-    source = getattr(info, "odometry_source", "wheel")
-    return make_fastslam(_config(variant, info, options), modality, rng, odometry_source=source)
+    config = _config(variant, info, options)
+    return make_fastslam(config, info.modality, rng, odometry_source=info.odometry_source)
 
 
 def check_fastslam1_options(options: Mapping[str, str]) -> None:
@@ -80,13 +82,17 @@ def check_fastslam2_options(options: Mapping[str, str]) -> None:
     _config(Variant.FASTSLAM2, None, options)
 
 
-def make_fastslam1(info: object, options: Mapping[str, str], rng: np.random.Generator) -> FastSLAM:
+def make_fastslam1(
+    info: SequenceInfo, options: Mapping[str, str], rng: np.random.Generator
+) -> FastSLAM:
     """FastSLAM 1.0 from ``PRESETS["fastslam1"]`` (or ``preset=NAME``) with ``--set`` overrides,
     on the modality the registry resolved (``info.modality``)."""
     return _make(Variant.FASTSLAM1, info, options, rng)
 
 
-def make_fastslam2(info: object, options: Mapping[str, str], rng: np.random.Generator) -> FastSLAM:
+def make_fastslam2(
+    info: SequenceInfo, options: Mapping[str, str], rng: np.random.Generator
+) -> FastSLAM:
     """FastSLAM 2.0 from ``PRESETS["fastslam2"]`` (or ``preset=NAME``) with ``--set`` overrides,
     on the modality the registry resolved (``info.modality``)."""
     return _make(Variant.FASTSLAM2, info, options, rng)

@@ -35,7 +35,7 @@ from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
 from omnislam.core.motion import MotionModel, StatedOdometryMotion
 from omnislam.core.se import se2_compose
-from omnislam.core.types import Estimate, FrameInput
+from omnislam.core.types import Estimate, FrameInput, OdometrySource
 from omnislam.errors import ConfigError
 from omnislam.fastslam.association import SightingAssociation
 from omnislam.fastslam.bearing_mapper import BearingMapper
@@ -170,8 +170,8 @@ class FastSLAM:
             ``Modality.BEARINGS_3D``), resolved by the shared rule (``core.modality``).
         motion: the motion model (``OdometryMotionModel``, or any ``MotionModel``).
         initial_pose: (3,) [x, y, theta] of the first frame; the map is anchored there.
-        odometry_source: where the frames' odometry comes from, ``"wheel"`` (the dataset's)
-            or ``"laser"`` (the front end's scan matching, ``ObservationLog.odometry_source``);
+        odometry_source: where the frames' odometry comes from, WHEEL (the dataset's) or
+            LASER (the front end's scan matching, ``ObservationLog.odometry_source``);
             with ``config.stated_odometry_noise`` AUTO it decides whether a stated odometry
             covariance is sampled (``StatedOdometryNoise.resolve``).
 
@@ -187,9 +187,9 @@ class FastSLAM:
         modality: Modality,
         motion: MotionModel,
         initial_pose: np.ndarray | None = None,
-        odometry_source: str = "wheel",
+        odometry_source: OdometrySource = OdometrySource.WHEEL,
     ) -> None:
-        if odometry_source not in ("wheel", "laser"):
+        if not isinstance(odometry_source, OdometrySource):
             raise ConfigError(f"unknown odometry source {odometry_source!r}: wheel or laser")
         self.config = config
         self.name = config.name

@@ -23,7 +23,14 @@ from typing import Any
 import numpy as np
 
 from omnislam._files import NPZ_ERRORS, make_public, npz_reason, output_error
-from omnislam.core.types import Bearings, FrameInput, Odometry, RangeBearing, VerticalLines
+from omnislam.core.types import (
+    Bearings,
+    FrameInput,
+    Odometry,
+    OdometrySource,
+    RangeBearing,
+    VerticalLines,
+)
 from omnislam.errors import DataError
 
 LOG_FORMAT = "omnislam-observation-log"
@@ -48,7 +55,7 @@ class ObservationLog:
             frames without bearings); aligned with ``frames[i].bearings``.
         config: the configuration as plain data (for reports).
         stats: counts and seconds per stage.
-        odometry_source: ``"wheel"``: the frames' odometry is the dataset's; ``"laser"``: it is
+        odometry_source: WHEEL: the frames' odometry is the dataset's; LASER: it is
             the front end's laser odometry (``frontend.scan_matching``: scans registered by
             ICP, with their covariance; the wheel odometry where a match was rejected), which
             ``omnislam run`` hands the SLAM estimators instead of the dataset's (dead
@@ -65,11 +72,11 @@ class ObservationLog:
     pixels: tuple[np.ndarray | None, ...]
     config: Mapping[str, Any] = field(default_factory=dict)
     stats: Mapping[str, float] = field(default_factory=dict)
-    odometry_source: str = "wheel"
+    odometry_source: OdometrySource = OdometrySource.WHEEL
     floor_ids_from: int | None = None
 
     def __post_init__(self) -> None:
-        if self.odometry_source not in ("wheel", "laser"):
+        if not isinstance(self.odometry_source, OdometrySource):
             raise DataError(f"ObservationLog: unknown odometry source {self.odometry_source!r}")
         if not _is_first_id(self.floor_ids_from):
             raise DataError(
@@ -179,7 +186,7 @@ def save_observation_log(log: ObservationLog, path: str | Path) -> None:
         "config_hash": log.config_hash,
         "config": dict(log.config),
         "stats": dict(log.stats),
-        "odometry_source": log.odometry_source,
+        "odometry_source": log.odometry_source.value,
         "floor_ids_from": log.floor_ids_from,
     }
     arrays["meta"] = np.array(json.dumps(meta, sort_keys=True))
@@ -231,7 +238,7 @@ def _read_meta(path: Path, data: Any | None = None) -> dict[str, Any]:
                 f"{type(meta[key]).__name__})", path)
         if key in ("dataset_id", "config_hash") and key not in meta:
             raise DataError(f"malformed observation log (meta has no {key!r})", path)
-    if meta.get("odometry_source", "wheel") not in ("wheel", "laser"):
+    if meta.get("odometry_source", "wheel") not in tuple(OdometrySource):
         raise DataError(
             f"malformed observation log (meta odometry_source {meta['odometry_source']!r}, "
             "expected 'wheel' or 'laser')", path)
@@ -282,7 +289,7 @@ def load_observation_log(
         pixels=pixels,
         config=meta.get("config", {}),
         stats=meta.get("stats", {}),
-        odometry_source=meta.get("odometry_source", "wheel"),
+        odometry_source=OdometrySource(meta.get("odometry_source", "wheel")),
         floor_ids_from=_floor_ids_from(path, meta),
     )
 

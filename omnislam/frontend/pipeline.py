@@ -9,7 +9,7 @@ in the robot frame from the camera's viewpoint with the angular sigma of their p
 
 A sequence with a laser and no images gets laser odometry (``scan_matching``: each scan
 registered to the last few by ICP, with a covariance; the wheel odometry where a match is
-rejected) as its frames' odometry (``ObservationLog.odometry_source == "laser"``); the laser
+rejected) as its frames' odometry (``ObservationLog.odometry_source``, LASER); the laser
 landmarks are placed through it to keep only those the previous scan saw there too
 (``laser_landmarks.persistent_sightings``), and the tutorial's feet of the perpendicular, when
 asked for, are dropped through it.
@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from omnislam.core.se import se2_integrate
-from omnislam.core.types import Bearings, FrameInput, Odometry, RangeBearing
+from omnislam.core.types import Bearings, FrameInput, Odometry, OdometrySource, RangeBearing
 from omnislam.errors import DataError
 from omnislam.frontend import kernels_aot
 from omnislam.frontend.bearing_noise import bearing_sigmas
@@ -576,7 +576,7 @@ def run_frontend(
         pixels=tuple(pixels),
         config=_config_to_dict(config),
         stats=stats,
-        odometry_source="wheel" if laser_odom is None else "laser",
+        odometry_source=OdometrySource.WHEEL if laser_odom is None else OdometrySource.LASER,
         floor_ids_from=floor_ids_from,
     )
 

@@ -3,23 +3,29 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from omnislam.core.modality import Modality
 from omnislam.core.motion import OdometryMotionModel
+from omnislam.core.sequence_info import SequenceInfo
 from omnislam.errors import ConfigError
 from omnislam.graphslam.config import PRESETS, GraphSLAMConfig
 from omnislam.options import apply_options
 
+if TYPE_CHECKING:
+    from omnislam.graphslam.batch import BatchGraphSLAM
+    from omnislam.graphslam.isam import GraphSLAM
 
-def _config(info: object, options: Mapping[str, str]) -> GraphSLAMConfig:
+
+def _config(info: SequenceInfo | None, options: Mapping[str, str]) -> GraphSLAMConfig:
     options = dict(options)
     preset = options.pop("preset", "default")
     if preset not in PRESETS:
         raise ConfigError(f"unknown graphslam preset {preset!r}; known: {', '.join(PRESETS)}")
     config = PRESETS[preset]
-    height = getattr(info, "sensor_height_m", None)
+    height = None if info is None else info.sensor_height_m
     if height is not None and "sensor_height_m" not in options:
         options["sensor_height_m"] = str(height)
     return apply_options(config, options)
@@ -30,15 +36,17 @@ def check_options(options: Mapping[str, str]) -> None:
     _config(None, options)
 
 
-def _modality(info: object) -> Modality:
+def _modality(info: SequenceInfo) -> Modality:
     """The stream the registry resolved (``SequenceInfo.modality``)."""
-    modality = getattr(info, "modality", None)
+    modality = info.modality
     if not isinstance(modality, Modality):
         raise ConfigError(f"graphslam needs the resolved modality of the run, got {modality!r}")
     return modality
 
 
-def make_estimator(info: object, options: Mapping[str, str], rng: np.random.Generator) -> object:
+def make_estimator(
+    info: SequenceInfo, options: Mapping[str, str], rng: np.random.Generator
+) -> GraphSLAM:
     """iSAM2 on ``info.modality``, ``PRESETS[preset]`` (default ``default``) with ``--set``."""
     from omnislam.graphslam.isam import GraphSLAM
 
@@ -48,8 +56,8 @@ def make_estimator(info: object, options: Mapping[str, str], rng: np.random.Gene
 
 
 def make_batch_estimator(
-    info: object, options: Mapping[str, str], rng: np.random.Generator
-) -> object:
+    info: SequenceInfo, options: Mapping[str, str], rng: np.random.Generator
+) -> BatchGraphSLAM:
     """iSAM2 then Levenberg-Marquardt on the whole graph, warm-started (``graphslam-batch``)."""
     from omnislam.graphslam.batch import BatchGraphSLAM
 

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from omnislam.core.modality import Modality
+from omnislam.core.sequence_info import SequenceInfo
 from omnislam.errors import ConfigError
 from omnislam.options import apply_options
 from omnislam.ukf.config import UKFConfig
@@ -15,7 +16,7 @@ from omnislam.ukf.localiser import VerticalLineUKF
 
 
 def make_estimator(
-    info: object, options: Mapping[str, str], rng: np.random.Generator
+    info: SequenceInfo, options: Mapping[str, str], rng: np.random.Generator
 ) -> VerticalLineUKF:
     """The vertical-line UKF from ``UKFConfig`` with ``--set`` overrides (no randomness used).
 
@@ -28,22 +29,21 @@ def make_estimator(
             map the configuration cannot use.
     """
     del rng
-    prior_map = getattr(info, "prior_map", None)
-    name = getattr(info, "name", "the dataset")
+    prior_map, name = info.prior_map, info.name
     if prior_map is None:
         raise ConfigError(
             f"ukf localises in a known map and {name} has none; give one with "
             "--set prior_map=RUN_DIR (e.g. a graphslam run on the same data)"
         )
     config = apply_options(UKFConfig(), options)
-    modality = getattr(info, "modality", None) or Modality.VERTICAL_LINES
-    rig = getattr(info, "calibration", None)
+    modality = info.modality or Modality.VERTICAL_LINES
+    rig = info.calibration
     widening = config.association.fov_widening
     if modality is Modality.VERTICAL_LINES and rig is not None:
         image_line = image_line_from_rig(rig, widening)
     else:
         image_line = AngularLine(config.pixels_per_rad, config.fov_rad, widening)
-    sigma = getattr(info, "sigma_bearing_rad", None)
+    sigma = info.sigma_bearing_rad
     if config.sigma_bearing_rad is None and sigma is not None and sigma <= 0:
         raise ConfigError(f"ukf: {name} states a non-positive bearing sigma")
     return VerticalLineUKF(prior_map, config, modality, image_line)

@@ -84,6 +84,27 @@ def test_estimators_one_line_per_option_with_its_meaning(capsys):
     assert "kalmanator" in capsys.readouterr().err
 
 
+def test_estimators_show_the_main_options_and_every_option_with_all(capsys):
+    from omnislam.options import main_options
+
+    for name in ESTIMATORS:
+        config, _ = estimator_defaults(name)
+        if config is None:
+            continue
+        keys = {o.key for o in describe_options(config)}
+        assert set(main_options(config)) <= keys, name  # every main option exists
+        assert main(["estimators", name, "--all"]) == 0
+        every = capsys.readouterr().out
+        assert all(f"    {key}=" in every for key in keys), name
+        assert main(["estimators", name]) == 0
+        short = capsys.readouterr().out
+        if main_options(config):
+            assert "--all lists them" in short
+            assert all(f"    {key}=" in short for key in main_options(config)), name
+    assert main(["estimators", "fastslam"]) == 2
+    assert "did you mean 'fastslam2' or 'fastslam1'?" in capsys.readouterr().err
+
+
 def test_option_docs_follow_nested_dataclasses():
     config, _ = estimator_defaults("ukf")
     docs = {o.key: o for o in describe_options(config)}

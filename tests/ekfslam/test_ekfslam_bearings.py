@@ -20,10 +20,11 @@ from omnislam.core.measurement import (
 from omnislam.core.modality import Modality
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
 from omnislam.core.se import se2_compose, se2_rotate_vectors, wrap_angle
+from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Bearings, FrameInput, Odometry
 from omnislam.ekfslam import BearingEKFSLAM, EKFSLAMConfig, SlamGaussian
 from omnislam.ekfslam.bearings import PendingTracks, triangulated_sighting
-from omnislam.estimators import SequenceInfo, make_estimator
+from omnislam.estimators import make_estimator
 
 HEIGHT_M = 0.8
 SIGMA_RAD = np.radians(0.2)

@@ -16,10 +16,11 @@ from ekfslam_scenario import (
 from scipy.stats import chi2
 
 from omnislam.core.modality import Modality
+from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Estimator, Introspectable, RangeBearing
 from omnislam.ekfslam import EKFSLAM, EKFSLAMConfig, EKFSLAMInfo
 from omnislam.errors import ConfigError
-from omnislam.estimators import SequenceInfo, make_estimator
+from omnislam.estimators import make_estimator
 
 NOISE_OPTIONS = {
     "motion_noise.a_vv": str(NOISE.a_vv),

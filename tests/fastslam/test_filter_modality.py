@@ -16,9 +16,10 @@ from fastslam_scenario import (
 
 from omnislam.core.modality import Modality
 from omnislam.core.motion import OdometryMotionModel
+from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Bearings, FrameInput
 from omnislam.errors import ConfigError, DataError
-from omnislam.estimators import ESTIMATORS, SequenceInfo, make_estimator
+from omnislam.estimators import ESTIMATORS, make_estimator
 from omnislam.fastslam import (
     MODALITIES,
     FastSLAM,

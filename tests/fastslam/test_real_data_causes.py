@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from omnislam.core.modality import Modality
-from omnislam.core.types import FrameInput, Odometry, RangeBearing
+from omnislam.core.types import FrameInput, Odometry, OdometrySource, RangeBearing
 from omnislam.fastslam import (
     FastSLAMConfig,
     Kernels,
@@ -34,7 +34,7 @@ def _spread(
     variant: Variant,
     stated: StatedOdometryNoise,
     with_sighting: bool,
-    odometry_source: str = "wheel",
+    odometry_source: OdometrySource = OdometrySource.WHEEL,
 ) -> np.ndarray:
     config = FastSLAMConfig(variant=variant, n_particles=4000, stated_odometry_noise=stated)
     slam = make_fastslam(
@@ -63,7 +63,7 @@ def test_particles_follow_a_stated_odometry_covariance(variant, with_sighting):
     np.testing.assert_allclose(np.diag(cov), np.diag(STATED), rtol=0.1)
     assert cov[1, 2] / np.sqrt(cov[1, 1] * cov[2, 2]) == pytest.approx(0.5, abs=0.06)
     # without the option the alphas decide: almost no sideways spread for a straight step
-    assert _spread(variant, StatedOdometryNoise.OFF, with_sighting, "laser")[1, 1] < (
+    assert _spread(variant, StatedOdometryNoise.OFF, with_sighting, OdometrySource.LASER)[1, 1] < (
         0.1 * STATED[1, 1]
     )
 
@@ -71,10 +71,11 @@ def test_particles_follow_a_stated_odometry_covariance(variant, with_sighting):
 @pytest.mark.parametrize("variant", list(Variant))
 def test_by_default_laser_odometry_is_sampled_from_its_covariance_and_wheels_are_not(variant):
     assert FastSLAMConfig().stated_odometry_noise is StatedOdometryNoise.AUTO
-    laser = _spread(variant, StatedOdometryNoise.AUTO, True, "laser")
+    laser = _spread(variant, StatedOdometryNoise.AUTO, True, OdometrySource.LASER)
     np.testing.assert_allclose(np.diag(laser), np.diag(STATED), rtol=0.1)
     # wheel odometry with a stated (nominal) covariance keeps the alpha model
-    assert _spread(variant, StatedOdometryNoise.AUTO, True, "wheel")[1, 1] < 0.1 * STATED[1, 1]
+    wheel = _spread(variant, StatedOdometryNoise.AUTO, True, OdometrySource.WHEEL)
+    assert wheel[1, 1] < 0.1 * STATED[1, 1]
 
 
 def test_an_unknown_odometry_source_is_refused():

@@ -11,6 +11,7 @@ import pytest
 pytest.importorskip("open3d")
 
 from omnislam.core.se import se2_between, se2_compose, se2_integrate, wrap_angle
+from omnislam.core.types import OdometrySource
 from omnislam.frontend.config import LaserOdometryConfig
 from omnislam.frontend.scan_matching import (
     Reason,
@@ -181,11 +182,11 @@ def test_the_log_carries_the_laser_odometry_to_slam_estimators_not_to_dead_recko
         laser=LaserScans(ANGLES, np.array([cast(p, ROOM, 0.01, rng) for p in truth]), MAX_RANGE),
     )
     log = run_frontend(sequence, FrontendConfig())
-    assert log.odometry_source == "laser" and log.stats["laser_odometry_accepted"] == 5
+    assert log.odometry_source is OdometrySource.LASER and log.stats["laser_odometry_accepted"] == 5
     path = tmp_path / "room.npz"
     save_observation_log(log, path)
     loaded = load_observation_log(path)
-    assert loaded.odometry_source == "laser"
+    assert loaded.odometry_source is OdometrySource.LASER
     for a, b in zip(log.frames, loaded.frames, strict=True):
         np.testing.assert_array_equal(a.odometry.delta, b.odometry.delta)
         assert (a.odometry.covariance is None) == (b.odometry.covariance is None)
@@ -197,7 +198,7 @@ def test_the_log_carries_the_laser_odometry_to_slam_estimators_not_to_dead_recko
     no_laser = run_frontend(
         sequence, replace(FrontendConfig(), laser_odometry=LaserOdometryConfig(enabled=False))
     )
-    assert no_laser.odometry_source == "wheel"
+    assert no_laser.odometry_source is OdometrySource.WHEEL
     np.testing.assert_array_equal(no_laser.frames[3].odometry.delta, wheels[3])
 
 

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from omnislam.core.modality import Modality
+from omnislam.core.sequence_info import SequenceInfo
 from omnislam.errors import ConfigError
-from omnislam.estimators import SequenceInfo, make_estimator
+from omnislam.estimators import make_estimator
 from omnislam.graphslam import BatchGraphSLAM, GraphSLAM
 
 pytest.importorskip("gtsam")

@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from omnislam.core.modality import Modality
+from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import PriorMap
 from omnislam.errors import ConfigError
-from omnislam.estimators import SequenceInfo, make_estimator
+from omnislam.estimators import make_estimator
 from omnislam.ukf import VerticalLineUKF
 
 MAP = PriorMap(
