@@ -152,7 +152,7 @@ def _context(modules: list[str]) -> Any:
         return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(["__main__", "omnislam.frontend.preparation",
-                                    "omnislam.frontend.kernels", *modules])
+                                    "omnislam.frontend.kernels_compiled", *modules])
     return context
 
 
@@ -275,7 +275,7 @@ def _prepare_here(prepare: ImagePreparer, i: int) -> PreparedImage:
     numba (~0.5 s) would cost more than they save on the few images prepared here. The switch
     is process-wide: a front end running meanwhile in another thread of this process takes the
     numpy path for those moments too, with the same bits."""
-    if "omnislam.frontend.kernels" in sys.modules or kernels_aot.path().is_file():
+    if "omnislam.frontend.kernels_compiled" in sys.modules or kernels_aot.path().is_file():
         return prepare(i)
     previous = use_kernels(False)
     try:

@@ -140,13 +140,14 @@ def build_scale_space(grey: np.ndarray, sigma: float, layers: int, *, fine: bool
 
 
 def _kernels() -> Any:
-    """The compiled ``kernels`` when numba is installed (and ``use_kernels`` allows), else
-    None: the numpy and OpenCV path below, their reference."""
+    """The compiled ``kernels`` (``kernels_compiled``) when numba is installed or they were
+    compiled ahead of time (and ``use_kernels`` allows), else None: the numpy and OpenCV path
+    below, their reference."""
     if not _USE_KERNELS:
         return None
-    from omnislam.frontend import kernels
+    from omnislam.frontend import kernels_compiled
 
-    return kernels.COMPILED
+    return kernels_compiled.COMPILED
 
 
 #: the compiled kernels are used when available (``use_kernels``)
