@@ -327,6 +327,161 @@ def is_mrclam_folder(path: Path) -> bool:
     )
 
 
+@dataclass(frozen=True, slots=True)
+class _RobotFiles:
+    """What one robot's files of an MR.CLAM folder hold, checked against each other.
+
+    Attributes:
+        measurement_path: ``RobotN_Measurement.dat`` (warnings name it).
+        landmark_ids: (M,) surveyed landmarks' subject numbers.
+        landmarks_xy: (M, 2) their positions in the room [m].
+        odometry: (K, 3) [time s, v m/s, omega rad/s] commanded velocities.
+        sightings: the landmark sightings, barcodes mapped.
+        vicon: the Vicon poses, or None without ``RobotN_Groundtruth.dat``.
+    """
+
+    measurement_path: Path
+    landmark_ids: np.ndarray
+    landmarks_xy: np.ndarray
+    odometry: np.ndarray
+    sightings: Sightings
+    vicon: Trajectory | None
+
+
+def _read_robot_files(folder: Path, robot: int) -> _RobotFiles:
+    """Read one robot's files (and the folder's barcodes and landmarks); the odometry and the
+    Vicon file must each reach the last sighting, and the odometry the Vicon file's end.
+
+    Raises:
+        DataError: not a folder, a missing or malformed file (naming it and the line), or a
+            stream ending too early (a file cut short).
+        ConfigError: a robot number without files.
+    """
+    if not folder.is_dir():
+        raise DataError("not a folder (expected an MR.CLAM dataset folder)", folder)
+    files = {kind: folder / f"Robot{robot}_{kind}.dat" for kind in ("Odometry", "Measurement")}
+    if not files["Odometry"].is_file():
+        robots = sorted(p.name.split("_")[0] for p in folder.glob("Robot*_Odometry.dat"))
+        raise ConfigError(f"{folder}: no files for robot={robot} (found: {', '.join(robots)})")
+    barcodes = read_barcodes(folder / "Barcodes.dat")
+    landmark_ids, landmarks_xy = read_landmark_groundtruth(folder / "Landmark_Groundtruth.dat")
+    odometry_table = read_robot_odometry_table(files["Odometry"])
+    sightings = read_robot_measurements(files["Measurement"], barcodes)
+    vicon_path = folder / f"Robot{robot}_Groundtruth.dat"
+    vicon_table = read_robot_groundtruth_table(vicon_path) if vicon_path.is_file() else None
+    # the odometry and the Vicon file must each reach the last sighting (a file cut short)
+    for table, tolerance_s in (
+        (odometry_table, ODOMETRY_END_TOLERANCE_S),
+        (vicon_table, VICON_END_TOLERANCE_S),
+    ):
+        if table is not None and len(sightings.stamps_s):
+            check_stream_end(
+                table, float(sightings.stamps_s[-1]), files["Measurement"], tolerance_s
+            )
+    vicon = None
+    if vicon_table is not None:
+        check_stream_end(
+            odometry_table, float(vicon_table.values[-1, 0]), vicon_path, ODOMETRY_END_TOLERANCE_S
+        )
+        vicon = Trajectory.from_se2(vicon_table.values[:, 0], vicon_table.values[:, 1:4])
+    return _RobotFiles(files["Measurement"], landmark_ids, landmarks_xy,
+                       np.array(odometry_table.values), sightings, vicon)
+
+
+@dataclass(frozen=True, slots=True)
+class _Frames:
+    """When one robot's frames are: frame 0 at the odometry's start, one per image with
+    sightings, and frames filling the gaps between them.
+
+    Attributes:
+        early: (K,) True for the sightings before the odometry starts (dropped).
+        image_stamps_s: (K',) each kept sighting's frame stamp, its image's first stamp [s].
+        sighting_frames_s: the stamps of frame 0 and of the frames with sightings [s].
+        stamps_s: (N,) every frame's stamp [s].
+    """
+
+    early: np.ndarray
+    image_stamps_s: np.ndarray
+    sighting_frames_s: np.ndarray
+    stamps_s: np.ndarray
+
+
+def _frames(files: _RobotFiles, same_image_s: float, max_step_s: float) -> _Frames:
+    """The frames: the sightings within ``same_image_s`` of their burst's first stamp share
+    its frame (``image_stamps``); gaps longer than ``max_step_s`` are filled."""
+    start_s = float(files.odometry[0, 0])
+    early = files.sightings.stamps_s < start_s
+    stamps = image_stamps(files.sightings.stamps_s[~early], same_image_s)
+    sighting_frames = np.unique(np.concatenate([[start_s], stamps]))
+    return _Frames(early, stamps, sighting_frames, fill_gaps(sighting_frames, max_step_s))
+
+
+def _commanded_odometry(odometry: np.ndarray, frame_stamps: np.ndarray, command_delay_s: float,
+                        odometry_noise: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """The (N, 3) odometry between the frames, integrated from the commanded velocities
+    (unicycle arcs, zero-order hold, ``command_delay_s`` later), and its (N, 3, 3) stated
+    covariance (``ODOMETRY_NOISE``, thesis eq. 4.41) or None without ``odometry_noise``."""
+    poses_odom = integrate_unicycle(
+        odometry[:, 0] + command_delay_s, odometry[:, 1], odometry[:, 2], frame_stamps
+    )
+    odometry_r = odometry_from_poses(poses_odom)
+    odometry_cov = None
+    if odometry_noise:
+        model = OdometryMotionModel(ODOMETRY_NOISE)
+        odometry_cov = np.array([model.covariance(delta) for delta in odometry_r])
+    return odometry_r, odometry_cov
+
+
+def _ranges_bearings(sightings: Sightings, kept: np.ndarray, depth_ranges: bool
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """The ranges [m] and bearings [rad] of the ``kept`` sightings, the file's optical-axis
+    depths turned into ranges (``ranges_from_depths``) when ``depth_ranges``."""
+    bearings = sightings.bearings_rad[kept]
+    ranges = sightings.ranges_m[kept]
+    if depth_ranges:
+        ranges = ranges_from_depths(ranges, bearings)
+    return ranges, bearings
+
+
+def _ground_truth(
+    files: _RobotFiles, sighting_frames: np.ndarray
+) -> tuple[GroundTruth, PriorMap, np.ndarray | None]:
+    """The ground truth (Vicon interpolated at the frames with sightings and frame 0, the
+    surveyed landmarks), the surveyed map, and the true initial pose (None where Vicon does not
+    bracket frame 0)."""
+    landmark_ids, vicon = files.landmark_ids, files.vicon
+    ground_truth = GroundTruth(
+        kind=GroundTruthKind.MOTION_CAPTURE if vicon is not None else GroundTruthKind.NONE,
+        landmark_ids=landmark_ids,
+        landmarks_w=np.column_stack([files.landmarks_xy, np.zeros(len(landmark_ids))]),
+        note="Vicon motion capture interpolated at the frame stamps; surveyed landmarks",
+    )
+    initial_pose = None
+    if vicon is not None:
+        # the truth at the frames with sightings (and frame 0) only: the frames that fill the
+        # gaps carry nothing to estimate from, and the trajectory metrics keep the stamps they
+        # had before the gaps were filled
+        valid, poses_true = interpolate_se2(
+            vicon.stamps_s, vicon.se2, sighting_frames, VICON_MAX_GAP_S
+        )
+        ground_truth = GroundTruth(
+            kind=ground_truth.kind,
+            trajectory=Trajectory.from_se2(sighting_frames[valid], poses_true),
+            landmark_ids=ground_truth.landmark_ids,
+            landmarks_w=ground_truth.landmarks_w,
+            note=ground_truth.note,
+        )
+        if valid[0]:
+            initial_pose = poses_true[0]
+    prior_map = PriorMap(
+        source="surveyed landmarks (MR.CLAM Landmark_Groundtruth.dat)",
+        landmark_ids=ground_truth.landmark_ids,
+        points_w=ground_truth.landmarks_w,
+        initial_pose_w=initial_pose,
+    )
+    return ground_truth, prior_map, initial_pose
+
+
 def load_mrclam(
     folder: Path,
     robot: int = 1,
@@ -372,106 +527,31 @@ def load_mrclam(
         ConfigError: a robot number without files.
     """
     folder = Path(folder)
-    if not folder.is_dir():
-        raise DataError("not a folder (expected an MR.CLAM dataset folder)", folder)
-    files = {kind: folder / f"Robot{robot}_{kind}.dat" for kind in ("Odometry", "Measurement")}
-    if not files["Odometry"].is_file():
-        robots = sorted(p.name.split("_")[0] for p in folder.glob("Robot*_Odometry.dat"))
-        raise ConfigError(f"{folder}: no files for robot={robot} (found: {', '.join(robots)})")
-    barcodes = read_barcodes(folder / "Barcodes.dat")
-    landmark_ids, landmarks_xy = read_landmark_groundtruth(folder / "Landmark_Groundtruth.dat")
-    odometry_table = read_robot_odometry_table(files["Odometry"])
-    odometry = np.array(odometry_table.values)
-    sightings = read_robot_measurements(files["Measurement"], barcodes)
-    vicon_path = folder / f"Robot{robot}_Groundtruth.dat"
-    vicon_table = read_robot_groundtruth_table(vicon_path) if vicon_path.is_file() else None
-    # the odometry and the Vicon file must each reach the last sighting (a file cut short)
-    for table, tolerance_s in (
-        (odometry_table, ODOMETRY_END_TOLERANCE_S),
-        (vicon_table, VICON_END_TOLERANCE_S),
-    ):
-        if table is not None and len(sightings.stamps_s):
-            check_stream_end(
-                table, float(sightings.stamps_s[-1]), files["Measurement"], tolerance_s
-            )
-    vicon = None
-    if vicon_table is not None:
-        check_stream_end(
-            odometry_table, float(vicon_table.values[-1, 0]), vicon_path, ODOMETRY_END_TOLERANCE_S
-        )
-        vicon = Trajectory.from_se2(vicon_table.values[:, 0], vicon_table.values[:, 1:4])
-
-    start_s = float(odometry[0, 0])
-    early = sightings.stamps_s < start_s
-    stamps = image_stamps(sightings.stamps_s[~early], same_image_s)
-    sighting_frames = np.unique(np.concatenate([[start_s], stamps]))
-    frame_stamps = fill_gaps(sighting_frames, max_step_s)
-    poses_odom = integrate_unicycle(
-        odometry[:, 0] + command_delay_s, odometry[:, 1], odometry[:, 2], frame_stamps
-    )
-    odometry_r = odometry_from_poses(poses_odom)
-    odometry_cov = None
-    if odometry_noise:
-        model = OdometryMotionModel(ODOMETRY_NOISE)
-        odometry_cov = np.array([model.covariance(delta) for delta in odometry_r])
-    bearings = sightings.bearings_rad[~early]
-    ranges = sightings.ranges_m[~early]
-    if depth_ranges:
-        ranges = ranges_from_depths(ranges, bearings)
+    files = _read_robot_files(folder, robot)
+    sightings = files.sightings
+    frames = _frames(files, same_image_s, max_step_s)
+    early = frames.early
+    odometry_r, odometry_cov = _commanded_odometry(files.odometry, frames.stamps_s,
+                                                   command_delay_s, odometry_noise)
     range_bearing = group_sightings(
-        frame_stamps,
-        stamps,
+        frames.stamps_s,
+        frames.image_stamps_s,
         sightings.landmark_ids[~early],
-        ranges,
-        bearings,
+        *_ranges_bearings(sightings, ~early, depth_ranges),
         sigma_range_m,
         sigma_bearing_rad,
         association,
     )
-
-    ground_truth = GroundTruth(
-        kind=GroundTruthKind.MOTION_CAPTURE if vicon is not None else GroundTruthKind.NONE,
-        landmark_ids=landmark_ids,
-        landmarks_w=np.column_stack([landmarks_xy, np.zeros(len(landmark_ids))]),
-        note="Vicon motion capture interpolated at the frame stamps; surveyed landmarks",
-    )
-    initial_pose = None
-    if vicon is not None:
-        # the truth at the frames with sightings (and frame 0) only: the frames that fill the
-        # gaps carry nothing to estimate from, and the trajectory metrics keep the stamps they
-        # had before the gaps were filled
-        valid, poses_true = interpolate_se2(
-            vicon.stamps_s, vicon.se2, sighting_frames, VICON_MAX_GAP_S
-        )
-        ground_truth = GroundTruth(
-            kind=ground_truth.kind,
-            trajectory=Trajectory.from_se2(sighting_frames[valid], poses_true),
-            landmark_ids=ground_truth.landmark_ids,
-            landmarks_w=ground_truth.landmarks_w,
-            note=ground_truth.note,
-        )
-        if valid[0]:
-            initial_pose = poses_true[0]
-
-    prior_map = PriorMap(
-        source="surveyed landmarks (MR.CLAM Landmark_Groundtruth.dat)",
-        landmark_ids=ground_truth.landmark_ids,
-        points_w=ground_truth.landmarks_w,
-        initial_pose_w=initial_pose,
-    )
+    ground_truth, prior_map, initial_pose = _ground_truth(files, frames.sighting_frames_s)
     unknown = sightings.unknown_barcodes
     if unknown:
-        log.warning(
-            "%s: %d sightings with unknown barcodes dropped: %s",
-            files["Measurement"],
-            sum(unknown.values()),
-            unknown,
-        )
+        log.warning("%s: %d sightings with unknown barcodes dropped: %s",
+                    files.measurement_path, sum(unknown.values()), unknown)
     info = {
         "sensors": "commanded odometry (v, omega) ~100 Hz; camera range-bearing to barcoded "
         "landmarks; Vicon ground truth",
         "robot": str(robot),
-        "landmark_sightings": str(len(stamps)),
+        "landmark_sightings": str(len(frames.image_stamps_s)),
         "robot_sightings_dropped": str(sightings.robot_sightings),
         "unknown_barcode_sightings_dropped": str(sum(unknown.values())),
         "unknown_barcodes": ",".join(str(b) for b in sorted(unknown)) or "none",
@@ -489,7 +569,7 @@ def load_mrclam(
     return Sequence(
         name=name or f"{folder.name}-r{robot}",
         source=SOURCE,
-        stamps_s=frame_stamps,
+        stamps_s=frames.stamps_s,
         odometry_r=odometry_r,
         odometry_covariance_r=odometry_cov,
         ground_truth=ground_truth,

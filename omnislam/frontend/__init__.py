@@ -13,6 +13,7 @@ not front ends. Modules, one concept each:
 - ``tracks``: stable landmark ids, re-recognition against the map, pruning (4.2);
 - ``observation_log``: the versioned, compressed, keyed log file;
 - ``pipeline``: Sequence -> ObservationLog, asynchronous image schedule;
+- ``image_tracking``: the per-image stages (groups, rays, sigmas, landmark and floor tracks);
 - ``vertical_edges``: vertical lines with PMC/MC colour profiles (Barra & Costa);
 - ``laser_landmarks``: spikes and RANSAC lines (SLAM for Dummies);
 - ``evaluation``: quality against the renderer's per-pixel ground truth.

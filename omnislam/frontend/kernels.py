@@ -25,22 +25,20 @@ same float32 differences, and the histograms add the same float32 products in th
 as ``np.bincount``. So all give the same bits, and the front end's log does not depend on
 whether numba is installed.
 
-The functions are plain Python written in the subset numba compiles. Importing this module
-loads them compiled ahead of time when ``make`` has built them for this machine
-(``kernels_aot``: an extension module that needs no numba at run time and loads in
-milliseconds), else compiles them with numba (cached on disk by numba, yet ~0.5 s of CPU per
-new process); ``pipeline``'s fork server imports it once, so its workers start with them
-loaded. ``COMPILED`` is None without numba and without a built module.
+The functions are plain Python written in the subset numba compiles; this module only
+defines them (it imports numpy alone). ``kernels_compiled`` compiles them (ahead of time,
+``kernels_aot``, or with numba) and holds what the detector calls.
 """
 
 from __future__ import annotations
-
-from types import SimpleNamespace
 
 import numpy as np
 
 #: Newton steps of the sub-pixel refinement (``scale_space.MAX_INTERP_STEPS``)
 _MAX_INTERP_STEPS = 5
+#: the functions the kernels call, which numba must compile before them (it resolves a
+#: kernel's globals when it compiles the kernel)
+HELPERS = ("_derivatives", "_solve3")
 
 
 def extrema(dog: np.ndarray, span: int, threshold: np.float32, inner: np.ndarray) -> np.ndarray:
@@ -319,48 +317,3 @@ def orientation_histograms(
             b = np.int64(np.rint(angle[i] * scale)) % bins
             hist[k, b] += np.float64(weight[i] * magnitude[i])
     return hist
-
-
-def _compile() -> SimpleNamespace | None:
-    """The kernels compiled with ``numba.njit`` (cached on disk), or None without numba."""
-    try:
-        import numba
-    except ImportError:
-        return None
-    jit = numba.njit(cache=True, nogil=True)
-    # the helpers the kernels call must be compiled first (numba resolves globals then)
-    namespace = globals()
-    for helper in ("_derivatives", "_solve3"):
-        namespace[helper] = jit(namespace[helper])
-    compiled = SimpleNamespace(
-        extrema=jit(extrema),
-        refine=jit(refine),
-        window_gradients=jit(window_gradients),
-        orientation_histograms=jit(orientation_histograms),
-    )
-    # compile now, for the argument types ``scale_space`` passes (numba compiles on first call)
-    dog = np.zeros((3, 12, 12), dtype=np.float32)
-    dog[1, 6, 6] = 1.0
-    found = compiled.extrema(dog, 1, np.float32(0.5), np.full((12, 12), 255, dtype=np.uint8))
-    compiled.refine(
-        dog, 1, 5, found[:, 0].copy(), found[:, 1].copy(), found[:, 2].copy(), 0.01, 10.0
-    )
-    one = np.ones(1, dtype=np.int64)
-    dx, dy, _ = compiled.window_gradients(dog, one, 6 * one, 6 * one, 2 * one, 2)
-    compiled.orientation_histograms(dx, dx, dy, 1, 36)
-    return compiled
-
-
-def _load() -> SimpleNamespace | None:
-    """The kernels compiled ahead of time for this machine when they were built
-    (``kernels_aot``: no numba at run time, milliseconds to load), else ``_compile``'s."""
-    from omnislam.frontend import kernels_aot
-
-    module = kernels_aot.load()
-    if module is None:
-        return _compile()
-    return SimpleNamespace(**{name: getattr(module, name) for name in kernels_aot.SIGNATURES})
-
-
-#: the compiled kernels, or None when numba is not installed and none were built ahead of time
-COMPILED: SimpleNamespace | None = _load()

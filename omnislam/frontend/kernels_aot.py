@@ -1,9 +1,10 @@
 """The SIFT detector's kernels compiled ahead of time into a plain extension module.
 
-``kernels`` compiles its functions with numba when a process first needs them. Loading them
-from numba's disk cache still costs a new process ~0.5 s of CPU (importing numba, then its typing
-and target registries and, through its BLAS check, ``scipy.linalg``): most of the front-end
-workers' start-up, which a short run like the demo's 59 images cannot amortise. numba's
+``kernels_compiled`` compiles the functions of ``kernels`` with numba when a process first
+needs them. Loading them from numba's disk cache still costs a new process ~0.5 s of CPU
+(importing numba, then its typing and target registries and, through its BLAS check,
+``scipy.linalg``): most of the front-end workers' start-up, which a short run like the demo's
+59 images cannot amortise. numba's
 ahead-of-time compiler (``numba.pycc``) turns the same functions, with fixed argument types,
 into an extension module that imports in milliseconds and needs neither numba nor scipy at run
 time.
@@ -12,7 +13,7 @@ time.
 named by a key of everything its machine code depends on: ``kernels.py``'s source, the Python ABI,
 numpy's version (its C API) and this CPU (the code is compiled for the host's instruction set).
 ``make`` builds it (``python -m omnislam.frontend.kernels_aot``); ``load`` returns it when one was
-built for this key, else None (``kernels`` then compiles with numba as before). The module runs
+built for this key, else None (``kernels_compiled`` then compiles them with numba). The module runs
 the same LLVM code as numba's just-in-time functions, without fast-math: the same bits, which
 ``tests/frontend/test_sift_kernels.py`` checks for both against the numpy path. Unlike the
 just-in-time functions (``nogil``), the exported ones hold the GIL while they run (``numba.pycc``
@@ -37,6 +38,8 @@ from types import ModuleType
 
 import numpy as np
 
+from omnislam.frontend import kernels
+
 #: the extension's module name (its ``PyInit_`` symbol); its file is named by ``key()``
 MODULE = "omnislam_kernels_aot"
 #: the exported functions and their argument types (those ``scale_space`` passes)
@@ -48,7 +51,7 @@ SIGNATURES = {
                          "int64[:], int64[:], int64[:], int64[:], int64)"),
     "orientation_histograms": "float64[:, :](float32[:], float32[:], float32[:], int64, int64)",
 }
-_SOURCE = Path(__file__).with_name("kernels.py")
+_SOURCE = Path(kernels.__file__)
 
 
 def _cpu() -> str:
@@ -114,10 +117,8 @@ def build(directory: Path | None = None) -> Path:
         warnings.simplefilter("ignore")
         from numba.pycc import CC
 
-    from omnislam.frontend import kernels
-
     namespace = vars(kernels)
-    for helper in ("_derivatives", "_solve3"):  # the kernels call them: compiled first
+    for helper in kernels.HELPERS:  # the kernels call them: compiled first
         if not isinstance(namespace[helper], numba.core.dispatcher.Dispatcher):
             namespace[helper] = numba.njit(nogil=True)(namespace[helper])
     target = path(directory)

@@ -38,19 +38,17 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from omnislam.core.se import se2_integrate
-from omnislam.core.types import Bearings, FrameInput, Odometry, OdometrySource, RangeBearing
+from omnislam.core.types import FrameInput, Odometry, OdometrySource, RangeBearing
 from omnislam.errors import DataError
 from omnislam.frontend import kernels_aot
-from omnislam.frontend.bearing_noise import bearing_sigmas
 from omnislam.frontend.config import FrontendConfig, ScheduleConfig, ScheduleMode, config_hash
 from omnislam.frontend.config import config_to_dict as _config_to_dict
-from omnislam.frontend.floor_tracks import FloorTracker
-from omnislam.frontend.groups import group_features
+from omnislam.frontend.image_tracking import ImageTracking, TrackedImages
 from omnislam.frontend.observation_log import (
     ObservationLog,
     StaleLogError,
@@ -68,7 +66,9 @@ from omnislam.frontend.preparation import (
 )
 from omnislam.frontend.scale_space import use_kernels
 from omnislam.frontend.timing import StageClock, children_cpu_s
-from omnislam.frontend.tracks import LandmarkTracker
+
+if TYPE_CHECKING:
+    from omnislam.frontend.scan_matching import LaserOdometry
 
 #: default seed of the RANSAC generator when none is injected
 DEFAULT_SEED = 0
@@ -152,7 +152,7 @@ def _context(modules: list[str]) -> Any:
         return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(["__main__", "omnislam.frontend.preparation",
-                                    "omnislam.frontend.kernels", *modules])
+                                    "omnislam.frontend.kernels_compiled", *modules])
     return context
 
 
@@ -275,7 +275,7 @@ def _prepare_here(prepare: ImagePreparer, i: int) -> PreparedImage:
     numba (~0.5 s) would cost more than they save on the few images prepared here. The switch
     is process-wide: a front end running meanwhile in another thread of this process takes the
     numpy path for those moments too, with the same bits."""
-    if "omnislam.frontend.kernels" in sys.modules or kernels_aot.path().is_file():
+    if "omnislam.frontend.kernels_compiled" in sys.modules or kernels_aot.path().is_file():
         return prepare(i)
     previous = use_kernels(False)
     try:
@@ -375,125 +375,131 @@ def run_frontend(
     config = config if config is not None else FrontendConfig()
     rng = rng if rng is not None else np.random.default_rng(DEFAULT_SEED)
     reuse_freed_memory()
-    n = len(sequence)
-    processed = np.zeros(0, dtype=np.int64)
-    if sequence.image_loader is not None:
-        processed = schedule_images(sequence.image_frames, sequence.odometry_r, config.schedule)
-        if max_images is not None:
-            processed = processed[:max_images]
-    rig = sequence.calibration
-    if processed.size and rig is None:
-        raise DataError(f"{sequence.name}: images without a camera calibration")
+    return _FrontendRun(sequence, config, rng, max_images).run(
+        progress=progress, pipelined=pipelined, on_image=on_image
+    )
 
-    clock = StageClock()  # preparing images (in worker processes when pipelined)
-    track_clock = StageClock()  # tracking them (this thread)
-    raw: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
-    lines: dict[int, Any] = {}
-    wall_start, cpu_start = time.perf_counter(), time.process_time()
-    children_start = children_cpu_s()
-    prepared_cpu_s = 0.0  # the workers' CPU in their stages (a lower bound of their total)
-    workers_timing: dict[str, float] = {}
-    in_workers = 0  # images prepared in worker processes
-    # per image: floor track ids, their feature rows, the landmark tracker's rows, and the
-    # floor keypoints' rays, pixels and sigmas
-    floor_raw: dict[int, tuple[np.ndarray, ...]] = {}
-    floor = None
-    floor_tracks_total = 0
-    floor_ids_from: int | None = None
-    beyond_floor = 0  # frame-to-frame matches refused by the floor check
-    if processed.size:
-        tracker = LandmarkTracker(rig.viewpoint_r, config, rng, track_clock)
-        if config.floor.enabled:
-            floor = FloorTracker(rig.viewpoint_r, config.floor)
-        poses_dr = se2_integrate(sequence.odometry_r)
+
+class _FrontendRun:
+    """One run of the front end over a sequence (``run_frontend``): its stages in order, and
+    the clocks and image-loop totals they report to the log's ``stats``.
+
+    Args:
+        sequence: the Sequence.
+        config: the front-end configuration.
+        rng: RANSAC's generator (the image tracking draws from it, then the laser landmarks).
+        max_images: process at most this many images, or None.
+    """
+
+    def __init__(self, sequence: Any, config: FrontendConfig, rng: np.random.Generator,
+                 max_images: int | None) -> None:
+        self.sequence, self.config, self.rng, self.max_images = sequence, config, rng, max_images
+        self.clock = StageClock()  # preparing images (in worker processes when pipelined), laser
+        self.track_clock = StageClock()  # tracking the images (this thread)
+        self.workers_timing: dict[str, float] = {}  # seconds_workers_start, when pipelined
+        self.images_wall_s = 0.0  # the whole image loop
+        self.images_cpu_s = 0.0
+
+    def run(self, *, progress: bool, pipelined: bool,
+            on_image: Callable[[int, int], None] | None) -> ObservationLog:
+        """The log: the images tracked, the laser odometry and landmarks, one FrameInput per
+        frame, and the stats."""
+        images = self._images(progress, pipelined, on_image)
+        laser_odom = self._laser_odometry()
+        laser_sightings = self._laser_sightings(laser_odom)
+        frames, pixels = self._frames(images, laser_odom, laser_sightings)
+        return ObservationLog(
+            dataset_id=dataset_fingerprint(self.sequence),
+            config_hash=log_key(self.config, self.max_images),
+            frames=tuple(frames),
+            pixels=tuple(pixels),
+            config=_config_to_dict(self.config),
+            stats=self._stats(frames, images, laser_odom),
+            odometry_source=OdometrySource.WHEEL if laser_odom is None else OdometrySource.LASER,
+            floor_ids_from=images.floor_ids_from,
+        )
+
+    def _scheduled_images(self) -> np.ndarray:
+        """The frames whose images are processed (``schedule_images``, at most ``max_images``).
+
+        Raises:
+            DataError: images to process and no camera calibration.
+        """
+        sequence = self.sequence
+        if sequence.image_loader is None:
+            return np.zeros(0, dtype=np.int64)
+        processed = schedule_images(sequence.image_frames, sequence.odometry_r,
+                                    self.config.schedule)
+        if self.max_images is not None:
+            processed = processed[: self.max_images]
+        if processed.size and sequence.calibration is None:
+            raise DataError(f"{sequence.name}: images without a camera calibration")
+        return processed
+
+    def _images(self, progress: bool, pipelined: bool,
+                on_image: Callable[[int, int], None] | None) -> TrackedImages:
+        """SIFT -> groups -> tracks on the scheduled images, the loop timed as a whole."""
+        processed = self._scheduled_images()
+        wall_start, cpu_start = time.perf_counter(), time.process_time()
+        children_start = children_cpu_s()
+        images = TrackedImages.none()
+        if processed.size:
+            images = self._track_images(processed.tolist(), progress, pipelined, on_image)
+        self.images_wall_s = time.perf_counter() - wall_start
+        # the workers and their fork server ended with the loop: their whole CPU (start-up,
+        # pickling included) is known
+        children_s = children_cpu_s() - children_start if children_start is not None else 0.0
+        self.images_cpu_s = (time.process_time() - cpu_start
+                             + max(images.prepared_cpu_s, children_s))
+        return images
+
+    def _track_images(self, frames: list[int], progress: bool, pipelined: bool,
+                      on_image: Callable[[int, int], None] | None) -> TrackedImages:
+        """Each image of ``frames`` prepared (``_prepared``) and tracked (``ImageTracking``)."""
+        sequence = self.sequence
+        tracking = ImageTracking(sequence.calibration, se2_integrate(sequence.odometry_r),
+                                 self.config, self.rng, self.clock, self.track_clock)
         bar = None
         if progress:
             from omnislam._progress import Progress
 
-            bar = Progress(f"frontend {sequence.name}", int(processed.size), "img")
-        for i, image in _prepared(sequence, config, processed.tolist(), pipelined,
-                                  workers_timing):
-            for stage, seconds in image.seconds.items():
-                clock.add(stage, seconds, image.cpu_seconds[stage])
-            if image.in_worker:
-                prepared_cpu_s += sum(image.cpu_seconds.values())
-                in_workers += 1
-            features = image.features
-            with clock("group"):  # here: the groups need scipy, which the workers do not load
-                groups = group_features(features.pixels, features.sizes_px, features.contrast,
-                                        config.groups)
-                rays_r = rig.rays_r(features.pixels)
-                sigmas = bearing_sigmas(rig.camera, features, config.tracks)
-            before = sum(track_clock.seconds.values()), sum(track_clock.cpu_seconds.values())
-            start, cpu = time.perf_counter(), time.process_time()
-            tracked = tracker.process(features.descriptors, groups, rays_r, poses_dr[i])
-            # "track": what process() spent outside its own match / verify / map stages
-            inner = (sum(track_clock.seconds.values()) - before[0],
-                     sum(track_clock.cpu_seconds.values()) - before[1])
-            track_clock.add("track", time.perf_counter() - start - inner[0],
-                            time.process_time() - cpu - inner[1])
-            idx = tracked.feature_index
-            raw[i] = (tracked.track_ids, rays_r[idx], features.pixels[idx], sigmas[idx])
-            if floor is not None:
-                with track_clock("floor"):
-                    usable = np.isfinite(sigmas) & (sigmas > 0)
-                    seen = floor.process(rays_r, features.descriptors, poses_dr[i], usable)
-                    rows = seen.feature_index
-                    floor_raw[i] = (seen.track_ids, rows, idx, rays_r[rows],
-                                    features.pixels[rows], sigmas[rows])
-            if image.lines is not None:
-                lines[i] = image.lines
+            bar = Progress(f"frontend {sequence.name}", len(frames), "img")
+        for i, image in _prepared(sequence, self.config, frames, pipelined,
+                                  self.workers_timing):
+            tracking.add(i, image)
             if bar is not None:
                 bar.advance()
             if on_image is not None:
-                on_image(len(raw), int(processed.size))
+                on_image(len(tracking.sightings), len(frames))
         if bar is not None:
             bar.close()
-        sightings = tracker.sightings
-        beyond_floor = tracker.beyond_floor
-        raw = {i: (tracker.canonical_ids(ids), *rest) for i, (ids, *rest) in raw.items()}
-        if floor is not None:  # floor tracks take the ids after the landmark tracks'
-            kept = sightings >= config.tracks.min_track_length
-            offset = floor_ids_from = int(sightings.shape[0])
-            floor_tracks_total = floor.sightings.shape[0]
-            floor_seen = np.zeros(floor_tracks_total, dtype=np.int64)
-            for i, (ids, rows, landmark_rows, rays, px, sigmas) in floor_raw.items():
-                # a keypoint that a kept landmark track holds stays that track's alone
-                mine = ~np.isin(rows, landmark_rows[kept[raw[i][0]]])
-                floor_raw[i] = (ids[mine], rays[mine], px[mine], sigmas[mine])
-                np.add.at(floor_seen, ids[mine], 1)
-            sightings = np.concatenate([sightings, floor_seen])  # what the log keeps of them
-            for i, (ids, rays, px, sigmas) in floor_raw.items():
-                own = raw[i]
-                raw[i] = (np.concatenate([own[0], ids + offset]), np.vstack([own[1], rays]),
-                          np.vstack([own[2], px]), np.concatenate([own[3], sigmas]))
-    else:
-        sightings = np.zeros(0, dtype=np.int64)
-    images_wall_s = time.perf_counter() - wall_start
-    # the workers and their fork server ended with the loop: their whole CPU (start-up,
-    # pickling included) is known
-    children_s = children_cpu_s() - children_start if children_start is not None else 0.0
-    images_cpu_s = time.process_time() - cpu_start + max(prepared_cpu_s, children_s)
+        return tracking.finish()
 
-    laser_odom = None
-    if (
-        sequence.laser is not None
-        and config.laser_odometry.enabled
-        and (config.laser_odometry.with_images or sequence.image_loader is None)
-    ):
+    def _laser_odometry(self) -> LaserOdometry | None:
+        """The laser odometry (``scan_matching``) when the sequence has a laser and the
+        configuration asks for it (with images only when ``with_images``), else None."""
+        sequence, config = self.sequence, self.config.laser_odometry
+        if sequence.laser is None or not config.enabled or not (
+            config.with_images or sequence.image_loader is None
+        ):
+            return None
         from omnislam.frontend.scan_matching import laser_odometry
 
         scans = sequence.laser
-        with clock("laser_odometry"):
-            laser_odom = laser_odometry(
+        with self.clock("laser_odometry"):
+            return laser_odometry(
                 scans.angles_rad, scans.ranges_m, scans.max_range_m, sequence.odometry_r,
-                config.laser_odometry, sequence.odometry_covariance_r,
+                config, sequence.odometry_covariance_r,
             )
 
-    laser_sightings: dict[int, RangeBearing] = {}
-    if sequence.laser is not None and config.laser.enabled and (
-        config.laser.merge_with_sightings or not _has_own_sightings(sequence)
-    ):
+    def _laser_sightings(self, laser_odom: LaserOdometry | None) -> dict[int, RangeBearing]:
+        """Per frame with a scan, its laser landmarks (``laser_landmarks``), when the laser is
+        on and the sequence has no sightings of its own or they are to be merged."""
+        sequence, config = self.sequence, self.config.laser
+        if sequence.laser is None or not config.enabled or not (
+            config.merge_with_sightings or not _has_own_sightings(sequence)
+        ):
+            return {}
         from omnislam.frontend.laser_landmarks import extract_laser_landmarks
 
         scans = sequence.laser
@@ -502,83 +508,81 @@ def run_frontend(
         poses_dr = se2_integrate(
             sequence.odometry_r if laser_odom is None else laser_odom.deltas
         )
-        with clock("laser"):
-            for i in range(n):
+        sightings: dict[int, RangeBearing] = {}
+        with self.clock("laser"):
+            for i in range(len(sequence)):
                 ranges = scans.ranges_m[i]
                 if np.all(np.isnan(ranges)):
                     continue
-                laser_sightings[i] = extract_laser_landmarks(
-                    scans.angles_rad, ranges, scans.max_range_m, config.laser, rng, poses_dr[i]
+                sightings[i] = extract_laser_landmarks(
+                    scans.angles_rad, ranges, scans.max_range_m, config, self.rng, poses_dr[i]
                 )
-            if config.laser.persistence_radius_m is not None:
+            if config.persistence_radius_m is not None:
                 from omnislam.frontend.laser_landmarks import persistent_sightings
 
-                laser_sightings = persistent_sightings(
-                    laser_sightings, poses_dr, config.laser.persistence_radius_m
-                )
+                sightings = persistent_sightings(sightings, poses_dr,
+                                                 config.persistence_radius_m)
+        return sightings
 
-    keep_track = sightings >= config.tracks.min_track_length
-    frames: list[FrameInput] = []
-    pixels: list[np.ndarray | None] = []
-    n_bearings = []
-    for i in range(n):
-        bearings = None
-        px = None
-        if i in raw:
-            ids, rays, pix, sigmas = raw[i]
-            ok = keep_track[ids] & np.isfinite(sigmas) & (sigmas > 0)
-            rays = rays[ok] / np.linalg.norm(rays[ok], axis=1, keepdims=True)
-            bearings = Bearings(ids[ok], rays, sigmas[ok])
-            px = pix[ok]
-            n_bearings.append(len(bearings))
-        given = sequence.range_bearing[i] if sequence.range_bearing is not None else None
-        frame = sequence.frame_input(
-            i,
-            bearings=bearings,
-            range_bearing=_merge_sightings(given, laser_sightings.get(i)),
-            vertical_lines=lines.get(i),
-        )
-        if laser_odom is not None and i > 0:
-            cov = laser_odom.covariances[i]
-            frame = replace(frame, odometry=Odometry(
-                laser_odom.deltas[i], frame.odometry.stamp_s,
-                None if np.any(np.isnan(cov)) else cov,
-            ))
-        frames.append(frame)
-        pixels.append(px)
-    stats: dict[str, float] = {}
-    for c in (clock, track_clock):
-        stats |= {f"seconds_{k}": v for k, v in c.seconds.items()}
-        stats |= {f"cpu_seconds_{k}": v for k, v in c.cpu_seconds.items()}
-    stats |= {
-        "seconds_images_total": images_wall_s,
-        "cpu_seconds_images_total": images_cpu_s,
-        "images_processed": float(len(raw)),
-        "images_prepared_in_workers": float(in_workers),
-        **workers_timing,
-        "cpu_seconds_prepared_in_workers": prepared_cpu_s,
-        "tracks_total": float(sightings.shape[0]),
-        "tracks_kept": float(keep_track.sum()),
-        "matches_beyond_floor": float(beyond_floor),
-        "sightings_per_image_median": float(np.median(n_bearings)) if n_bearings else 0.0,
-    }
-    if floor is not None:
-        floor_kept = keep_track[sightings.shape[0] - floor_tracks_total :]
-        stats["floor_tracks_kept"] = float(floor_kept.sum())
-    if laser_odom is not None:
-        matched = [r for r in laser_odom.reasons if r]
-        stats["laser_odometry_matches"] = float(len(matched))
-        stats["laser_odometry_accepted"] = float(laser_odom.accepted.sum())
-    return ObservationLog(
-        dataset_id=dataset_fingerprint(sequence),
-        config_hash=log_key(config, max_images),
-        frames=tuple(frames),
-        pixels=tuple(pixels),
-        config=_config_to_dict(config),
-        stats=stats,
-        odometry_source=OdometrySource.WHEEL if laser_odom is None else OdometrySource.LASER,
-        floor_ids_from=floor_ids_from,
-    )
+    def _frames(self, images: TrackedImages, laser_odom: LaserOdometry | None,
+                laser_sightings: dict[int, RangeBearing]
+                ) -> tuple[list[FrameInput], list[np.ndarray | None]]:
+        """One FrameInput per frame and the pixels of its bearings: the bearings of the kept
+        tracks, the sequence's range-bearing sightings then the laser landmarks, the vertical
+        lines, and the laser odometry (with its covariance) when there is one."""
+        sequence = self.sequence
+        keep_track = images.track_sightings >= self.config.tracks.min_track_length
+        frames: list[FrameInput] = []
+        pixels: list[np.ndarray | None] = []
+        for i in range(len(sequence)):
+            bearings, px = None, None
+            if i in images.sightings:
+                bearings, px = images.sightings[i].bearings(keep_track)
+            given = sequence.range_bearing[i] if sequence.range_bearing is not None else None
+            frame = sequence.frame_input(
+                i,
+                bearings=bearings,
+                range_bearing=_merge_sightings(given, laser_sightings.get(i)),
+                vertical_lines=images.lines.get(i),
+            )
+            if laser_odom is not None and i > 0:
+                cov = laser_odom.covariances[i]
+                frame = replace(frame, odometry=Odometry(
+                    laser_odom.deltas[i], frame.odometry.stamp_s,
+                    None if np.any(np.isnan(cov)) else cov,
+                ))
+            frames.append(frame)
+            pixels.append(px)
+        return frames, pixels
+
+    def _stats(self, frames: list[FrameInput], images: TrackedImages,
+               laser_odom: LaserOdometry | None) -> dict[str, float]:
+        """The log's ``stats``: seconds per stage, the image loop's totals, and counts."""
+        keep_track = images.track_sightings >= self.config.tracks.min_track_length
+        n_bearings = [len(f.bearings) for f in frames if f.bearings is not None]
+        stats: dict[str, float] = {}
+        for c in (self.clock, self.track_clock):
+            stats |= {f"seconds_{k}": v for k, v in c.seconds.items()}
+            stats |= {f"cpu_seconds_{k}": v for k, v in c.cpu_seconds.items()}
+        stats |= {
+            "seconds_images_total": self.images_wall_s,
+            "cpu_seconds_images_total": self.images_cpu_s,
+            "images_processed": float(len(images.sightings)),
+            "images_prepared_in_workers": float(images.prepared_in_workers),
+            **self.workers_timing,
+            "cpu_seconds_prepared_in_workers": images.prepared_cpu_s,
+            "tracks_total": float(images.track_sightings.shape[0]),
+            "tracks_kept": float(keep_track.sum()),
+            "matches_beyond_floor": float(images.beyond_floor),
+            "sightings_per_image_median": float(np.median(n_bearings)) if n_bearings else 0.0,
+        }
+        if images.floor_ids_from is not None:
+            stats["floor_tracks_kept"] = float(keep_track[images.floor_ids_from :].sum())
+        if laser_odom is not None:
+            matched = [r for r in laser_odom.reasons if r]
+            stats["laser_odometry_matches"] = float(len(matched))
+            stats["laser_odometry_accepted"] = float(laser_odom.accepted.sum())
+        return stats
 
 
 def cached_frontend(

@@ -140,13 +140,14 @@ def build_scale_space(grey: np.ndarray, sigma: float, layers: int, *, fine: bool
 
 
 def _kernels() -> Any:
-    """The compiled ``kernels`` when numba is installed (and ``use_kernels`` allows), else
-    None: the numpy and OpenCV path below, their reference."""
+    """The compiled ``kernels`` (``kernels_compiled``) when numba is installed or they were
+    compiled ahead of time (and ``use_kernels`` allows), else None: the numpy and OpenCV path
+    below, their reference."""
     if not _USE_KERNELS:
         return None
-    from omnislam.frontend import kernels
+    from omnislam.frontend import kernels_compiled
 
-    return kernels.COMPILED
+    return kernels_compiled.COMPILED
 
 
 #: the compiled kernels are used when available (``use_kernels``)
@@ -457,6 +458,29 @@ def detect_keypoints(
         The detections, one per orientation (thesis 4.1.2: peaks >= 80 % make keypoints), in
         the order octave, layer, candidate, orientation.
     """
+    located = _located(grey, mask, sigma=sigma, layers=layers,
+                       contrast_threshold=contrast_threshold, edge_threshold=edge_threshold,
+                       fine=fine, halved=halved)
+    if max_keypoints:
+        located = _strongest_located(located, max_keypoints, buckets)
+    parts = [_oriented(octave, ref, layers) for octave, ref in located if ref.layer.size]
+    if not parts:
+        empty = np.zeros(0)
+        ints = np.zeros(0, dtype=np.int64)
+        return Detections(empty, empty, empty, empty, empty, ints, ints, empty)
+    found = Detections(*(np.concatenate([getattr(p, f) for p in parts])
+                         for f in Detections.__slots__))
+    if max_keypoints and len(found) > max_keypoints:  # orientations beyond the budget
+        found = _within_budget(found, max_keypoints, buckets)
+    return found
+
+
+def _located(grey: np.ndarray, mask: np.ndarray | None, *, sigma: float, layers: int,
+             contrast_threshold: float, edge_threshold: float, fine: bool, halved: bool
+             ) -> list[tuple[Octave, _Refined]]:
+    """The refined DoG extrema of each octave (thesis eqs. 4.6-4.15) whose refined position
+    falls inside ``mask``, layer by layer; octaves without any are left out (arguments as
+    ``detect_keypoints``'s)."""
     cv2 = require("cv2")
     full_mask = None if mask is None else (mask > 0).astype(np.uint8) * 255
     octave_mask = full_mask
@@ -484,59 +508,66 @@ def detect_keypoints(
             ref = _subset_refined(ref, mask[v, u] > 0)
         if ref.layer.size:
             located.append((octave, ref))
-    if max_keypoints and sum(ref.layer.size for _, ref in located) > max_keypoints:
-        response = np.concatenate([ref.contrast for _, ref in located])
-        keep = np.zeros(response.shape[0], dtype=bool)
-        keep[np.argsort(-response, kind="stable")[:max_keypoints]] = True
-        if buckets is not None:  # and the strongest of each bucket (the docstring's superset)
-            bucket = np.concatenate([_bucket_of(buckets, octave, ref) for octave, ref in located])
-            keep |= strongest_per_bucket(response, bucket, int(buckets.max()) + 1, max_keypoints,
-                                         spill=False)
-        sizes = np.cumsum([0] + [ref.layer.size for _, ref in located])
-        located = [(octave, _subset_refined(ref, keep[a:b]))
-                   for (octave, ref), a, b in zip(located, sizes[:-1], sizes[1:], strict=True)]
-    parts = []
-    for octave, ref in located:
-        if ref.layer.size == 0:
-            continue
-        scale = octave.sigma_px * 2.0 ** ((ref.layer + ref.offset[:, 2]) / layers)
-        # one call per layer: the window radius grows with the scale
-        k, angles = [], []
-        for layer in np.unique(ref.layer):
-            sel = np.flatnonzero(ref.layer == layer)
-            which, found = _orientations(octave.gaussian, ref.layer[sel], ref.row[sel],
-                                         ref.col[sel], scale[sel])
-            k.append(sel[which])
-            angles.append(found)
-        k, angles = np.concatenate(k), np.concatenate(angles)
-        step = float(octave.step_px)
-        # Lowe's octave and layer (the fine octave spans octaves -1 and 0)
-        above = (ref.layer[k] - 1) // layers
-        parts.append(Detections(
-            x=(ref.col[k] + ref.offset[k, 0]) * step,
-            y=(ref.row[k] + ref.offset[k, 1]) * step,
-            sigma=scale[k] * step,
-            angle_deg=angles,
-            response=ref.contrast[k],
-            octave=octave.index + above,
-            layer=ref.layer[k] - layers * above,
-            sub_scale=ref.offset[k, 2],
-        ))
-    if not parts:
-        empty = np.zeros(0)
-        ints = np.zeros(0, dtype=np.int64)
-        return Detections(empty, empty, empty, empty, empty, ints, ints, empty)
-    found = Detections(*(np.concatenate([getattr(p, f) for p in parts])
-                         for f in Detections.__slots__))
-    if max_keypoints and len(found) > max_keypoints:  # orientations beyond the budget
-        if buckets is None:
-            strongest = np.argsort(-found.response, kind="stable")[:max_keypoints]
-            found = found.subset(np.sort(strongest))
-        else:
-            found = found.subset(strongest_per_bucket(
-                found.response, bucket_at(buckets, np.column_stack([found.x, found.y])),
-                int(buckets.max()) + 1, max_keypoints))
-    return found
+    return located
+
+
+def _strongest_located(located: list[tuple[Octave, _Refined]], max_keypoints: int,
+                       buckets: np.ndarray | None) -> list[tuple[Octave, _Refined]]:
+    """The located keypoints that may hold one of the ``max_keypoints`` detections kept: the
+    strongest of the whole image and, with ``buckets``, of each bucket (the superset
+    ``detect_keypoints`` describes); all of them when they are within the budget."""
+    if sum(ref.layer.size for _, ref in located) <= max_keypoints:
+        return located
+    response = np.concatenate([ref.contrast for _, ref in located])
+    keep = np.zeros(response.shape[0], dtype=bool)
+    keep[np.argsort(-response, kind="stable")[:max_keypoints]] = True
+    if buckets is not None:  # and the strongest of each bucket (the docstring's superset)
+        bucket = np.concatenate([_bucket_of(buckets, octave, ref) for octave, ref in located])
+        keep |= strongest_per_bucket(response, bucket, int(buckets.max()) + 1, max_keypoints,
+                                     spill=False)
+    sizes = np.cumsum([0] + [ref.layer.size for _, ref in located])
+    return [(octave, _subset_refined(ref, keep[a:b]))
+            for (octave, ref), a, b in zip(located, sizes[:-1], sizes[1:], strict=True)]
+
+
+def _oriented(octave: Octave, ref: _Refined, layers: int) -> Detections:
+    """The detections of an octave's located keypoints, one per dominant orientation
+    (``_orientations``), in image pixels and Lowe's octave and layer."""
+    scale = octave.sigma_px * 2.0 ** ((ref.layer + ref.offset[:, 2]) / layers)
+    # one call per layer: the window radius grows with the scale
+    k, angles = [], []
+    for layer in np.unique(ref.layer):
+        sel = np.flatnonzero(ref.layer == layer)
+        which, found = _orientations(octave.gaussian, ref.layer[sel], ref.row[sel],
+                                     ref.col[sel], scale[sel])
+        k.append(sel[which])
+        angles.append(found)
+    k, angles = np.concatenate(k), np.concatenate(angles)
+    step = float(octave.step_px)
+    # Lowe's octave and layer (the fine octave spans octaves -1 and 0)
+    above = (ref.layer[k] - 1) // layers
+    return Detections(
+        x=(ref.col[k] + ref.offset[k, 0]) * step,
+        y=(ref.row[k] + ref.offset[k, 1]) * step,
+        sigma=scale[k] * step,
+        angle_deg=angles,
+        response=ref.contrast[k],
+        octave=octave.index + above,
+        layer=ref.layer[k] - layers * above,
+        sub_scale=ref.offset[k, 2],
+    )
+
+
+def _within_budget(found: Detections, max_keypoints: int, buckets: np.ndarray | None
+                   ) -> Detections:
+    """The ``max_keypoints`` strongest detections, in their order, or with ``buckets`` the
+    budget shared out over the buckets (``strongest_per_bucket``)."""
+    if buckets is None:
+        strongest = np.argsort(-found.response, kind="stable")[:max_keypoints]
+        return found.subset(np.sort(strongest))
+    return found.subset(strongest_per_bucket(
+        found.response, bucket_at(buckets, np.column_stack([found.x, found.y])),
+        int(buckets.max()) + 1, max_keypoints))
 
 
 def budget_buckets(region: np.ndarray, bands: int, sectors: int) -> np.ndarray:

@@ -325,6 +325,117 @@ def _needed_iterations(inlier_ratio: float, sample: int, confidence: float) -> f
     return math.log(1.0 - confidence) / math.log(1.0 - good)
 
 
+class _Ransac:
+    """One verification's model and matches: which model is fitted (rotation alone below the
+    minimum baseline, else a planar or general essential matrix), its solver, residual and
+    threshold, and the odometry prior that seeds, guides and guards it.
+
+    Args:
+        f1, f2: (N, 3) unit bearings of the matches in viewpoint frames 1 and 2.
+        prior: the relative pose predicted by odometry, or None.
+        config: the verification's configuration.
+    """
+
+    def __init__(self, f1: np.ndarray, f2: np.ndarray, prior: RelativePose | None,
+                 config: VerificationConfig) -> None:
+        self.f1, self.f2, self.prior, self.config = f1, f2, prior, config
+        self.rotation_only = prior is not None and prior.baseline_m < config.min_baseline_m
+        self.planar = config.planar_motion and not self.rotation_only
+        self.sample = (SAMPLE_ROTATION if self.rotation_only
+                       else SAMPLE_PLANAR if self.planar else SAMPLE_ESSENTIAL)
+        self.seed: np.ndarray | None
+        if self.rotation_only:
+            assert prior is not None
+            # the parallax of points at NEAR_DEPTH_M or further is tolerated
+            self.threshold_rad = config.threshold_rad + prior.baseline_m / NEAR_DEPTH_M
+            self.solve, self.errors = rotation_from_bearings, rotation_errors
+            self.seed = prior.R
+        else:
+            self.threshold_rad = config.threshold_rad
+            self.solve = planar_essential_from_bearings if self.planar else essential_from_bearings
+            self.errors = epipolar_errors
+            self.seed = prior.essential() if prior is not None else None
+
+    def enough(self, n_inliers: int) -> bool:
+        """Whether this many inliers can be accepted."""
+        return n_inliers >= max(self.config.min_inliers, self.sample)
+
+    def start(self, guided: bool) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """The matches to sample from and the first (model, inliers): the prior's model and
+        the matches it explains, and, ``guided``, only the matches near the prior to sample
+        from (when enough of them agree with it to be accepted at all: otherwise the prior is
+        wrong and the few that agree are chance)."""
+        n = self.f1.shape[0]
+        pool = np.arange(n)
+        if self.seed is None:
+            return pool, None, np.zeros(n, dtype=bool)
+        seed_err = self.errors(self.seed, self.f1, self.f2)
+        agreeing = np.flatnonzero(seed_err < max(PRIOR_GATE_RAD, self.threshold_rad))
+        if guided and agreeing.shape[0] >= max(2 * self.sample, self.config.min_inliers):
+            pool = agreeing
+        return pool, self.seed, seed_err < self.threshold_rad
+
+    def acceptable(self, model: np.ndarray, inliers: np.ndarray) -> bool:
+        """Guard: the rotation of the model agrees with the odometry prior."""
+        prior, tolerance_rad = self.prior, self.config.prior_rotation_tol_rad
+        if prior is None:
+            return True
+        if self.planar:  # both turns are about the vertical
+            turn = planar_rotation_angle(model) - math.atan2(prior.R[1, 0], prior.R[0, 0])
+            return abs(math.remainder(turn, 2 * math.pi)) <= tolerance_rad
+        if self.rotation_only:
+            R = model
+        else:
+            R = decompose_essential(model, self.f1[inliers], self.f2[inliers]).R
+        return rotation_angle(R @ prior.R.T) <= tolerance_rad
+
+    def search(self, pool: np.ndarray, best_model: np.ndarray | None, best_inliers: np.ndarray,
+               rng: np.random.Generator) -> tuple[np.ndarray | None, np.ndarray, int]:
+        """RANSAC from (best_model, best_inliers): hypotheses from samples of ``pool`` in
+        batches of ``BATCH``, the best acceptable one kept, until the confidence is reached or
+        ``max_iterations``; returns the best (model, inliers) and the hypotheses drawn."""
+        f1, f2, config, sample = self.f1, self.f2, self.config, self.sample
+        iterations = 0
+        needed = float(config.max_iterations)
+        while iterations < min(needed, config.max_iterations):
+            keys = rng.random((BATCH, pool.shape[0]))
+            picks = pool[np.argpartition(keys, sample - 1, axis=1)[:, :sample]]
+            models = self.solve(f1[picks], f2[picks])
+            inliers = self.errors(models, f1, f2) < self.threshold_rad
+            counts = inliers.sum(axis=1)
+            iterations += BATCH
+            for m in np.argsort(-counts):
+                if counts[m] <= best_inliers.sum():
+                    break
+                if self.acceptable(models[m], inliers[m]):
+                    best_model, best_inliers = models[m], inliers[m]
+                    break
+            needed = _needed_iterations(best_inliers.sum() / pool.shape[0], sample,
+                                        config.confidence)
+        return best_model, best_inliers, iterations
+
+    def refit(self, model: np.ndarray, inliers: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Local optimisation: refit on all inliers while the consensus grows (twice at most)
+        and the refit stays acceptable."""
+        for _ in range(2):
+            refit = self.solve(self.f1[inliers], self.f2[inliers])
+            refit_inliers = self.errors(refit, self.f1, self.f2) < self.threshold_rad
+            if refit_inliers.sum() < inliers.sum() or not self.acceptable(refit, refit_inliers):
+                break
+            model, inliers = refit, refit_inliers
+        return model, inliers
+
+    def result(self, model: np.ndarray, inliers: np.ndarray, iterations: int
+               ) -> VerificationResult:
+        """The verified matches and the relative pose of their model."""
+        if self.rotation_only:
+            return VerificationResult(inliers, ModelKind.ROTATION,
+                                      RelativePose(model, np.zeros(3)), iterations)
+        decompose = decompose_planar_essential if self.planar else decompose_essential
+        pose = decompose(model, self.f1[inliers], self.f2[inliers])
+        return VerificationResult(inliers, ModelKind.ESSENTIAL, pose, iterations)
+
+
 def verify_matches(
     f1: np.ndarray,
     f2: np.ndarray,
@@ -352,84 +463,17 @@ def verify_matches(
         matches agree on one model.
     """
     n = f1.shape[0]
-    none = VerificationResult(np.zeros(n, dtype=bool), ModelKind.NONE, None, 0)
     if not config.enabled:
         return VerificationResult(np.ones(n, dtype=bool), ModelKind.NONE, None, 0)
-    rotation_only = prior is not None and prior.baseline_m < config.min_baseline_m
-    planar = config.planar_motion and not rotation_only
-    sample = SAMPLE_ROTATION if rotation_only else SAMPLE_PLANAR if planar else SAMPLE_ESSENTIAL
-    if n < max(config.min_inliers, sample):
-        return none
-    if rotation_only:
-        assert prior is not None
-        threshold = config.threshold_rad + prior.baseline_m / NEAR_DEPTH_M
-        solve, errors = rotation_from_bearings, rotation_errors
-        seed = prior.R
-    else:
-        threshold = config.threshold_rad
-        solve = planar_essential_from_bearings if planar else essential_from_bearings
-        errors = epipolar_errors
-        seed = prior.essential() if prior is not None else None
-
-    pool = np.arange(n)
-    best_model, best_inliers = None, np.zeros(n, dtype=bool)
-    if seed is not None:
-        seed_err = errors(seed, f1, f2)
-        best_model, best_inliers = seed, seed_err < threshold
-        agreeing = np.flatnonzero(seed_err < max(PRIOR_GATE_RAD, threshold))
-        # sample near the prior only if enough matches agree with it to be accepted at all:
-        # otherwise the prior is wrong and the few that agree are chance
-        if guided and agreeing.shape[0] >= max(2 * sample, config.min_inliers):
-            pool = agreeing
-
-    def acceptable(model: np.ndarray, inliers: np.ndarray) -> bool:
-        """Guard: the rotation of the model agrees with the odometry prior."""
-        if prior is None:
-            return True
-        if planar:  # both turns are about the vertical
-            turn = planar_rotation_angle(model) - math.atan2(prior.R[1, 0], prior.R[0, 0])
-            return abs(math.remainder(turn, 2 * math.pi)) <= config.prior_rotation_tol_rad
-        if rotation_only:
-            R = model
-        else:
-            R = decompose_essential(model, f1[inliers], f2[inliers]).R
-        return rotation_angle(R @ prior.R.T) <= config.prior_rotation_tol_rad
-
-    iterations = 0
-    needed = float(config.max_iterations)
-    while iterations < min(needed, config.max_iterations):
-        keys = rng.random((BATCH, pool.shape[0]))
-        picks = pool[np.argpartition(keys, sample - 1, axis=1)[:, :sample]]
-        models = solve(f1[picks], f2[picks])
-        inliers = errors(models, f1, f2) < threshold
-        counts = inliers.sum(axis=1)
-        iterations += BATCH
-        for m in np.argsort(-counts):
-            if counts[m] <= best_inliers.sum():
-                break
-            if acceptable(models[m], inliers[m]):
-                best_model, best_inliers = models[m], inliers[m]
-                break
-        needed = _needed_iterations(best_inliers.sum() / pool.shape[0], sample,
-                                    config.confidence)
-
-    if best_model is None or best_inliers.sum() < max(config.min_inliers, sample):
+    ransac = _Ransac(f1, f2, prior, config)
+    if not ransac.enough(n):
+        return VerificationResult(np.zeros(n, dtype=bool), ModelKind.NONE, None, 0)
+    pool, model, inliers = ransac.start(guided)
+    model, inliers, iterations = ransac.search(pool, model, inliers, rng)
+    if model is None or not ransac.enough(int(inliers.sum())):
         return VerificationResult(np.zeros(n, dtype=bool), ModelKind.NONE, None, iterations)
-    # local optimisation: refit on all inliers while the consensus grows
-    for _ in range(2):
-        refit = solve(f1[best_inliers], f2[best_inliers])
-        refit_inliers = errors(refit, f1, f2) < threshold
-        if refit_inliers.sum() < best_inliers.sum() or not acceptable(refit, refit_inliers):
-            break
-        best_model, best_inliers = refit, refit_inliers
-    if rotation_only:
-        pose = RelativePose(best_model, np.zeros(3))
-        kind = ModelKind.ROTATION
-    else:
-        decompose = decompose_planar_essential if planar else decompose_essential
-        pose = decompose(best_model, f1[best_inliers], f2[best_inliers])
-        kind = ModelKind.ESSENTIAL
-    return VerificationResult(best_inliers, kind, pose, iterations)
+    model, inliers = ransac.refit(model, inliers)
+    return ransac.result(model, inliers, iterations)
 
 
 def beyond_the_floor(

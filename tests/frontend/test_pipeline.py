@@ -257,7 +257,7 @@ def test_the_workers_import_only_what_preparing_an_image_needs(demo_sequence):
             "print(' '.join(sorted(sys.modules)))")
     loaded = subprocess.run(
         [sys.executable, "-c", code, "omnislam.frontend.preparation",
-         "omnislam.frontend.kernels", *modules],
+         "omnislam.frontend.kernels_compiled", *modules],
         capture_output=True, text=True, check=True).stdout.split()
     assert "omnislam.frontend.sift" in loaded
     for heavy in ("scipy.spatial", "scipy.sparse", "omnislam.frontend.pipeline",

@@ -21,13 +21,13 @@ from omnislam.frontend.sift import SiftExtractor, detection_mask
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("numba")
 
-from omnislam.frontend import kernels, kernels_aot  # noqa: E402 (numba is installed)
+from omnislam.frontend import kernels_aot, kernels_compiled  # noqa: E402 (numba is installed)
 
 
 @pytest.fixture(scope="module")
 def jit_kernels():
     """numba's just-in-time kernels (what runs when none were compiled ahead of time)."""
-    return kernels._compile()
+    return kernels_compiled._compile()
 
 
 @pytest.fixture(scope="module")
@@ -46,9 +46,9 @@ def aot_kernels(tmp_path_factory):
 
 @pytest.fixture(params=["jit", "aot"])
 def compiled(request, monkeypatch):
-    """Each test runs with both compilations of the kernels as ``kernels.COMPILED``."""
+    """Each test runs with both compilations of the kernels as ``kernels_compiled.COMPILED``."""
     namespace = request.getfixturevalue(f"{request.param}_kernels")
-    monkeypatch.setattr(kernels, "COMPILED", namespace)
+    monkeypatch.setattr(kernels_compiled, "COMPILED", namespace)
     return namespace
 
 

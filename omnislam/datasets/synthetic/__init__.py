@@ -2,10 +2,11 @@
 per-pixel ground truth, the seeds' routes as presets, and the on-disk dataset format.
 
 Modules: ``world`` (geometry + landmarks, JSON), ``textures`` (procedural textures + lookup),
-``raycast``/``raycast_numpy``/``raycast_open3d`` (first-hit ray casting), ``render`` (images
-and ground-truth maps), ``routes`` (differential-drive paths, odometry), ``laser`` (scans and
-pole sightings), ``presets`` (named scenarios), ``simulate`` (a preset's non-image data),
-``writer``/``loader`` (folder format), ``cli`` (``omnislam dataset synth``).
+``raycast``/``raycast_numpy``/``raycast_open3d`` (first-hit ray casting; ``hit_distances``
+their exact distances), ``render`` (images and ground-truth maps), ``routes``
+(differential-drive paths, odometry), ``laser`` (scans and pole sightings), ``presets`` (named
+scenarios), ``simulate`` (a preset's non-image data), ``writer``/``loader`` (folder format),
+``cli`` (``omnislam dataset synth``).
 
 Heavy parts (renderer, open3d, cv2) are imported only when used.
 """

@@ -21,7 +21,7 @@ from omnislam.core.types import UNKNOWN_ID, PriorMap, RangeBearing
 from omnislam.datasets._common import Association
 from omnislam.datasets._text import Table, check_integers, check_range, check_unique
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, LaserScans, Sequence
-from omnislam.datasets.synthetic.raycast import plane_distances
+from omnislam.datasets.synthetic.hit_distances import plane_distances
 from omnislam.datasets.synthetic.world import MAX_COORDINATE_M
 from omnislam.datasets.synthetic.writer import FORMAT_NAME, FORMAT_VERSION, frame_name
 from omnislam.errors import DataError

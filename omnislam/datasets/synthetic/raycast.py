@@ -2,7 +2,8 @@
 
 A ray caster answers, for rays leaving one origin: which quad (surface id) is hit first and at
 what distance. Both back ends return the distance recomputed in float64 as the intersection of
-the ray with the hit quad's plane, so the ground-truth points do not inherit open3d's float32.
+the ray with the hit quad's plane (``hit_distances``), so the ground-truth points do not inherit
+open3d's float32.
 """
 
 from __future__ import annotations
@@ -15,9 +16,6 @@ import numpy as np
 from omnislam._optional import available
 from omnislam.datasets.synthetic.world import QuadArrays
 from omnislam.errors import ConfigError
-
-#: rays closer than this to their origin are ignored [m]
-MIN_DISTANCE_M = 1e-4
 
 
 class Backend(enum.Enum):
@@ -49,20 +47,8 @@ class RayCaster(Protocol):
 
     def first_hits(self, origin_w: np.ndarray, directions_w: np.ndarray) -> np.ndarray:
         """Only the surface ids of ``cast``: (N,) int32, -1 where nothing is hit (hits
-        closer than ``MIN_DISTANCE_M`` may remain; ``cast`` removes them)."""
+        closer than ``hit_distances.MIN_DISTANCE_M`` may remain; ``cast`` removes them)."""
         ...
-
-
-def plane_distances(
-    quads: QuadArrays, origin_w: np.ndarray, directions_w: np.ndarray, surface_ids: np.ndarray
-) -> np.ndarray:
-    """Exact (float64) distance along each ray to the plane of its hit quad; inf where id < 0."""
-    hit = surface_ids >= 0
-    out = np.full(surface_ids.shape, np.inf)
-    q = surface_ids[hit]
-    num = np.einsum("ij,ij->i", quads.normals_w, quads.origins_w - origin_w)  # per quad (M,)
-    out[hit] = num[q] / np.einsum("ij,ij->i", quads.normals_w[q], directions_w[hit])
-    return out
 
 
 def make_ray_caster(quads: QuadArrays, backend: Backend | str | None = None) -> RayCaster:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from omnislam._optional import require
-from omnislam.datasets.synthetic.raycast import MIN_DISTANCE_M, plane_distances
+from omnislam.datasets.synthetic.hit_distances import MIN_DISTANCE_M, plane_distances
 from omnislam.datasets.synthetic.world import QuadArrays
 
 

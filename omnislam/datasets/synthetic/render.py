@@ -23,12 +23,8 @@ import numpy as np
 
 from omnislam.camera.rig import CameraRig
 from omnislam.core.se import se3_from_se2
-from omnislam.datasets.synthetic.raycast import (
-    MIN_DISTANCE_M,
-    Backend,
-    RayCaster,
-    make_ray_caster,
-)
+from omnislam.datasets.synthetic.hit_distances import MIN_DISTANCE_M
+from omnislam.datasets.synthetic.raycast import Backend, RayCaster, make_ray_caster
 from omnislam.datasets.synthetic.textures import TextureAtlas, Workspace
 from omnislam.datasets.synthetic.world import SurfaceKind, World
 from omnislam.errors import ConfigError

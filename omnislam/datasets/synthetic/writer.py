@@ -58,6 +58,7 @@ import shutil
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -130,13 +131,29 @@ def write_synthetic(
     Returns:
         The folder written.
     """
-    from omnislam.camera.io import save_rig
-    from omnislam.datasets.trajectory_io import write_tum
-
     cv2 = _cv2()
     out = Path(out)
     prepare_output(out, overwrite)
     backend = Backend.default() if backend is None else Backend(backend)
+    tmp = _partial_folder(out)
+    try:
+        _write_meta(tmp, sim, backend, supersample)
+        _write_tables(tmp, sim)
+        if sim.rig is not None and sim.image_frames.size:
+            _write_images(tmp, sim, backend, supersample, cv2, progress)
+        _move_into_place(tmp, out)
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise output_error(exc, out, "synthetic folder") from None
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out
+
+
+def _partial_folder(out: Path) -> Path:
+    """A new empty ``.NAME.partial-PID`` folder beside ``out`` to write into (the stale ones
+    of killed writers removed first)."""
     tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -146,92 +163,106 @@ def write_synthetic(
         tmp.mkdir()
     except OSError as exc:
         raise output_error(exc, out, "synthetic folder") from None
-    try:
-        n = sim.stamps_s.shape[0]
-        meta = {
-            "format": FORMAT_NAME,
-            "version": FORMAT_VERSION,
-            "preset": sim.preset.name,
-            "seed": sim.seed,
-            "backend": backend.value,
-            "supersample": supersample,
-            "frames": n,
-            "images": int(sim.image_frames.size),
-            "image_every_k": int(sim.preset.image_every_k),
-            "description": sim.preset.description,
-            "source": sim.preset.source,
-            "odometry_bias": dataclasses.asdict(sim.preset.odometry_bias),
-            "motion_noise": dataclasses.asdict(sim.preset.motion_noise),
-        }
-        (tmp / "meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
-        (tmp / "world.json").write_text(sim.world.to_json() + "\n")
-        write_tum(tmp / "groundtruth.tum", Trajectory.from_se2(sim.stamps_s, sim.poses_w))
+    return tmp
+
+
+def _move_into_place(tmp: Path, out: Path) -> None:
+    """Rename the written ``tmp`` folder to ``out``, removing the folder it replaces."""
+    if out.exists():
+        trash = out.parent / f".{out.name}.old-{os.getpid()}"
+        out.rename(trash)
+        shutil.rmtree(trash)
+    tmp.rename(out)
+
+
+def _write_meta(folder: Path, sim: Simulation, backend: Backend, supersample: int) -> None:
+    """``meta.json``: the run's preset, seed, renderer and counts."""
+    meta = {
+        "format": FORMAT_NAME,
+        "version": FORMAT_VERSION,
+        "preset": sim.preset.name,
+        "seed": sim.seed,
+        "backend": backend.value,
+        "supersample": supersample,
+        "frames": sim.stamps_s.shape[0],
+        "images": int(sim.image_frames.size),
+        "image_every_k": int(sim.preset.image_every_k),
+        "description": sim.preset.description,
+        "source": sim.preset.source,
+        "odometry_bias": dataclasses.asdict(sim.preset.odometry_bias),
+        "motion_noise": dataclasses.asdict(sim.preset.motion_noise),
+    }
+    (folder / "meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
+
+
+def _write_tables(folder: Path, sim: Simulation) -> None:
+    """Everything but the images: ``world.json``, ``groundtruth.tum``, ``odometry.csv``,
+    ``poles.csv``, ``landmarks.csv``, ``walls.csv`` and ``laser.npz``."""
+    from omnislam.datasets.trajectory_io import write_tum
+
+    (folder / "world.json").write_text(sim.world.to_json() + "\n")
+    write_tum(folder / "groundtruth.tum", Trajectory.from_se2(sim.stamps_s, sim.poses_w))
+    _write_csv(
+        folder / "odometry.csv",
+        "stamp_s,dx_m,dy_m,dtheta_rad,true_dx_m,true_dy_m,true_dtheta_rad",
+        np.column_stack([sim.stamps_s, sim.odometry_r, sim.odometry_true_r]),
+        [_FLOAT] * 7,
+    )
+    rows = [
+        (i, lid, r, b, sr, sb)
+        for i, rb in enumerate(sim.poles)
+        for lid, r, b, sr, sb in zip(rb.landmark_ids, rb.ranges_m, rb.bearings_rad,
+                                     rb.sigma_range_m, rb.sigma_bearing_rad, strict=True)
+    ]
+    _write_csv(folder / "poles.csv",
+               "frame,landmark_id,range_m,bearing_rad,sigma_range_m,sigma_bearing_rad",
+               np.array(rows, dtype=object).reshape(-1, 6), ["%d", "%d"] + [_FLOAT] * 4)
+    ids, xyz = sim.world.landmarks()
+    _write_csv(folder / "landmarks.csv", "id,x,y,z",
+               np.column_stack([ids.astype(object), xyz]).reshape(-1, 4),
+               ["%d", _FLOAT, _FLOAT, _FLOAT])
+    walls = np.array([[w.x0_m, w.y0_m, w.x1_m, w.y1_m] for w in sim.world.walls_2d])
+    _write_csv(folder / "walls.csv", "x0,y0,x1,y1", walls.reshape(-1, 4), [_FLOAT] * 4)
+    write_npz(folder / "laser.npz", {
+        "angles_rad": sim.preset.laser.angles_rad(),
+        "ranges_m": sim.laser_ranges_m,
+        "max_range_m": np.array(sim.preset.laser.max_range_m),
+    })
+
+
+def _write_images(folder: Path, sim: Simulation, backend: Backend, supersample: int, cv2: Any,
+                  progress: Callable[[int], None] | None) -> None:
+    """``calibration.yaml``, the rendered ``images/`` and their ``gt/`` surface ids, and the
+    vertical lines' colours surveyed in them (``line_colours.csv``)."""
+    from omnislam.camera.io import save_rig
+
+    save_rig(sim.rig, folder / "calibration.yaml")
+    (folder / "images").mkdir()
+    (folder / "gt").mkdir()
+    renderer = Renderer(sim.world, sim.rig, backend, supersample)
+    lines = sim.world.vertical_lines
+    survey = LineSurvey(
+        np.array([v.landmark_id for v in lines], dtype=np.int64),
+        np.array([(v.x_m, v.y_m) for v in lines]),
+        sim.rig,
+    )
+    poses_se3 = Trajectory.from_se2(sim.stamps_s, sim.poses_w).poses_w
+    for count, index in enumerate(sim.image_frames, start=1):
+        frame = renderer.render(sim.poses_w[index])
+        survey.add(frame.image, frame.points_w, poses_se3[index])
+        name = frame_name(int(index))
+        if not cv2.imwrite(str(folder / "images" / f"{name}.png"), frame.image[..., ::-1]):
+            raise DataError("cannot write image", folder / "images" / f"{name}.png")
+        write_npz(folder / "gt" / f"{name}.npz", {"surface_id": frame.surface_ids})
+        if progress is not None:
+            progress(count)
+    if lines:
         _write_csv(
-            tmp / "odometry.csv",
-            "stamp_s,dx_m,dy_m,dtheta_rad,true_dx_m,true_dy_m,true_dtheta_rad",
-            np.column_stack([sim.stamps_s, sim.odometry_r, sim.odometry_true_r]),
-            [_FLOAT] * 7,
+            folder / "line_colours.csv",
+            "id,count,r_left,g_left,b_left,r_right,g_right,b_right",
+            survey.rows().astype(object),
+            ["%d", "%d"] + [_FLOAT] * 6,
         )
-        rows = [
-            (i, lid, r, b, sr, sb)
-            for i, rb in enumerate(sim.poles)
-            for lid, r, b, sr, sb in zip(rb.landmark_ids, rb.ranges_m, rb.bearings_rad,
-                                         rb.sigma_range_m, rb.sigma_bearing_rad, strict=True)
-        ]
-        _write_csv(tmp / "poles.csv",
-                   "frame,landmark_id,range_m,bearing_rad,sigma_range_m,sigma_bearing_rad",
-                   np.array(rows, dtype=object).reshape(-1, 6), ["%d", "%d"] + [_FLOAT] * 4)
-        ids, xyz = sim.world.landmarks()
-        _write_csv(tmp / "landmarks.csv", "id,x,y,z",
-                   np.column_stack([ids.astype(object), xyz]).reshape(-1, 4),
-                   ["%d", _FLOAT, _FLOAT, _FLOAT])
-        walls = np.array([[w.x0_m, w.y0_m, w.x1_m, w.y1_m] for w in sim.world.walls_2d])
-        _write_csv(tmp / "walls.csv", "x0,y0,x1,y1", walls.reshape(-1, 4), [_FLOAT] * 4)
-        write_npz(tmp / "laser.npz", {
-            "angles_rad": sim.preset.laser.angles_rad(),
-            "ranges_m": sim.laser_ranges_m,
-            "max_range_m": np.array(sim.preset.laser.max_range_m),
-        })
-        if sim.rig is not None and sim.image_frames.size:
-            save_rig(sim.rig, tmp / "calibration.yaml")
-            (tmp / "images").mkdir()
-            (tmp / "gt").mkdir()
-            renderer = Renderer(sim.world, sim.rig, backend, supersample)
-            lines = sim.world.vertical_lines
-            survey = LineSurvey(
-                np.array([v.landmark_id for v in lines], dtype=np.int64),
-                np.array([(v.x_m, v.y_m) for v in lines]),
-                sim.rig,
-            )
-            poses_se3 = Trajectory.from_se2(sim.stamps_s, sim.poses_w).poses_w
-            for count, index in enumerate(sim.image_frames, start=1):
-                frame = renderer.render(sim.poses_w[index])
-                survey.add(frame.image, frame.points_w, poses_se3[index])
-                name = frame_name(int(index))
-                if not cv2.imwrite(str(tmp / "images" / f"{name}.png"), frame.image[..., ::-1]):
-                    raise DataError("cannot write image", tmp / "images" / f"{name}.png")
-                write_npz(tmp / "gt" / f"{name}.npz", {"surface_id": frame.surface_ids})
-                if progress is not None:
-                    progress(count)
-            if lines:
-                _write_csv(
-                    tmp / "line_colours.csv",
-                    "id,count,r_left,g_left,b_left,r_right,g_right,b_right",
-                    survey.rows().astype(object),
-                    ["%d", "%d"] + [_FLOAT] * 6,
-                )
-        if out.exists():
-            trash = out.parent / f".{out.name}.old-{os.getpid()}"
-            out.rename(trash)
-            shutil.rmtree(trash)
-        tmp.rename(out)
-    except OSError as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise output_error(exc, out, "synthetic folder") from None
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return out
 
 
 def _remove_stale_partials(out: Path) -> None:
