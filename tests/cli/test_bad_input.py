@@ -849,7 +849,7 @@ def _(tmp, fx):
 
 @case("run-ukf-photometric-map-without-descriptors")
 def _(tmp, fx):
-    argv = run_args(mrclam(tmp), tmp, "ukf", "--set", "photometric=on")
+    argv = run_args(mrclam(tmp), tmp, "ukf", "--set", "photometric.mode=on")
     return argv, "needs MC descriptors"
 
 

@@ -36,7 +36,7 @@ def test_registered_ukf_builds_from_the_prior_map(rng):
     ("changes", "options", "needle"),
     [
         ({"prior_map": None}, {}, "prior_map=RUN_DIR"),
-        ({}, {"photometric": "on"}, "MC descriptors"),
+        ({}, {"photometric.mode": "on"}, "MC descriptors"),
         ({"modalities": frozenset()}, {}, "ukf cannot run on seq"),
         ({}, {"no_such_option": "1"}, "no_such_option"),
         ({"prior_map": PriorMap("m", np.arange(1), np.zeros((1, 3)))}, {}, "no initial pose"),
