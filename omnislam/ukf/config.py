@@ -41,13 +41,13 @@ class SpacingConfig:
     predicts.
 
     Attributes:
-        d_it_m: travel between processed images [m] (paper sec. 5: 0.375 m).
+        d_it_m: travel between processed images [m]. Default 0.375, the paper's (sec. 5).
         d_it_sightings_m: travel between processed frames whose sightings come from a
-            range-bearing sensor rather than images [m] (ours; default 0, every such frame): a
+            range-bearing sensor rather than images [m]. Default 0, every such frame (ours): a
             sensor that states its bearings costs nothing to process, where the paper spaces
             images because steps 1-2 cost 88 ms each (sec. 5).
-        d_it_tolerance: a frame is processed once the travel reaches (1 - tolerance) d_it
-            (ours; default 0.1): images arrive at discrete places, and without it an image
+        d_it_tolerance: a frame is processed once the travel reaches (1 - tolerance) d_it.
+            Default 0.1 (ours): images arrive at discrete places, and without it an image
             spacing just under d_it would process every second image.
     """
 
@@ -68,14 +68,14 @@ class FilterConfig:
 
     Attributes:
         initial_sigma_xy_m: std of the start pose's position (the map's ``initial_pose_w``)
-            [m]; default 0.02.
-        initial_sigma_theta_rad: std of the start pose's heading [rad]; default 0.01.
+            [m]. Default 0.02.
+        initial_sigma_theta_rad: std of the start pose's heading [rad]. Default 0.01.
         sigma_bearing_rad: bearing std of every sighting, in place of the one the sightings
-            state [rad]; default None: theirs (``localiser.VerticalLineUKF._sightings``).
+            state [rad]. Default none: theirs (``localiser.VerticalLineUKF._sightings``).
         innovation_gate: chi-square probability (1 dof) above which a validated bearing is
-            dropped before the update (ours; None: no gate); default 1 - 1e-12 (7.1 sigma), a
-            gate against gross errors only (a misread id), loose because real odometry drifts
-            beyond any zero-mean model of it over a long stretch without sightings.
+            dropped before the update (ours; none: no gate). Default 1 - 1e-12 (7.1 sigma), a
+            gate against gross errors (a misread id) only: real odometry drifts beyond any
+            zero-mean model of it over a long stretch without sightings.
     """
 
     initial_sigma_xy_m: float = 0.02
@@ -97,9 +97,10 @@ class SigmaPointsConfig:
     """The scaled sigma points (van der Merwe 2004; filterpy's ``MerweScaledSigmaPoints``).
 
     Attributes:
-        alpha, beta, kappa: the sigma points' spread, prior knowledge of the distribution and
-            secondary scaling; defaults 1, 2, 0 (lambda = 0), which keep every weight
-            non-negative (the centre point's Wc is 2) and so the covariance positive definite.
+        alpha, beta, kappa: the spread of the sigma points, the prior knowledge of the
+            distribution and the secondary scaling. Defaults 1, 2, 0 (lambda = 0): every weight
+            stays non-negative (the centre point's Wc is 2), and so the covariance positive
+            definite.
     """
 
     alpha: float = 1.0
@@ -112,12 +113,12 @@ class ImageConfig:
     """The 1-D image the pixel thresholds are measured on (``image_line``).
 
     Attributes:
-        pixels_per_rad: image scale of sightings without a camera (MR.CLAM) [px / rad];
-            default 400, corridor21's focal length.
-        fov_rad: full field of view of sightings without a camera, before widening [rad];
-            default 2 pi.
-        fov_widening: candidates are landmarks whose ray meets the image plane widened to this
-            multiple of its size (paper sec. 3.2: 2).
+        pixels_per_rad: image scale of sightings without a camera (MR.CLAM) [px / rad].
+            Default 400, corridor21's focal length.
+        fov_rad: full field of view of sightings without a camera, before widening [rad].
+            Default 2 pi.
+        fov_widening: candidates are the landmarks whose ray meets the image plane widened to
+            this multiple of its size. Default 2, the paper's (sec. 3.2).
     """
 
     pixels_per_rad: float = 400.0
@@ -138,11 +139,11 @@ class TrackingConfig:
 
     Attributes:
         tolerance_px: a projection may lie this far outside the interval of image positions
-            that the previous projection can move to [px]; default 6.
-        min_depth_m, max_depth_m: depths spanned by that interval [m]; defaults 0.3 and 50
-            (the candidates' range).
+            that the previous projection can move to [px]. Default 6.
+        min_depth_m, max_depth_m: the depths that interval spans [m]. Defaults 0.3 and 50 (the
+            candidates' range).
         max_profile_diff: two projections are the same line only if their PMCs differ by at
-            most this mean absolute grey level; default 40.
+            most this mean absolute grey level. Default 40.
     """
 
     tolerance_px: float = 6.0
@@ -160,13 +161,15 @@ class PhotometricConfig:
     """The photometric gate and score C'_ij of sec. 3.2 (step 4).
 
     Attributes:
-        mode: whether step 4 uses them: auto (default: when the map and the sightings both
-            carry colour), on or off (``PhotometricMode``).
-        max_diff_band: reject a pair when (max_diff_band - diff_band) < 0 [grey levels]
-            (paper: 30).
-        max_diff_mean: reject a pair when (max_diff_mean - diff_mean) < 0 [grey levels]
-            (paper: 100).
-        weight_band: weight of the band term of C'_ij (paper: 0.7; the mean term gets 1 - it).
+        mode: whether step 4 uses the photometric gate and score: auto, on or off
+            (``PhotometricMode``). Default auto: when the map and the sightings both carry
+            colour.
+        max_diff_band: a pair is rejected when (max_diff_band - diff_band) < 0 [grey levels].
+            Default 30, the paper's.
+        max_diff_mean: a pair is rejected when (max_diff_mean - diff_mean) < 0 [grey levels].
+            Default 100, the paper's.
+        weight_band: weight of the band term of C'_ij (the mean term gets 1 - it). Default 0.7,
+            the paper's.
     """
 
     mode: PhotometricMode = PhotometricMode.AUTO
@@ -181,42 +184,45 @@ class AssociationConfig:
     gates we add on top of them (``association`` module docstring).
 
     Attributes:
-        max_range_m: candidate landmarks lie within this distance of the pose [m] (paper: 50).
+        max_range_m: candidate landmarks lie within this distance of the pose [m]. Default 50,
+            the paper's.
         wall_margin_m: a wall crossing closer than this to the landmark does not occlude it
-            [m]; default 0.05: door-frame lines lie on their wall.
-        windows_px: maximum u_shift spread of the sliding windows [px] (paper: 3, 6, 12, 24).
-        shift_weight: the factor of F_shift in Sc_k = mean(C'_ij) + shift_weight * F_shift
-            (paper: 100, "to be controlled by the quality of the MC values").
-        variance_floor_px2: floor of F_shift's denominator [px^2] (ours; default 1): a set of
+            [m]. Default 0.05: door-frame lines lie on their wall.
+        windows_px: maximum u_shift spreads of the sliding windows [px]. Default 3, 6, 12, 24,
+            the paper's.
+        shift_weight: the factor of F_shift in Sc_k = mean(C'_ij) + shift_weight * F_shift.
+            Default 100, the paper's ("to be controlled by the quality of the MC values").
+        variance_floor_px2: floor of F_shift's denominator [px^2]. Default 1 (ours): a set of
             one pair has Var = d_max = 0, and F_shift would be infinite.
-        spread_divisor: the 7 of eq. 1, F_shift = sqrt(n) / (Var + |mean| d_max / 7).
+        spread_divisor: the 7 of eq. 1, F_shift = sqrt(n) / (Var + |mean| d_max / 7). Default
+            7, the paper's.
         min_set_pairs: with ``largest_set_first`` off, sets of fewer pairs compete only when no
-            window yields this many (ours; default 2): with eq. 1 as printed a one-pair set,
+            window yields this many. Default 2 (ours): with eq. 1 as printed a one-pair set,
             Var = d_max = 0, beats every larger set.
-        use_ids: take the sightings' landmark ids as the association (steps 3-5 skipped).
-            None (default): in a frame whose every sighting carries an id (a dataset's own ids,
+        use_ids: take the sightings' landmark ids as the association (steps 3-5 skipped): true
+            always (sightings without an id unused), false never (steps 3-5 on every frame).
+            Default none: in a frame whose every sighting carries an id (a dataset's own ids,
             as MR.CLAM's barcodes, which every other estimator takes too; a dataset hides them
-            with its ``association=unknown`` option), steps 3-5 elsewhere. True: always
-            (sightings without an id unused); False: never, steps 3-5 on every frame.
-        validate: step 5, use a pair only when the previous frame associated the same landmark
-            with the same physical line (paper: on).
+            with its ``association=unknown`` option), steps 3-5 elsewhere.
+        validate: step 5: a pair is used only when the previous frame associated the same
+            landmark with the same physical line. Default on, the paper's.
         gate_probability: chi-square probability of the two gates step 4 gets from the UKF's
-            predicted covariance (ours; default 0.999; None: the paper's step 4 alone): a pair
+            predicted covariance (ours; none: the paper's step 4 alone). Default 0.999: a pair
             enters step 4 only if its bearing innovation passes the 1-dof pre-gate, and each
-            window's set is cut to its largest subset whose innovation vector passes the
-            n-dof joint gate, because the pairs share one pose error.
-        largest_set_first: compare the windows' sets by their number of pairs first and by Sc_k
-            among sets of equal size (ours; default on; off: by Sc_k alone, the paper's, with
-            ``min_set_pairs``): with the joint gate a common shift that the covariance explains
-            is no evidence against a set.
+            window's set is cut to its largest subset whose innovation vector passes the n-dof
+            joint gate, as the pairs share one pose error.
+        largest_set_first: the windows' sets are compared by their number of pairs first and
+            by Sc_k among sets of equal size (ours; off: by Sc_k alone, the paper's, with
+            ``min_set_pairs``). Default on: with the joint gate a common shift that the
+            covariance explains is no evidence against a set.
         unambiguous_single: a set of a single pair is used only when no other pair of its
-            projection or of its landmark passed the gates (ours; default on; off: the paper's,
-            the nearest): one pair carries no evidence beyond its own gate.
+            projection or of its landmark passed the gates (ours; off: the paper's, the
+            nearest). Default on: one pair carries no evidence beyond its own gate.
         nearest_line: a pair of the chosen set is kept only when its line is, of all the
-            frame's extracted lines (whatever their colour), the one nearest to its landmark's
-            bearing as the set's other pairs predict it (ours; default on, with
-            ``gate_probability``; off: the photometric stage may pick any line inside the
-            gates; ``association.PoseConsistency.nearest_lines``).
+            frame's extracted lines (whatever their colour), the nearest to its landmark's
+            bearing as the set's other pairs predict it (ours, with ``gate_probability``;
+            ``association.PoseConsistency.nearest_lines``). Default on; off: the photometric
+            stage may pick any line inside the gates.
     """
 
     max_range_m: float = 50.0
@@ -248,9 +254,9 @@ class UKFConfig:
 
     Attributes:
         motion_noise: alpha coefficients of the shared odometry model (core.motion), used when
-            the odometry states no covariance; default 4x core's (``UKF_MOTION_NOISE``),
-            because a localiser that trusts odometry more than it deserves gates out the
-            correct lines after a stretch without landmarks.
+            the odometry states no covariance. Default 4x core's (``UKF_MOTION_NOISE``): a
+            localiser that trusts odometry more than it deserves gates out the correct lines
+            after a stretch without landmarks.
         spacing: which frames are processed (d_it).
         filter: the start pose's stds, the sightings' bearing std and the outlier gate.
         sigma_points: alpha, beta, kappa of the scaled sigma points.

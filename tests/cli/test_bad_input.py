@@ -1129,8 +1129,9 @@ _grid_case(
 )
 _grid_case(
     "override-invalid-value",
-    "datasets: [data/room.log]\nestimators: [ekfslam]\noverrides: [{gate_probability: soon}]\n",
-    "gate_probability",
+    "datasets: [data/room.log]\nestimators: [ekfslam]\n"
+    "overrides: [{association.gate_probability: soon}]\n",
+    "association.gate_probability",
 )
 _grid_case(
     "override-bad-modality",
