@@ -21,6 +21,7 @@ from omnislam.core.types import Estimator, Introspectable, RangeBearing
 from omnislam.ekfslam import (
     EKFSLAM,
     AssociationConfig,
+    AssociationTest,
     EKFSLAMConfig,
     EKFSLAMInfo,
     ExperimentalConfig,
@@ -144,9 +145,12 @@ def test_pose_nees_inside_the_95_percent_band_early_in_the_run():
     assert low <= mean.mean() <= high
 
 
-def test_unknown_association_recovers_the_map():
+@pytest.mark.parametrize("test", list(AssociationTest))
+def test_unknown_association_recovers_the_map(test):
+    """Well-separated landmarks without ids: the joint test and the tutorial's nearest
+    neighbour both map each landmark once."""
     scenario = make_scenario(seed=5, steps=250, unknown_ids=True)
-    ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE))
+    ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE, association=AssociationConfig(test=test)))
     estimate = run(ekf, scenario.frames)
     truth = scenario.landmarks_w
     assert len(estimate.landmark_ids) == len(truth)  # no duplicates, none missed
