@@ -84,8 +84,8 @@ class AssociationConfig:
             exceeds the best's by this margin (``core.compatibility.decide``). Default 2 ln 10
             = 4.6: the best ten times likelier.
         support_sigma_ratio: with the joint test, a pairing whose innovation is wider than the
-            sighting's noise by more than this factor (``core.compatibility
-            .innovation_widening``) must keep its landmark when JCBB and the ambiguity test run
+            sighting's noise by more than this factor (``core.compatibility``'s
+            ``innovation_widening``) must keep its landmark when JCBB and the ambiguity test run
             again on the frame's kept pairings alone (``decide_on_kept_support``); inf: off.
             Default 20: when ``ambiguity_margin`` drops a sighting, the ones it keeps lose its
             joint support.

@@ -97,10 +97,12 @@ class SigmaPointsConfig:
     """The scaled sigma points (van der Merwe 2004; filterpy's ``MerweScaledSigmaPoints``).
 
     Attributes:
-        alpha, beta, kappa: the spread of the sigma points, the prior knowledge of the
-            distribution and the secondary scaling. Defaults 1, 2, 0 (lambda = 0): every weight
-            stays non-negative (the centre point's Wc is 2), and so the covariance positive
-            definite.
+        alpha: spread of the sigma points around the mean. Default 1: with kappa 0 (lambda = 0)
+            every weight stays non-negative (the centre point's Wc is 2), and so the covariance
+            positive definite.
+        beta: prior knowledge of the distribution of the sigma points. Default 2, optimal for a
+            Gaussian.
+        kappa: secondary scaling of the sigma points. Default 0 (see alpha).
     """
 
     alpha: float = 1.0

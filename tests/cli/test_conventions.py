@@ -112,7 +112,7 @@ def test_option_docs_follow_nested_dataclasses():
     assert float(docs["motion_noise.a_vv"].default) == config.motion_noise.a_vv != 0.05
     assert docs["association.windows_px"].kind == "float,..."
     assert docs["photometric.mode"].kind == "auto|on|off"
-    assert "sigma points" in docs["sigma_points.beta"].meaning  # "alpha, beta, kappa: ..."
+    assert "depths" in docs["tracking.max_depth_m"].meaning  # "min_depth_m, max_depth_m: ..."
 
 
 # ---- the grid template -----------------------------------------------------------------------
