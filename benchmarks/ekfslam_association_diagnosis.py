@@ -1,10 +1,11 @@
-"""Where EKF-SLAM's association of unlabelled range-bearing sightings goes wrong (issue 16).
+"""Where EKF-SLAM's association of unlabelled range-bearing sightings goes wrong.
 
 The EKF-SLAM analogue of ``association_diagnosis.py``: runs ``ekfslam`` on a dataset loaded
-*with* its ids but told to ignore them (``ignore_ids``, the same decisions as ``omnislam run
-DATASET --estimator ekfslam --set association=unknown``) and scores every decision against the
-hidden ids. A state landmark is named after the hidden id of the sighting that created it (the
-tentative candidate's promoting sighting); a tentative candidate after its first sighting.
+*with* its ids but told to ignore them (``association.ignore_ids``, the same decisions as
+``omnislam run DATASET --estimator ekfslam --set association=unknown``) and scores every
+decision against the hidden ids. A state landmark is named after the hidden id of the sighting
+that created it (the tentative candidate's promoting sighting); a tentative candidate after its
+first sighting.
 Printed per dataset:
 
 * the decisions of the joint test (paired / new / ambiguous / rejected) by sighting, the state
@@ -37,7 +38,7 @@ from omnislam.core.types import FrameInput, RangeBearing
 from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.ekfslam import filter as ekf_filter
 from omnislam.ekfslam.association import TentativeLandmarks
-from omnislam.ekfslam.config import EKFSLAMConfig
+from omnislam.ekfslam.config import AssociationConfig, EKFSLAMConfig
 from omnislam.ekfslam.filter import EKFSLAM
 from omnislam.options import apply_options
 
@@ -196,7 +197,8 @@ def diagnose(dataset: str, options: dict[str, str]) -> None:
     print(f"{dataset}: running ekfslam with the ids, then without ...", file=sys.stderr, flush=True)
     for frame in frames:
         with_ids.step(frame)
-    estimator = Recording(apply_options(EKFSLAMConfig(ignore_ids=True), options), truth)
+    ignoring = EKFSLAMConfig(association=AssociationConfig(ignore_ids=True))
+    estimator = Recording(apply_options(ignoring, options), truth)
     try:
         for frame in frames:
             estimator.step(frame)

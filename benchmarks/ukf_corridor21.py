@@ -563,7 +563,7 @@ def main() -> None:
         print(_HEADER.format(key="d_it [cm]"))
         print("|---" * 10 + "|")
         for cm in args.sweep or SWEEP_CM:
-            r = run_once(setup, {**options, "d_it_m": str(cm / 100)})
+            r = run_once(setup, {**options, "spacing.d_it_m": str(cm / 100)})
             print(_row(f"{cm:g}", r), flush=True)
             if args.dump_wrong:
                 _print_wrong(setup, r)

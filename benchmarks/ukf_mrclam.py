@@ -2,8 +2,8 @@
 
 Against the surveyed landmark map, with the sightings' ids (the default) and
 with ids ignored (geometric step 4 + two-frame validation); dead reckoning for reference.
-``--set d_it_sightings_m=0.375`` processes a frame every 37.5 cm of travel, the paper's spacing
-of images, instead of every frame of sightings (the default).
+``--set spacing.d_it_sightings_m=0.375`` processes a frame every 37.5 cm of travel, the paper's
+spacing of images, instead of every frame of sightings (the default).
 
     PYTHONPATH=. OMNISLAM_DATA=../shared/data python benchmarks/ukf_mrclam.py [--set k=v ...]
 """

@@ -67,6 +67,9 @@ def _convert(key: str, text: str, hint: Any) -> Any:
             return tuple(_convert(key, p, element) for p in parts)
     except ValueError as exc:
         raise ConfigError(f"option {key}: {exc}") from None
+    if dataclasses.is_dataclass(hint):
+        fields = ", ".join(f"{key}.{f.name}" for f in dataclasses.fields(hint) if f.init)
+        raise ConfigError(f"option {key} is a section; set its fields: {fields}")
     raise ConfigError(f"option {key}: cannot be set from the command line")
 
 

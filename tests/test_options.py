@@ -96,6 +96,12 @@ def test_a_key_that_lives_in_a_section_names_its_dotted_key():
     assert apply_options(Sectioned(), {"solver.threshold": "0.2"}).solver.threshold == 0.2
 
 
+def test_a_section_given_a_value_names_its_fields():
+    fields = r"option solver is a section; set its fields: solver.threshold, solver.skip$"
+    with pytest.raises(ConfigError, match=fields):
+        apply_options(Sectioned(), {"solver": "on"})
+
+
 def test_a_misspelt_key_gets_the_nearest_known_ones():
     with pytest.raises(ConfigError, match=r"'n_particle' \(did you mean 'n_particles'\?\)"):
         apply_options(Sectioned(), {"n_particle": "5"})

@@ -184,100 +184,158 @@ def jcbb(
     Returns:
         The hypothesis with the most jointly compatible pairings (smallest D2_H among equals).
     """
-    k_count, m_count = pairings.sightings, pairings.candidates
     d2_ind = pairings.individual()
-    assignment = np.full(k_count, UNPAIRED, dtype=np.int64)
-    if k_count == 0 or m_count == 0:
-        return JointAssociation(assignment, 0.0, d2_ind, 0, True)
+    if pairings.sightings == 0 or pairings.candidates == 0:
+        unpaired = np.full(pairings.sightings, UNPAIRED, dtype=np.int64)
+        return JointAssociation(unpaired, 0.0, d2_ind, 0, True)
     dim = pairings.innovations.shape[-1]
     gate_one = chi_square_gate(
         probability if individual_probability is None else individual_probability, dim
     )
-    gates = joint_gates(probability, dim, k_count)
-    options = [
-        [int(m) for m in np.argsort(d2_ind[k], kind="stable") if d2_ind[k, m] <= gate_one]
-        for k in range(k_count)
+    gates = joint_gates(probability, dim, pairings.sightings)
+    tree = _InterpretationTree(pairings, _candidate_options(d2_ind, gate_one), gates, max_nodes)
+    tree.search()
+    return tree.result(d2_ind)
+
+
+def _candidate_options(d2_ind: np.ndarray, gate: float) -> list[list[int]]:
+    """Per sighting, its individually compatible candidates in increasing D2_km (the branches
+    of its level of the interpretation tree, before "unpaired")."""
+    return [
+        [int(m) for m in np.argsort(d2_ind[k], kind="stable") if d2_ind[k, m] <= gate]
+        for k in range(d2_ind.shape[0])
     ]
-    # sightings without options can only stay unpaired: the bound counts the others
-    pairable_after = np.zeros(k_count + 1, dtype=np.int64)
-    for k in range(k_count - 1, -1, -1):
-        pairable_after[k] = pairable_after[k + 1] + (1 if options[k] else 0)
-    P = pairings.covariance
-    PHt = pairings.projected()
-    S_one = pairings.innovation_covariances(PHt)
-    groups = pairings.groups
 
-    best = {"assignment": assignment.copy(), "pairings": 0, "d2": 0.0}
-    # the second-best hypothesis with as many pairings (another assignment of the same count)
-    runner_up = {"assignment": None, "d2": np.inf}
-    nodes = 0
-    current = assignment.copy()
 
-    def visit(
-        k: int, GP: np.ndarray, nu: np.ndarray, S_inv: np.ndarray, d2: float, paired: int
+class _InterpretationTree:
+    """JCBB's depth-first search (``jcbb``): the hypothesis grown one sighting per level, D2_H
+    extended by the Schur complement (module docstring), the best and runner-up leaves kept.
+
+    Args:
+        pairings: the linearised predictions.
+        options: per sighting, its candidates in the order they are tried.
+        gates: (K + 1,) joint gates on D2_H by number of pairings (``joint_gates``).
+        max_nodes: nodes to visit at most.
+    """
+
+    def __init__(
+        self,
+        pairings: Pairings,
+        options: list[list[int]],
+        gates: np.ndarray,
+        max_nodes: int,
+    ) -> None:
+        k_count = pairings.sightings
+        self.pairings = pairings
+        self.options = options
+        self.gates = gates
+        self.max_nodes = max_nodes
+        # sightings without options can only stay unpaired: the bound counts the others
+        self.pairable_after = np.zeros(k_count + 1, dtype=np.int64)
+        for k in range(k_count - 1, -1, -1):
+            self.pairable_after[k] = self.pairable_after[k + 1] + (1 if options[k] else 0)
+        self.PHt = pairings.projected()
+        self.S_one = pairings.innovation_covariances(self.PHt)
+        self.current = np.full(k_count, UNPAIRED, dtype=np.int64)
+        self.best = self.current.copy()
+        self.best_pairings = 0
+        self.best_d2 = 0.0
+        # the second-best hypothesis with as many pairings (another assignment of the same count)
+        self.runner_up: np.ndarray | None = None
+        self.runner_up_d2 = np.inf
+        self.nodes = 0
+
+    def search(self) -> None:
+        """Visit the tree from its root (the empty hypothesis)."""
+        n = self.pairings.covariance.shape[0]
+        self._visit(0, np.zeros((0, n)), np.zeros(0), np.zeros((0, 0)), 0.0, 0)
+
+    def result(self, d2_ind: np.ndarray) -> JointAssociation:
+        """The hypothesis found, with the individual D2_km ``d2_ind`` it was searched with."""
+        return JointAssociation(
+            assignment=self.best,
+            d2=float(self.best_d2),
+            runner_up=self.runner_up,
+            runner_up_d2=float(self.runner_up_d2),
+            individual_d2=d2_ind,
+            nodes=self.nodes,
+            complete=self.nodes < self.max_nodes,
+        )
+
+    def _visit(
+        self, k: int, GP: np.ndarray, nu: np.ndarray, S_inv: np.ndarray, d2: float, paired: int
     ) -> None:
         """Sightings k.. given the hypothesis so far: GP = G P (a d, n), its nu, S^-1, D2."""
-        nonlocal nodes
-        nodes += 1
-        if k == k_count:
-            if paired > best["pairings"]:
-                runner_up.update(assignment=None, d2=np.inf)
-                best.update(assignment=current.copy(), pairings=paired, d2=d2)
-            elif paired == best["pairings"] and paired > 0:
-                if d2 < best["d2"]:
-                    runner_up.update(assignment=best["assignment"], d2=best["d2"])
-                    best.update(assignment=current.copy(), d2=d2)
-                elif d2 < runner_up["d2"]:
-                    runner_up.update(assignment=current.copy(), d2=d2)
+        self.nodes += 1
+        if k == self.pairings.sightings:
+            self._leaf(d2, paired)
             return
-        for m in options[k]:
-            if nodes >= max_nodes:
+        for m in self.options[k]:
+            if self.nodes >= self.max_nodes:
                 return
-            if any(current[j] == m and groups[j] == groups[k] for j in range(k)):
+            if self._taken(k, m):
                 continue  # the candidate is taken by a sighting of the same frame
-            h, r = pairings.jacobians[k, m], pairings.innovations[k, m]  # (d, n), (d,)
-            if paired == 0:
-                F, w = S_one[k, m], r
-                d2_new = float(r @ np.linalg.solve(F, r))
-            else:
-                C = GP @ h.T  # (a d, d) = G P h^T
-                SiC = S_inv @ C
-                F = S_one[k, m] - C.T @ SiC
-                w = r - SiC.T @ nu
-                d2_new = d2 + float(w @ np.linalg.solve(F, w))
-            if d2_new > gates[paired + 1]:
+            grown = self._grow(k, m, GP, nu, S_inv, d2, paired)
+            if grown is None:
                 continue
-            F_inv = np.linalg.inv(F)
-            if paired == 0:
-                S_inv_new = F_inv
-            else:
-                top = SiC @ F_inv  # S^-1 C F^-1
-                S_inv_new = np.block([[S_inv + top @ SiC.T, -top], [-top.T, F_inv]])
-            current[k] = m
-            visit(
-                k + 1,
-                np.vstack([GP, PHt[k, m].T]),
-                np.concatenate([nu, r]),
-                S_inv_new,
-                d2_new,
-                paired + 1,
-            )
-            current[k] = UNPAIRED
+            self.current[k] = m
+            self._visit(k + 1, *grown, paired + 1)
+            self.current[k] = UNPAIRED
         # leave sighting k unpaired if the rest can still reach the best count (ties included,
         # so that the smallest D2 among the largest hypotheses is found)
-        if nodes < max_nodes and paired + pairable_after[k + 1] >= best["pairings"]:
-            visit(k + 1, GP, nu, S_inv, d2, paired)
+        reachable = paired + self.pairable_after[k + 1]
+        if self.nodes < self.max_nodes and reachable >= self.best_pairings:
+            self._visit(k + 1, GP, nu, S_inv, d2, paired)
 
-    visit(0, np.zeros((0, P.shape[0])), np.zeros(0), np.zeros((0, 0)), 0.0, 0)
-    return JointAssociation(
-        assignment=best["assignment"],
-        d2=float(best["d2"]),
-        runner_up=runner_up["assignment"],
-        runner_up_d2=float(runner_up["d2"]),
-        individual_d2=d2_ind,
-        nodes=nodes,
-        complete=nodes < max_nodes,
-    )
+    def _taken(self, k: int, m: int) -> bool:
+        """Whether candidate m is paired with an earlier sighting of sighting k's group."""
+        groups = self.pairings.groups
+        return any(self.current[j] == m and groups[j] == groups[k] for j in range(k))
+
+    def _grow(
+        self,
+        k: int,
+        m: int,
+        GP: np.ndarray,
+        nu: np.ndarray,
+        S_inv: np.ndarray,
+        d2: float,
+        paired: int,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float] | None:
+        """The hypothesis with pairing (k, m) added: (G P, nu, S^-1, D2) grown by the Schur
+        complement of S_km (module docstring), or None when D2 leaves the joint gate."""
+        h, r = self.pairings.jacobians[k, m], self.pairings.innovations[k, m]  # (d, n), (d,)
+        if paired == 0:
+            F = self.S_one[k, m]
+            d2_new = float(r @ np.linalg.solve(F, r))
+        else:
+            C = GP @ h.T  # (a d, d) = G P h^T
+            SiC = S_inv @ C
+            F = self.S_one[k, m] - C.T @ SiC
+            w = r - SiC.T @ nu
+            d2_new = d2 + float(w @ np.linalg.solve(F, w))
+        if d2_new > self.gates[paired + 1]:
+            return None
+        F_inv = np.linalg.inv(F)
+        if paired == 0:
+            S_inv_new = F_inv
+        else:
+            top = SiC @ F_inv  # S^-1 C F^-1
+            S_inv_new = np.block([[S_inv + top @ SiC.T, -top], [-top.T, F_inv]])
+        return np.vstack([GP, self.PHt[k, m].T]), np.concatenate([nu, r]), S_inv_new, d2_new
+
+    def _leaf(self, d2: float, paired: int) -> None:
+        """A complete hypothesis: the best if it pairs more, or as many with a smaller D2 (the
+        best then becomes the runner-up); else perhaps the runner-up."""
+        if paired > self.best_pairings:
+            self.runner_up, self.runner_up_d2 = None, np.inf
+            self.best, self.best_pairings, self.best_d2 = self.current.copy(), paired, d2
+        elif paired == self.best_pairings and paired > 0:
+            if d2 < self.best_d2:
+                self.runner_up, self.runner_up_d2 = self.best, self.best_d2
+                self.best, self.best_d2 = self.current.copy(), d2
+            elif d2 < self.runner_up_d2:
+                self.runner_up, self.runner_up_d2 = self.current.copy(), d2
 
 
 class Decision(enum.IntEnum):

@@ -13,7 +13,7 @@ positions, and enters the state at its N-th sighting. A tentative landmark not r
 while the robot travels a given distance is dropped. ``nearest_gated`` chooses among landmarks
 of the state, ``TentativeLandmarks`` holds the others.
 
-With the joint test (``EKFSLAMConfig.association_test = "joint"``, the default) the frame's
+With the joint test (``AssociationConfig.test``, joint by default) the frame's
 sightings of unknown id are associated together (``core.compatibility.jcbb``, Neira & Tardos
 2001) against the state landmarks and the tentative ones: ``frame_pairings`` builds the
 linearised predictions from the filter's own P (robot and candidate blocks with their

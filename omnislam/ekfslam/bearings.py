@@ -1,11 +1,11 @@
 """EKF-SLAM on the omni camera's bearings: 3-D point landmarks by delayed initialisation.
 
-The issue's "omni bearings through delayed initialisation with ``core``'s triangulation": a
+Omni bearings through delayed initialisation with ``core``'s triangulation: a
 bearing fixes no depth, so a feature track cannot enter the joint Gaussian on its first sighting
 as SLAM for Dummies' range-bearing landmarks do ("Passo 3"). Its sightings are held back
 (``PendingTracks``: the odometry pose of each frame and the ray in the robot frame) until it
-has ``bearing_min_sightings`` sightings whose viewpoints subtend at least
-``bearing_min_parallax_deg`` at their least-squares intersection
+has ``BearingsConfig.min_track_sightings`` sightings whose viewpoints subtend at least
+``min_parallax_deg`` at their least-squares intersection
 (``core.triangulation.triangulate_rays``, the same tests as graphslam's delayed insertion:
 in front of every ray, not parallel, every ray within 4 sigma of the point). Then the point
 enters the state by the standard augmentation with the *triangulated pseudo-measurement*
@@ -269,7 +269,7 @@ class BearingEKFSLAM:
     """EKF-SLAM over 3-D point landmarks seen by the omni camera's unit bearings.
 
     Args:
-        config: the filter's configuration (``sensor_height_m`` and the ``bearing_*`` fields).
+        config: the filter's configuration (its ``motion_noise``, ``state`` and ``bearings``).
         motion: the odometry motion model (by default the shared one with
             ``config.motion_noise``).
         initial_pose_w: (3,) pose of the first frame; the origin by default.
@@ -284,18 +284,19 @@ class BearingEKFSLAM:
         initial_pose_w: np.ndarray | None = None,
     ) -> None:
         self.config = EKFSLAMConfig() if config is None else config
-        c = self.config
-        self.motion = OdometryMotionModel(c.motion_noise) if motion is None else motion
-        self.model = BearingElevation3D(c.sensor_height_m)
-        self.init_model = RangeAzimuthElevation3D(c.sensor_height_m)
+        b, start_config = self.config.bearings, self.config.state
+        self.motion = OdometryMotionModel(self.config.motion_noise) if motion is None else motion
+        self.model = BearingElevation3D(b.sensor_height_m)
+        self.init_model = RangeAzimuthElevation3D(b.sensor_height_m)
         start = np.zeros(3) if initial_pose_w is None else np.asarray(initial_pose_w, float)
-        sigma = np.asarray(c.initial_pose_sigma, dtype=float)
-        self.state = SlamGaussian(start, np.diag(sigma**2), c.initial_landmark_capacity, self.model)
-        self._gate = chi_square_gate(c.bearing_gate_probability, 2)
+        sigma = np.asarray(start_config.initial_pose_sigma, dtype=float)
+        capacity = start_config.initial_landmark_capacity
+        self.state = SlamGaussian(start, np.diag(sigma**2), capacity, self.model)
+        self._gate = chi_square_gate(b.track_gate_probability, 2)
         self._pending = PendingTracks(
-            c.sensor_height_m, c.bearing_min_sightings, math.radians(c.bearing_min_parallax_deg)
+            b.sensor_height_m, b.min_track_sightings, math.radians(b.min_parallax_deg)
         )
-        self._budget = TrackBudget(c.landmarks_per_image) if c.landmarks_per_image > 0 else None
+        self._budget = TrackBudget(b.landmarks_per_image) if b.landmarks_per_image > 0 else None
         self._slot_of_id: dict[int, int] = {}
         self._slot_ids: list[int] = []
         self._heading_var = 0.0  # odometry heading variance added so far

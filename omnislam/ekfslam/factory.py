@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 
@@ -14,6 +15,9 @@ from omnislam.ekfslam.filter import EKFSLAM
 from omnislam.errors import ConfigError
 from omnislam.options import apply_options
 
+#: the option that sets the omni camera's height; the factory takes the rig's otherwise
+HEIGHT_OPTION = "bearings.sensor_height_m"
+
 
 def make_estimator(
     info: SequenceInfo, options: Mapping[str, str], rng: np.random.Generator
@@ -22,7 +26,8 @@ def make_estimator(
 
     On range-bearing sightings the 2-D filter (``filter.EKFSLAM``); on the omni front end's
     bearings the 3-D one with delayed initialisation (``bearings.BearingEKFSLAM``), its
-    ``sensor_height_m`` taken from the calibration rig (``info.sensor_height_m``) unless set.
+    ``bearings.sensor_height_m`` taken from the calibration rig (``info.sensor_height_m``) unless
+    set.
     The filters are deterministic (``rng`` is unused); the sighting noise comes from the data.
 
     Raises:
@@ -33,8 +38,8 @@ def make_estimator(
     config = EKFSLAMConfig()
     if modality is Modality.BEARINGS_3D:
         height = info.sensor_height_m
-        if height is not None and "sensor_height_m" not in options:
-            config = config.with_(sensor_height_m=float(height))
+        if height is not None and HEIGHT_OPTION not in options:
+            config = config.with_(bearings=replace(config.bearings, sensor_height_m=float(height)))
         return BearingEKFSLAM(apply_options(config, options))
     if modality is not None and modality is not Modality.RANGE_BEARING_2D:
         raise ConfigError(

@@ -36,7 +36,7 @@ from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.types import UNKNOWN_ID, Estimate, FrameInput, RangeBearing, Trajectory
 from omnislam.ekfslam.association import TentativeLandmarks, frame_pairings, nearest_gated
-from omnislam.ekfslam.config import EKFSLAMConfig
+from omnislam.ekfslam.config import AssociationTest, EKFSLAMConfig
 from omnislam.ekfslam.state import SlamGaussian
 
 
@@ -50,15 +50,15 @@ class EKFSLAMInfo:
         sightings: sightings consumed.
         associated: sightings that updated the state (by id or through the gate).
         gated: sightings of unknown id outside every state landmark's gate (they went to the
-            tentative landmarks), plus sightings with ids rejected by ``known_gate_probability``.
+            tentative landmarks), plus sightings with ids rejected by the outlier gate.
         readmitted: sightings with ids the outlier gate rejected that updated the state once
-            enough re-sightings of their landmark agreed (``EKFSLAMConfig.known_gate_votes``).
+            enough re-sightings of their landmark agreed (``OutlierGateConfig.votes``).
         ambiguous: sightings of unknown id outside every validation gate but inside the wider
             new-landmark gate of a landmark: discarded.
         created: landmarks added to the state (augmentations).
         tentative_created: tentative landmarks started (sightings that matched nothing).
         tentative_dropped: tentative landmarks dropped, not re-observed within the window
-            (``EKFSLAMConfig.tentative_window_m``).
+            (``LandmarksConfig.tentative_window_m``).
         capacity: landmark slots allocated.
     """
 
@@ -97,14 +97,16 @@ class EKFSLAM:
         self.motion = OdometryMotionModel(self.config.motion_noise) if motion is None else motion
         self.model = RangeBearing2D()
         start = np.zeros(3) if initial_pose_w is None else np.asarray(initial_pose_w, float)
-        sigma = np.asarray(self.config.initial_pose_sigma, dtype=float)
+        start_config = self.config.state
+        sigma = np.asarray(start_config.initial_pose_sigma, dtype=float)
         self.state = SlamGaussian(
-            start, np.diag(sigma**2), self.config.initial_landmark_capacity, self.model
+            start, np.diag(sigma**2), start_config.initial_landmark_capacity, self.model
         )
-        self._gate = chi_square_gate(self.config.gate_probability, 2)
-        self._new_gate = chi_square_gate(self.config.new_landmark_gate_probability, 2)
-        self._known_gate = chi_square_gate(self.config.known_gate_probability, 2)
-        self._resightings = GatedResightings(self._known_gate, self.config.known_gate_votes)
+        association, outlier_gate = self.config.association, self.config.outlier_gate
+        self._gate = chi_square_gate(association.gate_probability, 2)
+        self._new_gate = chi_square_gate(association.new_landmark_gate_probability, 2)
+        self._known_gate = chi_square_gate(outlier_gate.probability, 2)
+        self._resightings = GatedResightings(self._known_gate, outlier_gate.votes)
         self._slot_ids: list[int] = []  # landmark id of each state slot
         self._slot_of_id: dict[int, int] = {}
         self._sightings: dict[int, int] = {}  # per slot: its creation and updates by id
@@ -142,7 +144,7 @@ class EKFSLAM:
         if sightings is not None and len(sightings):
             self._observe(sightings)
         self._counts["dropped"] += self._tentative.drop_stale(
-            self._odometer_m, self.config.tentative_window_m
+            self._odometer_m, self.config.landmarks.tentative_window_m
         )
         self._frames += 1
         self._stamps_s.append(frame.stamp_s)
@@ -192,7 +194,7 @@ class EKFSLAM:
         R_all[:, 0, 0] = sightings.sigma_range_m**2
         R_all[:, 1, 1] = sightings.sigma_bearing_rad**2
         ids = sightings.landmark_ids
-        if self.config.ignore_ids:
+        if self.config.association.ignore_ids:
             ids = np.full_like(ids, UNKNOWN_ID)
         self._counts["sightings"] += len(sightings)
         new_known: list[tuple[int, int]] = []  # (row, id) of ids not in the state yet
@@ -207,7 +209,7 @@ class EKFSLAM:
                     if all(landmark_id != other for _, other in new_known):
                         new_known.append((row, landmark_id))
                     continue
-                young = self._sightings[slot] < self.config.known_gate_min_sightings
+                young = self._sightings[slot] < self.config.outlier_gate.mature_sightings
                 gate = self._known_gate * (YOUNG_GATE_FACTOR if young else 1.0)
                 if state.update(slot, z, R, gate=gate) is None and (
                     young or not self._readmit(slot, landmark_id, z, R)
@@ -218,7 +220,7 @@ class EKFSLAM:
                 self._sightings[slot] += 1
                 self._counts["associated"] += 1
                 continue
-            if self.config.association_test == "joint":
+            if self.config.association.test is AssociationTest.JOINT:
                 unknown_rows.append(row)
                 continue
             free = np.ones(state.n_landmarks, dtype=bool)
@@ -291,13 +293,14 @@ class EKFSLAM:
         pairings = frame_pairings(
             state.pose, state.block(cols), state.landmarks[free], z, R, self.model
         )
+        association = self.config.association
         result, decisions = decide_on_kept_support(
             pairings,
-            self.config.gate_probability,
+            association.gate_probability,
             self._gate,
             self._new_gate,
-            self.config.ambiguity_margin,
-            self.config.support_sigma_ratio,
+            association.ambiguity_margin,
+            association.support_sigma_ratio,
         )
         self._unsupported_loops(decisions, result.assignment, pairings)
         self._displaced_wide(decisions, result, pairings)
@@ -321,17 +324,18 @@ class EKFSLAM:
         """Mark AMBIGUOUS (in place) the pairings of a frame that would close a loop alone.
 
         A pairing whose innovation covariance S is wider than the sighting's noise R by more
-        than ``config.loop_sigma_ratio`` (largest std of R^-1/2 S R^-1/2) pairs the robot with
-        a landmark it is no longer tied to (seen long ago, the pose uncertain by metres): its
+        than ``experimental.loop_sigma_ratio`` (largest std of R^-1/2 S R^-1/2) pairs the robot
+        with a landmark it is no longer tied to (seen long ago, the pose uncertain by metres): its
         gate then holds any landmark within metres, and a sighting or two cannot tell them
         apart. Such a pairing is kept only when the frame's joint hypothesis has at least
-        ``config.loop_min_pairings`` pairings (1, the default: always).
+        ``experimental.loop_min_pairings`` pairings (1, the default: always).
         """
+        experimental = self.config.experimental
         paired = np.flatnonzero(decisions == Decision.PAIRED)
-        if len(paired) >= self.config.loop_min_pairings or not len(paired):
+        if len(paired) >= experimental.loop_min_pairings or not len(paired):
             return
         for i in paired:
-            if innovation_widening(pairings, i, assignment[i]) > self.config.loop_sigma_ratio:
+            if innovation_widening(pairings, i, assignment[i]) > experimental.loop_sigma_ratio:
                 decisions[i] = Decision.AMBIGUOUS
 
     def _displaced_wide(
@@ -347,18 +351,20 @@ class EKFSLAM:
         sighting and leaves its neighbour new (MR.CLAM robot 2, frame 194: landmarks 19 and 20
         seen together, the map holding one landmark for both, individual D2 0.8 and 1.4; JCBB
         paired them with 17 and 16, D2 5.1 and 4.2, 1.7 m away). A pairing whose innovation is
-        wider than its noise by more than ``config.displaced_sigma_ratio``
+        wider than its noise by more than ``association.displaced_sigma_ratio``
         (``innovation_widening``) is dropped when its sighting is individually closer (smaller
         D2) to a candidate that no sighting of the hypothesis takes.
 
-        With ``config.contested_sigma_ratio`` the same holds from the landmark's side: a pairing
-        wider than that is dropped when another sighting of the frame, left unpaired, is within
-        ``config.ambiguity_margin`` of its D2 to the landmark -- the frame does not tell which of
-        the two sightings the landmark is (MR.CLAM robot 1, frame 190: sightings of landmarks 17
-        and 18, 0.17 m apart, D2 8.9 and 12.1 to landmark 14, 2 m away; 17 was paired).
+        With ``association.contested_sigma_ratio`` the same holds from the landmark's side: a
+        pairing wider than that is dropped when another sighting of the frame, left unpaired, is
+        within ``association.ambiguity_margin`` of its D2 to the landmark -- the frame does not
+        tell which of the two sightings the landmark is (MR.CLAM robot 1, frame 190: sightings of
+        landmarks 17 and 18, 0.17 m apart, D2 8.9 and 12.1 to landmark 14, 2 m away; 17 was
+        paired).
         """
-        displaced_ratio = self.config.displaced_sigma_ratio
-        contested_ratio = self.config.contested_sigma_ratio
+        association = self.config.association
+        displaced_ratio = association.displaced_sigma_ratio
+        contested_ratio = association.contested_sigma_ratio
         if not (np.isfinite(displaced_ratio) or np.isfinite(contested_ratio)):
             return
         d2_all = result.individual_d2
@@ -370,7 +376,7 @@ class EKFSLAM:
             m = int(result.assignment[i])
             d2 = d2_all[i, m]
             displaced = bool(np.any(free & (d2_all[i] < d2)))
-            contested = bool(np.any(d2_all[unpaired, m] < d2 + self.config.ambiguity_margin))
+            contested = bool(np.any(d2_all[unpaired, m] < d2 + association.ambiguity_margin))
             if not (displaced or contested):
                 continue
             widening = innovation_widening(pairings, i, m)
@@ -394,7 +400,7 @@ class EKFSLAM:
             cov = J_xr @ P_rr @ J_xr.T + J_z @ R @ J_z.T
             index = self._tentative.match(point, cov, self._gate, taken)
             if index is None:
-                if self.config.min_sightings <= 1:
+                if self.config.landmarks.min_sightings <= 1:
                     self._add_landmark(z, R, None)
                     continue
                 index = self._tentative.add(point, cov, self._odometer_m)
@@ -404,7 +410,7 @@ class EKFSLAM:
             taken.add(index)
             if (
                 self._tentative.observe(index, point, cov, self._odometer_m)
-                >= self.config.min_sightings
+                >= self.config.landmarks.min_sightings
             ):
                 promote.append((index, row))
         for _, row in promote:

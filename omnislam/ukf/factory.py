@@ -22,7 +22,7 @@ def make_estimator(
 
     The 1-D image comes from the sequence's camera rig when it has one (``SequenceInfo
     .calibration``) and the sightings are vertical lines; otherwise (MR.CLAM bearings) it is an
-    ``AngularLine`` of ``pixels_per_rad`` and ``fov_rad``.
+    ``AngularLine`` of ``image.pixels_per_rad`` and ``image.fov_rad``.
 
     Raises:
         ConfigError: no prior map (the message says how to give one), an unknown option, or a
@@ -38,13 +38,13 @@ def make_estimator(
     config = apply_options(UKFConfig(), options)
     modality = info.modality or Modality.VERTICAL_LINES
     rig = info.calibration
-    widening = config.association.fov_widening
+    image = config.image
     if modality is Modality.VERTICAL_LINES and rig is not None:
-        image_line = image_line_from_rig(rig, widening)
+        image_line = image_line_from_rig(rig, image.fov_widening)
     else:
-        image_line = AngularLine(config.pixels_per_rad, config.fov_rad, widening)
+        image_line = AngularLine(image.pixels_per_rad, image.fov_rad, image.fov_widening)
     sigma = info.sigma_bearing_rad
-    if config.sigma_bearing_rad is None and sigma is not None and sigma <= 0:
+    if config.filter.sigma_bearing_rad is None and sigma is not None and sigma <= 0:
         raise ConfigError(f"ukf: {name} states a non-positive bearing sigma")
     return VerticalLineUKF(prior_map, config, modality, image_line)
 

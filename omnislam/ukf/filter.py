@@ -28,6 +28,7 @@ from omnislam._optional import require
 from omnislam.core.measurement import Bearing2D
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.se import wrap_angle
+from omnislam.ukf.config import SigmaPointsConfig
 
 _BEARING = Bearing2D()
 
@@ -114,7 +115,7 @@ class PoseUKF:
         wTr: (3,) initial pose in the map frame.
         P: (3, 3) its covariance.
         motion: the shared odometry motion model.
-        alpha, beta, kappa: the scaled sigma points' parameters.
+        sigma_points: the scaled sigma points' alpha, beta, kappa (default: SigmaPointsConfig's).
     """
 
     def __init__(
@@ -122,12 +123,13 @@ class PoseUKF:
         wTr: np.ndarray,
         P: np.ndarray,
         motion: OdometryMotionModel,
-        alpha: float = 1.0,
-        beta: float = 2.0,
-        kappa: float = 0.0,
+        sigma_points: SigmaPointsConfig | None = None,
     ) -> None:
         kalman = require("filterpy.kalman")
-        points = kalman.MerweScaledSigmaPoints(3, alpha, beta, kappa, subtract=pose_residual)
+        sp = SigmaPointsConfig() if sigma_points is None else sigma_points
+        points = kalman.MerweScaledSigmaPoints(
+            3, sp.alpha, sp.beta, sp.kappa, subtract=pose_residual
+        )
         self._ukf = kalman.UnscentedKalmanFilter(
             dim_x=3,
             dim_z=1,

@@ -1,7 +1,7 @@
 """The vertical-line UKF localiser of Barra & Costa: the five steps of sec. 3 around the UKF.
 
 Per frame: predict with the odometry (sec. 4). Once the robot has travelled d_it since the last
-processed frame (sec. 5: 37.5 cm between images; ``UKFConfig.d_it_sightings_m``, 0, for the
+processed frame (sec. 5: 37.5 cm between images; ``SpacingConfig.d_it_sightings_m``, 0, for the
 frames of a range-bearing sensor) and the frame carries sightings, process it:
 
 1.-2. the front end's vertical lines and their PMCs (``frontend.vertical_edges``), or the
@@ -31,7 +31,7 @@ from omnislam.core.se import se2_between, wrap_angle
 from omnislam.core.types import UNKNOWN_ID, Estimate, FrameInput, PriorMap, Trajectory
 from omnislam.errors import ConfigError
 from omnislam.ukf.association import PoseConsistency, associate_landmarks, validate
-from omnislam.ukf.candidates import select_candidates
+from omnislam.ukf.candidates import Candidates, select_candidates
 from omnislam.ukf.config import PhotometricMode, UKFConfig
 from omnislam.ukf.filter import PoseUKF
 from omnislam.ukf.image_line import ImageLine
@@ -140,34 +140,32 @@ class VerticalLineUKF:
         self._walls = prior_map.walls_w
         self._row_of = {int(i): k for k, i in enumerate(self._ids)}
         has_mc = prior_map.means_left is not None
-        if config.photometric is PhotometricMode.ON and not has_mc:
+        mode = config.photometric.mode
+        if mode is PhotometricMode.ON and not has_mc:
             raise ConfigError(
-                f"ukf: photometric=on needs MC descriptors (means_left/means_right) in the prior "
-                f"map, and {prior_map.source} has none (a synthetic folder's line_colours.csv, "
-                "written by `omnislam dataset synth`, holds them); set photometric=off or auto"
+                f"ukf: photometric.mode=on needs MC descriptors (means_left/means_right) in the "
+                f"prior map, and {prior_map.source} has none (a synthetic folder's "
+                "line_colours.csv, written by `omnislam dataset synth`, holds them); set "
+                "photometric.mode=off or auto"
             )
         self._photometric = (
-            config.photometric is not PhotometricMode.OFF
-            and has_mc
-            and (modality is Modality.VERTICAL_LINES)
+            mode is not PhotometricMode.OFF and has_mc and (modality is Modality.VERTICAL_LINES)
         )
         if self._photometric:
             self._mc_left = np.asarray(prior_map.means_left)[use]
             self._mc_right = np.asarray(prior_map.means_right)[use]
         self.motion = OdometryMotionModel(config.motion_noise)
-        P0 = np.diag([config.initial_sigma_xy_m**2] * 2 + [config.initial_sigma_theta_rad**2])
-        self._ukf = PoseUKF(
-            prior_map.initial_pose_w, P0, self.motion, config.alpha, config.beta, config.kappa
-        )
-        self._tolerance_rad = config.association.track_tolerance_px / image_line.px_per_rad
-        self._gate = (
-            None
-            if config.innovation_gate is None
-            else chi_square_gate(config.innovation_gate, 1)  # one bearing: 1 degree of freedom
-        )
+        start = config.filter
+        P0 = np.diag([start.initial_sigma_xy_m**2] * 2 + [start.initial_sigma_theta_rad**2])
+        self._ukf = PoseUKF(prior_map.initial_pose_w, P0, self.motion, config.sigma_points)
+        self._tolerance_rad = config.tracking.tolerance_px / image_line.px_per_rad
+        gate = config.filter.innovation_gate
+        # one bearing: 1 degree of freedom
+        self._gate = None if gate is None else chi_square_gate(gate, 1)
         # images every d_it (sec. 5); a range-bearing sensor's frames as they come (config)
+        spacing = config.spacing
         self._d_it_m = (
-            config.d_it_m if modality is Modality.VERTICAL_LINES else config.d_it_sightings_m
+            spacing.d_it_m if modality is Modality.VERTICAL_LINES else spacing.d_it_sightings_m
         )
         self._stamps: list[float] = []
         self._poses: list[np.ndarray] = []
@@ -198,7 +196,7 @@ class VerticalLineUKF:
             self._ukf.predict(delta, frame.odometry.covariance)
             self._travel_m += math.hypot(delta[0], delta[1])
         sightings = self._sightings(frame)
-        due = self._travel_m >= (1.0 - self.config.d_it_tolerance) * self._d_it_m
+        due = self._travel_m >= (1.0 - self.config.spacing.d_it_tolerance) * self._d_it_m
         if sightings is not None and len(sightings.bearings_rad) and due:
             self._process(frame.index, sightings)
             self._travel_m = 0.0
@@ -227,7 +225,7 @@ class VerticalLineUKF:
 
     # --- the five steps -------------------------------------------------------------------
     def _sightings(self, frame: FrameInput) -> Sightings | None:
-        sigma = self.config.sigma_bearing_rad
+        sigma = self.config.filter.sigma_bearing_rad
         if self.modality is Modality.VERTICAL_LINES:
             v = frame.vertical_lines
             if v is None:
@@ -242,96 +240,18 @@ class VerticalLineUKF:
         return Sightings(rb.bearings_rad, sig, None, rb.landmark_ids)
 
     def _process(self, index: int, seen: Sightings) -> None:
-        counts = self._counts
-        counts["frames_processed"] += 1
-        counts["sightings_processed"] += len(seen.bearings_rad)
-        wTr = self._ukf.x
-        prior_cov = self._ukf.P
-        cfg = self.config.association
-        given = seen.landmark_ids
-        if cfg.use_ids or (
-            cfg.use_ids is None and len(given) and bool(np.all(given != UNKNOWN_ID))
-        ):
-            rows = np.array([self._row_of.get(int(i), -1) for i in seen.landmark_ids])
-            lines = np.flatnonzero((seen.landmark_ids != UNKNOWN_ID) & (rows >= 0))
-            used = {int(i): int(self._ids[rows[i]]) for i in lines}
-            pairs, candidate_ids = used, np.array(sorted(set(used.values())), dtype=np.int64)
+        """Steps 3-5 and the update on one processed frame (module docstring)."""
+        self._counts["frames_processed"] += 1
+        self._counts["sightings_processed"] += len(seen.bearings_rad)
+        wTr, prior_cov = self._ukf.x, self._ukf.P
+        if self._takes_ids(seen.landmark_ids):
+            pairs = used = self._pairs_by_id(seen.landmark_ids)
+            candidate_ids = np.array(sorted(set(used.values())), dtype=np.int64)
         else:
-            # step 4: candidates, photometric gate, u_shift windows, Sc_k
-            cands = select_candidates(
-                wTr,
-                self._points,
-                self._walls,
-                self.image_line,
-                cfg.max_range_m,
-                cfg.wall_margin_m,
-            )
-            counts["candidates_total"] += len(cands)
-            candidate_ids = self._ids[cands.index]
-            u_lines = self.image_line.u_px(seen.bearings_rad)
-            consistency = None
-            allowed = np.ones((len(seen.bearings_rad), len(cands)), dtype=bool)
-            if cfg.gate_probability is not None and len(cands):
-                prediction = self._ukf.predict_bearings(self._points[cands.index])
-                consistency = PoseConsistency(
-                    wrap_angle(seen.bearings_rad[:, None] - prediction.mean[None, :]),
-                    np.asarray(seen.sigmas_rad, dtype=float) ** 2,
-                    prediction,
-                    cfg.gate_probability,
-                )
-                allowed = consistency.pregate()
-            counts["pairs_pregated"] += int(allowed.sum())
-            scores = np.full(allowed.shape, np.nan)
-            columns = np.flatnonzero(allowed.any(axis=0))
-            if self._photometric and seen.profiles is not None and columns.size:
-                # the photometric gate and C'_ij of the pre-gated pairs only
-                left, right = mc_from_pmc(seen.profiles)
-                rows = cands.index[columns]
-                band, mean = colour_differences(
-                    left, right, self._mc_left[rows], self._mc_right[rows]
-                )
-                scores[:, columns] = photometric_scores(band, mean, self.config.colour)
-            else:
-                scores[:, columns] = 0.0
-            scores[~allowed] = np.nan
-            best = associate_landmarks(u_lines, cands.u_px, scores, cfg, consistency)
-            counts["sets_scored"] += best.sets
-            pairs = {
-                int(i): int(candidate_ids[c])
-                for i, c in zip(best.lines.tolist(), best.candidates.tolist(), strict=True)
-            }
-            # step 3 and step 5: the same landmark on the same physical line, twice
-            if not cfg.validate:
-                used = pairs
-            elif self._prev is None:
-                used = {}
-            else:
-                prev_seen, prev_pairs, prev_pose = self._prev
-                tracked = track_lines(
-                    prev_seen.bearings_rad,
-                    seen.bearings_rad,
-                    se2_between(prev_pose, wTr),
-                    self._tolerance_rad,
-                    cfg,
-                    self.config.colour,
-                    prev_seen.profiles,
-                    seen.profiles,
-                )
-                used = validate(pairs, tracked, prev_pairs)
-        counts["pairs_step4"] += len(pairs)
-        lines_used = np.array(sorted(used), dtype=np.int64)
-        landmarks = np.array([self._points[self._row_of[used[i]]] for i in lines_used.tolist()])
-        bearings = seen.bearings_rad[lines_used]
-        sigmas = seen.sigmas_rad[lines_used]
-        if self._gate is not None and lines_used.size:
-            keep = self._ukf.innovations(bearings, landmarks, sigmas) <= self._gate
-            counts["pairs_gated_out"] += int((~keep).sum())
-            lines_used, landmarks = lines_used[keep], landmarks[keep]
-            bearings, sigmas = bearings[keep], sigmas[keep]
-        if lines_used.size:
-            self._ukf.update(bearings, landmarks.reshape(-1, 2), sigmas)
-            counts["frames_updated"] += 1
-            counts["pairs_validated"] += int(lines_used.size)
+            pairs, candidate_ids = self._step4(wTr, seen)
+            used = self._step5(wTr, seen, pairs)
+        self._counts["pairs_step4"] += len(pairs)
+        lines_used = self._update(seen, used)
         self._prev = (seen, pairs, self._ukf.x)
         self.associations.append(
             FrameAssociation(
@@ -344,6 +264,119 @@ class VerticalLineUKF:
                 prior_cov=prior_cov,
             )
         )
+
+    def _takes_ids(self, landmark_ids: np.ndarray) -> bool:
+        """Whether the sightings' own ids are the association (``AssociationConfig.use_ids``:
+        by default when every sighting of the frame carries one)."""
+        use_ids = self.config.association.use_ids
+        if use_ids is None:
+            return bool(len(landmark_ids)) and bool(np.all(landmark_ids != UNKNOWN_ID))
+        return use_ids
+
+    def _pairs_by_id(self, landmark_ids: np.ndarray) -> dict[int, int]:
+        """Projection index -> landmark id for the sightings whose id the map holds."""
+        rows = np.array([self._row_of.get(int(i), -1) for i in landmark_ids])
+        lines = np.flatnonzero((landmark_ids != UNKNOWN_ID) & (rows >= 0))
+        return {int(i): int(self._ids[rows[i]]) for i in lines}
+
+    def _step4(self, wTr: np.ndarray, seen: Sightings) -> tuple[dict[int, int], np.ndarray]:
+        """Step 4: candidates, the pre-gate, the photometric gate and C'_ij, u_shift windows
+        and Sc_k.
+
+        Returns:
+            (projection index -> landmark id of the chosen set, the candidates' ids).
+        """
+        cfg = self.config.association
+        cands = select_candidates(
+            wTr, self._points, self._walls, self.image_line, cfg.max_range_m, cfg.wall_margin_m
+        )
+        self._counts["candidates_total"] += len(cands)
+        candidate_ids = self._ids[cands.index]
+        consistency = self._pose_consistency(seen, cands)
+        if consistency is None:
+            allowed = np.ones((len(seen.bearings_rad), len(cands)), dtype=bool)
+        else:
+            allowed = consistency.pregate()
+        self._counts["pairs_pregated"] += int(allowed.sum())
+        scores = self._pair_scores(seen, cands, allowed)
+        u_lines = self.image_line.u_px(seen.bearings_rad)
+        best = associate_landmarks(u_lines, cands.u_px, scores, cfg, consistency)
+        self._counts["sets_scored"] += best.sets
+        pairs = {
+            int(i): int(candidate_ids[c])
+            for i, c in zip(best.lines.tolist(), best.candidates.tolist(), strict=True)
+        }
+        return pairs, candidate_ids
+
+    def _pose_consistency(self, seen: Sightings, cands: Candidates) -> PoseConsistency | None:
+        """What the predicted pose and its covariance say about every (sighting, candidate)
+        pair (``AssociationConfig.gate_probability``; None without that gate or candidates)."""
+        probability = self.config.association.gate_probability
+        if probability is None or not len(cands):
+            return None
+        prediction = self._ukf.predict_bearings(self._points[cands.index])
+        return PoseConsistency(
+            wrap_angle(seen.bearings_rad[:, None] - prediction.mean[None, :]),
+            np.asarray(seen.sigmas_rad, dtype=float) ** 2,
+            prediction,
+            probability,
+        )
+
+    def _pair_scores(self, seen: Sightings, cands: Candidates, allowed: np.ndarray) -> np.ndarray:
+        """(K, C) C'_ij of the pre-gated pairs (0 without the photometric stage), NaN where a
+        gate rejects the pair."""
+        scores = np.full(allowed.shape, np.nan)
+        columns = np.flatnonzero(allowed.any(axis=0))
+        if self._photometric and seen.profiles is not None and columns.size:
+            # the photometric gate and C'_ij of the pre-gated pairs only
+            left, right = mc_from_pmc(seen.profiles)
+            rows = cands.index[columns]
+            band, mean = colour_differences(left, right, self._mc_left[rows], self._mc_right[rows])
+            scores[:, columns] = photometric_scores(band, mean, self.config.photometric)
+        else:
+            scores[:, columns] = 0.0
+        scores[~allowed] = np.nan
+        return scores
+
+    def _step5(self, wTr: np.ndarray, seen: Sightings, pairs: dict[int, int]) -> dict[int, int]:
+        """Steps 3 and 5: the pairs whose landmark the previous processed frame gave the same
+        physical line (all of them without ``AssociationConfig.validate``)."""
+        if not self.config.association.validate:
+            return pairs
+        if self._prev is None:
+            return {}
+        prev_seen, prev_pairs, prev_pose = self._prev
+        tracked = track_lines(
+            prev_seen.bearings_rad,
+            seen.bearings_rad,
+            se2_between(prev_pose, wTr),
+            self._tolerance_rad,
+            self.config.tracking,
+            prev_seen.profiles,
+            seen.profiles,
+        )
+        return validate(pairs, tracked, prev_pairs)
+
+    def _update(self, seen: Sightings, used: dict[int, int]) -> np.ndarray:
+        """The UKF update with the used pairs that pass the innovation gate.
+
+        Returns:
+            (m,) the projection indices that updated the filter, in increasing order.
+        """
+        lines_used = np.array(sorted(used), dtype=np.int64)
+        landmarks = np.array([self._points[self._row_of[used[i]]] for i in lines_used.tolist()])
+        bearings = seen.bearings_rad[lines_used]
+        sigmas = seen.sigmas_rad[lines_used]
+        if self._gate is not None and lines_used.size:
+            keep = self._ukf.innovations(bearings, landmarks, sigmas) <= self._gate
+            self._counts["pairs_gated_out"] += int((~keep).sum())
+            lines_used, landmarks = lines_used[keep], landmarks[keep]
+            bearings, sigmas = bearings[keep], sigmas[keep]
+        if lines_used.size:
+            self._ukf.update(bearings, landmarks.reshape(-1, 2), sigmas)
+            self._counts["frames_updated"] += 1
+            self._counts["pairs_validated"] += int(lines_used.size)
+        return lines_used
 
 
 def _pair_array(pairs: dict[int, int]) -> np.ndarray:

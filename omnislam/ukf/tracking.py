@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from omnislam.core.se import wrap_angle
-from omnislam.ukf.config import AssociationConfig, PhotometricConfig
+from omnislam.ukf.config import TrackingConfig
 from omnislam.ukf.photometric import profile_distance
 
 _DEPTHS = 24
@@ -33,8 +33,7 @@ def track_lines(
     bearings_rad: np.ndarray,
     prevTcur: np.ndarray,
     tolerance_rad: float,
-    config: AssociationConfig,
-    colour: PhotometricConfig,
+    config: TrackingConfig,
     prev_profiles: np.ndarray | None = None,
     profiles: np.ndarray | None = None,
 ) -> np.ndarray:
@@ -44,7 +43,9 @@ def track_lines(
         prev_bearings_rad: (J,) bearings of the previous processed frame (its robot frame).
         bearings_rad: (K,) bearings of this frame.
         prevTcur: (3,) estimated pose of this frame in the previous frame's robot frame.
-        tolerance_rad: widening of the epipolar interval [rad].
+        tolerance_rad: widening of the epipolar interval [rad] (``config.tolerance_px`` through
+            the image line).
+        config: the depths the interval spans and the PMC gate.
         prev_profiles, profiles: (J, 3, W), (K, 3, W) PMCs, or None (geometric match only).
 
     Returns:
@@ -70,7 +71,7 @@ def track_lines(
     cost = np.abs(wrap_angle(now[None, :] - (prev[:, None] - dtheta)))
     if prev_profiles is not None and profiles is not None:
         distance = profile_distance(prev_profiles, profiles)
-        inside &= distance <= colour.max_profile_diff
+        inside &= distance <= config.max_profile_diff
         cost = distance + cost
     cost = np.where(inside, cost, _INFEASIBLE)
     rows, cols = linear_sum_assignment(cost)

@@ -849,7 +849,7 @@ def _(tmp, fx):
 
 @case("run-ukf-photometric-map-without-descriptors")
 def _(tmp, fx):
-    argv = run_args(mrclam(tmp), tmp, "ukf", "--set", "photometric=on")
+    argv = run_args(mrclam(tmp), tmp, "ukf", "--set", "photometric.mode=on")
     return argv, "needs MC descriptors"
 
 
@@ -1129,8 +1129,9 @@ _grid_case(
 )
 _grid_case(
     "override-invalid-value",
-    "datasets: [data/room.log]\nestimators: [ekfslam]\noverrides: [{gate_probability: soon}]\n",
-    "gate_probability",
+    "datasets: [data/room.log]\nestimators: [ekfslam]\n"
+    "overrides: [{association.gate_probability: soon}]\n",
+    "association.gate_probability",
 )
 _grid_case(
     "override-bad-modality",

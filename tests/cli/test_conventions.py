@@ -111,8 +111,8 @@ def test_option_docs_follow_nested_dataclasses():
     # the nested default is the UKF's own (4x core's alphas), not MotionNoise's class default
     assert float(docs["motion_noise.a_vv"].default) == config.motion_noise.a_vv != 0.05
     assert docs["association.windows_px"].kind == "float,..."
-    assert docs["photometric"].kind == "auto|on|off"
-    assert "sigma points" in docs["beta"].meaning  # "alpha, beta, kappa: ..." names three
+    assert docs["photometric.mode"].kind == "auto|on|off"
+    assert "depths" in docs["tracking.max_depth_m"].meaning  # "min_depth_m, max_depth_m: ..."
 
 
 # ---- the grid template -----------------------------------------------------------------------

@@ -22,7 +22,7 @@ from omnislam.core.motion import MotionNoise, OdometryMotionModel
 from omnislam.core.se import se2_compose, se2_rotate_vectors, wrap_angle
 from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Bearings, FrameInput, Odometry
-from omnislam.ekfslam import BearingEKFSLAM, EKFSLAMConfig, SlamGaussian
+from omnislam.ekfslam import BearingEKFSLAM, BearingsConfig, EKFSLAMConfig, SlamGaussian
 from omnislam.ekfslam.bearings import PendingTracks, triangulated_sighting
 from omnislam.estimators import make_estimator
 
@@ -224,7 +224,10 @@ def omni_scenario(seed: int, steps: int) -> tuple[np.ndarray, np.ndarray, list[F
 
 
 def omni_filter() -> BearingEKFSLAM:
-    config = EKFSLAMConfig(motion_noise=NOISE, sensor_height_m=HEIGHT_M, landmarks_per_image=0)
+    config = EKFSLAMConfig(
+        motion_noise=NOISE,
+        bearings=BearingsConfig(sensor_height_m=HEIGHT_M, landmarks_per_image=0),
+    )
     return BearingEKFSLAM(config, initial_pose_w=np.array([0.0, -3.0, 0.0]))
 
 
@@ -265,6 +268,6 @@ def test_registry_builds_the_omni_filter_with_the_rig_height(rng):
         name="omni", frames=0, modalities=frozenset({Modality.BEARINGS_3D}), sensor_height_m=0.6
     )
     ekf = make_estimator("ekfslam", info, {}, rng)
-    assert isinstance(ekf, BearingEKFSLAM) and ekf.config.sensor_height_m == 0.6
-    ekf = make_estimator("ekfslam", info, {"sensor_height_m": "0.9"}, rng)
-    assert ekf.config.sensor_height_m == 0.9
+    assert isinstance(ekf, BearingEKFSLAM) and ekf.config.bearings.sensor_height_m == 0.6
+    ekf = make_estimator("ekfslam", info, {"bearings.sensor_height_m": "0.9"}, rng)
+    assert ekf.config.bearings.sensor_height_m == 0.9

@@ -18,7 +18,16 @@ from scipy.stats import chi2
 from omnislam.core.modality import Modality
 from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Estimator, Introspectable, RangeBearing
-from omnislam.ekfslam import EKFSLAM, EKFSLAMConfig, EKFSLAMInfo
+from omnislam.ekfslam import (
+    EKFSLAM,
+    AssociationConfig,
+    AssociationTest,
+    EKFSLAMConfig,
+    EKFSLAMInfo,
+    ExperimentalConfig,
+    LandmarksConfig,
+    OutlierGateConfig,
+)
 from omnislam.errors import ConfigError
 from omnislam.estimators import make_estimator
 
@@ -136,9 +145,12 @@ def test_pose_nees_inside_the_95_percent_band_early_in_the_run():
     assert low <= mean.mean() <= high
 
 
-def test_unknown_association_recovers_the_map():
+@pytest.mark.parametrize("test", list(AssociationTest))
+def test_unknown_association_recovers_the_map(test):
+    """Well-separated landmarks without ids: the joint test and the tutorial's nearest
+    neighbour both map each landmark once."""
     scenario = make_scenario(seed=5, steps=250, unknown_ids=True)
-    ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE))
+    ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE, association=AssociationConfig(test=test)))
     estimate = run(ekf, scenario.frames)
     truth = scenario.landmarks_w
     assert len(estimate.landmark_ids) == len(truth)  # no duplicates, none missed
@@ -166,7 +178,12 @@ def test_tentative_landmark_seen_once_is_dropped():
     first = frames[0].range_bearing
     assert len(first)
     # 5 steps of 0.3 m
-    ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE, min_sightings=3, tentative_window_m=1.5))
+    ekf = EKFSLAM(
+        EKFSLAMConfig(
+            motion_noise=NOISE,
+            landmarks=LandmarksConfig(min_sightings=3, tentative_window_m=1.5),
+        )
+    )
     # one spurious sighting far from every landmark, seen once
     from omnislam.core.types import FrameInput, RangeBearing
 
@@ -192,22 +209,42 @@ def test_tentative_landmark_seen_once_is_dropped():
     "options",
     [
         {"no_such_option": "1"},
-        {"gate_probability": "1.5"},
-        {"gate_probability": "abc"},
-        {"min_sightings": "0"},
-        {"loop_min_pairings": "0"},
-        {"tentative_window_m": "0"},
-        {"displaced_sigma_ratio": "0.5"},
-        {"contested_sigma_ratio": "0"},
-        {"known_gate_probability": "0"},
-        {"known_gate_votes": "-1"},
+        {"association.gate_probability": "1.5"},
+        {"association.gate_probability": "abc"},
+        {"association.new_landmark_gate_probability": "0.5"},
+        {"association.test": "closest"},
+        {"landmarks.min_sightings": "0"},
+        {"experimental.loop_min_pairings": "0"},
+        {"landmarks.tentative_window_m": "0"},
+        {"association.displaced_sigma_ratio": "0.5"},
+        {"association.contested_sigma_ratio": "0"},
+        {"outlier_gate.probability": "0"},
+        {"outlier_gate.votes": "-1"},
+        {"bearings.min_track_sightings": "1"},
         {"motion_noise.a_vv": "-1"},
-        {"initial_pose_sigma": "1,2"},
+        {"state.initial_pose_sigma": "1,2"},
     ],
 )
 def test_bad_options_raise_config_error(rng, options):
     with pytest.raises(ConfigError):
         make_estimator("ekfslam", sequence_info(), options, rng)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "value"),
+    [
+        ("min_sightings", "landmarks.min_sightings", "3"),
+        ("gate_probability", "association.gate_probability", "0.95"),
+        ("landmarks_per_image", "bearings.landmarks_per_image", "0"),
+        ("loop_min_pairings", "experimental.loop_min_pairings", "3"),
+    ],
+)
+def test_a_flat_key_of_a_section_names_its_dotted_key(rng, old, new, value):
+    with pytest.raises(ConfigError, match=f"it is set as '{new}'"):
+        make_estimator("ekfslam", sequence_info(), {old: value}, rng)
+    section, field = new.split(".")
+    ekf = make_estimator("ekfslam", sequence_info(), {new: value}, rng)
+    assert str(getattr(getattr(ekf.config, section), field)) == value
 
 
 def test_other_modality_raises_config_error(rng):
@@ -267,7 +304,7 @@ def test_a_young_landmark_is_gated_wider_than_a_well_observed_one(rng, sigmas, g
     frames, _ = _with_range_error(scenario.frames, sigmas, after=1)
     young = make_estimator("ekfslam", sequence_info(), NOISE_OPTIONS, rng)
     plain = make_estimator(
-        "ekfslam", sequence_info(), {**NOISE_OPTIONS, "known_gate_min_sightings": "0"}, rng
+        "ekfslam", sequence_info(), {**NOISE_OPTIONS, "outlier_gate.mature_sightings": "0"}, rng
     )
     run(young, frames)
     run(plain, frames)
@@ -277,8 +314,9 @@ def test_a_young_landmark_is_gated_wider_than_a_well_observed_one(rng, sigmas, g
 
 def test_a_loop_closed_by_one_sighting_is_dropped_by_three_kept():
     """With the pose a metre uncertain (S 20x wider than R), one sighting inside an old
-    landmark's gate is no evidence (``loop_min_pairings``: carmen-aces, docs/results.md); three
-    jointly compatible ones are; the default (1) keeps the lone pairing."""
+    landmark's gate is no evidence (``experimental.loop_min_pairings``: carmen-aces,
+    docs/results.md); three jointly compatible ones are; the default (1) keeps the lone
+    pairing."""
     from omnislam.core.types import FrameInput, Odometry
 
     landmarks = np.array([[3.0, 0.0], [0.0, 3.0], [-3.0, 0.0]])
@@ -295,10 +333,15 @@ def test_a_loop_closed_by_one_sighting_is_dropped_by_three_kept():
             range_bearing=_unlabelled([3.0, 0.8]),
         ),
     ]
-    assert EKFSLAMConfig().loop_min_pairings == 1
+    assert ExperimentalConfig().loop_min_pairings == 1
     for min_pairings, moved in ((3, False), (1, True)):
         ekf = EKFSLAM(
-            EKFSLAMConfig(min_sightings=1, loop_min_pairings=min_pairings, loop_sigma_ratio=10.0)
+            EKFSLAMConfig(
+                landmarks=LandmarksConfig(min_sightings=1),
+                experimental=ExperimentalConfig(
+                    loop_min_pairings=min_pairings, loop_sigma_ratio=10.0
+                ),
+            )
         )
         run(ekf, frames)
         assert ekf.state.n_landmarks == 3
@@ -321,12 +364,14 @@ def test_a_loop_closed_by_one_sighting_is_dropped_by_three_kept():
 def test_agreeing_re_sightings_close_a_loop_the_gate_rejected(seed):
     """A lap under biased odometry (``tests/biased_loop.py``): with the gate alone the first
     landmarks' re-sightings are rejected and the filter ends metres off; three agreeing ones
-    overrule it and the newest updates the state (``known_gate_votes``)."""
+    overrule it and the newest updates the state (``outlier_gate.votes``)."""
     loop = simulate_biased_loop(np.random.default_rng(seed))
     ends = {}
     for votes in (0, 3):
         ekf = EKFSLAM(
-            EKFSLAMConfig(motion_noise=LOOP_MOTION_NOISE, known_gate_votes=votes),
+            EKFSLAMConfig(
+                motion_noise=LOOP_MOTION_NOISE, outlier_gate=OutlierGateConfig(votes=votes)
+            ),
             initial_pose_w=loop.poses_true[0],
         )
         ends[votes] = loop.end_error_m(run(ekf, loop.frames).trajectory.se2)
@@ -338,15 +383,20 @@ def test_agreeing_re_sightings_close_a_loop_the_gate_rejected(seed):
 def test_a_wide_pairing_moved_off_its_sightings_best_landmark_is_dropped():
     """After a gap (the pose a metre uncertain) two sightings of a landmark and of a new
     neighbour 0.17 m beside it: JCBB's most pairings take another pair of landmarks 1.2 m away
-    (MR.CLAM robot 2, frame 194, docs/results.md); ``displaced_sigma_ratio`` drops those
-    pairings, as each sighting is individually nearer a landmark no pairing takes."""
+    (MR.CLAM robot 2, frame 194, docs/results.md); ``association.displaced_sigma_ratio`` drops
+    those pairings, as each sighting is individually nearer a landmark no pairing takes."""
 
     landmarks = np.array([[3.0, 0.0], [3.0, 1.2], [3.0, 1.37]])
 
     # the robot has not moved: landmark 0 and something new 0.17 m beside it
     frames = _lost_then_seen(landmarks, [[3.0, 0.0], [3.0, 0.17]])
-    for ratio, moved in ((np.inf, True), (EKFSLAMConfig().displaced_sigma_ratio, False)):
-        ekf = EKFSLAM(EKFSLAMConfig(min_sightings=1, displaced_sigma_ratio=ratio))
+    for ratio, moved in ((np.inf, True), (AssociationConfig().displaced_sigma_ratio, False)):
+        ekf = EKFSLAM(
+            EKFSLAMConfig(
+                association=AssociationConfig(displaced_sigma_ratio=ratio),
+                landmarks=LandmarksConfig(min_sightings=1),
+            )
+        )
         run(ekf, frames)
         assert ekf.state.n_landmarks == 3
         # the pairings with landmarks 1 and 2 throw the pose 1.2 m
@@ -356,14 +406,14 @@ def test_a_wide_pairing_moved_off_its_sightings_best_landmark_is_dropped():
 
 def test_the_tentative_window_is_a_distance_travelled_not_a_count_of_frames():
     """A landmark seen once waits outside the state while the robot travels less than
-    ``tentative_window_m`` however many frames pass (MR.CLAM: 0.02 m per frame, a landmark's
-    second sighting up to 160 s later), and is dropped once it travelled farther."""
+    ``landmarks.tentative_window_m`` however many frames pass (MR.CLAM: 0.02 m per frame, a
+    landmark's second sighting up to 160 s later), and is dropped once it travelled farther."""
     from omnislam.core.types import FrameInput, Odometry, RangeBearing
 
     def seen():
         return RangeBearing(np.array([-1]), 3.0, 0.0, SIGMA_RANGE_M, SIGMA_BEARING_RAD)
 
-    window = EKFSLAMConfig().tentative_window_m
+    window = LandmarksConfig().tentative_window_m
     for step_m, kept in ((0.01, True), (0.3, False)):
         frames = [FrameInput(index=0, odometry=Odometry(np.zeros(3), 0.0), range_bearing=seen())]
         frames += [
@@ -394,11 +444,17 @@ def test_a_wide_pairing_contested_by_an_unpaired_sighting_is_dropped():
     the one landmark of the map: the nearer inside its gate (D2 8.2 < 9.21), the other just
     outside (10.5), so no other hypothesis pairs as many and the ambiguity margin cannot apply,
     yet the frame does not tell which one the landmark is (MR.CLAM robot 1, frame 190: D2 8.9
-    and 12.1). ``contested_sigma_ratio`` drops the pairing instead of pulling the pose 2.8 m."""
+    and 12.1). ``association.contested_sigma_ratio`` drops the pairing instead of pulling the
+    pose 2.8 m."""
 
     frames = _lost_then_seen([3.0, 0.0], [[3.0, 3.3], [3.0, 3.8]])
-    for ratio, moved in ((np.inf, True), (EKFSLAMConfig().contested_sigma_ratio, False)):
-        ekf = EKFSLAM(EKFSLAMConfig(min_sightings=1, contested_sigma_ratio=ratio))
+    for ratio, moved in ((np.inf, True), (AssociationConfig().contested_sigma_ratio, False)):
+        ekf = EKFSLAM(
+            EKFSLAMConfig(
+                association=AssociationConfig(contested_sigma_ratio=ratio),
+                landmarks=LandmarksConfig(min_sightings=1),
+            )
+        )
         run(ekf, frames)
         assert (np.linalg.norm(ekf.state.pose[:2]) > 1.0) == moved
         assert ekf.info().associated == int(moved)

@@ -11,7 +11,7 @@ from omnislam.camera.pinhole import PinholeCamera
 from omnislam.camera.rig import CameraRig
 from omnislam.ukf.association import PoseConsistency, associate_landmarks, set_score, validate
 from omnislam.ukf.candidates import occluded, select_candidates
-from omnislam.ukf.config import AssociationConfig, PhotometricConfig
+from omnislam.ukf.config import AssociationConfig, PhotometricConfig, TrackingConfig
 from omnislam.ukf.filter import BearingPrediction
 from omnislam.ukf.image_line import AngularLine, PerspectiveLine, image_line_from_rig
 from omnislam.ukf.photometric import colour_differences, mc_from_pmc, photometric_scores
@@ -93,7 +93,7 @@ def test_step_3_tracks_lines_through_a_rotation_and_flags_new_ones():
     prev = np.array([0.5, 0.0, -0.4])
     turn = 0.1
     now = np.array([0.5 - turn, -0.4 - turn, 0.9])  # the first and third, plus a new line
-    tracked = track_lines(prev, now, np.array([0.0, 0.0, turn]), 0.01, CONFIG, PhotometricConfig())
+    tracked = track_lines(prev, now, np.array([0.0, 0.0, turn]), 0.01, TrackingConfig())
     assert tracked.tolist() == [0, 2, -1]
 
 
@@ -106,8 +106,7 @@ def test_step_3_uses_profiles_to_tell_close_lines_apart():
         now,
         np.zeros(3),
         0.02,
-        CONFIG,
-        PhotometricConfig(),
+        TrackingConfig(),
         np.stack([dark, bright]),
         np.stack([bright, dark]),
     )

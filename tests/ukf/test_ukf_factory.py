@@ -36,7 +36,7 @@ def test_registered_ukf_builds_from_the_prior_map(rng):
     ("changes", "options", "needle"),
     [
         ({"prior_map": None}, {}, "prior_map=RUN_DIR"),
-        ({}, {"photometric": "on"}, "MC descriptors"),
+        ({}, {"photometric.mode": "on"}, "MC descriptors"),
         ({"modalities": frozenset()}, {}, "ukf cannot run on seq"),
         ({}, {"no_such_option": "1"}, "no_such_option"),
         ({"prior_map": PriorMap("m", np.arange(1), np.zeros((1, 3)))}, {}, "no initial pose"),
@@ -46,3 +46,21 @@ def test_bad_input_is_one_line_naming_what_is_missing(rng, changes, options, nee
     with pytest.raises(ConfigError) as error:
         make_estimator("ukf", info(**changes), options, rng)
     assert needle in str(error.value) and "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "value"),
+    [
+        ("d_it_m", "spacing.d_it_m", "0.5"),
+        ("innovation_gate", "filter.innovation_gate", "0.99"),
+        ("alpha", "sigma_points.alpha", "0.5"),
+        ("association.fov_widening", "image.fov_widening", "3.0"),
+        ("colour.max_diff_band", "photometric.max_diff_band", "20.0"),
+    ],
+)
+def test_a_key_that_moved_to_a_section_names_its_dotted_key(rng, old, new, value):
+    with pytest.raises(ConfigError, match=f"it is set as '{new}'"):
+        make_estimator("ukf", info(), {old: value}, rng)
+    section, field = new.split(".")
+    ukf = make_estimator("ukf", info(), {new: value}, rng)
+    assert str(getattr(getattr(ukf.config, section), field)) == value

@@ -13,7 +13,13 @@ from omnislam.core.modality import Modality
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
 from omnislam.core.se import se2_integrate, wrap_angle
 from omnislam.core.types import FrameInput, Odometry, PriorMap, RangeBearing
-from omnislam.ukf import AssociationConfig, UKFConfig, VerticalLineUKF
+from omnislam.ukf import (
+    AssociationConfig,
+    FilterConfig,
+    SpacingConfig,
+    UKFConfig,
+    VerticalLineUKF,
+)
 from omnislam.ukf.filter import PoseUKF, bearing_mean, pose_mean
 from omnislam.ukf.image_line import AngularLine
 
@@ -41,7 +47,9 @@ def frames(deltas: np.ndarray, sightings=None) -> list[FrameInput]:
 
 
 def localiser(**changes) -> VerticalLineUKF:
-    config = UKFConfig(d_it_m=0.0, innovation_gate=None).with_(**changes)
+    config = UKFConfig(
+        spacing=SpacingConfig(d_it_m=0.0), filter=FilterConfig(innovation_gate=None)
+    ).with_(**changes)
     return VerticalLineUKF(MAP, config, Modality.RANGE_BEARING_2D, AngularLine(400.0))
 
 
@@ -143,7 +151,8 @@ def test_frames_are_processed_every_d_it_of_travel(rng, d_it):
     deltas = circle_deltas(40)  # exact 0.1 m steps
     # range-bearing frames follow d_it_sightings_m; d_it_m (the images') does not apply
     ukf = localiser(
-        d_it_m=0.35 - d_it, d_it_sightings_m=d_it, association=AssociationConfig(use_ids=True)
+        spacing=SpacingConfig(d_it_m=0.35 - d_it, d_it_sightings_m=d_it),
+        association=AssociationConfig(use_ids=True),
     )
     for frame in frames(deltas, sightings):
         ukf.step(frame)
@@ -173,9 +182,11 @@ def test_a_sighting_far_outside_the_innovation_gate_is_dropped_with_ids(rng):
     wrong[0] = wrap_angle(wrong[0] + 3.0)
     sightings[20] = RangeBearing(bad.landmark_ids, 1.0, wrong, 1.0, 0.01)
     errors = {}
-    default = UKFConfig().innovation_gate
+    default = FilterConfig().innovation_gate
     for gate in (default, None):
-        ukf = localiser(innovation_gate=gate, association=AssociationConfig(use_ids=True))
+        ukf = localiser(
+            filter=FilterConfig(innovation_gate=gate), association=AssociationConfig(use_ids=True)
+        )
         for frame in frames(deltas[:21], sightings[:21]):
             ukf.step(frame)
         errors[gate] = float(np.hypot(*(ukf.estimate().trajectory.se2[20, :2] - true[20, :2])))
