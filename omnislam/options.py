@@ -10,6 +10,8 @@ that lives in a section now names its dotted key, another one the nearest known 
 
 A configuration names the few options most users set in a class attribute ``MAIN_OPTIONS``
 (dotted keys); ``omnislam estimators`` lists those first and the rest by section (``--all``).
+``RENAMED_OPTIONS`` maps the earlier flat keys of options renamed on the way into a section to
+their dotted keys, for the message of an unknown key.
 """
 
 from __future__ import annotations
@@ -132,6 +134,9 @@ def _check_key(config: Any, key: str) -> None:
     sections = sorted({k.rsplit(".", 1)[0] for k in leaves if "." in k})
     if key in leaves or key in sections:
         return
+    renamed = renamed_options(config)
+    if key in renamed:
+        raise ConfigError(f"unknown option {key!r}; it is set as {renamed[key]!r}")
     moved = [k for k in leaves if k.rsplit(".", 1)[-1] == key.rsplit(".", 1)[-1]]
     if len(moved) == 1:
         raise ConfigError(f"unknown option {key!r}; it is set as {moved[0]!r}")
@@ -144,6 +149,13 @@ def _check_key(config: Any, key: str) -> None:
     else:
         known = f"known: {', '.join(tops)}"
     raise ConfigError(f"unknown option {key!r}{hint}; {known}")
+
+
+def renamed_options(config: Any) -> Mapping[str, str]:
+    """Earlier keys of options whose name changed when they moved into a section -> their
+    dotted keys now (a configuration's ``RENAMED_OPTIONS`` class attribute), for the message
+    of an unknown key; a key that only moved, its name kept, needs no entry."""
+    return dict(getattr(type(config), "RENAMED_OPTIONS", {}))
 
 
 def main_options(config: Any) -> tuple[str, ...]:

@@ -285,6 +285,15 @@ class EKFSLAMConfig:
         "bearings.min_parallax_deg",
         "bearings.landmarks_per_image",
     )
+    RENAMED_OPTIONS: ClassVar[dict[str, str]] = {
+        "association_test": "association.test",
+        "known_gate_probability": "outlier_gate.probability",
+        "known_gate_min_sightings": "outlier_gate.mature_sightings",
+        "known_gate_votes": "outlier_gate.votes",
+        "bearing_min_sightings": "bearings.min_track_sightings",
+        "bearing_min_parallax_deg": "bearings.min_parallax_deg",
+        "bearing_gate_probability": "bearings.track_gate_probability",
+    }
 
     motion_noise: MotionNoise = field(default_factory=MotionNoise)
     state: StateConfig = field(default_factory=StateConfig)

@@ -281,6 +281,9 @@ class UKFConfig:
         "association.gate_probability",
         "association.nearest_line",
     )
+    RENAMED_OPTIONS: ClassVar[dict[str, str]] = {
+        "association.track_tolerance_px": "tracking.tolerance_px",
+    }
 
     motion_noise: MotionNoise = field(default_factory=lambda: UKF_MOTION_NOISE)
     spacing: SpacingConfig = field(default_factory=SpacingConfig)

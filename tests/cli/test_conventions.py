@@ -305,3 +305,18 @@ def test_dataset_list_into_head_prints_one_line_and_no_error():
     )
     assert result.returncode == 0 and len(result.stdout.splitlines()) == 1
     assert "Traceback" not in result.stderr and "Error" not in result.stderr
+
+
+def test_renamed_options_name_their_new_keys():
+    from omnislam.errors import ConfigError
+    from omnislam.options import renamed_options
+
+    for name in ESTIMATORS:
+        config, _ = estimator_defaults(name)
+        if config is None:
+            continue
+        keys = {o.key for o in describe_options(config)}
+        for old, new in renamed_options(config).items():
+            assert new in keys and old not in keys, (name, old, new)
+            with pytest.raises(ConfigError, match=f"it is set as '{new}'"):
+                apply_options(config, {old: "1"})
