@@ -13,7 +13,7 @@ wall-clock time (its steps and final estimate)::
     .venv/bin/omnislam dataset synth campus1500 --out runs/campus1500     # once
     .venv/bin/python benchmarks/fastslam_campus.py [--data runs/campus1500] [--seeds 0 1 2]
         [--only fastslam2/50] [--only graphslam] [--no-baselines]
-        [--set new_landmark_log_likelihood=-10 ...]
+        [--set association.new_landmark_log_likelihood=-10 ...]
 
 Every run replays one front-end log of the folder with no image processed (``run_frontend(...,
 max_images=0)``, written to a temporary folder): the wheel odometry and the pole sightings,
@@ -106,7 +106,7 @@ def main() -> None:
             seeds = args.seeds if particles is not None else args.seeds[:1]
             options = {"association": "unknown", "modality": "range-bearing-2d"}
             if particles is not None:
-                options |= {"n_particles": str(particles), **extra}
+                options |= {"particles.n_particles": str(particles), **extra}
             for seed in seeds:
                 record = execute_run(RunSpec(data, name, seed, options, log))
                 metrics = evaluate_run(record, EvaluationOptions(landmark_gate_m=2.0))

@@ -12,8 +12,8 @@ has already mapped, measures in every particle, before the association:
   one), and
 * that landmark's log-likelihood for the sighting (the association's, ``association.py``:
   landmark, sighting and, for FastSLAM 2.0, predicted-pose covariance) against the
-  new-landmark threshold ``new_landmark_log_likelihood``: below it the particle starts a new
-  landmark instead.
+  new-landmark threshold ``association.new_landmark_log_likelihood``: below it the particle
+  starts a new landmark instead.
 
 Re-sightings are grouped by the pole's episode (2: the first return to it); the table gives per
 group the distance driven (true path) since the pole was last in view, the particles' median
@@ -55,7 +55,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
-    options = {"n_particles": str(args.particles), "modality": "range-bearing-2d"}
+    options = {"particles.n_particles": str(args.particles), "modality": "range-bearing-2d"}
     options |= set_options(parser, args.set)
     try:
         resolved = resolve(str(Path(args.data).resolve()))
@@ -77,7 +77,7 @@ def main() -> None:
         estimator.step(frame)
     landmarks = len(estimator.estimate().landmark_ids)
     print(f"{args.estimator}/{args.particles}, seed {args.seed}: {landmarks} landmarks at the end")
-    _report(probe, estimator.config.new_landmark_log_likelihood)
+    _report(probe, estimator.config.association.new_landmark_log_likelihood)
 
 
 class _Probe:

@@ -15,7 +15,7 @@ landmark, and the estimator's run time (sum of its step times; the machine's loa
 
     .venv/bin/python benchmarks/fastslam_lab40.py [--dataset runs/lab40] \
         [--log runs/lab40-results/logs/benchmarks-grids-..-..-runs-lab40.npz] [--seeds 0 1 2] \
-        [--set proposal_max_sightings=20] [--mrclam]
+        [--set proposal.max_sightings=20] [--mrclam]
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def omni_cells(extra: dict[str, str]) -> list[Cell]:
     cells = [Cell("deadreckoning", "deadreckoning", {})]
     for estimator in ("fastslam1", "fastslam2"):
         for update in ("triangulated", "direct"):
-            options = {"modality": "bearings-3d", "bearing_update": update, **extra}
+            options = {"modality": "bearings-3d", "bearings.update": update, **extra}
             cells.append(Cell(f"{estimator} {update}", estimator, options))
     return cells
 

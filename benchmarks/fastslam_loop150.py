@@ -16,9 +16,9 @@ at each particle count plus graphslam and dead reckoning, and prints per run:
 * the end error: the last pose's position error with the first pose anchored (no fit): whether
   the robot knows it is back at its start (the thesis's "returns to the initial point",
   sec. 5.1.2); dead reckoning's is its drift over the loop,
-* with ``--set trajectory=best_ancestry``, "one path until": the fraction of the run at whose
-  frames all final particles' paths pass through one particle (``PathHistory.lineages``):
-  that part of the trajectory no later sighting can revise.
+* with ``--set experimental.trajectory=best_ancestry``, "one path until": the fraction of the
+  run at whose frames all final particles' paths pass through one particle
+  (``PathHistory.lineages``): that part of the trajectory no later sighting can revise.
 
 ``graphslam-online`` is the same iSAM2 run read out causally: after every step its newest pose
 (the estimate given the data so far, as a filter reports it), where ``graphslam`` reports the
@@ -33,7 +33,7 @@ NEES mean <= 10x dof::
 
     PYTHONPATH=. .venv/bin/python benchmarks/fastslam_loop150.py [--seeds 0 1 2 3 4]
         [--particles 10 50 200 1000] [--variants fastslam1 fastslam2] [--no-baselines]
-        [--set trajectory=best_ancestry ...] [--backend open3d|numpy] [--no-bias]
+        [--set experimental.trajectory=best_ancestry ...] [--backend open3d|numpy] [--no-bias]
         [--keep DIR] [--graph-set motion_noise.a_vv=0.1 ...]
 """
 
@@ -149,12 +149,12 @@ def run_one(
         nees_mean = float(pose_nees(estimate.trajectory, estimate.pose_covariances, truth).mean)
     particles = resamplings = distinct_min = single_run = one_path_until = None
     if isinstance(slam, FastSLAM):
-        if slam.config.trajectory is TrajectoryMode.BEST_ANCESTRY:
+        if slam.config.experimental.trajectory is TrajectoryMode.BEST_ANCESTRY:
             lineages = slam.history.lineages()
             single = np.flatnonzero(lineages == 1)
             one_path_until = float(single[-1] + 1) / lineages.size if single.size else 0.0
         summary = slam.diversity.summary()
-        particles = slam.config.n_particles
+        particles = slam.config.particles.n_particles
         resamplings = summary.resamplings
         distinct_min = summary.distinct_min
         single_run = summary.single_ancestor_longest_run
@@ -312,12 +312,12 @@ def main() -> None:
         if not args.no_baselines:
             runs += [("deadreckoning", {}), ("graphslam", graph_extra), (ONLINE, graph_extra)]
         runs += [
-            (variant, {**extra, "n_particles": str(count)})
+            (variant, {**extra, "particles.n_particles": str(count)})
             for variant in args.variants
             for count in args.particles
         ]
         for estimator, options in runs:
-            particles = options.get("n_particles")
+            particles = options.get("particles.n_particles")
             label = estimator if particles is None else f"{estimator}@{particles}"
             print(f"{PRESET} seed {seed}: running {label} ...", file=sys.stderr, flush=True)
             row, _ = run_one(sequence, estimator, options, seed)

@@ -96,10 +96,10 @@ def main() -> None:
             with tempfile.TemporaryDirectory() as tmp:
                 sequence = loop.laser_only_sequence(seed, Path(tmp) / "loop150", None)
             for estimator in args.estimators:
-                used = {"n_particles": str(LOOP150_PARTICLES[estimator]), **options}
+                used = {"particles.n_particles": str(LOOP150_PARTICLES[estimator]), **options}
                 print(f"loop150 seed {seed}: running {estimator} ...", file=sys.stderr, flush=True)
                 _, slam = loop.run_one(sequence, estimator, used, args.seed)
-                label = f"loop150-s{seed} {estimator}@{used['n_particles']}"
+                label = f"loop150-s{seed} {estimator}@{used['particles.n_particles']}"
                 diagnose(label, slam.estimate(), sequence.ground_truth.trajectory)
 
 

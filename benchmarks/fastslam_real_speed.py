@@ -34,14 +34,14 @@ identical. A whole victoria-park fastslam1 run (``omnislam run``, one each, user
 624 -> 131 s (4.8x), RUN_DIR files byte-identical.
 
 Measured with ``--log`` against a checkout of f8bdf5c (before the compiled omni-bearing
-triangulations, landmark EKFs and FastSLAM 2.0 proposal, ``kernels.bearing_landmark_updates``
-/ ``refine_bearing_elevation`` ...), the lab40 render with its suite-s25 log
-(``lab40-s0-open3d-d256c450fab4-e991fd350d.npz``), seed 0, 2 shared cores, medians of 3
-alternated runs of the running stage's CPU seconds: fastslam1 5.39 -> 3.02 s (1.79x);
-fastslam1 ``--set islands=3 --set n_particles=300`` 16.14 -> 8.60 s (1.88x); fastslam2
-5.00 -> 1.46 s (3.43x); outputs identical. What is left of fastslam1 is mostly the landmark
-tree's path copying (``tree_scatter``, ~25 %: pointer chasing and copy-on-write of nodes
-after each resampling), the payload copies and the numpy transcendental calls.
+triangulations, landmark EKFs and FastSLAM 2.0 proposal, ``kernels.bearing_landmark_updates`` /
+``refine_bearing_elevation`` ...), the lab40 render with its suite-s25 log
+(``lab40-s0-open3d-d256c450fab4-e991fd350d.npz``), seed 0, 2 shared cores, medians of 3 alternated
+runs of the running stage's CPU seconds: fastslam1 5.39 -> 3.02 s (1.79x); fastslam1 ``--set
+experimental.islands=3 --set particles.n_particles=300`` 16.14 -> 8.60 s (1.88x); fastslam2 5.00 ->
+1.46 s (3.43x); outputs identical. What is left of fastslam1 is mostly the landmark tree's path
+copying (``tree_scatter``, ~25 %: pointer chasing and copy-on-write of nodes after each
+resampling), the payload copies and the numpy transcendental calls.
 """
 
 from __future__ import annotations

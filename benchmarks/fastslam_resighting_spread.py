@@ -1,11 +1,12 @@
 """How wide the spread since the last sighting is where FastSLAM associates (issue 16).
 
-Runs ``fastslam2`` with ``resighting_spread=1`` (``fastslam/resighting.py``) through the harness
-(``omnislam run DATASET --estimator fastslam2 --seed 0 --set resighting_spread=1``) and, at every
-association of unknown sightings, reads the spread of each candidate landmark (the odometry's
-covariance composed since that landmark's last sighting, in the robot frame): the percentiles
-of its position std sqrt(var x + var y) [m] and heading std [deg] over all (frame, candidate)
-pairs. A MR.CLAM dataset with ``:u`` runs with its ids hidden::
+Runs ``fastslam2`` with ``experimental.resighting_spread=1`` (``fastslam/resighting.py``) through
+the harness (``omnislam run DATASET --estimator fastslam2 --seed 0 --set
+experimental.resighting_spread=1``) and, at every association of unknown sightings, reads the
+spread of each candidate landmark (the odometry's covariance composed since that landmark's last
+sighting, in the robot frame): the percentiles of its position std sqrt(var x + var y) [m] and
+heading std [deg] over all (frame, candidate) pairs. A MR.CLAM dataset with ``:u`` runs with its
+ids hidden::
 
     PYTHONPATH=. OMNISLAM_DATA=../shared/data .venv/bin/python \\
         benchmarks/fastslam_resighting_spread.py [carmen-aces carmen-intel mrclam6-r1:u ...]
@@ -27,7 +28,7 @@ PERCENTILES = (50, 90, 99)
 
 def spreads(dataset: str) -> np.ndarray:
     """(N, 2) position std [m] and heading std [deg] of every candidate at every association."""
-    options = {"resighting_spread": "1"}
+    options = {"experimental.resighting_spread": "1"}
     if dataset.endswith(":u"):
         dataset, options["association"] = dataset[:-2], "unknown"
     rows: list[np.ndarray] = []

@@ -39,7 +39,10 @@ from omnislam.fastslam import (
     Kernels,
     LandmarkBlock,
     LandmarkStatus,
+    ParticlesConfig,
+    ProposalConfig,
     ProposalUpdateMode,
+    ResamplingConfig,
     StoreKind,
     Variant,
     make_fastslam,
@@ -120,9 +123,9 @@ def per_particle_observation(quick: bool) -> list[str]:
             make_fastslam(
                 FastSLAMConfig(
                     variant=variant,
-                    n_particles=n,
+                    particles=ParticlesConfig(n_particles=n),
                     motion_noise=NOISE,
-                    proposal_update=mode,
+                    proposal=ProposalConfig(update=mode),
                     kernels=path,
                 ),
                 Modality.RANGE_BEARING_2D,
@@ -132,7 +135,11 @@ def per_particle_observation(quick: bool) -> list[str]:
         ]
         if len(paths) > 1:  # compile outside the timed steps
             warmup = make_fastslam(
-                FastSLAMConfig(variant=Variant.FASTSLAM2, n_particles=4, kernels=Kernels.NUMBA),
+                FastSLAMConfig(
+                    variant=Variant.FASTSLAM2,
+                    particles=ParticlesConfig(n_particles=4),
+                    kernels=Kernels.NUMBA,
+                ),
                 Modality.RANGE_BEARING_2D,
                 np.random.default_rng(0),
             )
@@ -168,10 +175,10 @@ def populated_filter(store: StoreKind, n_landmarks: int, n_particles: int):
     """A filter whose particles all share a map of ``n_landmarks`` landmarks on a grid."""
     config = FastSLAMConfig(
         variant=Variant.FASTSLAM1,
-        n_particles=n_particles,
+        particles=ParticlesConfig(n_particles=n_particles, store=store),
         motion_noise=NOISE,
-        store=store,
-        resample_ess_fraction=1.0,  # resample every step: the dense store's worst case
+        # resample every step: the dense store's worst case
+        resampling=ResamplingConfig(ess_fraction=1.0),
     )
     slam = make_fastslam(config, Modality.RANGE_BEARING_2D, np.random.default_rng(2))
     slots = slam.add_known_landmarks(np.arange(n_landmarks))

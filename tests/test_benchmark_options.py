@@ -41,8 +41,8 @@ def _run(*argv: str) -> subprocess.CompletedProcess[str]:
     ("argv", "message"),
     [
         (
-            ["benchmarks/fastslam_readout.py", "--set", "n_particles"],
-            "--set takes KEY=VALUE, got 'n_particles'",
+            ["benchmarks/fastslam_readout.py", "--set", "particles.n_particles"],
+            "--set takes KEY=VALUE, got 'particles.n_particles'",
         ),
         (
             ["benchmarks/fastslam_mrclam.py", "--loader-set", "=1"],

@@ -69,10 +69,12 @@ def test_bad_options_name_the_key(options, message):
 def test_validation_of_the_config_itself_is_kept():
     from omnislam.fastslam import FastSLAMConfig
 
-    with pytest.raises(ConfigError, match="n_particles"):
-        apply_options(FastSLAMConfig(), {"n_particles": "0"})
-    config = apply_options(FastSLAMConfig(), {"motion_noise.a_vv": "0.2", "store": "dense"})
-    assert config.motion_noise.a_vv == 0.2 and config.store.value == "dense"
+    with pytest.raises(ConfigError, match=r"particles\.n_particles must be >= 1"):
+        apply_options(FastSLAMConfig(), {"particles.n_particles": "0"})
+    config = apply_options(
+        FastSLAMConfig(), {"motion_noise.a_vv": "0.2", "particles.store": "dense"}
+    )
+    assert config.motion_noise.a_vv == 0.2 and config.particles.store.value == "dense"
 
 
 @dataclass(frozen=True)

@@ -11,11 +11,11 @@ A grid file::
       - {dataset: victoria-park, estimators: [deadreckoning, fs1]}   # only these run on it
     estimators:
       - deadreckoning
-      - {estimator: fastslam1, label: fs1, options: {particles: 100}, seeds: [0, 1, 2]}
+      - {estimator: fastslam1, label: fs1, options: {particles.n_particles: 100}, seeds: [0, 1, 2]}
       - {estimator: ukf, label: ukf-on-graph, options: {prior_map: {from: graphslam}}}
     seeds: [0, 1]                   # default [0]; an estimator's own `seeds` win
     overrides:                      # optional option sets crossed with the estimators
-      - {particles: 50, estimators: [fastslam1]}   # `estimators` limits where one applies
+      - {particles.n_particles: 50, estimators: [fastslam1]}   # `estimators`: where it applies
     evaluation: {rpe_segment_m: 10, landmark_gate_m: 2}   # optional EvaluationOptions
 
 Every (dataset, estimator, seed, override) is a Cell with a deterministic id
@@ -489,7 +489,7 @@ datasets:                       # a registered name (`omnislam dataset list`) or
 estimators:                     # names from `omnislam estimators`, with their --set options
   - deadreckoning               #   (the baseline; not ranked in the verdict)
   - graphslam
-  - {{estimator: fastslam1, label: fs1, options: {{resampling: stratified}}}}
+  - {{estimator: fastslam1, label: fs1, options: {{resampling.scheme: stratified}}}}
   - ekfslam
   # - {{estimator: ukf, label: ukf-on-graph, options: {{prior_map: {{from: graphslam}}}}}}
                                 #   a localiser in the map of the graphslam cell of the same
@@ -499,10 +499,11 @@ estimators:                     # names from `omnislam estimators`, with their -
 seeds: [0, 1, 2]                # one run per seed (default [0]); the verdict uses their spread
 
 overrides:                      # option sets: an estimator they apply to runs once per
-  - {{n_particles: 30, estimators: [fs1]}}    #   override (on top of its own options) instead
-  - {{n_particles: 300, estimators: [fs1]}}   #   of once; `estimators` limits where one applies
-  # - {{wrong_id_fraction: 0.05}}             # (names or labels); harness options apply to all
-  # - {{clutter_per_frame: 0.5}}              #   (false detections per frame, without ids)
+  - {{particles.n_particles: 30, estimators: [fs1]}}    #   override (on top of its own options)
+  - {{particles.n_particles: 300, estimators: [fs1]}}   #   instead of once; `estimators` limits
+  # - {{wrong_id_fraction: 0.05}}                       #   where one applies (names or labels);
+  # - {{clutter_per_frame: 0.5}}                        #   harness options apply to all (false
+                                                      #   detections per frame, without ids)
 
 evaluation:                     # how every cell is scored (optional)
 {evaluation_text}

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -66,9 +66,16 @@ class MotionNoise:
             raise ValueError("reference_step_m must be None or positive")
 
 
+@runtime_checkable
 class MotionModel(Protocol):
-    """What an estimator needs from a motion model: ``OdometryMotionModel``, or any model
-    with the same ``sample`` / ``predict`` interface."""
+    """What an estimator needs from a motion model: ``OdometryMotionModel``,
+    ``StatedOdometryMotion``, or any model with the same ``sample`` / ``predict`` /
+    ``covariance`` interface.
+
+    ``covariance`` is the step's noise as a Gaussian on the robot-frame delta: what composes the
+    odometry of several steps (``compose_odometry``), accumulates the pose spread since a
+    landmark was last seen and gives a particle smoother its transition density.
+    """
 
     def sample(self, wTr: np.ndarray, delta_r: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """(P, 3) poses propagated by one odometry delta (3,) with independent noise."""
@@ -79,6 +86,11 @@ class MotionModel(Protocol):
     ) -> tuple[np.ndarray, np.ndarray]:
         """Linearised propagation of pose means [..., 3] and covariances [..., 3, 3] (None:
         exactly known poses) by one odometry delta."""
+        ...
+
+    def covariance(self, delta_r: np.ndarray) -> np.ndarray:
+        """(3, 3) covariance of the robot-frame delta (3,) [dx, dy, dtheta], in the previous
+        pose's frame."""
         ...
 
 
@@ -342,22 +354,28 @@ class StatedOdometryMotion:
     x' = x (+) (delta + L e), e ~ N(0, I), C = L L^T, and the linearised prediction of an
     exactly known pose is (x (+) delta, J_b C J_b^T) with J_b the Jacobian of the composition
     with respect to the delta (``se.se2_compose_jacobians``; Thrun et al. 2005 Table 7.1 with
-    the noise stated in the robot frame). It has ``OdometryMotionModel``'s ``sample`` /
-    ``predict`` interface for the one delta it was built with.
+    the noise stated in the robot frame). It is a ``MotionModel`` for the one delta it was
+    built with.
 
     Attributes:
         delta: (3,) the measured robot-frame delta [m, m, rad].
-        covariance: (3, 3) its covariance (symmetric positive definite).
+        delta_covariance: (3, 3) its covariance (symmetric positive definite), in the previous
+            pose's frame.
     """
 
     delta: np.ndarray
-    covariance: np.ndarray
+    delta_covariance: np.ndarray
+
+    def covariance(self, delta_r: np.ndarray) -> np.ndarray:
+        """(3, 3) the stated covariance (``delta_r`` must be the delta the model was built
+        with)."""
+        return self.delta_covariance
 
     def sample(self, wTr: np.ndarray, delta_r: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """(P, 3) poses moved by P independent draws of the delta (``delta_r`` must be the
         delta the model was built with)."""
         wTr = np.asarray(wTr, dtype=float)
-        chol = np.linalg.cholesky(self.covariance)
+        chol = np.linalg.cholesky(self.delta_covariance)
         noisy = rng.standard_normal((wTr.shape[0], 3)) @ chol.T
         noisy += np.asarray(delta_r, dtype=float)
         return se2_compose(wTr, noisy)
@@ -369,7 +387,7 @@ class StatedOdometryMotion:
         wTr = np.asarray(wTr, dtype=float)
         delta_r = np.asarray(delta_r, dtype=float)
         J_a, J_b = se2_compose_jacobians(wTr, delta_r)
-        noise = J_b @ self.covariance @ np.swapaxes(J_b, -1, -2)
+        noise = J_b @ self.delta_covariance @ np.swapaxes(J_b, -1, -2)
         mean = se2_compose(wTr, delta_r)
         if P is None:
             return mean, noise

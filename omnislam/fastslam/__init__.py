@@ -2,16 +2,24 @@
 
 ``FastSLAM(config, rng, modality=..., motion=...)`` implements the ``Estimator`` and
 ``Introspectable`` protocols; ``make_fastslam(config, modality, rng)`` builds its motion model
-from the configuration. Its name is ``config.variant.value`` ("fastslam1" or "fastslam2").
+from the configuration. Its name is ``config.variant.value`` ("fastslam1" or "fastslam2"). The
+configuration is a tree of sections (``FastSLAMConfig``: ``particles``, ``resampling``,
+``association``, ``proposal``, ``bearings``, ``existence``, ``experimental``).
 """
 
 from omnislam.fastslam.config import (
     PRESETS,
+    AssociationConfig,
+    BearingsConfig,
     BearingUpdate,
     ExistenceIndexConfig,
+    ExperimentalConfig,
     FastSLAMConfig,
     Kernels,
+    ParticlesConfig,
+    ProposalConfig,
     ProposalUpdateMode,
+    ResamplingConfig,
     ResamplingScheme,
     StatedOdometryNoise,
     StoreKind,
@@ -21,7 +29,8 @@ from omnislam.fastslam.config import (
 )
 from omnislam.fastslam.dense_store import DenseLandmarkStore
 from omnislam.fastslam.factory import make_fastslam, make_fastslam1, make_fastslam2
-from omnislam.fastslam.filter import FastSLAM, FastSLAMInfo, make_store
+from omnislam.fastslam.filter import FastSLAM, make_store
+from omnislam.fastslam.info import FastSLAMInfo
 from omnislam.fastslam.landmark_store import LandmarkBlock, LandmarkStatus, LandmarkStore
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.mapper import MODALITIES
@@ -29,9 +38,12 @@ from omnislam.fastslam.mapper import MODALITIES
 __all__ = [
     "MODALITIES",
     "PRESETS",
+    "AssociationConfig",
     "BearingUpdate",
+    "BearingsConfig",
     "DenseLandmarkStore",
     "ExistenceIndexConfig",
+    "ExperimentalConfig",
     "FastSLAM",
     "FastSLAMConfig",
     "FastSLAMInfo",
@@ -40,7 +52,10 @@ __all__ = [
     "LandmarkStatus",
     "LandmarkStore",
     "LandmarkTree",
+    "ParticlesConfig",
+    "ProposalConfig",
     "ProposalUpdateMode",
+    "ResamplingConfig",
     "ResamplingScheme",
     "StatedOdometryNoise",
     "StoreKind",

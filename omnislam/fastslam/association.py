@@ -8,11 +8,11 @@ new landmark. Different particles may associate differently; wrong hypotheses di
 resampling. Unknown association is supported for range-bearing sightings (the bearing mapper
 refuses bearings without track ids).
 
-Options (issue 16, all off by default): the pose term of S may be widened by the odometry's
-covariance since each landmark was last seen (``resighting.ResightingSpread``) or by the
-filter's pose covariance relative to its maps (``pose_spread.PoseSpread``); the new-landmark
-test may be a chi-square gate on y^T S^-1 y instead of log p0; and a frame's sightings may be
-assigned under mutual exclusion.
+Experimental options (``ExperimentalConfig``, all off by default): the pose term of S may be
+widened by the odometry's covariance since each landmark was last seen
+(``resighting.ResightingSpread``) or by the filter's pose covariance relative to its maps
+(``pose_spread.PoseSpread``); the new-landmark test may be a chi-square gate on y^T S^-1 y
+instead of log p0; and a frame's sightings may be assigned under mutual exclusion.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from omnislam.core.gaussian import (
     mahalanobis_squared,
 )
 from omnislam.core.measurement import MeasurementModel, RangeBearing2D
+from omnislam.fastslam.config import AssociationConfig
 from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkStore
 from omnislam.fastslam.pose_spread import PoseSpread
 from omnislam.fastslam.resighting import ResightingSpread
@@ -42,9 +43,9 @@ class SightingAssociation:
     Args:
         registry: the filter's slots (known ids, new slots, the positions near the robot).
         store: the landmark store (candidate landmarks of each particle's map).
-        margin_m: unknown sightings are compared with the landmarks whose last known position
-            lies within the largest sighting range plus this margin of the mean pose [m].
-        log_p0: log-likelihood threshold below which a particle creates a new landmark.
+        config: the association section: the new-landmark threshold log p0 and the margin of
+            the coarse gate (unknown sightings are compared with the landmarks whose last known
+            position lies within the largest sighting range plus ``margin_m`` of the mean pose).
         exclusive: one landmark explains at most one sighting of a frame (mutual exclusion).
         spread: the odometry's pose covariance accumulated since each landmark was last seen
             (``resighting.ResightingSpread``), added to the pose term of each candidate's
@@ -62,8 +63,7 @@ class SightingAssociation:
         self,
         registry: SlotRegistry,
         store: LandmarkStore,
-        margin_m: float,
-        log_p0: float,
+        config: AssociationConfig,
         exclusive: bool = False,
         spread: ResightingSpread | None = None,
         gate: float | None = None,
@@ -79,8 +79,8 @@ class SightingAssociation:
         self.matched = 0
         self.created = 0
         self._store = store
-        self._margin_m = margin_m
-        self._log_p0 = log_p0
+        self._margin_m = config.margin_m
+        self._log_p0 = config.new_landmark_log_likelihood
         self._exclusive = exclusive
         self._model = RangeBearing2D()
 

@@ -41,17 +41,17 @@ from omnislam.fastslam.bearing_landmarks import (
     triangulated_measurement,
     world_rays,
 )
-from omnislam.fastslam.config import BearingUpdate, FastSLAMConfig, TriangulationMethod
+from omnislam.fastslam.config import BearingsConfig, BearingUpdate, TriangulationMethod
 from omnislam.fastslam.landmark_store import ABSENT, ESTIMATED, RAY, LandmarkBlock
-from omnislam.fastslam.sightings import Pairs, Sightings
+from omnislam.fastslam.sightings import Sightings
 
 
 class BearingMapper:
     """``LandmarkMapper`` of the omni camera's unit bearings with track ids.
 
     Args:
-        config: the filter's settings (sensor height, bearing update, triangulation, parallax,
-            gate, proposal restrictions).
+        config: the bearings section (bearing update, triangulation, parallax, gate).
+        sensor_height_m: height of the camera's viewpoint above the ground plane [m].
         kernels: the compiled kernels (``kernels.compiled()``) for the triangulations and the
             updates of established landmarks, or None for the numpy path (the reference).
 
@@ -64,17 +64,21 @@ class BearingMapper:
     modality = Modality.BEARINGS_3D
     landmark_dim = 3
     ray_dim = RAY_DIM
+    #: triangulated landmarks: only converged ones refine the proposal
+    proposal_converged_only = True
 
-    def __init__(self, config: FastSLAMConfig, kernels: object | None = None) -> None:
+    def __init__(
+        self, config: BearingsConfig, sensor_height_m: float, kernels: object | None = None
+    ) -> None:
         self._config = config
         self._kernels = kernels
-        self._sensor_height_m = config.sensor_height_m
+        self._sensor_height_m = sensor_height_m
         self._min_parallax_rad = math.radians(config.min_parallax_deg)
-        self._range_az_el = RangeAzimuthElevation3D(config.sensor_height_m)
-        self._bearing = BearingElevation3D(config.sensor_height_m)
+        self._range_az_el = RangeAzimuthElevation3D(sensor_height_m)
+        self._bearing = BearingElevation3D(sensor_height_m)
         # validation gates of (azimuth, elevation) and (d, theta, phi) innovations
-        self._bearing_gate = chi_square_gate(config.bearing_gate_probability, 2)
-        self._triangulated_gate = chi_square_gate(config.bearing_gate_probability, 3)
+        self._bearing_gate = chi_square_gate(config.gate_probability, 2)
+        self._triangulated_gate = chi_square_gate(config.gate_probability, 3)
         # the proposal uses the direct model: the triangulated pseudo-measurement depends on
         # the very pose being sampled
         self.proposal_model = self._bearing
@@ -118,7 +122,7 @@ class BearingMapper:
         assert sightings.unit_vectors_r is not None and sightings.sigmas_rad is not None
         config = self._config
         # each ray enters two triangulations only when later sightings are triangulated too
-        triangulated = config.bearing_update is BearingUpdate.TRIANGULATED
+        triangulated = config.update is BearingUpdate.TRIANGULATED
         ray_reuse = config.triangulated_ray_reuse if triangulated else 1.0
         log_likelihood = np.zeros(len(block))
         rays = self._world_rays(wTr, sightings.unit_vectors_r, obs)
@@ -264,7 +268,7 @@ class BearingMapper:
         (``kernels.bearing_landmark_updates``); the transcendental functions are numpy's."""
         n = est.size
         wTr_est = wTr[est]
-        if self._config.bearing_update is BearingUpdate.TRIANGULATED:
+        if self._config.update is BearingUpdate.TRIANGULATED:
             points, valid, parallax = self._triangulate(block.ray, rays, est)
             triangulated = valid & (parallax >= self._min_parallax_rad)
             point_angles = self._azimuth_elevation(wTr_est, points)
@@ -344,34 +348,3 @@ class BearingMapper:
         )
         self.sightings_gated += int(accepted.size - np.count_nonzero(accepted))
         return accepted
-
-    def proposal_landmarks(
-        self, block: LandmarkBlock, pairs: Pairs, usable: np.ndarray
-    ) -> np.ndarray:
-        """Which usable pairs may refine the FastSLAM 2.0 proposal.
-
-        A landmark triangulated from two rays of little parallax is uncertain in depth and its
-        error is correlated with the poses that triangulated it; the proposal (which treats the
-        observations as independent given the map) then trusts it too much. Only landmarks
-        whose position std sqrt(tr Sigma) is at most ``proposal_max_landmark_std_m`` are used,
-        and of those at most ``proposal_max_sightings`` sightings, the best-converged (smallest
-        mean tr Sigma over the particles) first.
-
-        Returns:
-            (N,) bool over the pairs: ``usable`` and selected.
-        """
-        config = self._config
-        trace = np.trace(block.cov, axis1=-2, axis2=-1)
-        keep = trace <= config.proposal_max_landmark_std_m**2
-        cap = config.proposal_max_sightings
-        candidates = usable & keep
-        if cap > 0:
-            obs = pairs.obs[candidates]
-            if np.unique(obs).size > cap:
-                n_obs = int(pairs.obs.max()) + 1
-                total = np.bincount(obs, weights=trace[candidates], minlength=n_obs)
-                count = np.bincount(obs, minlength=n_obs)
-                score = np.where(count > 0, total / np.maximum(count, 1), np.inf)
-                best = np.argsort(score, kind="stable")[:cap]
-                keep &= np.isin(pairs.obs, best)
-        return usable & keep

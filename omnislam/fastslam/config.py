@@ -1,8 +1,11 @@
-"""Configuration of the FastSLAM estimator: one frozen dataclass, option enums, named presets.
+"""Configuration of the FastSLAM estimator: a tree of frozen sections, option enums, presets.
 
-Every default is documented next to the field. Presets reproduce the thesis's experiments
-(Guizilini 2008, sec. 5.1.2: FastSLAM 1.0 with 50 particles, FastSLAM 2.0 with 10 particles on
-route 1) and a fast setting for large range-bearing logs.
+``FastSLAMConfig`` holds the variant, the odometry noise, the rig's height and the kernels at
+the top and one section per collaborator (``particles``, ``resampling``, ``association``,
+``proposal``, ``bearings``, ``existence``), each handed only its own section; the research
+switches that were measured and left off live in ``experimental``. Presets reproduce the
+thesis's experiments (Guizilini 2008, sec. 5.1.2: FastSLAM 1.0 with 50 particles, FastSLAM 2.0
+with 10 particles on route 1) and the defaults of ``fastslam1`` / ``fastslam2``.
 """
 
 from __future__ import annotations
@@ -17,14 +20,8 @@ from omnislam.errors import ConfigError
 
 #: FastSLAM's default odometry noise: twice the alpha coefficients of the thesis's simulator
 #: (``MotionNoise()``, thesis eqs. 4.40-4.41). Those alphas describe white noise per step only;
-#: real odometry also drifts systematically (wheel scale, turn scale, curvature: 1-3 % per 10 m
-#: on the synthetic presets, ``benchmarks/odometry_drift.py``; MR.CLAM's commanded velocities
-#: are off by far more, ``benchmarks/fastslam_mrclam.py``), and a particle filter whose motion
-#: model leaves that out proposes poses around the biased odometry: its maps bend with the
-#: drift. Doubled, on loop150 (5 seeds) fastslam2@10 / fastslam2@50 / fastslam1@50 went from
-#: 1.07 / 0.54 / 0.90 m median ATE (worse than dead reckoning's 0.77 m) to 0.46 / 0.23 / 0.46 m,
-#: and on MR.CLAM (robots 1-5, seeds 0-2) fastslam2 / fastslam1 from 0.343 / 0.494 m to
-#: 0.290 / 0.414 m; tripled was worse on both (README, FastSLAM section).
+#: doubled, they also cover the systematic drift of real odometry (wheel scale, turn scale,
+#: curvature), around which a particle filter would otherwise propose its poses.
 DEFAULT_MOTION_NOISE = MotionNoise(a_vv=0.1, a_vw=0.02, a_wv=0.02, a_ww=0.1)
 
 
@@ -43,8 +40,7 @@ class StatedOdometryNoise(Enum):
 
     AUTO: from the stated covariance when the odometry is *measured* per step -- the front
         end's laser odometry (``SequenceInfo.odometry_source`` LASER: scans registered by
-        ICP, covariance from the point-to-line Hessian, calibrated against the corrected CARMEN
-        poses to a median NEES of 1.9-2.3 for chi-square(3)'s 2.37) -- and from the alpha model
+        ICP, covariance from the point-to-line Hessian) -- and from the alpha model
         (``motion_noise``) when it is wheel odometry, whose stated covariance, where a loader
         gives one, is a nominal formula of the step (MR.CLAM's frame-to-frame fit, CARMEN's
         ``odometry_noise``) and carries nothing the alphas do not. The default.
@@ -150,14 +146,7 @@ class TrajectoryMode(Enum):
         transition density, and the weighted covariance about it. Pose-only backward kernel:
         the particles' maps are not re-conditioned (an approximation, ``smoother.py``). Stores
         every particle's pose and weight at every step: O(P) memory per step, O(P^2) time
-        per step at the end. On carmen-aces the laser odometry's transition is so narrow
-        against the cloud's spread that the backward kernel keeps each particle's own parent
-        (1.0-1.2 effective parents), so the read-out is close to the genealogy's: median ATE
-        over seeds 0-9 / 0-29 fastslam1 1.93 / 2.00 -> 1.42 / 1.78 m, fastslam2 1.81 / 1.81
-        -> 1.77 / 1.77 m; corridor21, demo, intel, MR.CLAM and loop150 unchanged within the
-        seeds' spread, pose NEES worse (the smoothed weights sit on few particles). Not the
-        default: it does not bring FastSLAM to 0.3x dead reckoning on aces (docs/results.md,
-        "CARMEN aces, sixth attempt").
+        per step at the end.
     """
 
     WEIGHTED_MEAN = "weighted_mean"
@@ -173,6 +162,155 @@ class ResamplingScheme(Enum):
     MULTINOMIAL = "multinomial"
 
 
+def _probability(name: str, value: float) -> None:
+    """Raise ConfigError unless ``value`` lies in (0, 1]."""
+    if not 0.0 < value <= 1.0:
+        raise ConfigError(f"{name} must be in (0, 1]")
+
+
+@dataclass(frozen=True, slots=True)
+class ParticlesConfig:
+    """The particle set: how many, where they start, how their landmark maps are stored.
+
+    Attributes:
+        n_particles: number of particles P. Default 100 (the ``fastslam1`` preset; ``fastslam2``
+            uses 20): more particles sample the path posterior better at linear cost.
+        initial_pose_sigma: std of the initial pose (x, y, theta) [m, m, rad]. Default zero:
+            all particles start at the given pose, which anchors the map frame.
+        store: how each particle's landmark EKFs are stored (``StoreKind``). Default the
+            thesis's shared tree: O(P log M) per step, maps shared between particles.
+        initial_landmark_capacity: landmark slots allocated up front. Default 64: the stores
+            grow, this only saves the first reallocations.
+    """
+
+    n_particles: int = 100
+    initial_pose_sigma: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    store: StoreKind = StoreKind.TREE
+    initial_landmark_capacity: int = 64
+
+    def __post_init__(self) -> None:
+        if self.n_particles < 1:
+            raise ConfigError("particles.n_particles must be >= 1")
+        if min(self.initial_pose_sigma) < 0:
+            raise ConfigError("particles.initial_pose_sigma must be non-negative")
+        if self.initial_landmark_capacity < 1:
+            raise ConfigError("particles.initial_landmark_capacity must be >= 1")
+
+
+@dataclass(frozen=True, slots=True)
+class ResamplingConfig:
+    """When and how the particles are resampled (thesis sec. 4.4.2.3).
+
+    Attributes:
+        scheme: the resampling algorithm (``ResamplingScheme``). Default systematic: the
+            low-variance sampler of Thrun et al. 2005 Table 4.4, one uniform draw per step.
+        ess_fraction: resample when the effective sample size (thesis eq. 4.51) falls below
+            this fraction of P; 1.0 resamples every step with sightings, 0.0 never. Default 0.5:
+            resampling only when the weights have degenerated keeps the particles' diversity.
+    """
+
+    scheme: ResamplingScheme = ResamplingScheme.SYSTEMATIC
+    ess_fraction: float = 0.5
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.ess_fraction <= 1.0:
+            raise ConfigError("resampling.ess_fraction must be in [0, 1]")
+
+
+@dataclass(frozen=True, slots=True)
+class AssociationConfig:
+    """The per-particle maximum-likelihood association of sightings without id (Montemerlo
+    2003 sec. 3.4.1; Thrun et al. 2005 sec. 13.6).
+
+    Attributes:
+        new_landmark_log_likelihood: log p0: a particle makes a sighting of unknown
+            association a new landmark when none of its landmarks explains it with a
+            log-likelihood above log p0. Its weight is then multiplied by p0 (Thrun et al. 2005
+            Table 13.2). Default -6.0: the log-likelihood of a residual ~4 sigma out for ~0.1 m /
+            ~3 deg range-bearing noise.
+        margin_m: the coarse gate of the association: a sighting of unknown association is
+            compared only with the landmarks within the largest sighting range plus this margin
+            of the mean pose (by their last known position) [m]. The existence index takes the
+            same margin around its sensor range. Default 3.0: it keeps the association
+            O(nearby landmarks).
+    """
+
+    new_landmark_log_likelihood: float = -6.0
+    margin_m: float = 3.0
+
+    def __post_init__(self) -> None:
+        if self.margin_m < 0:
+            raise ConfigError("association.margin_m must be non-negative")
+
+
+@dataclass(frozen=True, slots=True)
+class ProposalConfig:
+    """FastSLAM 2.0's proposal: the motion prediction refined by the matched sightings (thesis
+    eqs. 4.45-4.46, Montemerlo 2003 sec. 3.3).
+
+    Attributes:
+        update: sequential or joint refinement by the matched sightings
+            (``ProposalUpdateMode``). Default sequential: Montemerlo's relinearised form, that of
+            every published number.
+        max_landmark_std_m: 3-D only: a landmark refines the proposal only when its position
+            std sqrt(tr Sigma) is at most this [m]. Default infinite: every triangulated
+            landmark takes part.
+        max_sightings: 3-D only: at most this many sightings refine the proposal, the
+            best-converged landmarks first; 0: no cap. Default 40: the errors of one particle's
+            map are correlated through its path, so ~200 omni bearings taken as independent
+            would make the proposal far narrower than the pose error.
+    """
+
+    update: ProposalUpdateMode = ProposalUpdateMode.SEQUENTIAL
+    max_landmark_std_m: float = math.inf
+    max_sightings: int = 40
+
+    def __post_init__(self) -> None:
+        if self.max_landmark_std_m <= 0 or self.max_sightings < 0:
+            raise ConfigError(
+                "proposal.max_landmark_std_m must be positive, proposal.max_sightings >= 0"
+            )
+
+
+@dataclass(frozen=True, slots=True)
+class BearingsConfig:
+    """3-D landmarks from omni bearings (``Modality.BEARINGS_3D``, thesis sec. 4.4.1.2).
+
+    Attributes:
+        update: how an established landmark is updated by a new bearing (``BearingUpdate``).
+            Default triangulated: the thesis's pseudo-measurement (eq. 4.25), with the direct
+            update where the parallax is too small.
+        triangulation: how two rays give a first landmark position (``TriangulationMethod``).
+            Default midpoint: the least-squares point of the two rays, which needs no
+            assumption on the landmark's height.
+        triangulated_ray_reuse: with triangulated updates, the pseudo-measurement's noise Q
+            (and the first estimate's, eq. 4.27) is multiplied by this; 1.0: the thesis as
+            printed. Default 2.0: each ray enters two successive triangulations, so without it
+            its information would be counted twice (``bearing_landmarks``).
+        min_parallax_deg: two rays closer than this are not triangulated; the first sighting
+            is kept until a ray with enough parallax arrives [deg]. Default 3.0 (as graphslam's
+            option of the same name): below it the depth is too uncertain to linearise.
+        gate_probability: the chi-square probability of the validation gate on bearing
+            innovations; 1.0: no gate. An innovation outside it (degrees of freedom: the
+            measurement's dimension) neither refines the proposal nor updates the landmark, and
+            weighs with the Gaussian truncated at the gate. Default 0.999: a feature track that
+            jumped to another point cannot move a landmark or decide between particles.
+    """
+
+    update: BearingUpdate = BearingUpdate.TRIANGULATED
+    triangulation: TriangulationMethod = TriangulationMethod.MIDPOINT
+    triangulated_ray_reuse: float = 2.0
+    min_parallax_deg: float = 3.0
+    gate_probability: float = 0.999
+
+    def __post_init__(self) -> None:
+        if self.min_parallax_deg < 0:
+            raise ConfigError("bearings.min_parallax_deg must be non-negative")
+        if self.triangulated_ray_reuse < 1.0:
+            raise ConfigError("bearings.triangulated_ray_reuse must be >= 1")
+        _probability("bearings.gate_probability", self.gate_probability)
+
+
 @dataclass(frozen=True, slots=True)
 class ExistenceIndexConfig:
     """The existence index of thesis sec. 5.1.2 and the sensor field it needs.
@@ -182,10 +320,12 @@ class ExistenceIndexConfig:
     is deleted from that particle's map.
 
     Attributes:
-        max_range_m: the sensor's range (thesis simulation: 4 m laser) [m].
-        min_range_m: landmarks closer than this are not expected to be seen [m].
-        half_fov_rad: half the horizontal field of view (pi: omnidirectional) [rad].
-        min_elevation_rad, max_elevation_rad: vertical field of the omni camera (3-D only) [rad].
+        max_range_m: the sensor's range [m]; setting any field of the section turns the index
+            on. Default 4.0: the thesis simulation's laser.
+        min_range_m: landmarks closer than this are not expected to be seen [m]. Default 0.0.
+        half_fov_rad: half the horizontal field of view [rad]. Default pi: omnidirectional.
+        min_elevation_rad, max_elevation_rad: the vertical field of the omni camera (3-D
+            landmarks only) [rad]. Default -pi/2 and pi/2: the whole sphere.
     """
 
     max_range_m: float = 4.0
@@ -202,259 +342,161 @@ class ExistenceIndexConfig:
 
 
 @dataclass(frozen=True, slots=True)
+class ExperimentalConfig:
+    """Research switches that were measured and left off (docs/results.md has the numbers).
+
+    Attributes:
+        trajectory: which trajectory ``estimate()`` reports (``TrajectoryMode``). Default
+            weighted_mean; best_ancestry and smoothed gained on one variant or one log only.
+        compose_gaps: frames without sightings compose their odometry and its covariance into
+            one Gaussian step (``gap.py``) that the next frame with sightings samples (1.0) or
+            refines by its sightings (2.0). Default off: better on one CARMEN aces log, worse
+            on another.
+        likelihood_temper: FastSLAM 1.0 only: its importance factor is p(z | x)^t (thesis eq.
+            4.47 raised to t; annealed importance sampling, Neal 2001); 1.0: the thesis.
+            Default 1.0: smaller values keep the particles diverse by discarding the sightings'
+            information, and the error grows.
+        islands: K: the particles form K islands of near-equal size, independent particle
+            filters averaged with equal weights, each normalised to 1/K and resampled from its
+            own weights (``resampling.island_resample``); set ``particles.n_particles`` to K
+            times one filter's. Default 1 (one filter): K filters cost K times the CPU.
+        association_exclusive: a frame's sightings of unknown association are associated under
+            mutual exclusion: per particle, no landmark takes two of them
+            (``association._exclusive_choice``). Default off: it helped on Victoria Park and
+            hurt on MR.CLAM without ids.
+        association_gate_probability: below 1, a sighting of unknown association starts a new
+            landmark when no landmark's squared Mahalanobis distance lies inside the chi-square
+            quantile of this probability (2 dof), and goes to the likeliest landmark inside it
+            otherwise; a new landmark still weighs p0. Default 1.0: the log p0 test alone
+            (``association.new_landmark_log_likelihood``); no gate measured came closer to the
+            association with ids.
+        resighting_spread: the innovation covariance of the association of unknown sightings
+            also holds the odometry's pose covariance accumulated since each landmark was last
+            seen, times this factor (``resighting.ResightingSpread``; the association decision
+            only). Default 0.0 (off): the composed spread makes neighbouring laser landmarks
+            compatible.
+        association_pose_spread: the innovation covariance of the association of unknown
+            sightings also holds this factor times the filter's pose covariance relative to its
+            maps (``pose_spread.PoseSpread``; 2-D, the association decision only). Default 0.0
+            (off): it helped MR.CLAM without ids and hurt CARMEN and Victoria Park.
+        confirm_sightings: a landmark a particle made of a sighting of unknown association is
+            tentative until that particle has seen it this many times, the first included
+            (Montemerlo 2003 ch. 4's provisional landmarks): its sightings update it but neither
+            refine the proposal nor weigh with their innovation likelihood (they weigh p0).
+            Default 1 (none tentative): 2 and 3 gave no gain on CARMEN aces.
+        outlier_gate_probability: 2-D range-bearing only: the chi-square probability of a
+            per-particle outlier gate (as graphslam's and ekfslam's option of the same name):
+            an innovation outside it neither refines the proposal nor updates the landmark, and
+            weighs with the Gaussian truncated at the gate (``range_bearing_mapper``). Default
+            1.0 (no gate): the particle set is far narrower than its error, so once it has
+            drifted the gate rejects the correct sightings too.
+    """
+
+    trajectory: TrajectoryMode = TrajectoryMode.WEIGHTED_MEAN
+    compose_gaps: bool = False
+    likelihood_temper: float = 1.0
+    islands: int = 1
+    association_exclusive: bool = False
+    association_gate_probability: float = 1.0
+    resighting_spread: float = 0.0
+    association_pose_spread: float = 0.0
+    confirm_sightings: int = 1
+    outlier_gate_probability: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.likelihood_temper <= 1.0:
+            raise ConfigError("experimental.likelihood_temper must be in (0, 1]")
+        if self.islands < 1:
+            raise ConfigError("experimental.islands must be >= 1")
+        if not 0.0 <= self.resighting_spread < math.inf:
+            raise ConfigError("experimental.resighting_spread must be finite and non-negative")
+        if not 0.0 <= self.association_pose_spread < math.inf:
+            raise ConfigError(
+                "experimental.association_pose_spread must be finite and non-negative"
+            )
+        _probability(
+            "experimental.association_gate_probability", self.association_gate_probability
+        )
+        if self.confirm_sightings < 1:
+            raise ConfigError("experimental.confirm_sightings must be >= 1")
+        _probability("experimental.outlier_gate_probability", self.outlier_gate_probability)
+        if self.compose_gaps and self.trajectory is TrajectoryMode.SMOOTHED:
+            raise ConfigError(
+                "experimental.trajectory=smoothed needs every step sampled: "
+                "not experimental.compose_gaps"
+            )
+
+
+@dataclass(frozen=True, slots=True)
 class FastSLAMConfig:
-    """The settings of a FastSLAM estimator.
+    """The settings of a FastSLAM estimator: a few values every part needs, then one section per
+    collaborator.
 
     What it observes (``core.modality.Modality``, resolved once by the shared rule) and its
     motion model are given to ``FastSLAM`` at construction, not set here; the factories build
     the motion model from ``motion_noise``.
 
     Attributes:
-        variant: FastSLAM 1.0 or 2.0; also the estimator's ``name``.
-        n_particles: number of particles P.
-        motion_noise: alpha coefficients of thesis eqs. 4.40-4.41, from which the factories
-            (``make_fastslam``) build the ``OdometryMotionModel`` (default
-            ``DEFAULT_MOTION_NOISE``: twice the simulator's, to cover systematic drift).
-            ``motion_noise.reference_step_m=0.03`` (off by default) scales a step longer than
-            3 cm (the simulator's step) so that its variance grows linearly with its length
-            (``core.motion.MotionNoise``): on Victoria Park (0.62 m frames; the default alphas
-            4.4x wider there than the odometry's measured error against GPS) fastslam2's median
-            ATE over seeds 0-2 falls from 9.44 to 2.58 m, but on MR.CLAM 6 with ids (2 cm
-            steps, longer ones across sighting gaps) from 0.203 to 0.233 m and fastslam1's r1
-            from 0.30 to 0.52 m: worse beyond the seed spread, so it is not the default
-            (docs/results.md, "Victoria Park: FastSLAM against GPS").
-        stated_odometry_noise: where a frame's odometry states its covariance
-            (``Odometry.covariance``: the front end's laser odometry, MR.CLAM, CARMEN logs with
-            ``odometry_noise``, gtsam's victoria_park.txt), whether poses are sampled from it
-            (``core.motion.StatedOdometryMotion``: additive on the delta in the previous pose's
-            frame, as the graph and EKF-SLAM use it) instead of from ``motion_noise``
-            (``StatedOdometryNoise``). Default AUTO: yes for laser odometry (a covariance
-            measured per step), no for wheel odometry. Measured on the CARMEN logs (laser
-            odometry, seeds 0-2, ``benchmarks/ekfslam_accuracy.py --datasets carmen-intel
-            carmen-aces``) fastslam1 / fastslam2 median ATE intel 0.90 / 0.64 m and aces 2.92 /
-            1.84 m, against 7.10 / 7.31 m and 6.78 / 7.17 m from the alphas (``--set
-            stated_odometry_noise=false``), which are far wider than the registration's error
-            and leave the few, ambiguous laser landmarks to sort the particles. On MR.CLAM 6
-            (wheel odometry with a stated frame-to-frame fit; robots 1-5, seeds 0-2,
-            ``benchmarks/fastslam_mrclam.py --set stated_odometry_noise=true``) sampling the
-            stated noise makes fastslam2's median ATE grow from 0.203 to 0.345 m with the
-            loader's 2 s steps (0.271 -> 0.602 m with frames at sighting times only): that
-            noise (1.3-7x the alphas) spreads the particles wider than the sightings can sort
-            out, and the proposal follows the sightings' per-robot biases; AUTO leaves MR.CLAM
-            on the alphas.
-        compose_gaps: frames without sightings compose their odometry and its covariance into
-            one Gaussian step (``gap.py``) instead of sampling each; the next frame with
-            sightings samples the whole gap (FastSLAM 1.0) or refines it by its sightings (2.0),
-            so a particle that drifted over a gap can be moved back by the whole gap's spread.
-        likelihood_temper: FastSLAM 1.0 only: its importance factor is p(z | x)^t (thesis eq.
-            4.47 raised to t; for the Mahalanobis term the same as weighing with R / t), the
-            tempered likelihood of annealed importance sampling (Neal 2001). 1.0 (default):
-            the thesis. Measured on loop150 (5 seeds, benchmarks/fastslam_loop150.py): t = 0.02
-            ends FastSLAM 1.0's collapse onto one ancestor (longest single-ancestor run 1
-            instead of 17 at 50 particles) but the median ATE grows from 0.46 to 1.40 m,
-            beyond dead reckoning's 0.77 m: the diversity is bought by discarding the
-            sightings' information, so it is not the default.
-        resample_ess_fraction: resample when ESS (thesis eq. 4.51) < fraction * P; 1.0 resamples
-            every step with observations, 0.0 never.
-        islands: K: the particles form K islands of near-equal size, independent particle
-            filters averaged with equal weights -- each island's weights are normalised to 1/K
-            and each island is resampled from its own weights when its own ESS falls below
-            ``resample_ess_fraction`` of its size (``resampling.island_resample``), so the
-            weighted-mean read-out is the mean of the K filters' estimates. A variance
-            reduction by independent replication: each collapsed filter keeps one draw of the
-            sampled odometry noise, K filters average K draws; not the posterior's combination
-            (which would weigh the islands by their evidence: measured to pick one island).
-            Set ``n_particles`` to K times the particles of one filter. 1 (default): one filter.
-            Measured with full-size islands (each the default filter; docs/results.md, CARMEN
-            aces, session 18): carmen-aces median ATE over seeds 0-9 fastslam1 1.93 -> 1.41 /
-            1.12 m at K = 3 / 5, fastslam2 1.81 -> 1.31 / 1.19 m; intel and loop150 gain,
-            MR.CLAM with ids within its seed spread, lab40's paths better and maps worse; K
-            times the CPU, hence not the default.
-        resampling: the resampling algorithm (low-variance systematic by default, Thrun et al.
-            2005 Table 4.4).
-        store: landmark storage (thesis tree by default).
-        sensor_height_m: height of the omni camera's viewpoint above the ground plane (3-D) [m].
-        bearing_update: update of established 3-D landmarks (thesis triangulation or direct).
-        triangulation: first 3-D estimate from two rays.
-        triangulated_ray_reuse: with ``BearingUpdate.TRIANGULATED``, the pseudo-measurement's
-            noise Q (and the first estimate's, eq. 4.27) is multiplied by this: each ray enters
-            two successive triangulations (new ray, then stored sighting), so without inflation
-            its information is counted twice (``bearing_landmarks``). 1.0: the thesis as
-            printed. Not applied with ``DIRECT`` updates, where every ray is used once.
-        min_parallax_deg: two rays closer than this are not triangulated; the first sighting is
-            kept until a ray with enough parallax arrives [deg] (as graphslam's option).
-        new_landmark_log_likelihood: log p0, Montemerlo 2003 sec. 3.4.1 / Thrun et al. Table
-            13.2: for sightings of unknown association, a particle creates a new landmark when no
-            existing landmark explains the sighting with a log-likelihood above log p0, and its
-            weight is then multiplied by p0. The default suits ~0.1 m / ~3 deg range-bearing
-            noise: it is the log-likelihood of a residual ~4 sigma out.
-        association_margin_m: unknown sightings are only compared with landmarks whose last
-            known position lies within the largest sighting range plus this margin of the mean
-            pose [m] (a coarse gate that keeps association O(nearby landmarks)).
-        association_exclusive: unknown sightings of one frame are associated under mutual
-            exclusion (``association._exclusive_choice``): per particle, no landmark takes two
-            of them. Off by default: on Victoria Park (a particle gave one landmark two of a
-            frame's sightings in 262 of 7230 frames) it takes fastslam2's median ATE over seeds
-            0-2 from 9.44 to 4.93 m, but on MR.CLAM 6 without ids (seed 0) it is worse on four
-            of five robots with more landmarks on all, and CARMEN was not measured
-            (docs/results.md, "Victoria Park: FastSLAM against GPS").
-        resighting_spread: sightings of unknown association are compared with each landmark
-            under an innovation covariance that also holds the odometry's pose covariance
-            accumulated since that landmark was last seen, times this factor
-            (``resighting.ResightingSpread``: the motion model's step covariance -- the stated
-            one where it is sampled -- composed over the gap, Smith, Self & Cheeseman 1990),
-            the "pose uncertainty since it last saw the landmark" of issue 16: a landmark seen
-            again after a long gap stays inside the p0 gate although the particle set is far
-            narrower than its error. It enters the association decision only (not the
-            proposal, the landmark update or the weights). 0.0 (default): off. Measured
-            (fastslam2, seeds 0-2, ``--set association=unknown``): at 3 MR.CLAM 6's median ATE
-            on robots 1-5 falls from 1.126 / 1.070 / 2.521 / 0.940 / 0.489 m to 0.717 / 0.500
-            / 2.056 / 0.465 / 0.487 m (41-106 landmarks for 15), but carmen-aces goes from
-            1.63-1.82 m to 2.9-14.8 m, carmen-intel from 0.24-1.08 m to 5.7-11.1 m and Victoria
-            Park from 8.9-10.7 m to 91-111 m (at 1: aces 3.3-9.2 m, intel 3.4-6.2 m): the
-            composed spread makes neighbouring laser landmarks compatible, so it is not the
-            default (docs/results.md, "FastSLAM without ids on MR.CLAM").
-        association_pose_spread: sightings of unknown association are compared with each
-            landmark under an innovation covariance that also holds this factor times the
-            filter's pose covariance relative to its maps (``pose_spread.PoseSpread``: predicted
-            by the odometry, shrunk by the information of every matched sighting, EKF
-            localisation against the particles' maps, Thrun et al. 2005 Tables 7.1-7.2).
-            Association only. 0.0 (default): off. Measured (fastslam2, seeds 0-2, ``--set
-            association=unknown``): at 30 MR.CLAM 6's median ATE on robots 1-5 falls from
-            1.126 / 1.070 / 2.521 / 0.940 / 0.489 m (50-113 landmarks for 15) to 0.497 / 0.464
-            / 0.709 / 0.235 / 0.327 m (16-38 landmarks; robot 4 within 1.5x of its ATE with
-            ids, 16 landmarks), but carmen-aces' median goes from 1.805 to 2.015 m,
-            carmen-intel's from 0.627 to 1.021 m and Victoria Park (seed 0) from 8.85 to 26.8
-            m, so it is not the default (docs/results.md, "FastSLAM without ids on MR.CLAM").
-        association_gate_probability: 1.0 (default): a sighting of unknown association starts
-            a new landmark when its likeliest landmark's log-likelihood is below
-            ``new_landmark_log_likelihood`` (Montemerlo 2003 sec. 3.4.1). Below 1: when no
-            landmark's squared Mahalanobis distance lies inside the chi-square quantile of this
-            probability (2 dof), and it goes to the likeliest landmark inside it otherwise
-            (``association.maximum_likelihood_association``); a new landmark still weighs p0.
-            With the spread a wide S cannot start a new landmark by its determinant alone.
-            Measured on MR.CLAM 6 without ids (fastslam2, seed 0): with ``resighting_spread=1``
-            at 0.999 robots 1-5 0.775 / 0.942 / 2.930 / 1.727 / 0.378 m (55-141 landmarks);
-            with ``resighting_spread=10`` at 0.9999 robots 1 / 3 0.558 / 0.619 m against
-            1.246 / 0.883 m without the gate: no setting within the issue's goal.
-        confirm_sightings: a landmark of unknown association (a sighting without id that a
-            particle made a new landmark) is tentative until that particle has seen it this
-            many times, the first sighting included (the provisional landmarks of Montemerlo
-            2003 ch. 4; the thesis's existence index, sec. 5.1.2, counts the same sightings): a
-            sighting paired with a tentative landmark updates it but neither refines the
-            FastSLAM 2.0 proposal nor weighs with its innovation likelihood -- its weight
-            factor is p0, a new landmark's -- so a landmark born of a spurious or wrongly
-            chained sighting cannot select particles until it is confirmed. Landmarks with ids
-            are never tentative. 1 (default): every landmark counts from its first
-            re-sighting. Measured on carmen-aces (one front-end log, seeds 0-9, median ATE
-            fastslam1 / fastslam2): 1.93 / 1.81 m at 1, 1.96 / 2.37 m at 2, fastslam2 1.86 m
-            at 3 -- no gain, so it stays off (docs/results.md, "CARMEN aces, fifth attempt").
-        bearing_gate_probability: 3-D only: a bearing innovation whose squared Mahalanobis
-            distance exceeds the chi-square quantile of this probability (degrees of freedom = the
-            measurement's dimension) is an outlier -- a feature track that jumped to another
-            point. It neither refines the FastSLAM 2.0 proposal nor updates the landmark EKF, and
-            its weight factor is the Gaussian likelihood truncated at the gate (a robust
-            likelihood: one bad track cannot decide between particles). 1.0 disables the gate.
-        outlier_gate_probability: 2-D range-bearing only: the chi-square probability of a
-            per-particle outlier gate, the equivalent of graphslam's and ekfslam's option of
-            the same name (``core.gating``): an innovation outside it neither refines the
-            FastSLAM 2.0 proposal (gate on y^T L^-1 y, L the proposal's predictive covariance)
-            nor updates the landmark EKF (gate on y^T S^-1 y), and its weight factor is the
-            Gaussian truncated at the gate (``range_bearing_mapper``). Default 1.0 (no gate):
-            at 0.999 (the graph's) MR.CLAM 6 fastslam2's median ATE grows from 0.203 to
-            1.88 m (robots 1-5, seeds 0-2, ``benchmarks/fastslam_mrclam.py --set
-            outlier_gate_probability=0.999``; r3 3.2 m): the particle set is far narrower
-            than its error (pose NEES 1e7-1e32), so once the set has drifted the gate rejects
-            the correct sightings too and nothing pulls it back. The graph's gate works on
-            iSAM2's marginals, which are consistent.
-        proposal_update: FastSLAM 2.0 only: sequential (Montemerlo 2003, the default) or joint
-            refinement of the proposal by the matched observations (``ProposalUpdateMode``).
-        proposal_max_landmark_std_m: 3-D only: a landmark refines the FastSLAM 2.0 proposal only
-            when its position std sqrt(tr Sigma) is at most this (a converged triangulation;
-            infinite: every established landmark) [m].
-        proposal_max_sightings: 3-D only: at most this many sightings refine the proposal, the
-            best-converged landmarks first (0: no cap). The landmark errors of one particle's
-            map are correlated through its path, so ~200 omni bearings treated as independent
-            make the proposal far narrower than the pose error; on lab40 a cap of 10-40 halves
-            fastslam2's ATE (1.6-2.2 cm -> 0.8-1.3 cm, 3 seeds) and its run time.
-        existence: the existence index of thesis 5.1.2, or None to keep every landmark forever.
-        trajectory: which trajectory ``estimate()`` reports.
-        initial_pose_sigma: std of the initial pose (x, y, theta) [m, m, rad]; zero: all
-            particles start at the given pose (the map frame is anchored at the first pose).
-        initial_landmark_capacity: landmark slots allocated up front (the stores grow).
-        kernels: compiled kernels or the numpy reference for the landmark tree, the 2-D
-            landmark EKF and FastSLAM 2.0's sequential 2-D proposal (``Kernels``; same numbers
-            to rounding, ``kernels.py``).
+        variant: FastSLAM 1.0 or 2.0; also the estimator's ``name``. Default 1.0; the
+            ``fastslam2`` preset sets 2.0.
+        motion_noise: the alpha coefficients of thesis eqs. 4.40-4.41 from which the factories
+            build the ``OdometryMotionModel``. Default ``DEFAULT_MOTION_NOISE``: twice the
+            simulator's, to cover systematic drift.
+        stated_odometry_noise: whether a step's poses are sampled from its odometry's stated
+            covariance (``Odometry.covariance``) instead of from ``motion_noise``
+            (``StatedOdometryNoise``). The sample is additive on the delta in the previous
+            pose's frame (``core.motion.StatedOdometryMotion``), as the graph and EKF-SLAM use a
+            stated covariance. Default auto: yes for laser odometry, a covariance measured per
+            step, no for wheel odometry, whose stated noise is a nominal formula.
+        sensor_height_m: height of the omni camera's viewpoint above the ground plane (3-D
+            landmarks and the existence index's elevation band) [m]. Default 0.0; the factories
+            take the dataset's rig height when it states one.
+        kernels: compiled kernels or the numpy reference for the per-pair loops of every part
+            (``Kernels``; the same numbers to rounding, ``kernels.py``). Default auto: compiled
+            when numba is installed.
+        particles: the particle set and its maps (``ParticlesConfig``).
+        resampling: when and how to resample (``ResamplingConfig``).
+        association: sightings without id (``AssociationConfig``).
+        proposal: FastSLAM 2.0's proposal (``ProposalConfig``).
+        bearings: 3-D landmarks from omni bearings (``BearingsConfig``).
+        existence: the existence index of thesis 5.1.2 (``ExistenceIndexConfig``). Default
+            none: every landmark is kept; the thesis presets turn it on.
+        experimental: switches measured and left off (``ExperimentalConfig``).
     """
 
+    #: the options most users set (``omnislam estimators fastslam1``; ``--all`` lists the rest)
+    MAIN_OPTIONS = (
+        "particles.n_particles",
+        "motion_noise.a_vv",
+        "motion_noise.a_vw",
+        "motion_noise.a_wv",
+        "motion_noise.a_ww",
+        "stated_odometry_noise",
+        "resampling.ess_fraction",
+        "association.new_landmark_log_likelihood",
+        "association.margin_m",
+        "proposal.max_sightings",
+        "bearings.min_parallax_deg",
+        "bearings.gate_probability",
+        "existence.max_range_m",
+    )
+
     variant: Variant = Variant.FASTSLAM1
-    n_particles: int = 100
     motion_noise: MotionNoise = DEFAULT_MOTION_NOISE
     stated_odometry_noise: StatedOdometryNoise = StatedOdometryNoise.AUTO
-    compose_gaps: bool = False
-    resample_ess_fraction: float = 0.5
-    islands: int = 1
-    likelihood_temper: float = 1.0
-    resampling: ResamplingScheme = ResamplingScheme.SYSTEMATIC
-    store: StoreKind = StoreKind.TREE
     sensor_height_m: float = 0.0
-    bearing_update: BearingUpdate = BearingUpdate.TRIANGULATED
-    triangulation: TriangulationMethod = TriangulationMethod.MIDPOINT
-    triangulated_ray_reuse: float = 2.0
-    min_parallax_deg: float = 3.0
-    new_landmark_log_likelihood: float = -6.0
-    association_margin_m: float = 3.0
-    association_exclusive: bool = False
-    resighting_spread: float = 0.0
-    association_pose_spread: float = 0.0
-    association_gate_probability: float = 1.0
-    confirm_sightings: int = 1
-    bearing_gate_probability: float = 0.999
-    outlier_gate_probability: float = 1.0
-    proposal_update: ProposalUpdateMode = ProposalUpdateMode.SEQUENTIAL
-    proposal_max_landmark_std_m: float = math.inf
-    proposal_max_sightings: int = 40
-    existence: ExistenceIndexConfig | None = None
-    trajectory: TrajectoryMode = TrajectoryMode.WEIGHTED_MEAN
-    initial_pose_sigma: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    initial_landmark_capacity: int = 64
     kernels: Kernels = Kernels.AUTO
+    particles: ParticlesConfig = ParticlesConfig()
+    resampling: ResamplingConfig = ResamplingConfig()
+    association: AssociationConfig = AssociationConfig()
+    proposal: ProposalConfig = ProposalConfig()
+    bearings: BearingsConfig = BearingsConfig()
+    existence: ExistenceIndexConfig | None = None
+    experimental: ExperimentalConfig = ExperimentalConfig()
 
     def __post_init__(self) -> None:
-        if self.n_particles < 1:
-            raise ConfigError("n_particles must be >= 1")
-        if not 0.0 < self.likelihood_temper <= 1.0:
-            raise ConfigError("likelihood_temper must be in (0, 1]")
-        if not 0.0 <= self.resample_ess_fraction <= 1.0:
-            raise ConfigError("resample_ess_fraction must be in [0, 1]")
-        if not 1 <= self.islands <= self.n_particles:
-            raise ConfigError("islands must be in [1, n_particles]")
-        if self.min_parallax_deg < 0 or self.association_margin_m < 0:
-            raise ConfigError("min_parallax_deg and association_margin_m must be non-negative")
-        if not 0.0 <= self.resighting_spread < math.inf:
-            raise ConfigError("resighting_spread must be finite and non-negative")
-        if not 0.0 <= self.association_pose_spread < math.inf:
-            raise ConfigError("association_pose_spread must be finite and non-negative")
-        if not 0.0 < self.association_gate_probability <= 1.0:
-            raise ConfigError("association_gate_probability must be in (0, 1]")
-        if self.confirm_sightings < 1:
-            raise ConfigError("confirm_sightings must be >= 1")
-        if self.triangulated_ray_reuse < 1.0:
-            raise ConfigError("triangulated_ray_reuse must be >= 1")
-        if not 0.0 < self.bearing_gate_probability <= 1.0:
-            raise ConfigError("bearing_gate_probability must be in (0, 1]")
-        if not 0.0 < self.outlier_gate_probability <= 1.0:
-            raise ConfigError("outlier_gate_probability must be in (0, 1]")
-        if self.proposal_max_landmark_std_m <= 0 or self.proposal_max_sightings < 0:
-            raise ConfigError(
-                "proposal_max_landmark_std_m must be positive, proposal_max_sightings >= 0"
-            )
-        if min(self.initial_pose_sigma) < 0:
-            raise ConfigError("initial_pose_sigma must be non-negative")
-        if self.compose_gaps and self.trajectory is TrajectoryMode.SMOOTHED:
-            raise ConfigError("trajectory=smoothed needs every step sampled: not compose_gaps")
-        if self.initial_landmark_capacity < 1:
-            raise ConfigError("initial_landmark_capacity must be >= 1")
+        if self.experimental.islands > self.particles.n_particles:
+            raise ConfigError("experimental.islands must be at most particles.n_particles")
 
     @property
     def name(self) -> str:
@@ -462,38 +504,27 @@ class FastSLAMConfig:
         return self.variant.value
 
     def with_(self, **changes: object) -> FastSLAMConfig:
-        """A copy with some fields changed (validated again)."""
+        """A copy with some top-level fields or whole sections changed (validated again)."""
         return replace(self, **changes)
 
-    # -- named presets -------------------------------------------------------------------------
 
-    @classmethod
-    def thesis_fastslam1(cls) -> FastSLAMConfig:
-        """Thesis route 1 (Fig. 5.6): FastSLAM 1.0 with 50 particles, existence index on."""
-        return cls(variant=Variant.FASTSLAM1, n_particles=50, existence=ExistenceIndexConfig())
-
-    @classmethod
-    def thesis_fastslam2(cls) -> FastSLAMConfig:
-        """Thesis route 1 (Fig. 5.6): FastSLAM 2.0 with 10 particles, existence index on."""
-        return cls(variant=Variant.FASTSLAM2, n_particles=10, existence=ExistenceIndexConfig())
-
-    @classmethod
-    def thesis_route2_fastslam2(cls) -> FastSLAMConfig:
-        """Thesis route 2 (Fig. 5.8): the long route needs FastSLAM 2.0 with 50 particles."""
-        return cls(variant=Variant.FASTSLAM2, n_particles=50, existence=ExistenceIndexConfig())
-
-    @classmethod
-    def omni(cls, sensor_height_m: float, variant: Variant = Variant.FASTSLAM2) -> FastSLAMConfig:
-        """Omni camera bearings (3-D landmarks, ``Modality.BEARINGS_3D``) with the thesis's
-        triangulated updates."""
-        return cls(variant=variant, n_particles=50, sensor_height_m=sensor_height_m)
+def _preset(variant: Variant, n_particles: int, existence: bool = False) -> FastSLAMConfig:
+    """The defaults with ``variant``, ``n_particles`` and, for the thesis's experiments, the
+    existence index on (thesis sec. 5.1.2)."""
+    return FastSLAMConfig(
+        variant=variant,
+        particles=ParticlesConfig(n_particles=n_particles),
+        existence=ExistenceIndexConfig() if existence else None,
+    )
 
 
 PRESETS: dict[str, FastSLAMConfig] = {
-    "fastslam1": FastSLAMConfig(variant=Variant.FASTSLAM1, n_particles=100),
-    "fastslam2": FastSLAMConfig(variant=Variant.FASTSLAM2, n_particles=20),
-    "thesis-fastslam1": FastSLAMConfig.thesis_fastslam1(),
-    "thesis-fastslam2": FastSLAMConfig.thesis_fastslam2(),
-    "thesis-route2-fastslam2": FastSLAMConfig.thesis_route2_fastslam2(),
+    "fastslam1": _preset(Variant.FASTSLAM1, 100),
+    "fastslam2": _preset(Variant.FASTSLAM2, 20),
+    # thesis route 1 (Fig. 5.6): FastSLAM 1.0 with 50 particles, 2.0 with 10
+    "thesis-fastslam1": _preset(Variant.FASTSLAM1, 50, existence=True),
+    "thesis-fastslam2": _preset(Variant.FASTSLAM2, 10, existence=True),
+    # thesis route 2 (Fig. 5.8): the long route needs FastSLAM 2.0 with 50 particles
+    "thesis-route2-fastslam2": _preset(Variant.FASTSLAM2, 50, existence=True),
 }
 """Named presets (``omnislam run ... --estimator fastslam2`` starts from ``PRESETS[name]``)."""

@@ -3,25 +3,29 @@
 One step (thesis Fig. 4.1, Fig. 4.11):
 
 1. *Prediction.* FastSLAM 1.0 samples each particle's pose from the odometry motion model
-   (thesis eqs. 4.38-4.44). FastSLAM 2.0 refines the motion prediction of each particle by its
+   (thesis eqs. 4.38-4.44), or from the odometry's stated covariance where it samples that
+   (``step_motion.py``). FastSLAM 2.0 refines the motion prediction of each particle by its
    matched observations of established landmarks and samples from that (eqs. 4.45-4.46,
    ``proposal_sampling.py``). A frame without observations only predicts (asynchronous front
    end, sec. 4.5), and the weights stay as they are.
 2. *Association.* Known ids address their slots in every particle; sightings of unknown
    association are associated per particle by maximum likelihood (``association.py``).
 3. *Mapping.* Per particle and sighting, the landmark EKF of the filter's modality (sec.
-   4.4.1): range-bearing landmarks are initialised from the sighting and EKF-updated
-   (``range_bearing_mapper.py``); bearing landmarks store a ray (eq. 4.24), are triangulated at
-   a later sighting (eqs. 4.21, 4.26-4.27) and EKF-updated afterwards (eqs. 4.29-4.37), with a
-   chi-square gate against jumped feature tracks (``bearing_mapper.py``). The existence index
-   (sec. 5.1.2, ``existence.py``) optionally deletes landmarks that keep not being seen where
-   they should be.
+   4.4.1, ``landmark_update.py``): range-bearing landmarks are initialised from the sighting
+   and EKF-updated (``range_bearing_mapper.py``); bearing landmarks store a ray (eq. 4.24), are
+   triangulated at a later sighting (eqs. 4.21, 4.26-4.27) and EKF-updated afterwards (eqs.
+   4.29-4.37), with a chi-square gate against jumped feature tracks (``bearing_mapper.py``).
+   The existence index (sec. 5.1.2, ``existence.py``) optionally deletes landmarks that keep
+   not being seen where they should be.
 4. *Weights.* Log-likelihood of the innovations (1.0: eq. 4.47 with S from eq. 4.34; 2.0: the
    predictive likelihood that also includes the pose uncertainty), normalised (eq. 4.48).
 5. *Resampling* with the low-variance sampler, only when ESS (eq. 4.51) drops below a fraction
-   of P (sec. 4.4.2.3); the landmark store copies maps by reference (tree) or by value (dense).
+   of P (sec. 4.4.2.3, ``resampler.py``); the landmark store copies maps by reference (tree) or
+   by value (dense).
 
-Landmarks are addressed by slots shared by all particles (``slot_registry.py``).
+Landmarks are addressed by slots shared by all particles (``slot_registry.py``). Each
+collaborator is built from its section of ``FastSLAMConfig``; ``FastSLAM.step`` calls them in
+this order.
 """
 
 from __future__ import annotations
@@ -31,17 +35,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from omnislam.core.gating import chi_square_gate
-from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
-from omnislam.core.motion import MotionModel, StatedOdometryMotion
-from omnislam.core.se import se2_compose
-from omnislam.core.types import Estimate, FrameInput, OdometrySource
+from omnislam.core.motion import MotionModel
+from omnislam.core.types import Estimate, FrameInput, OdometrySource, Trajectory
 from omnislam.errors import ConfigError
 from omnislam.fastslam.association import SightingAssociation
-from omnislam.fastslam.bearing_mapper import BearingMapper
 from omnislam.fastslam.config import (
+    ExperimentalConfig,
     FastSLAMConfig,
-    ResamplingScheme,
     StoreKind,
     TrajectoryMode,
     Variant,
@@ -50,30 +51,22 @@ from omnislam.fastslam.dense_store import DenseLandmarkStore
 from omnislam.fastslam.diversity import DiversityLog
 from omnislam.fastslam.existence import ExistenceIndex
 from omnislam.fastslam.gap import ComposedGap
+from omnislam.fastslam.info import FastSLAMInfo
 from omnislam.fastslam.kernels import resolve as resolve_kernels
 from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkBlock, LandmarkStore
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
+from omnislam.fastslam.landmark_update import LandmarkUpdate
 from omnislam.fastslam.mapper import make_mapper
-from omnislam.fastslam.particles import ParticleSet, PathHistory
+from omnislam.fastslam.particles import ParticleSet, PathHistory, initial_poses
 from omnislam.fastslam.pose_spread import PoseSpread
 from omnislam.fastslam.proposal_sampling import ProposalSampler
-from omnislam.fastslam.resampling import (
-    island_bounds,
-    island_resample,
-    multinomial_resample,
-    normalize_per_island,
-    stratified_resample,
-    systematic_resample,
-)
+from omnislam.fastslam.resampler import Resampler
 from omnislam.fastslam.resighting import ResightingSpread
-from omnislam.fastslam.sightings import Pairs, Sightings, tentative_pairs
+from omnislam.fastslam.sightings import Pairs, Sightings
 from omnislam.fastslam.slot_registry import SlotRegistry
+from omnislam.fastslam.step_motion import OdometryNoise, StepMotion
 
-_RESAMPLERS = {
-    ResamplingScheme.SYSTEMATIC: systematic_resample,
-    ResamplingScheme.STRATIFIED: stratified_resample,
-    ResamplingScheme.MULTINOMIAL: multinomial_resample,
-}
+__all__ = ["FastSLAM", "FastSLAMInfo", "make_store"]
 
 
 def make_store(
@@ -93,82 +86,51 @@ def make_store(
 
 
 @dataclass(frozen=True, slots=True)
-class FastSLAMInfo:
-    """What a FastSLAM estimator has done so far (``FastSLAM.info``; ``estimator_info.json``).
+class _Draw:
+    """A frame's sampled poses, what its sightings address, and their weight factors so far.
 
     Attributes:
-        variant: FastSLAM 1.0 or 2.0.
-        modality: the observation stream it reads.
-        particles: number of particles P.
-        frames: frames consumed.
-        frames_with_sightings: frames that carried sightings of the modality (mapped and
-            weighed; the others only predicted).
-        frames_stated_odometry: frames whose pose noise was drawn from the odometry's stated
-            covariance (``config.stated_odometry_noise``), not from the alpha model.
-        resample_count: resamplings so far.
-        last_ess: effective sample size after the last update (thesis eq. 4.51).
-        landmark_slots: landmarks known to any particle (slots).
-        landmarks: landmarks estimated in the best particle's map (those ``estimate()``
-            reports).
-        rays_pending: landmarks of the best particle with a stored ray only, waiting for a ray
-            with enough parallax (3-D).
-        unknown_slots: slots created for sightings of unknown association.
-        unknown_matched: (particle, sighting) decisions that gave a sighting of unknown
-            association to a landmark of the particle's map.
-        unknown_new: (particle, sighting) decisions that made such a sighting a new landmark.
-        landmarks_pruned: (particle, landmark) deletions by the existence index (thesis
-            5.1.2).
-        sightings_gated: (particle, sighting) landmark updates rejected by the outlier gate
-            (3-D: the bearing gate; 2-D: ``outlier_gate_probability``).
-        proposal_sightings_gated: (particle, sighting) pairs the gate kept out of the
-            FastSLAM 2.0 proposal.
-        triangulation_fallbacks: triangulated updates of established landmarks replaced by
-            the direct bearing update for lack of parallax (3-D, ``BearingUpdate.TRIANGULATED``).
-        distinct_ancestors_min: fewest distinct particles of the previous step any step's set
-            descended from (``diversity.py``; 1: the set collapsed onto one particle).
-        distinct_ancestors_median: median distinct ancestors over the resampling steps.
-        single_ancestor_steps: steps with sightings whose set descended from one particle.
-        single_ancestor_longest_run: longest run of consecutive such steps.
-        ess_min: smallest effective sample size before resampling.
-        log_evidence: the particle filter's estimate of log p(z_1:t)
-            (``ParticleSet.log_evidence``).
+        poses: (P, 3) the sampled poses.
+        pairs: the (particle, slot, sighting) pairs of the association.
+        log_factors: (P,) log weight factors of the sampling (FastSLAM 2.0's proposal).
+        block: the landmarks of all the pairs as gathered for the proposal, or None.
     """
 
-    variant: Variant
-    modality: Modality
-    particles: int
-    frames: int
-    frames_with_sightings: int
-    frames_stated_odometry: int
-    resample_count: int
-    last_ess: float
-    landmark_slots: int
-    landmarks: int
-    rays_pending: int
-    unknown_slots: int
-    unknown_matched: int
-    unknown_new: int
-    landmarks_pruned: int
-    sightings_gated: int
-    proposal_sightings_gated: int
-    triangulation_fallbacks: int
-    distinct_ancestors_min: int
-    distinct_ancestors_median: float
-    single_ancestor_steps: int
-    single_ancestor_longest_run: int
-    ess_min: float
-    log_evidence: float
+    poses: np.ndarray
+    pairs: Pairs
+    log_factors: np.ndarray
+    block: LandmarkBlock | None
+
+
+def _spreads(
+    experimental: ExperimentalConfig, modality: Modality
+) -> tuple[ResightingSpread | None, PoseSpread | None]:
+    """The association's widened pose terms, when on: the spread since each landmark was last
+    seen, and the pose spread relative to the maps (range-bearing sightings only)."""
+    spread = (
+        ResightingSpread(experimental.resighting_spread)
+        if experimental.resighting_spread > 0
+        else None
+    )
+    pose_spread = (
+        PoseSpread(experimental.association_pose_spread)
+        if experimental.association_pose_spread > 0 and modality is Modality.RANGE_BEARING_2D
+        else None
+    )
+    return spread, pose_spread
 
 
 class FastSLAM:
     """FastSLAM 1.0 / 2.0 estimator (``omnislam.core.types.Estimator``, ``Introspectable``).
 
     Args:
-        config: all settings; ``config.variant`` sets ``name`` ("fastslam1" / "fastslam2").
+        config: all settings; ``config.variant`` sets ``name`` ("fastslam1" / "fastslam2"),
+            each collaborator gets its section.
         rng: the only source of randomness.
         modality: the one observation stream it reads (``Modality.RANGE_BEARING_2D`` or
             ``Modality.BEARINGS_3D``), resolved by the shared rule (``core.modality``).
-        motion: the motion model (``OdometryMotionModel``, or any ``MotionModel``).
+        motion: the motion model (``OdometryMotionModel``, or any ``core.motion.MotionModel``:
+            its ``covariance`` composes gaps, widens the association and smooths the path).
         initial_pose: (3,) [x, y, theta] of the first frame; the map is anchored there.
         odometry_source: where the frames' odometry comes from, WHEEL (the dataset's) or
             LASER (the front end's scan matching, ``ObservationLog.odometry_source``);
@@ -176,7 +138,8 @@ class FastSLAM:
             covariance is sampled (``StatedOdometryNoise.resolve``).
 
     Raises:
-        ConfigError: a modality FastSLAM does not consume, or a bad initial pose.
+        ConfigError: a modality FastSLAM does not consume, a motion model without the
+            ``MotionModel`` interface, or a bad initial pose.
     """
 
     def __init__(
@@ -191,86 +154,91 @@ class FastSLAM:
     ) -> None:
         if not isinstance(odometry_source, OdometrySource):
             raise ConfigError(f"unknown odometry source {odometry_source!r}: wheel or laser")
+        if not isinstance(motion, MotionModel):
+            raise ConfigError(
+                f"{type(motion).__name__} is not a motion model: FastSLAM needs sample, "
+                "predict and covariance (core.motion.MotionModel)"
+            )
         self.config = config
         self.name = config.name
         self._rng = rng
         self._motion = motion
-        self._sample_stated = config.stated_odometry_noise.resolve(odometry_source)
-        # a gap is composed only with a motion model that states a step's covariance
-        self._gap = ComposedGap() if config.compose_gaps and hasattr(motion, "covariance") else None
+        experimental = config.experimental
         kernels = resolve_kernels(config.kernels)
-        self._mapper = make_mapper(modality, config, kernels)
-        pose = np.zeros(3) if initial_pose is None else np.asarray(initial_pose, dtype=float)
-        if pose.shape != (3,) or not np.all(np.isfinite(pose)):
-            raise ConfigError(f"initial_pose must be a finite (3,) array, got {pose!r}")
-        p = config.n_particles
-        poses = np.tile(pose, (p, 1))
-        sigma = np.asarray(config.initial_pose_sigma, dtype=float)
-        if np.any(sigma > 0):
-            poses = poses + sigma * rng.standard_normal((p, 3))
-        self._particles = ParticleSet(poses)
-        self._history = PathHistory(
-            keep_particles=config.trajectory is not TrajectoryMode.WEIGHTED_MEAN, kernels=kernels
+        sample_stated = config.stated_odometry_noise.resolve(odometry_source)
+        self._odometry = OdometryNoise(motion, sample_stated)
+        self._mapper = make_mapper(
+            modality,
+            config.bearings,
+            config.sensor_height_m,
+            experimental.outlier_gate_probability,
+            kernels,
         )
-        self._smoothing = config.trajectory is TrajectoryMode.SMOOTHED
-        if self._smoothing and not hasattr(motion, "covariance"):
-            raise ConfigError("trajectory=smoothed needs a motion model with a covariance")
+        particles = config.particles
+        p = particles.n_particles
+        self._particles = ParticleSet(
+            initial_poses(p, initial_pose, particles.initial_pose_sigma, rng)
+        )
+        self._history = PathHistory(
+            keep_particles=experimental.trajectory is not TrajectoryMode.WEIGHTED_MEAN,
+            kernels=kernels,
+        )
         self._store = make_store(
-            config.store,
+            particles.store,
             p,
             self._mapper.landmark_dim,
             self._mapper.ray_dim,
-            config.initial_landmark_capacity,
+            particles.initial_landmark_capacity,
             kernels,
         )
         self._slots = SlotRegistry(self._store)
-        # the spread since a landmark's last sighting needs a motion model that states a step's
-        # covariance (``OdometryMotionModel.covariance``)
-        self._spread = (
-            ResightingSpread(config.resighting_spread)
-            if config.resighting_spread > 0 and hasattr(motion, "covariance")
-            else None
-        )
-        self._pose_spread = (
-            PoseSpread(config.association_pose_spread)
-            if config.association_pose_spread > 0
-            and hasattr(motion, "covariance")
-            and modality is Modality.RANGE_BEARING_2D
-            else None
-        )
-        self._association = SightingAssociation(
-            self._slots,
-            self._store,
-            config.association_margin_m,
-            config.new_landmark_log_likelihood,
-            config.association_exclusive,
-            self._spread,
-            None
-            if config.association_gate_probability >= 1.0
-            else chi_square_gate(config.association_gate_probability, 2),
-            self._pose_spread,
-            kernels,
-        )
+        self._gap = ComposedGap() if experimental.compose_gaps else None
+        self._spread, self._pose_spread = _spreads(experimental, modality)
+        self._association = self._associate(config, kernels)
         self._proposal = ProposalSampler(
-            self._mapper, config.proposal_update, motion, rng, kernels, config.confirm_sightings
+            self._mapper, config.proposal, motion, rng, kernels, experimental.confirm_sightings
+        )
+        self._log_p0 = config.association.new_landmark_log_likelihood
+        self._landmarks = LandmarkUpdate(
+            self._mapper,
+            self._store,
+            self._slots,
+            self._log_p0,
+            weigh=config.variant is Variant.FASTSLAM1,
+            confirm_sightings=experimental.confirm_sightings,
+            likelihood_temper=experimental.likelihood_temper,
+            spread=self._spread,
         )
         self._existence = (
             None
             if config.existence is None
             else ExistenceIndex(
-                config.existence, config.association_margin_m, config.sensor_height_m
+                config.existence, config.association.margin_m, config.sensor_height_m
             )
         )
-        self._islands = None if config.islands == 1 else island_bounds(p, config.islands)
+        self._resampler = Resampler(config.resampling, p, experimental.islands, rng)
         self._diversity = DiversityLog(p)
-        #: number of resamplings so far
-        self.resample_count = 0
         #: effective sample size after the last update
         self.last_ess = float(p)
         self._frames = 0
         self._frames_with_sightings = 0
         self._proposal_gated = 0
-        self._frames_stated = 0
+
+    def _associate(self, config: FastSLAMConfig, kernels: object | None) -> SightingAssociation:
+        """The association of the filter's slots and store: its section, the experimental
+        exclusion and gate, and the spreads."""
+        experimental = config.experimental
+        gate = experimental.association_gate_probability
+        return SightingAssociation(
+            self._slots,
+            self._store,
+            config.association,
+            exclusive=experimental.association_exclusive,
+            spread=self._spread,
+            gate=None if gate >= 1.0 else chi_square_gate(gate, 2),
+            pose_spread=self._pose_spread,
+            kernels=kernels,
+        )
 
     # -- read-only views ----------------------------------------------------------------------
 
@@ -299,90 +267,42 @@ class FastSLAM:
         """Distinct ancestors and ESS of every step with sightings (``diversity.py``)."""
         return self._diversity
 
+    @property
+    def resample_count(self) -> int:
+        """Resamplings so far."""
+        return self._resampler.count
+
     # -- the Estimator protocol -----------------------------------------------------------------
 
     def step(self, frame: FrameInput) -> None:
-        """Predict with the frame's odometry; if it carries sightings of the modality, map,
-        weigh and resample when the effective sample size is low."""
+        """Predict with the frame's odometry; if it carries sightings of the modality, draw the
+        poses (FastSLAM 2.0: refined by the sightings), map, weigh, and resample when the
+        effective sample size is low."""
         self._frames += 1
-        delta = frame.odometry.delta
         sightings = self._mapper.read(frame)
-        particles = self._particles
-        stated = None
-        if frame.odometry.covariance is not None and self._sample_stated:
-            stated = StatedOdometryMotion(delta, frame.odometry.covariance)
-            self._frames_stated += 1
-        motion = self._motion if stated is None else stated
-        gap = self._gap
+        move = self._odometry.step(frame.odometry)
         if self._pose_spread is not None:
-            mean = particles.mean_pose()
-            self._pose_spread.predict(mean, se2_compose(mean, delta), self._step_cov(delta, stated))
+            mean = self._particles.mean_pose()
+            self._pose_spread.predict_step(mean, move.delta, move.covariance())
         if sightings is None:
-            if self._spread is not None:
-                self._spread.advance(delta, self._step_cov(delta, stated))
-            if gap is not None:
-                particles.poses = gap.extend(particles.poses, delta, self._step_cov(delta, stated))
-            else:
-                particles.poses = motion.sample(particles.poses, delta, self._rng)
-            self._history.record(frame.stamp_s, particles, self._transition(delta, stated))
+            self._predict(frame.stamp_s, move)
             return
         self._frames_with_sightings += 1
-        step_delta, step_stated = delta, stated
-        previous = particles.poses
-        if gap is not None and gap.open:
-            # the whole gap and this step as one Gaussian motion (``gap.py``)
-            previous, delta, stated = gap.close(delta, self._step_cov(delta, stated))
-            motion = stated
-        if self.config.variant is Variant.FASTSLAM1:
-            poses = motion.sample(previous, delta, self._rng)
-            pairs = self._association.pairs(sightings, poses, None, particles.weights)
-            log_factors = np.zeros(len(particles))
-            gathered = None
-        else:
-            mean, cov = self._proposal.predict(previous, delta, stated)
-            pairs = self._association.pairs(sightings, mean, cov, particles.weights)
-            draw = self._proposal.sample(
-                previous, delta, mean, cov, sightings, pairs, self._store, stated
-            )
-            poses, log_factors, gathered = draw.poses, draw.log_factors, draw.block
-            self._proposal_gated += draw.gated
-            if draw.tentative.any():  # a tentative landmark's sighting weighs as a new one
-                log_factors = log_factors + self.config.new_landmark_log_likelihood * np.bincount(
-                    pairs.particle[draw.tentative], minlength=len(particles)
-                )
+        previous, sampled = self._whole_gap(move)
+        draw = self._draw(previous, sampled, sightings)
         if self._spread is not None:  # after the association: the spread up to the last step
-            self._spread.advance(step_delta, self._step_cov(step_delta, step_stated))
-        particles.poses = poses
-        log_factors += self._update_landmarks(poses, sightings, pairs, gathered)
-        if self._pose_spread is not None:
-            self._shrink_pose_spread(poses, sightings, pairs, particles.weights)
-        if self._existence is not None:
-            self._existence.apply(self._store, self._slots, poses, particles.weights, pairs)
-        particles.reweight(log_factors, self._islands)
-        self._history.record(frame.stamp_s, particles, self._transition(delta, stated))
-        self.last_ess = particles.effective_sample_size()
-        fraction = self.config.resample_ess_fraction
-        # fraction 1 means "every step": ESS of equal weights is P only up to rounding
-        ancestors = None
-        if self._islands is not None:
-            ancestors = self._resample_islands()
-        elif fraction >= 1.0 or self.last_ess < fraction * len(particles):
-            ancestors = self._resample()
-        self._diversity.record(self.last_ess, ancestors)
+            self._spread.advance(move.delta, move.covariance())
+        log_factors = self._map(draw, sightings)
+        self._weigh_and_resample(frame.stamp_s, log_factors, sampled)
 
     def estimate(self) -> Estimate:
-        """The trajectory chosen by ``config.trajectory`` and the best particle's map.
+        """The trajectory chosen by ``config.experimental.trajectory`` and the best particle's
+        map.
 
         2-D landmarks are reported with z = 0 and zero z-variance.
         """
         best = self._particles.best()
-        if self.config.trajectory is TrajectoryMode.BEST_ANCESTRY:
-            trajectory = self._history.ancestry_trajectory(best)
-            pose_covariances = self._history.covariances_about(trajectory.se2)
-        elif self.config.trajectory is TrajectoryMode.SMOOTHED:
-            trajectory, pose_covariances = self._history.smoothed_trajectory()
-        else:
-            trajectory, pose_covariances = self._history.mean_trajectory()
+        trajectory, pose_covariances = self._trajectory(best)
         if self._store.n_landmarks == 0:
             return Estimate(trajectory, pose_covariances=pose_covariances)
         block = self._store.particle_map(best)
@@ -403,9 +323,6 @@ class FastSLAM:
     def info(self) -> FastSLAMInfo:
         """Counts of what the filter did (``core.types.Introspectable``)."""
         status = self._store.particle_map(self._particles.best()).status
-        mapper = self._mapper
-        bearing = mapper if isinstance(mapper, BearingMapper) else None
-        gated = getattr(mapper, "sightings_gated", 0)
         diversity = self._diversity.summary()
         return FastSLAMInfo(
             variant=self.config.variant,
@@ -413,7 +330,7 @@ class FastSLAM:
             particles=len(self._particles),
             frames=self._frames,
             frames_with_sightings=self._frames_with_sightings,
-            frames_stated_odometry=self._frames_stated,
+            frames_stated_odometry=self._odometry.frames_stated,
             resample_count=self.resample_count,
             last_ess=self.last_ess,
             landmark_slots=self._slots.n_slots,
@@ -423,9 +340,9 @@ class FastSLAM:
             unknown_matched=self._association.matched,
             unknown_new=self._association.created,
             landmarks_pruned=0 if self._existence is None else self._existence.pruned,
-            sightings_gated=gated,
+            sightings_gated=self._mapper.sightings_gated,
             proposal_sightings_gated=self._proposal_gated,
-            triangulation_fallbacks=0 if bearing is None else bearing.triangulation_fallbacks,
+            triangulation_fallbacks=self._mapper.triangulation_fallbacks,
             distinct_ancestors_min=diversity.distinct_min,
             distinct_ancestors_median=diversity.distinct_median_at_resampling,
             single_ancestor_steps=diversity.single_ancestor_steps,
@@ -441,144 +358,96 @@ class FastSLAM:
         """
         return self._slots.slots_for_ids(np.asarray(ids, dtype=np.int64))
 
-    def _shrink_pose_spread(
-        self, poses: np.ndarray, sightings: Sightings, pairs: Pairs, weights: np.ndarray
-    ) -> None:
-        """The information of the frame's matched sightings (not the new landmarks) into the
-        pose spread (``pose_spread.PoseSpread.update``)."""
-        rows = np.flatnonzero(~pairs.new_unknown)
-        if rows.size == 0:
-            return
-        block = self._store.gather(pairs.particle[rows], pairs.slot[rows])
-        ok = block.status == ESTIMATED
-        rows = rows[ok]
-        who = pairs.particle[rows]
-        self._pose_spread.update(
-            RangeBearing2D(),
-            poses[who],
-            block.mean[ok],
-            block.cov[ok],
-            sightings.R[pairs.obs[rows]],
-            who,
-            weights,
-        )
+    # -- the stages of a step -------------------------------------------------------------------
 
-    def _step_cov(self, delta: np.ndarray, stated: StatedOdometryMotion | None) -> np.ndarray:
-        """(3, 3) covariance of one odometry delta: the stated one being sampled, else the
-        motion model's (``OdometryMotionModel.covariance``)."""
-        if stated is not None:
-            return stated.covariance
-        return self._motion.covariance(delta)  # type: ignore[attr-defined]
-
-    def _transition(
-        self, delta: np.ndarray, stated: StatedOdometryMotion | None
-    ) -> tuple[np.ndarray, np.ndarray] | None:
-        """The step's (delta, covariance) for the smoothed read-out (None when not smoothing)."""
-        if not self._smoothing:
-            return None
-        return np.array(delta, dtype=float), self._step_cov(delta, stated)
-
-    # -- mapping -------------------------------------------------------------------------------
-
-    def _update_landmarks(
-        self,
-        poses: np.ndarray,
-        sightings: Sightings,
-        pairs: Pairs,
-        gathered: LandmarkBlock | None = None,
-    ) -> np.ndarray:
-        """Update every addressed landmark EKF with the sampled poses, in rounds (a landmark
-        seen twice in a frame is updated twice, ``Pairs.rounds``).
-
-        ``gathered``: the landmarks of all ``pairs`` as gathered for the FastSLAM 2.0 proposal
-        (unchanged since), reused when one round updates them all.
-
-        Returns:
-            (P,) log weight factors: the EKF innovation likelihoods for FastSLAM 1.0 (thesis
-            eq. 4.47), plus log p0 for each unknown sighting a particle made a new landmark.
-        """
-        p = len(poses)
-        log_factors = np.zeros(p)
-        if pairs.new_unknown.any():
-            np.add.at(
-                log_factors,
-                pairs.particle[pairs.new_unknown],
-                self.config.new_landmark_log_likelihood,
-            )
-        known = sightings.ids[sightings.ids >= 0]
-        if known.size == sightings.ids.size and np.unique(known).size == known.size:
-            rank = None  # one round: all (particle, slot) pairs distinct
-            rounds = 1
+    def _predict(self, stamp_s: float, move: StepMotion) -> None:
+        """A frame without sightings: the poses move by the step's motion model (or, composing
+        gaps, to the composed mean, ``gap.py``); the weights stay as they are."""
+        particles = self._particles
+        if self._spread is not None:
+            self._spread.advance(move.delta, move.covariance())
+        if self._gap is not None:
+            particles.poses = self._gap.extend(particles.poses, move.delta, move.covariance())
         else:
-            rank = pairs.rounds(self._slots.n_slots)
-            rounds = int(rank.max(initial=0)) + 1
-        weigh = self.config.variant is Variant.FASTSLAM1
-        for r in range(rounds):
-            if rounds == 1:
-                these = pairs
-            else:
-                rows = np.flatnonzero(rank == r)
-                these = Pairs(
-                    pairs.particle[rows], pairs.slot[rows], pairs.obs[rows], pairs.new_unknown[rows]
-                )
-            who, slots, obs = these.particle, these.slot, these.obs
-            if rounds == 1 and gathered is not None:
-                block = gathered
-            else:
-                block = self._store.gather(who, slots)
-            tentative = None
-            if weigh and self.config.confirm_sightings > 1:
-                tentative = tentative_pairs(
-                    these, sightings, block.existence, self.config.confirm_sightings
-                )
-            log_likelihood = self._mapper.update(block, poses[who], sightings, obs)
-            if tentative is not None and tentative.any():
-                # a tentative landmark's sighting weighs as a new landmark's (p0)
-                log_likelihood = np.where(
-                    tentative, self.config.new_landmark_log_likelihood, log_likelihood
-                )
-            if weigh:
-                temper = self.config.likelihood_temper
-                if temper != 1.0:
-                    log_likelihood = temper * log_likelihood
-                np.add.at(log_factors, who, log_likelihood)
-            block.existence += 1  # thesis 5.1.2: +1 when seen
-            self._store.scatter(who, slots, block)
-            estimated = block.status == ESTIMATED
-            self._slots.record_positions(slots[estimated], block.mean[estimated, :2])
-            if self._spread is not None:
-                self._spread.seen(np.unique(slots))
+            particles.poses = move.model.sample(particles.poses, move.delta, self._rng)
+        self._history.record(stamp_s, particles, self._transition(move))
+
+    def _whole_gap(self, move: StepMotion) -> tuple[np.ndarray, StepMotion]:
+        """The poses the step starts from and its motion: the previous frame's and ``move``,
+        or, closing a composed gap, the gap's start and the whole gap with this step as one
+        Gaussian motion (``gap.py``)."""
+        if self._gap is None or not self._gap.open:
+            return self._particles.poses, move
+        start, delta, model = self._gap.close(move.delta, move.covariance())
+        return start, StepMotion(delta, model, model)
+
+    def _draw(self, previous: np.ndarray, sampled: StepMotion, sightings: Sightings) -> _Draw:
+        """The frame's poses and what its sightings address: FastSLAM 1.0 samples from the
+        motion model and associates with the samples (thesis eqs. 4.42-4.44); 2.0 associates
+        with the motion prediction and samples from it refined by the sightings (eqs.
+        4.45-4.46, ``proposal_sampling.py``), a tentative landmark's sighting weighing p0."""
+        weights = self._particles.weights
+        if self.config.variant is Variant.FASTSLAM1:
+            poses = sampled.model.sample(previous, sampled.delta, self._rng)
+            pairs = self._association.pairs(sightings, poses, None, weights)
+            return _Draw(poses, pairs, np.zeros(len(poses)), None)
+        mean, cov = self._proposal.predict(previous, sampled.delta, sampled.stated)
+        pairs = self._association.pairs(sightings, mean, cov, weights)
+        draw = self._proposal.sample(
+            previous, sampled.delta, mean, cov, sightings, pairs, self._store, sampled.stated
+        )
+        self._proposal_gated += draw.gated
+        log_factors = draw.log_factors
+        if draw.tentative.any():
+            log_factors = log_factors + self._log_p0 * np.bincount(
+                pairs.particle[draw.tentative], minlength=len(previous)
+            )
+        return _Draw(draw.poses, pairs, log_factors, draw.block)
+
+    def _map(self, draw: _Draw, sightings: Sightings) -> np.ndarray:
+        """The particles take the drawn poses and update the landmarks their sightings address
+        (``landmark_update.py``); the existence index (thesis 5.1.2) and the pose spread follow.
+        Returns the (P,) log weight factors of the frame."""
+        particles = self._particles
+        particles.poses = draw.poses
+        log_factors = draw.log_factors + self._landmarks(
+            draw.poses, sightings, draw.pairs, draw.block
+        )
+        if self._pose_spread is not None:
+            self._pose_spread.update_from_pairs(
+                self._store, draw.poses, sightings, draw.pairs, particles.weights
+            )
+        if self._existence is not None:
+            self._existence.apply(
+                self._store, self._slots, draw.poses, particles.weights, draw.pairs
+            )
         return log_factors
 
-    # -- resampling ---------------------------------------------------------------------------
+    def _weigh_and_resample(
+        self, stamp_s: float, log_factors: np.ndarray, sampled: StepMotion
+    ) -> None:
+        """Reweigh (thesis eqs. 4.47-4.48), record the step, and resample when the effective
+        sample size (eq. 4.51) is low (``resampler.py``)."""
+        particles = self._particles
+        particles.reweight(log_factors, self._resampler.islands)
+        self._history.record(stamp_s, particles, self._transition(sampled))
+        self.last_ess = particles.effective_sample_size()
+        ancestors = self._resampler(particles, self._store, self._history, self.last_ess)
+        self._diversity.record(self.last_ess, ancestors)
 
-    def _resample(self) -> np.ndarray:
-        """Low-variance resampling (thesis 4.49, Thrun et al. Table 4.4) of poses and maps;
-        returns the ancestors."""
-        ancestors = _RESAMPLERS[self.config.resampling](self._particles.weights, self._rng)
-        self._history.record_resampling(ancestors)
-        self._particles.resample(ancestors)
-        self._store.resample(ancestors)
-        self.resample_count += 1
-        return ancestors
-
-    def _resample_islands(self) -> np.ndarray | None:
-        """Each island resampled apart (``resampling.island_resample``); its weights become
-        uniform at 1/K of the total. Returns the ancestors, or None when no island was."""
-        ancestors = island_resample(
-            self._particles.log_weights,
-            self._islands,
-            self.config.resample_ess_fraction,
-            _RESAMPLERS[self.config.resampling],
-            self._rng,
-        )
-        if ancestors is None:
+    def _transition(self, move: StepMotion) -> tuple[np.ndarray, np.ndarray] | None:
+        """The step's (delta, covariance) for the smoothed read-out (None when not smoothing)."""
+        if self.config.experimental.trajectory is not TrajectoryMode.SMOOTHED:
             return None
-        self._history.record_resampling(ancestors)
-        self._particles.resample(ancestors)
-        self._particles.log_weights = normalize_per_island(
-            self._particles.log_weights, self._islands
-        )
-        self._store.resample(ancestors)
-        self.resample_count += 1
-        return ancestors
+        return move.transition()
+
+    def _trajectory(self, best: int) -> tuple[Trajectory, np.ndarray]:
+        """The trajectory of the read-out mode and its (N, 3, 3) pose covariances: the
+        per-step weighted means, the best particle's ancestry, or the smoothed means."""
+        mode = self.config.experimental.trajectory
+        if mode is TrajectoryMode.BEST_ANCESTRY:
+            trajectory = self._history.ancestry_trajectory(best)
+            return trajectory, self._history.covariances_about(trajectory.se2)
+        if mode is TrajectoryMode.SMOOTHED:
+            return self._history.smoothed_trajectory()
+        return self._history.mean_trajectory()

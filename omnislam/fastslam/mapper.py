@@ -19,10 +19,10 @@ from omnislam.core.modality import Modality
 from omnislam.core.types import FrameInput
 from omnislam.errors import ConfigError
 from omnislam.fastslam.bearing_mapper import BearingMapper
-from omnislam.fastslam.config import FastSLAMConfig
+from omnislam.fastslam.config import BearingsConfig
 from omnislam.fastslam.landmark_store import LandmarkBlock
 from omnislam.fastslam.range_bearing_mapper import RangeBearingMapper
-from omnislam.fastslam.sightings import Pairs, Sightings
+from omnislam.fastslam.sightings import Sightings
 
 #: the modalities FastSLAM consumes
 MODALITIES: tuple[Modality, ...] = (Modality.RANGE_BEARING_2D, Modality.BEARINGS_3D)
@@ -37,6 +37,13 @@ class LandmarkMapper(Protocol):
         ray_dim: size of the stored sighting (the bearing's ray, 6) or 0.
         proposal_model: the measurement model of the FastSLAM 2.0 proposal and its weights.
         proposal_gate: validation gate on the proposal's innovations (infinite: none).
+        proposal_converged_only: whether only converged landmarks may refine the FastSLAM 2.0
+            proposal (``proposal_sampling.converged_pairs``): landmarks triangulated from
+            bearings are uncertain in depth, their errors correlated with the poses that
+            triangulated them.
+        sightings_gated: (particle, sighting) landmark updates its gate rejected so far.
+        triangulation_fallbacks: triangulated updates replaced by the direct one so far (0
+            where nothing is triangulated).
     """
 
     modality: Modality
@@ -44,6 +51,9 @@ class LandmarkMapper(Protocol):
     ray_dim: int
     proposal_model: MeasurementModel
     proposal_gate: float
+    proposal_converged_only: bool
+    sightings_gated: int
+    triangulation_fallbacks: int
 
     def read(self, frame: FrameInput) -> Sightings | None:
         """The frame's sightings of this modality, or None when it has none (predict only)."""
@@ -60,26 +70,25 @@ class LandmarkMapper(Protocol):
         """
         ...
 
-    def proposal_landmarks(
-        self, block: LandmarkBlock, pairs: Pairs, usable: np.ndarray
-    ) -> np.ndarray:
-        """(N,) bool: which of the ``usable`` pairs refine the FastSLAM 2.0 proposal."""
-        ...
-
 
 def make_mapper(
-    modality: Modality, config: FastSLAMConfig, kernels: object | None = None
+    modality: Modality,
+    bearings: BearingsConfig,
+    sensor_height_m: float,
+    outlier_gate_probability: float = 1.0,
+    kernels: object | None = None,
 ) -> LandmarkMapper:
-    """The mapper of ``modality`` (both update with the compiled ``kernels`` when given; the
-    2-D one gates at ``config.outlier_gate_probability``).
+    """The mapper of ``modality``: the 3-D one of the ``bearings`` section seen from
+    ``sensor_height_m``, the 2-D one gating at ``outlier_gate_probability``
+    (``ExperimentalConfig``); both update with the compiled ``kernels`` when given.
 
     Raises:
         ConfigError: no modality, or one FastSLAM does not consume (naming those it does).
     """
     if modality is Modality.RANGE_BEARING_2D:
-        return RangeBearingMapper(kernels, config.outlier_gate_probability)
+        return RangeBearingMapper(kernels, outlier_gate_probability)
     if modality is Modality.BEARINGS_3D:
-        return BearingMapper(config, kernels)
+        return BearingMapper(bearings, sensor_height_m, kernels)
     allowed = " or ".join(m.value for m in MODALITIES)
     got = modality.value if isinstance(modality, Modality) else repr(modality)
     raise ConfigError(f"FastSLAM consumes the modality {allowed}, not {got}")

@@ -10,6 +10,7 @@ import numpy as np
 
 from omnislam.core.se import wrap_angle
 from omnislam.core.types import Trajectory
+from omnislam.errors import ConfigError
 from omnislam.fastslam.resampling import (
     effective_sample_size,
     normalize_log_weights,
@@ -32,6 +33,28 @@ def weighted_covariance_about(
     d = poses - mean
     d[:, 2] = wrap_angle(d[:, 2])
     return (d * weights[:, None]).T @ d
+
+
+def initial_poses(
+    n_particles: int,
+    wTr0: np.ndarray | None,
+    sigma: tuple[float, float, float],
+    rng: np.random.Generator,
+) -> np.ndarray:
+    """(P, 3) the particles' first poses: ``wTr0`` (the origin when None), each perturbed by
+    a draw of N(0, diag(sigma^2)) when ``sigma`` [m, m, rad] is not zero.
+
+    Raises:
+        ConfigError: ``wTr0`` is not a finite (3,) pose.
+    """
+    pose = np.zeros(3) if wTr0 is None else np.asarray(wTr0, dtype=float)
+    if pose.shape != (3,) or not np.all(np.isfinite(pose)):
+        raise ConfigError(f"initial_pose must be a finite (3,) array, got {pose!r}")
+    poses = np.tile(pose, (n_particles, 1))
+    std = np.asarray(sigma, dtype=float)
+    if np.any(std > 0):
+        poses = poses + std * rng.standard_normal((n_particles, 3))
+    return poses
 
 
 class ParticleSet:

@@ -8,8 +8,9 @@ result. The product of the sightings' predictive likelihoods is the particle's i
 (eq. 4.47 with the predictive covariance H_x P H_x^T + H_m Sigma H_m^T + R). A particle without
 such sightings samples from the motion model itself, as in FastSLAM 1.0 (eqs. 4.42-4.44).
 
-The mapper decides which sightings take part (``LandmarkMapper.proposal_landmarks``: in 3-D the
-converged landmarks, capped) and with which model and gate.
+The mapper gives the model and the gate; where its landmarks are triangulated from bearings
+(``LandmarkMapper.proposal_converged_only``) only the converged ones take part, capped
+(``converged_pairs``, ``ProposalConfig``).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import numpy as np
 from omnislam.core.gaussian import log_likelihood_from_mahalanobis
 from omnislam.core.measurement import BearingElevation3D, RangeBearing2D
 from omnislam.core.motion import MotionModel, OdometryMotionModel
-from omnislam.fastslam.config import ProposalUpdateMode
+from omnislam.fastslam.config import ProposalConfig, ProposalUpdateMode
 from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkBlock, LandmarkStore
 from omnislam.fastslam.mapper import LandmarkMapper
 from omnislam.fastslam.proposal import _JITTER, joint_proposal, refine_proposal, sample_poses
@@ -55,25 +56,29 @@ class ProposalSampler:
     """Draws FastSLAM 2.0's poses.
 
     Args:
-        mapper: the modality's mapper (proposal model, gate and landmark selection).
-        mode: sequential or joint refinement.
+        mapper: the modality's mapper (proposal model and gate).
+        config: the proposal section (sequential or joint refinement, the converged landmarks
+            of 3-D maps).
         motion: the motion model (particles without usable sightings sample from it).
         rng: the filter's random generator.
+        kernels: the compiled kernels (``kernels.compiled()``), or None for the numpy path.
         confirm_sightings: landmarks of unknown association seen fewer times are tentative and
-            do not refine the proposal (``FastSLAMConfig.confirm_sightings``).
+            do not refine the proposal (``ExperimentalConfig.confirm_sightings``).
     """
 
     def __init__(
         self,
         mapper: LandmarkMapper,
-        mode: ProposalUpdateMode,
+        config: ProposalConfig,
         motion: MotionModel,
         rng: np.random.Generator,
         kernels: object | None = None,
         confirm_sightings: int = 1,
     ) -> None:
         self._mapper = mapper
+        self._config = config
         self._confirm = confirm_sightings
+        mode = config.update
         self._mode = mode
         self._motion = motion
         self._rng = rng
@@ -136,65 +141,48 @@ class ProposalSampler:
             motion: this step's motion model for the particles without usable sightings
                 (default: the filter's, as in ``predict``).
         """
-        p = len(previous)
-        model, gate = self._mapper.proposal_model, self._mapper.proposal_gate
         block = store.gather(pairs.particle, pairs.slot)
         tentative = tentative_pairs(pairs, sightings, block.existence, self._confirm)
         usable = (block.status == ESTIMATED) & ~pairs.new_unknown & ~tentative
-        usable = self._mapper.proposal_landmarks(block, pairs, usable)
-        refined = np.zeros(p, dtype=bool)
-        gated = 0
+        if self._mapper.proposal_converged_only:
+            usable = converged_pairs(block, pairs, usable, self._config)
+        mean, cov, log_factors, gated = self._refine(mean, cov, sightings, pairs, block, usable)
+        refined = np.zeros(len(previous), dtype=bool)
+        refined[pairs.particle[usable]] = True
+        poses = self._draw(previous, delta_r, mean, cov, refined, motion)
+        return ProposalDraw(poses, log_factors, gated, block, tentative)
+
+    def _refine(
+        self,
+        mean: np.ndarray,
+        cov: np.ndarray,
+        sightings: Sightings,
+        pairs: Pairs,
+        block: LandmarkBlock,
+        usable: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """Each particle's prediction refined by its ``usable`` pairs, jointly or sequentially
+        (compiled where the kernels cover the model): (means, covariances, summed predictive
+        log-likelihoods (P,), pairs the gate kept out)."""
         if self._mode is ProposalUpdateMode.JOINT:
-            # all of a particle's sightings in one update at the prediction (joint_proposal)
-            rows = np.flatnonzero(usable)
-            obs = pairs.obs[rows]
-            joint = joint_proposal(
-                mean,
-                cov,
-                pairs.particle[rows],
-                sightings.z[obs],
-                sightings.R[obs],
-                block.mean[rows],
-                block.cov[rows],
-                model,
-                gate,
-            )
-            mean, cov, log_factors = joint.mean, joint.cov, joint.log_likelihood
-            refined[pairs.particle[rows]] = True
-            gated = int(joint.accepted.size - np.count_nonzero(joint.accepted))
-        elif self._kernels is not None:
-            mean, cov, log_factors, gated = self._refine_compiled(
-                mean, cov, sightings, pairs, block, usable
-            )
-            refined[pairs.particle[usable]] = True
-        elif self._bearing_kernels is not None:
-            mean, cov, log_factors, gated = self._refine_bearings_compiled(
-                mean, cov, sightings, pairs, block, usable
-            )
-            refined[pairs.particle[usable]] = True
-        else:
-            log_factors = np.zeros(p)
-            mean = mean.copy()
-            cov = cov.copy()
-            for k in np.unique(pairs.obs[usable]):
-                rows = np.flatnonzero(usable & (pairs.obs == k))
-                who = pairs.particle[rows]  # one row per particle for a given sighting
-                n = rows.size
-                update = refine_proposal(
-                    mean[who],
-                    cov[who],
-                    np.broadcast_to(sightings.z[k], (n, sightings.z.shape[1])),
-                    np.broadcast_to(sightings.R[k], (n, *sightings.R.shape[1:])),
-                    block.mean[rows],
-                    block.cov[rows],
-                    model,
-                    gate,
-                )
-                mean[who] = update.mean
-                cov[who] = update.cov
-                log_factors[who] += update.log_likelihood
-                refined[who] = True
-                gated += int(update.accepted.size - np.count_nonzero(update.accepted))
+            return self._refine_joint(mean, cov, sightings, pairs, block, usable)
+        if self._kernels is not None:
+            return self._refine_compiled(mean, cov, sightings, pairs, block, usable)
+        if self._bearing_kernels is not None:
+            return self._refine_bearings_compiled(mean, cov, sightings, pairs, block, usable)
+        return self._refine_sequential(mean, cov, sightings, pairs, block, usable)
+
+    def _draw(
+        self,
+        previous: np.ndarray,
+        delta_r: np.ndarray,
+        mean: np.ndarray,
+        cov: np.ndarray,
+        refined: np.ndarray,
+        motion: MotionModel | None,
+    ) -> np.ndarray:
+        """(P, 3) poses: the ``refined`` particles drawn from their refined Gaussians, the others
+        from the motion model (``motion``, or the filter's)."""
         poses = np.empty_like(previous)
         if self._draw_kernels is not None and mean.shape[-1] == 3:
             chosen = mean[refined]
@@ -208,7 +196,70 @@ class ProposalSampler:
         if plain.any():
             model = self._motion if motion is None else motion
             poses[plain] = model.sample(previous[plain], delta_r, self._rng)
-        return ProposalDraw(poses, log_factors, gated, block, tentative)
+        return poses
+
+    def _refine_joint(
+        self,
+        mean: np.ndarray,
+        cov: np.ndarray,
+        sightings: Sightings,
+        pairs: Pairs,
+        block: LandmarkBlock,
+        usable: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """All of a particle's usable sightings in one update at the prediction
+        (``proposal.joint_proposal``)."""
+        rows = np.flatnonzero(usable)
+        obs = pairs.obs[rows]
+        joint = joint_proposal(
+            mean,
+            cov,
+            pairs.particle[rows],
+            sightings.z[obs],
+            sightings.R[obs],
+            block.mean[rows],
+            block.cov[rows],
+            self._mapper.proposal_model,
+            self._mapper.proposal_gate,
+        )
+        gated = int(joint.accepted.size - np.count_nonzero(joint.accepted))
+        return joint.mean, joint.cov, joint.log_likelihood, gated
+
+    def _refine_sequential(
+        self,
+        mean: np.ndarray,
+        cov: np.ndarray,
+        sightings: Sightings,
+        pairs: Pairs,
+        block: LandmarkBlock,
+        usable: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """The usable sightings one after the other (``proposal.refine_proposal``, thesis eqs.
+        4.45-4.46), each one's particles at once: the numpy reference."""
+        model, gate = self._mapper.proposal_model, self._mapper.proposal_gate
+        log_factors = np.zeros(len(mean))
+        mean = mean.copy()
+        cov = cov.copy()
+        gated = 0
+        for k in np.unique(pairs.obs[usable]):
+            rows = np.flatnonzero(usable & (pairs.obs == k))
+            who = pairs.particle[rows]  # one row per particle for a given sighting
+            n = rows.size
+            update = refine_proposal(
+                mean[who],
+                cov[who],
+                np.broadcast_to(sightings.z[k], (n, sightings.z.shape[1])),
+                np.broadcast_to(sightings.R[k], (n, *sightings.R.shape[1:])),
+                block.mean[rows],
+                block.cov[rows],
+                model,
+                gate,
+            )
+            mean[who] = update.mean
+            cov[who] = update.cov
+            log_factors[who] += update.log_likelihood
+            gated += int(update.accepted.size - np.count_nonzero(update.accepted))
+        return mean, cov, log_factors, gated
 
     def _refine_compiled(
         self,
@@ -309,3 +360,39 @@ def _summed_log_likelihoods(
     log_likelihood = log_likelihood_from_mahalanobis(truncated, np.log(det), 2)
     log_factors = np.bincount(who, weights=log_likelihood, minlength=n)
     return log_factors.astype(float, copy=False)  # int64 when there are no pairs
+
+
+def converged_pairs(
+    block: LandmarkBlock, pairs: Pairs, usable: np.ndarray, config: ProposalConfig
+) -> np.ndarray:
+    """Which usable pairs of a map of triangulated landmarks may refine the proposal.
+
+    A landmark triangulated from two rays of little parallax is uncertain in depth and its
+    error is correlated with the poses that triangulated it; the proposal (which treats the
+    observations as independent given the map) then trusts it too much. Only landmarks whose
+    position std sqrt(tr Sigma) is at most ``config.max_landmark_std_m`` are used, and of those
+    at most ``config.max_sightings`` sightings, the best-converged (smallest mean tr Sigma over
+    the particles) first.
+
+    Args:
+        block: the landmarks of the N pairs; pairs: the frame's pairs.
+        usable: (N,) the pairs whose landmark is established (and not tentative).
+        config: the proposal section.
+
+    Returns:
+        (N,) bool over the pairs: ``usable`` and selected.
+    """
+    trace = np.trace(block.cov, axis1=-2, axis2=-1)
+    keep = trace <= config.max_landmark_std_m**2
+    cap = config.max_sightings
+    candidates = usable & keep
+    if cap > 0:
+        obs = pairs.obs[candidates]
+        if np.unique(obs).size > cap:
+            n_obs = int(pairs.obs.max()) + 1
+            total = np.bincount(obs, weights=trace[candidates], minlength=n_obs)
+            count = np.bincount(obs, minlength=n_obs)
+            score = np.where(count > 0, total / np.maximum(count, 1), np.inf)
+            best = np.argsort(score, kind="stable")[:cap]
+            keep &= np.isin(pairs.obs, best)
+    return usable & keep

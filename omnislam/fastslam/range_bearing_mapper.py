@@ -8,13 +8,13 @@ innovation likelihood is FastSLAM 1.0's importance factor (eq. 4.47). The FastSL
 proposal uses the same model.
 
 The graph and EKF-SLAM gate a sighting of a known landmark on its innovation (``core.gating``);
-FastSLAM can, per particle, with ``FastSLAMConfig.outlier_gate_probability`` < 1 (off by
-default: measured harmful on MR.CLAM, see the option): an innovation
-with y^T S^-1 y above the chi-square gate (S = H Sigma H^T + R for the landmark update, the
-proposal's H_x P H_x^T + Q for FastSLAM 2.0's refinement) neither refines the proposal nor
-updates the landmark, and its weight factor is the Gaussian likelihood truncated at the gate.
-A misread barcode that names a landmark metres away (MR.CLAM) then costs every particle the
-same bounded factor instead of pulling the proposal onto it and moving the landmark.
+FastSLAM can, per particle, with ``ExperimentalConfig.outlier_gate_probability`` < 1 (off by
+default, see the option): an innovation with y^T S^-1 y above the chi-square gate (S = H Sigma
+H^T + R for the landmark update, the proposal's H_x P H_x^T + Q for FastSLAM 2.0's refinement)
+neither refines the proposal nor updates the landmark, and its weight factor is the Gaussian
+likelihood truncated at the gate. A misread barcode that names a landmark metres away (MR.CLAM)
+then costs every particle the same bounded factor instead of pulling the proposal onto it and
+moving the landmark.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
 from omnislam.core.types import FrameInput
 from omnislam.fastslam.landmark_store import ESTIMATED, LandmarkBlock
-from omnislam.fastslam.sightings import Pairs, Sightings
+from omnislam.fastslam.sightings import Sightings
 
 
 class RangeBearingMapper:
@@ -37,6 +37,10 @@ class RangeBearingMapper:
     modality = Modality.RANGE_BEARING_2D
     landmark_dim = 2
     ray_dim = 0
+    #: every established landmark may refine the proposal
+    proposal_converged_only = False
+    #: nothing is triangulated
+    triangulation_fallbacks = 0
 
     def __init__(self, kernels: object | None = None, gate_probability: float = 1.0) -> None:
         """Args: kernels: the compiled kernels (``kernels.compiled()``) for the EKF update, or
@@ -118,9 +122,3 @@ class RangeBearingMapper:
             self.sightings_gated += int(np.count_nonzero(rejected))
             log_likelihood = gate_truncated_log_likelihood(log_likelihood, mahalanobis, gate)
         return mean, cov, log_likelihood
-
-    def proposal_landmarks(
-        self, block: LandmarkBlock, pairs: Pairs, usable: np.ndarray
-    ) -> np.ndarray:
-        """Every usable pair refines the proposal."""
-        return usable

@@ -6,9 +6,9 @@ compares it with each landmark of the particle's map under S = H_m Sigma H_m^T (
 on the particle's path that is right, but after resampling has narrowed the set onto a few
 ancestors (MR.CLAM: pose NEES 1e7-1e32) the particle poses are far more certain than the pose
 is: after a gap of tens of seconds without seeing a landmark the particle's prediction of it
-lies outside the p0 gate and a new landmark starts (issue 16). Issue 16 asks the association
-to account for "the particle's pose uncertainty since it last saw the landmark": here it is the
-odometry's covariance composed over the steps since the landmark's last sighting, by the
+lies outside the p0 gate and a new landmark starts. The particle's pose uncertainty since it
+last saw the landmark is here the odometry's covariance composed over the steps since the
+landmark's last sighting (``ExperimentalConfig.resighting_spread``), by the
 first-order compounding of uncertain relations (Smith, Self & Cheeseman 1990, "Estimating
 uncertain spatial relationships in robotics", eqs. for the compound ``(+)``; the same
 composition as ``core.motion.compose_odometry``, Thrun et al. 2005 Table 7.1), added to S as

@@ -80,7 +80,7 @@ class Pairs:
 def tentative_pairs(
     pairs: Pairs, sightings: Sightings, existence: np.ndarray, confirm_sightings: int
 ) -> np.ndarray:
-    """Which pairs address a tentative landmark (``FastSLAMConfig.confirm_sightings``).
+    """Which pairs address a tentative landmark (``ExperimentalConfig.confirm_sightings``).
 
     A landmark of unknown association that its particle has seen fewer than
     ``confirm_sightings`` times before this frame is tentative; a landmark's ``existence``

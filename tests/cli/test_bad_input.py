@@ -810,7 +810,10 @@ def _(tmp, fx):
 
 @case("run-option-wrong-type")
 def _(tmp, fx):
-    return run_args(mrclam(tmp), tmp, "fastslam1", "--set", "n_particles=many"), "n_particles"
+    return (
+        run_args(mrclam(tmp), tmp, "fastslam1", "--set", "particles.n_particles=many"),
+        "particles.n_particles",
+    )
 
 
 @case("run-deadreckoning-takes-no-options")
@@ -1118,8 +1121,8 @@ _grid_case(
 _grid_case(
     "estimator-option-wrong-type",
     "datasets: [data/room.log]\n"
-    "estimators:\n  - {estimator: fastslam1, options: {n_particles: many}}\n",
-    "n_particles",
+    "estimators:\n  - {estimator: fastslam1, options: {particles.n_particles: many}}\n",
+    "particles.n_particles",
 )
 _grid_case(
     "estimator-option-unknown",

@@ -76,8 +76,9 @@ def test_estimators_lists_every_registered_one_with_its_options_and_defaults(cap
 def test_estimators_one_line_per_option_with_its_meaning(capsys):
     assert main(["estimators", "fastslam1"]) == 0
     out = capsys.readouterr().out
-    line = next(x for x in out.splitlines() if x.strip().startswith("n_particles="))
-    assert line.split()[0] == "n_particles=100" and "[int]" in line and "particles" in line
+    line = next(x for x in out.splitlines() if x.strip().startswith("particles.n_particles="))
+    assert line.split()[0] == "particles.n_particles=100" and "[int]" in line
+    assert "number of particles" in line
     assert "modality" in out and "prior_map" in out and "wrong_id_fraction" in out
     assert "clutter_per_frame" in out
     assert main(["estimators", "kalmanator"]) == 2
@@ -140,7 +141,9 @@ def test_compare_template_is_a_commented_grid_with_every_key(capsys, tmp_path):
     grid = parse_grid(runnable, tmp_path / "grid.yaml")
     # 2 datasets x (3 estimators + fs1 once per override) x 3 seeds
     assert len(grid.cells) == 2 * (3 + 2) * 3
-    fs1 = {c.spec.options["n_particles"] for c in grid.cells if c.estimator_label == "fs1"}
+    fs1 = {
+        c.spec.options["particles.n_particles"] for c in grid.cells if c.estimator_label == "fs1"
+    }
     assert fs1 == {"30", "300"}
     assert grid.evaluation == EvaluationOptions()
 

@@ -68,7 +68,7 @@ def full_metrics() -> RunMetrics:
             dataset="mrclam6-r1",
             estimator="fastslam1",
             seed=3,
-            estimator_options={"n_particles": "50"},
+            estimator_options={"particles.n_particles": "50"},
             dataset_options={"association": "known"},
         ),
         ate=AteMetrics(
@@ -287,7 +287,7 @@ def test_records_are_frozen_and_normalise_numpy_values():
         ate.rmse_m = 1.0  # type: ignore[misc]
     run = full_metrics().run
     with pytest.raises(TypeError):
-        run.estimator_options["n_particles"] = "5"  # type: ignore[index]
+        run.estimator_options["particles.n_particles"] = "5"  # type: ignore[index]
 
 
 @pytest.mark.parametrize(
@@ -332,7 +332,7 @@ def test_an_unknown_key_is_refused(tmp_path):
         ("rpe_planar", "yes", "true or false or null"),
         ("ground_truth", "martian", "one of 'exact'"),
         ("alignment", "affine", "one of 'none'"),
-        ("estimator_options", {"n_particles": 50}, "an object of strings"),
+        ("estimator_options", {"particles.n_particles": 50}, "an object of strings"),
         ("rpe_by_distance", {"length_m": 1.0}, "a list of objects or null"),
         ("dataset", 7, "a string"),
         ("has_pose_covariances", 1, "true or false"),

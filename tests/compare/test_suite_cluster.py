@@ -33,7 +33,7 @@ datasets:
   - {dataset: data/room.log, label: room, estimators: [graphslam, fastslam2, ukf-on-graph]}
 estimators:
   - graphslam
-  - {estimator: fastslam2, seeds: [0, 1], options: {n_particles: 8}}
+  - {estimator: fastslam2, seeds: [0, 1], options: {particles.n_particles: 8}}
   - ukf
   - {estimator: ukf, label: ukf-on-graph, options: {prior_map: {from: graphslam}}}
 evaluation: {rpe_segment_m: 1.0}

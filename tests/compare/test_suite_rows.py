@@ -26,7 +26,9 @@ _spec.loader.exec_module(suite_rows)
 GRID = """
 name: rooms
 datasets: [{dataset: data/%s.log, label: b}, {dataset: data/room_a.log, label: a}]
-estimators: [deadreckoning, {estimator: fastslam2, seeds: [0, 1], options: {n_particles: 8}}]
+estimators:
+  - deadreckoning
+  - {estimator: fastslam2, seeds: [0, 1], options: {particles.n_particles: 8}}
 evaluation: {rpe_segment_m: 2.0}
 """
 

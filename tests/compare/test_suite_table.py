@@ -25,7 +25,9 @@ _spec.loader.exec_module(suite_table)
 GRID = """
 name: rooms
 datasets: [data/room_a.log, {dataset: data/room_b.log, label: b}]
-estimators: [deadreckoning, {estimator: fastslam2, seeds: [0, 1], options: {n_particles: 8}}]
+estimators:
+  - deadreckoning
+  - {estimator: fastslam2, seeds: [0, 1], options: {particles.n_particles: 8}}
 evaluation: {rpe_segment_m: 2.0}
 """
 README = "# x\n\nintro\n\n<!-- suite-table:begin -->\nstale\n<!-- suite-table:end -->\n\nrest\n"

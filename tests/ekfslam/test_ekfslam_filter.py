@@ -262,7 +262,11 @@ def test_fastslam2_with_many_particles_agrees_with_ekfslam_on_a_small_map():
     scenario = make_scenario(seed=4, steps=120)
     rng = np.random.default_rng(11)
     ekf = run(make_estimator("ekfslam", sequence_info(), NOISE_OPTIONS, rng), scenario.frames)
-    options = {**NOISE_OPTIONS, "n_particles": "300", "trajectory": "weighted_mean"}
+    options = {
+        **NOISE_OPTIONS,
+        "particles.n_particles": "300",
+        "experimental.trajectory": "weighted_mean",
+    }
     fast = run(make_estimator("fastslam2", sequence_info(), options, rng), scenario.frames)
     gate2 = chi2.ppf(CROSS_CHECK_PROBABILITY, 2)
     gate3 = chi2.ppf(CROSS_CHECK_PROBABILITY, 3)

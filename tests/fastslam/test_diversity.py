@@ -7,7 +7,14 @@ import pytest
 from fastslam_scenario import SCENARIO_NOISE, make_scenario
 
 from omnislam.core.modality import Modality
-from omnislam.fastslam import FastSLAMConfig, TrajectoryMode, Variant, make_fastslam
+from omnislam.fastslam import (
+    ExperimentalConfig,
+    FastSLAMConfig,
+    ParticlesConfig,
+    TrajectoryMode,
+    Variant,
+    make_fastslam,
+)
 from omnislam.fastslam.diversity import DiversityLog
 from omnislam.fastslam.particles import ParticleSet, PathHistory
 
@@ -39,7 +46,11 @@ def test_an_empty_record_reports_the_full_set():
 
 def test_the_filter_records_every_step_with_sightings():
     frames = make_scenario(0, steps=60).frames
-    config = FastSLAMConfig(variant=Variant.FASTSLAM1, n_particles=20, motion_noise=SCENARIO_NOISE)
+    config = FastSLAMConfig(
+        variant=Variant.FASTSLAM1,
+        particles=ParticlesConfig(n_particles=20),
+        motion_noise=SCENARIO_NOISE,
+    )
     slam = make_fastslam(config, Modality.RANGE_BEARING_2D, np.random.default_rng(0))
     for frame in frames:
         slam.step(frame)
@@ -76,9 +87,9 @@ def test_lineages_agree_with_the_traced_paths_of_a_run():
     frames = make_scenario(1, steps=60).frames
     config = FastSLAMConfig(
         variant=Variant.FASTSLAM1,
-        n_particles=20,
+        particles=ParticlesConfig(n_particles=20),
         motion_noise=SCENARIO_NOISE,
-        trajectory=TrajectoryMode.BEST_ANCESTRY,
+        experimental=ExperimentalConfig(trajectory=TrajectoryMode.BEST_ANCESTRY),
     )
     slam = make_fastslam(config, Modality.RANGE_BEARING_2D, np.random.default_rng(2))
     for frame in frames:

@@ -24,10 +24,16 @@ from omnislam.core.modality import Modality
 from omnislam.core.types import UNKNOWN_ID, Estimator, FrameInput, Odometry, RangeBearing
 from omnislam.errors import ConfigError
 from omnislam.fastslam import (
+    AssociationConfig,
+    BearingsConfig,
     BearingUpdate,
     ExistenceIndexConfig,
+    ExperimentalConfig,
     FastSLAMConfig,
     LandmarkStatus,
+    ParticlesConfig,
+    ProposalConfig,
+    ResamplingConfig,
     StoreKind,
     TrajectoryMode,
     Variant,
@@ -61,8 +67,19 @@ def _landmark_rmse(estimate, scenario):
     return float(np.sqrt(np.mean(np.sum((estimate.landmarks_w[order, :d] - truth) ** 2, axis=1))))
 
 
-def _config(variant, n, **changes):
-    return FastSLAMConfig(variant=variant, n_particles=n, motion_noise=SCENARIO_NOISE, **changes)
+def _config(variant, n, *, store=StoreKind.TREE, **changes):
+    """The scenario's noise, ``n`` particles in a ``store``, and section ``changes``."""
+    return FastSLAMConfig(
+        variant=variant,
+        motion_noise=SCENARIO_NOISE,
+        particles=ParticlesConfig(n_particles=n, store=store),
+        **changes,
+    )
+
+
+def _experimental(variant, n, **switches):
+    """``_config`` with experimental ``switches`` on."""
+    return _config(variant, n, experimental=ExperimentalConfig(**switches))
 
 
 def test_is_an_estimator_named_after_its_variant():
@@ -133,7 +150,7 @@ def test_tree_and_dense_store_give_identical_estimates(variant):
 #: uncertainty and is fine with the default.
 UNKNOWN_ASSOCIATION_SETTINGS = {
     Variant.FASTSLAM1: {
-        "new_landmark_log_likelihood": -25.0,
+        "association": AssociationConfig(new_landmark_log_likelihood=-25.0),
         "existence": ExistenceIndexConfig(max_range_m=7.0),
     },
     Variant.FASTSLAM2: {},
@@ -165,10 +182,11 @@ def test_unknown_association(variant):
 
 
 def test_exclusive_association_gives_a_landmark_at_most_one_sighting_of_a_frame():
-    """Mutual exclusion (``association_exclusive``): a first frame maps one tree; the next frame
-    sees it and a second tree 0.3 m beside it. Without exclusion both sightings fit the one
-    landmark (its range-bearing noise is wide) and no landmark is added; with it, the likelier
-    sighting takes the landmark and the other starts a new one, in every particle."""
+    """Mutual exclusion (``experimental.association_exclusive``): a first frame maps one tree;
+    the next frame sees it and a second tree 0.3 m beside it. Without exclusion both sightings
+    fit the one landmark (its range-bearing noise is wide) and no landmark is added; with it,
+    the likelier sighting takes the landmark and the other starts a new one, in every
+    particle."""
     first = RangeBearing(np.array([UNKNOWN_ID]), np.array([5.0]), np.array([0.0]), 0.5, 0.05)
     second = RangeBearing(
         np.array([UNKNOWN_ID, UNKNOWN_ID]), np.array([5.0, 5.3]), np.array([0.0, 0.0]), 0.5, 0.05
@@ -176,7 +194,7 @@ def test_exclusive_association_gives_a_landmark_at_most_one_sighting_of_a_frame(
     counts = {}
     for exclusive in (False, True):
         for variant in Variant:
-            config = _config(variant, 10).with_(association_exclusive=exclusive)
+            config = _experimental(variant, 10, association_exclusive=exclusive)
             slam = _slam(config, 0)
             slam.step(FrameInput(0, Odometry(np.zeros(3), 0.0), range_bearing=first))
             slam.step(FrameInput(1, Odometry(np.zeros(3), 0.1), range_bearing=second))
@@ -218,11 +236,11 @@ def _one_tree_frames(seen_in_second: bool):
 
 @pytest.mark.parametrize("confirm", [1, 2])
 def test_a_tentative_landmark_neither_weighs_nor_refines_the_proposal(confirm):
-    """``confirm_sightings=2``: the first re-sighting of a landmark without id updates it but
-    leaves FastSLAM 1.0's particles equally weighted (every particle gets p0), and FastSLAM 2.0
-    draws from the motion model as in a frame without sightings; the next re-sighting weighs.
-    With 1 (the default) the first re-sighting already weighs and refines."""
-    one = _config(Variant.FASTSLAM1, 20, confirm_sightings=confirm)
+    """``experimental.confirm_sightings=2``: the first re-sighting of a landmark without id
+    updates it but leaves FastSLAM 1.0's particles equally weighted (every particle gets p0),
+    and FastSLAM 2.0 draws from the motion model as in a frame without sightings; the next
+    re-sighting weighs. With 1 (the default) the first re-sighting already weighs and refines."""
+    one = _experimental(Variant.FASTSLAM1, 20, confirm_sightings=confirm)
     slam = _slam(one, 5)
     frames = _one_tree_frames(seen_in_second=True)
     spread = []
@@ -233,7 +251,7 @@ def test_a_tentative_landmark_neither_weighs_nor_refines_the_proposal(confirm):
     assert spread[0] == 0.0  # a new landmark: p0 in every particle
     assert (spread[1] == 0.0) == (confirm == 2)
     assert spread[2] is None or spread[2] > 0.0
-    two = _config(Variant.FASTSLAM2, 20, confirm_sightings=confirm)
+    two = _experimental(Variant.FASTSLAM2, 20, confirm_sightings=confirm)
     seen, blind = _slam(two, 5), _slam(two, 5)
     blind_frames = _one_tree_frames(seen_in_second=False)
     for frame_seen, frame_blind in zip(frames[:2], blind_frames[:2], strict=True):
@@ -245,7 +263,7 @@ def test_a_tentative_landmark_neither_weighs_nor_refines_the_proposal(confirm):
 
 def test_confirm_sightings_must_be_positive():
     with pytest.raises(ConfigError):
-        FastSLAMConfig(confirm_sightings=0)
+        ExperimentalConfig(confirm_sightings=0)
 
 
 def test_a_frame_may_mix_known_and_unknown_ids():
@@ -283,7 +301,7 @@ def test_frames_without_sightings_only_predict():
 
 def test_best_ancestry_trajectory_is_a_particle_path():
     scenario = make_scenario(1, steps=80)
-    config = _config(Variant.FASTSLAM2, 10, trajectory=TrajectoryMode.BEST_ANCESTRY)
+    config = _experimental(Variant.FASTSLAM2, 10, trajectory=TrajectoryMode.BEST_ANCESTRY)
     slam, estimate = _run(scenario, config, 3)
     assert len(estimate.trajectory) == 80
     np.testing.assert_allclose(
@@ -299,7 +317,10 @@ def test_best_ancestry_covariance_is_the_particles_spread_about_the_reported_pos
     one when the filter never resamples."""
     scenario = make_scenario(1, steps=80)
     kept = _config(
-        Variant.FASTSLAM2, 10, trajectory=TrajectoryMode.BEST_ANCESTRY, resample_ess_fraction=0.0
+        Variant.FASTSLAM2,
+        10,
+        experimental=ExperimentalConfig(trajectory=TrajectoryMode.BEST_ANCESTRY),
+        resampling=ResamplingConfig(ess_fraction=0.0),
     )
     slam, estimate = _run(scenario, kept, 3)
     particles = slam.particles
@@ -309,10 +330,10 @@ def test_best_ancestry_covariance_is_the_particles_spread_about_the_reported_pos
     assert covs.shape == (80, 3, 3)
     np.testing.assert_allclose(covs[-1], (d * particles.weights[:, None]).T @ d, rtol=1e-5)
     # with resampling: the mean read-out's covariances plus the offsets' outer products
-    ancestry = _config(Variant.FASTSLAM2, 10, trajectory=TrajectoryMode.BEST_ANCESTRY)
+    ancestry = _experimental(Variant.FASTSLAM2, 10, trajectory=TrajectoryMode.BEST_ANCESTRY)
     _, estimate = _run(scenario, ancestry, 3)
     _, mean_estimate = _run(
-        scenario, _config(Variant.FASTSLAM2, 10, trajectory=TrajectoryMode.WEIGHTED_MEAN), 3
+        scenario, _experimental(Variant.FASTSLAM2, 10, trajectory=TrajectoryMode.WEIGHTED_MEAN), 3
     )
     extra = estimate.pose_covariances - mean_estimate.pose_covariances
     assert np.all(np.linalg.eigvalsh(extra) > -1e-12)  # offset's outer product, PSD
@@ -426,10 +447,10 @@ def test_bearing_only_3d_mode(update):
     """Omni bearings: first sighting stores a ray, the next triangulates, later ones update."""
     config = FastSLAMConfig(
         variant=Variant.FASTSLAM2,
-        n_particles=30,
+        particles=ParticlesConfig(n_particles=30),
         motion_noise=BEARING_SCENARIO_NOISE,
         sensor_height_m=SENSOR_HEIGHT_M,
-        bearing_update=update,
+        bearings=BearingsConfig(update=update),
     )
     ates, dead_reckoning = [], []
     for seed in (1, 2, 3):
@@ -470,27 +491,28 @@ def test_fastslam2_3d_survives_outlier_tracks():
     reckoning; with the chi-square gate it stays well below dead reckoning."""
     config = FastSLAMConfig(
         variant=Variant.FASTSLAM2,
-        n_particles=20,
+        particles=ParticlesConfig(n_particles=20),
         motion_noise=BEARING_SCENARIO_NOISE,
         sensor_height_m=SENSOR_HEIGHT_M,
     )
     gated, dead_reckoning = _bearing_ates(config, OUTLIER_FRACTION)
-    ungated, _ = _bearing_ates(config.with_(bearing_gate_probability=1.0), OUTLIER_FRACTION)
+    ungated_config = config.with_(bearings=BearingsConfig(gate_probability=1.0))
+    ungated, _ = _bearing_ates(ungated_config, OUTLIER_FRACTION)
     assert gated < ATE_FRACTION_OF_DEAD_RECKONING_3D * dead_reckoning
     assert ungated > dead_reckoning
 
 
 @pytest.mark.parametrize(
-    "option", [{"proposal_max_sightings": 4}, {"proposal_max_landmark_std_m": 1.0}]
+    "option", [{"max_sightings": 4}, {"max_landmark_std_m": 1.0}]
 )
 def test_fastslam2_3d_with_a_restricted_proposal(option):
     """Fewer or only converged landmarks in the proposal: still well below dead reckoning."""
     config = FastSLAMConfig(
         variant=Variant.FASTSLAM2,
-        n_particles=20,
+        particles=ParticlesConfig(n_particles=20),
         motion_noise=BEARING_SCENARIO_NOISE,
         sensor_height_m=SENSOR_HEIGHT_M,
-        **option,
+        proposal=ProposalConfig(**option),
     )
     ate, dead_reckoning = _bearing_ates(config, OUTLIER_FRACTION)
     assert ate < ATE_FRACTION_OF_DEAD_RECKONING_3D * dead_reckoning
@@ -506,17 +528,24 @@ def test_resample_fraction_one_resamples_every_step_and_zero_never(n):
         range_bearing=RangeBearing(np.array([1]), np.array([2.0]), np.array([0.3]), 0.1, 0.01),
     )
     for fraction, expected in ((1.0, 1), (0.0, 0)):
-        slam = _slam(_config(Variant.FASTSLAM1, n, resample_ess_fraction=fraction), 0)
+        config = _config(Variant.FASTSLAM1, n, resampling=ResamplingConfig(ess_fraction=fraction))
+        slam = _slam(config, 0)
         slam.step(first)
         assert slam.resample_count == expected
 
 
 def test_a_tempered_likelihood_scales_fastslam1_log_weights():
-    """likelihood_temper t: FastSLAM 1.0 weighs by p(z | x)^t; the same draws, the same map."""
+    """``experimental.likelihood_temper`` t: FastSLAM 1.0 weighs by p(z | x)^t; the same
+    draws, the same map."""
     frames = make_scenario(2, steps=5).frames
     runs = []
     for temper in (1.0, 0.25):
-        config = _config(Variant.FASTSLAM1, 30, resample_ess_fraction=0.0, likelihood_temper=temper)
+        config = _config(
+            Variant.FASTSLAM1,
+            30,
+            resampling=ResamplingConfig(ess_fraction=0.0),
+            experimental=ExperimentalConfig(likelihood_temper=temper),
+        )
         slam = _slam(config, 4)
         for frame in frames:
             slam.step(frame)
@@ -533,14 +562,15 @@ def test_a_tempered_likelihood_scales_fastslam1_log_weights():
 @pytest.mark.parametrize("temper", [0.0, -0.5, 1.5])
 def test_likelihood_temper_outside_0_1_is_refused(temper):
     with pytest.raises(ConfigError, match="likelihood_temper"):
-        FastSLAMConfig(likelihood_temper=temper)
+        ExperimentalConfig(likelihood_temper=temper)
 
 
 def test_islands_keep_one_lineage_each_and_beat_dead_reckoning():
-    """``islands=5``: five independent filters of 10 particles, each island's weights summing
-    to 1/5; resampling within islands leaves at least five distinct ancestors at every step."""
+    """``experimental.islands=5``: five independent filters of 10 particles, each island's
+    weights summing to 1/5; resampling within islands leaves at least five distinct ancestors
+    at every step."""
     scenario = make_scenario(1, steps=80)
-    slam, estimate = _run(scenario, _config(Variant.FASTSLAM1, 50, islands=5), 3)
+    slam, estimate = _run(scenario, _experimental(Variant.FASTSLAM1, 50, islands=5), 3)
     w = slam.particles.weights.reshape(5, 10).sum(axis=1)
     np.testing.assert_allclose(w, 0.2)
     assert slam.resample_count > 0
@@ -548,4 +578,4 @@ def test_islands_keep_one_lineage_each_and_beat_dead_reckoning():
     dead_reckoning = ate_rmse(scenario.dead_reckoning[1:, :2], scenario.true_poses[1:, :2])
     assert _ate(estimate, scenario) < ATE_FRACTION_OF_DEAD_RECKONING * dead_reckoning
     with pytest.raises(ConfigError):
-        _config(Variant.FASTSLAM1, 4, islands=5)
+        _experimental(Variant.FASTSLAM1, 4, islands=5)

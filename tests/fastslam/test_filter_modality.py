@@ -22,8 +22,11 @@ from omnislam.errors import ConfigError, DataError
 from omnislam.estimators import ESTIMATORS, make_estimator
 from omnislam.fastslam import (
     MODALITIES,
+    BearingsConfig,
+    ExperimentalConfig,
     FastSLAM,
     FastSLAMConfig,
+    ParticlesConfig,
     Variant,
     make_fastslam,
     make_fastslam1,
@@ -33,7 +36,7 @@ from omnislam.options import apply_options
 
 CONFIG = FastSLAMConfig(
     variant=Variant.FASTSLAM2,
-    n_particles=10,
+    particles=ParticlesConfig(n_particles=10),
     motion_noise=BEARING_SCENARIO_NOISE,
     sensor_height_m=SENSOR_HEIGHT_M,
 )
@@ -122,11 +125,12 @@ def test_the_removed_sensor_mode_option_points_to_modality():
 
 def test_min_parallax_in_degrees_gives_the_former_radians_default_exactly():
     """3 deg -> math.radians(3.0), the float the former ``min_parallax_rad`` default was."""
-    assert FastSLAMConfig().min_parallax_deg == 3.0
-    assert math.radians(FastSLAMConfig().min_parallax_deg) == 0.05235987755982989
-    assert apply_options(FastSLAMConfig(), {"min_parallax_deg": "6"}).min_parallax_deg == 6.0
+    assert FastSLAMConfig().bearings.min_parallax_deg == 3.0
+    assert math.radians(FastSLAMConfig().bearings.min_parallax_deg) == 0.05235987755982989
+    changed = apply_options(FastSLAMConfig(), {"bearings.min_parallax_deg": "6"})
+    assert changed.bearings.min_parallax_deg == 6.0
     with pytest.raises(ConfigError, match="min_parallax_deg"):
-        FastSLAMConfig(min_parallax_deg=-1.0)
+        BearingsConfig(min_parallax_deg=-1.0)
 
 
 class _CountingMotion:
@@ -134,7 +138,7 @@ class _CountingMotion:
 
     def __init__(self, model: OdometryMotionModel) -> None:
         self._model = model
-        self.calls = {"sample": 0, "predict": 0}
+        self.calls = {"sample": 0, "predict": 0, "covariance": 0}
 
     def sample(self, wTr, delta_r, rng):
         self.calls["sample"] += 1
@@ -143,6 +147,10 @@ class _CountingMotion:
     def predict(self, wTr, P, delta_r):
         self.calls["predict"] += 1
         return self._model.predict(wTr, P, delta_r)
+
+    def covariance(self, delta_r):
+        self.calls["covariance"] += 1
+        return self._model.covariance(delta_r)
 
 
 @pytest.mark.parametrize("variant", list(Variant))
@@ -161,6 +169,47 @@ def test_the_injected_motion_model_is_the_one_used(variant):
         built.step(frame)
     np.testing.assert_array_equal(injected.particles.poses, built.particles.poses)
     if variant is Variant.FASTSLAM1:
-        assert counting.calls == {"sample": len(frames), "predict": 0}
+        assert counting.calls == {"sample": len(frames), "predict": 0, "covariance": 0}
     else:
         assert counting.calls["predict"] == len(frames)
+        assert counting.calls["covariance"] == 0  # nothing asks for it by default
+
+
+@pytest.mark.parametrize("variant", list(Variant))
+def test_the_spread_since_a_sighting_takes_the_injected_models_covariance(variant):
+    """``experimental.resighting_spread`` composes the step covariances of the motion model
+    it is given (``MotionModel.covariance``, once per frame), with the factory's numbers."""
+    frames = make_scenario(3, steps=15, unknown_ids=True).frames
+    config = CONFIG.with_(
+        variant=variant, experimental=ExperimentalConfig(resighting_spread=1.0)
+    )
+    counting = _CountingMotion(OdometryMotionModel(config.motion_noise))
+    injected = FastSLAM(
+        config, np.random.default_rng(1), modality=Modality.RANGE_BEARING_2D, motion=counting
+    )
+    built = make_fastslam(config, Modality.RANGE_BEARING_2D, np.random.default_rng(1))
+    for frame in frames:
+        injected.step(frame)
+        built.step(frame)
+    np.testing.assert_array_equal(injected.particles.poses, built.particles.poses)
+    assert counting.calls["covariance"] == len(frames)
+
+
+class _NoCovariance:
+    """A motion model that samples and predicts but states no step covariance."""
+
+    def sample(self, wTr, delta_r, rng):
+        return OdometryMotionModel().sample(wTr, delta_r, rng)
+
+    def predict(self, wTr, P, delta_r):
+        return OdometryMotionModel().predict(wTr, P, delta_r)
+
+
+def test_a_motion_model_without_a_covariance_is_refused():
+    with pytest.raises(ConfigError, match="covariance"):
+        FastSLAM(
+            CONFIG,
+            np.random.default_rng(0),
+            modality=Modality.RANGE_BEARING_2D,
+            motion=_NoCovariance(),
+        )

@@ -18,7 +18,15 @@ from fastslam_tolerances import OUTLIER_FRACTION
 
 from omnislam.core.modality import Modality
 from omnislam.core.types import Introspectable
-from omnislam.fastslam import FastSLAMConfig, FastSLAMInfo, Variant, make_fastslam
+from omnislam.fastslam import (
+    BearingsConfig,
+    ExperimentalConfig,
+    FastSLAMConfig,
+    FastSLAMInfo,
+    ParticlesConfig,
+    Variant,
+    make_fastslam,
+)
 from omnislam.fastslam.slot_registry import UNKNOWN_SLOT_ID_BASE
 
 
@@ -31,7 +39,11 @@ def _run(config, frames, modality, seed=0):
 
 def test_counts_agree_with_the_filter_and_its_estimate():
     scenario = make_scenario(0, steps=50)
-    config = FastSLAMConfig(variant=Variant.FASTSLAM1, n_particles=20, motion_noise=SCENARIO_NOISE)
+    config = FastSLAMConfig(
+        variant=Variant.FASTSLAM1,
+        particles=ParticlesConfig(n_particles=20),
+        motion_noise=SCENARIO_NOISE,
+    )
     slam = _run(config, scenario.frames, Modality.RANGE_BEARING_2D)
     assert isinstance(slam, Introspectable)
     info = slam.info()
@@ -51,7 +63,11 @@ def test_counts_agree_with_the_filter_and_its_estimate():
 
 def test_unknown_association_counts_its_slots():
     scenario = make_scenario(1, steps=40, unknown_ids=True)
-    config = FastSLAMConfig(variant=Variant.FASTSLAM2, n_particles=10, motion_noise=SCENARIO_NOISE)
+    config = FastSLAMConfig(
+        variant=Variant.FASTSLAM2,
+        particles=ParticlesConfig(n_particles=10),
+        motion_noise=SCENARIO_NOISE,
+    )
     slam = _run(config, scenario.frames, Modality.RANGE_BEARING_2D)
     info = slam.info()
     assert info.unknown_slots == info.landmark_slots > 0
@@ -65,7 +81,7 @@ def test_the_bearing_gate_counts_what_it_rejects(variant):
     frames = make_bearing_scenario(1, steps=60, outlier_fraction=OUTLIER_FRACTION).frames
     config = FastSLAMConfig(
         variant=variant,
-        n_particles=10,
+        particles=ParticlesConfig(n_particles=10),
         motion_noise=BEARING_SCENARIO_NOISE,
         sensor_height_m=SENSOR_HEIGHT_M,
     )
@@ -73,7 +89,8 @@ def test_the_bearing_gate_counts_what_it_rejects(variant):
     assert gated.modality is Modality.BEARINGS_3D
     assert gated.sightings_gated > 0 and gated.triangulation_fallbacks > 0
     assert (gated.proposal_sightings_gated > 0) is (variant is Variant.FASTSLAM2)
-    ungated = _run(config.with_(bearing_gate_probability=1.0), frames, Modality.BEARINGS_3D)
+    ungated_config = config.with_(bearings=BearingsConfig(gate_probability=1.0))
+    ungated = _run(ungated_config, frames, Modality.BEARINGS_3D)
     assert ungated.info().sightings_gated == ungated.info().proposal_sightings_gated == 0
     first = _run(config, frames[:1], Modality.BEARINGS_3D).info()
     assert first.rays_pending == len(frames[0].bearings) and first.landmarks == 0
@@ -86,10 +103,11 @@ def test_every_unknown_decision_is_counted_matched_or_new(spread, pose_spread):
     scenario = make_scenario(1, steps=40, unknown_ids=True)
     config = FastSLAMConfig(
         variant=Variant.FASTSLAM2,
-        n_particles=10,
+        particles=ParticlesConfig(n_particles=10),
         motion_noise=SCENARIO_NOISE,
-        resighting_spread=spread,
-        association_pose_spread=pose_spread,
+        experimental=ExperimentalConfig(
+            resighting_spread=spread, association_pose_spread=pose_spread
+        ),
     )
     slam = _run(config, scenario.frames, Modality.RANGE_BEARING_2D)
     info = slam.info()

@@ -25,7 +25,14 @@ from omnislam.core.gaussian import LOG_2PI
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
-from omnislam.fastslam import FastSLAMConfig, ProposalUpdateMode, Variant, make_fastslam
+from omnislam.fastslam import (
+    FastSLAMConfig,
+    ParticlesConfig,
+    ProposalConfig,
+    ProposalUpdateMode,
+    Variant,
+    make_fastslam,
+)
 from omnislam.fastslam.proposal import joint_proposal, refine_proposal
 from omnislam.options import apply_options
 
@@ -226,9 +233,9 @@ def test_motion_prediction_input(rng):
 
 
 def test_option_parses_from_the_command_line():
-    config = apply_options(FastSLAMConfig(), {"proposal_update": "joint"})
-    assert config.proposal_update is ProposalUpdateMode.JOINT
-    assert FastSLAMConfig().proposal_update is ProposalUpdateMode.SEQUENTIAL
+    config = apply_options(FastSLAMConfig(), {"proposal.update": "joint"})
+    assert config.proposal.update is ProposalUpdateMode.JOINT
+    assert FastSLAMConfig().proposal.update is ProposalUpdateMode.SEQUENTIAL
 
 
 def _ate(config, scenario, seed, modality):
@@ -244,7 +251,7 @@ def _mean_ates(config, scenarios, seeds, modality):
     ates = {
         mode: np.mean(
             [
-                _ate(config.with_(proposal_update=mode), scenario, seed, modality)
+                _ate(config.with_(proposal=ProposalConfig(update=mode)), scenario, seed, modality)
                 for scenario, seed in zip(scenarios, seeds, strict=True)
             ]
         )
@@ -259,7 +266,11 @@ def _mean_ates(config, scenarios, seeds, modality):
 def test_filter_joint_close_to_sequential_on_the_loop():
     """End to end on the 2-D loop (3 seeds, 10 particles): JOINT's mean ATE is close to
     SEQUENTIAL's and well below dead reckoning's."""
-    config = FastSLAMConfig(variant=Variant.FASTSLAM2, n_particles=10, motion_noise=SCENARIO_NOISE)
+    config = FastSLAMConfig(
+        variant=Variant.FASTSLAM2,
+        particles=ParticlesConfig(n_particles=10),
+        motion_noise=SCENARIO_NOISE,
+    )
     seeds = range(3)
     sequential, joint, dead_reckoning = _mean_ates(
         config,
@@ -276,7 +287,7 @@ def test_filter_joint_with_bearings_and_outliers():
     the gate, evaluated at the prediction, keeps JOINT well below dead reckoning."""
     config = FastSLAMConfig(
         variant=Variant.FASTSLAM2,
-        n_particles=20,
+        particles=ParticlesConfig(n_particles=20),
         motion_noise=BEARING_SCENARIO_NOISE,
         sensor_height_m=SENSOR_HEIGHT_M,
     )

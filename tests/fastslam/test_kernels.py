@@ -31,7 +31,7 @@ from omnislam.core.modality import Modality
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
 from omnislam.core.se import wrap_angle
 from omnislam.errors import MissingExtraError
-from omnislam.fastslam import FastSLAMConfig, Kernels, Variant, make_fastslam
+from omnislam.fastslam import FastSLAMConfig, Kernels, ParticlesConfig, Variant, make_fastslam
 from omnislam.fastslam import kernels as kernel_module
 from omnislam.fastslam.association import (
     NEW_LANDMARK,
@@ -40,7 +40,7 @@ from omnislam.fastslam.association import (
 )
 from omnislam.fastslam.bearing_landmarks import triangulate, world_rays
 from omnislam.fastslam.bearing_mapper import BearingMapper
-from omnislam.fastslam.config import BearingUpdate, TriangulationMethod
+from omnislam.fastslam.config import BearingsConfig, BearingUpdate, TriangulationMethod
 from omnislam.fastslam.landmark_store import ESTIMATED, RAY, LandmarkBlock, LandmarkStatus
 from omnislam.fastslam.landmark_tree import LandmarkTree, TreeLayout
 from omnislam.fastslam.particles import ParticleSet
@@ -373,13 +373,13 @@ def test_bearing_mapper_updates_equal_the_numpy_path_bit_for_bit(
     n = 3000
     block, poses, sightings = _bearing_block(rng, n)
     obs = rng.permutation(n)
-    config = FastSLAMConfig(
-        sensor_height_m=SENSOR_HEIGHT_M,
-        bearing_update=bearing_update,
-        triangulation=triangulation,
-        bearing_gate_probability=gate_probability,
+    config = BearingsConfig(
+        update=bearing_update, triangulation=triangulation, gate_probability=gate_probability
     )
-    mappers = [BearingMapper(config), BearingMapper(config, k)]
+    mappers = [
+        BearingMapper(config, SENSOR_HEIGHT_M),
+        BearingMapper(config, SENSOR_HEIGHT_M, k),
+    ]
     blocks = [block.take(slice(None)), block.take(np.arange(n))]
     likelihoods = [m.update(b, poses, sightings, obs) for m, b in zip(mappers, blocks, strict=True)]
     np.testing.assert_array_equal(likelihoods[1], likelihoods[0])
@@ -484,7 +484,11 @@ def _assert_same_run(numpy_run, kernel_run, atol):
 @pytest.mark.parametrize("unknown_ids", [False, True])
 def test_range_bearing_runs_agree_on_both_paths(variant, unknown_ids):
     frames = make_scenario(3, steps=120, unknown_ids=unknown_ids).frames
-    config = FastSLAMConfig(variant=variant, n_particles=30, motion_noise=SCENARIO_NOISE)
+    config = FastSLAMConfig(
+        variant=variant,
+        particles=ParticlesConfig(n_particles=30),
+        motion_noise=SCENARIO_NOISE,
+    )
     runs = [
         _run(config.with_(kernels=kernels), frames, Modality.RANGE_BEARING_2D)
         for kernels in (Kernels.NUMPY, Kernels.NUMBA)
@@ -499,7 +503,7 @@ def test_bearing_runs_agree_on_both_paths(variant):
     frames = make_bearing_scenario(2, steps=60).frames
     config = FastSLAMConfig(
         variant=variant,
-        n_particles=10,
+        particles=ParticlesConfig(n_particles=10),
         motion_noise=BEARING_SCENARIO_NOISE,
         sensor_height_m=SENSOR_HEIGHT_M,
     )

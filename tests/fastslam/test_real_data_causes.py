@@ -3,9 +3,9 @@
 * With ``stated_odometry_noise`` the particles spread as a frame's ``Odometry.covariance``
   says (``core.motion.StatedOdometryMotion``), not as the alpha model would; by default (AUTO)
   they do so for laser odometry (a covariance measured per step) and not for wheel odometry.
-* With ``outlier_gate_probability`` < 1, a misread sighting (an id that names a landmark
-  metres away, MR.CLAM's misread barcodes) neither moves the landmark nor refines the FastSLAM
-  2.0 proposal, on the numpy path and the compiled kernels alike.
+* With ``experimental.outlier_gate_probability`` < 1, a misread sighting (an id that names a
+  landmark metres away, MR.CLAM's misread barcodes) neither moves the landmark nor refines the
+  FastSLAM 2.0 proposal, on the numpy path and the compiled kernels alike.
 """
 
 from __future__ import annotations
@@ -16,8 +16,10 @@ import pytest
 from omnislam.core.modality import Modality
 from omnislam.core.types import FrameInput, Odometry, OdometrySource, RangeBearing
 from omnislam.fastslam import (
+    ExperimentalConfig,
     FastSLAMConfig,
     Kernels,
+    ParticlesConfig,
     StatedOdometryNoise,
     Variant,
     make_fastslam,
@@ -36,7 +38,11 @@ def _spread(
     with_sighting: bool,
     odometry_source: OdometrySource = OdometrySource.WHEEL,
 ) -> np.ndarray:
-    config = FastSLAMConfig(variant=variant, n_particles=4000, stated_odometry_noise=stated)
+    config = FastSLAMConfig(
+        variant=variant,
+        particles=ParticlesConfig(n_particles=4000),
+        stated_odometry_noise=stated,
+    )
     slam = make_fastslam(
         config, Modality.RANGE_BEARING_2D, np.random.default_rng(3), odometry_source=odometry_source
     )
@@ -99,7 +105,10 @@ def _frame(index: int, rng_range: float, landmark: int = 7) -> FrameInput:
 
 def _run_misread(variant: Variant, gate: float, kernels: Kernels):
     config = FastSLAMConfig(
-        variant=variant, n_particles=20, outlier_gate_probability=gate, kernels=kernels
+        variant=variant,
+        particles=ParticlesConfig(n_particles=20),
+        experimental=ExperimentalConfig(outlier_gate_probability=gate),
+        kernels=kernels,
     )
     slam = make_fastslam(config, Modality.RANGE_BEARING_2D, np.random.default_rng(5))
     for k in range(5):
@@ -145,7 +154,11 @@ def test_a_gap_without_sightings_is_sampled_as_one_composed_step(variant):
     from omnislam.core.se import se2_compose, se2_compose_jacobians
     from omnislam.fastslam.config import DEFAULT_MOTION_NOISE
 
-    config = FastSLAMConfig(variant=variant, n_particles=4000, compose_gaps=True)
+    config = FastSLAMConfig(
+        variant=variant,
+        particles=ParticlesConfig(n_particles=4000),
+        experimental=ExperimentalConfig(compose_gaps=True),
+    )
     slam = make_fastslam(config, Modality.RANGE_BEARING_2D, np.random.default_rng(4))
     step = np.array([0.4, 0.0, 0.15])
     for k in range(5):
@@ -193,7 +206,7 @@ def test_a_composed_gap_holds_its_start_and_restarts_empty_after_closing():
     first, whole, motion = gap.close(steps[2], covs[2])
     np.testing.assert_array_equal(first, start)
     np.testing.assert_allclose(whole, composed[2][0], atol=1e-12)
-    np.testing.assert_allclose(motion.covariance, composed[2][1], atol=1e-15)
+    np.testing.assert_allclose(motion.delta_covariance, composed[2][1], atol=1e-15)
     assert not gap.open
     got = gap.extend(poses, steps[0], covs[0])
     np.testing.assert_allclose(got, se2_compose(poses, steps[0]), atol=1e-12)

@@ -10,6 +10,7 @@ from omnislam.core.gating import chi_square_gate
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.motion import MotionNoise, OdometryMotionModel, compose_odometry
 from omnislam.fastslam.association import NEW_LANDMARK, maximum_likelihood_association
+from omnislam.fastslam.config import AssociationConfig
 from omnislam.fastslam.resighting import ResightingSpread
 
 
@@ -214,7 +215,11 @@ def test_sighting_association_adds_both_spreads_to_the_prediction_about_the_weig
 
     monkeypatch.setattr(association, "maximum_likelihood_association", capture)
     matcher = association.SightingAssociation(
-        Registry(), Store(), 2.0, -6.0, spread=GapStub(), pose_spread=PoseSpreadStub()
+        Registry(),
+        Store(),
+        AssociationConfig(new_landmark_log_likelihood=-6.0, margin_m=2.0),
+        spread=GapStub(),
+        pose_spread=PoseSpreadStub(),
     )
     sightings = Sightings(
         np.array([-1, -1]), np.array([[3.0, 0.0], [5.0, 1.0]]), np.zeros((2, 2, 2))

@@ -1,5 +1,6 @@
 """The FFBSm read-out (``fastslam.smoother``) against the Rauch-Tung-Striebel smoother on a
-linear-Gaussian model, its genealogy limit, and the filter's ``trajectory=smoothed``."""
+linear-Gaussian model, its genealogy limit, and the filter's
+``experimental.trajectory=smoothed``."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numpy as np
 import pytest
 from fastslam_scenario import ate_rmse, make_scenario
 from fastslam_tolerances import ATE_FRACTION_OF_DEAD_RECKONING
-from test_filter import _ate, _config, _run
+from test_filter import _ate, _config, _experimental, _run
 
 from omnislam.errors import ConfigError
 from omnislam.fastslam import TrajectoryMode, Variant
@@ -141,7 +142,7 @@ def test_ffbsm_with_a_tight_transition_is_the_genealogy():
 @pytest.mark.parametrize("variant", list(Variant))
 def test_smoothed_trajectory_ends_at_the_filtered_mean_and_beats_dead_reckoning(variant):
     scenario = make_scenario(1, steps=80)
-    _, estimate = _run(scenario, _config(variant, 50, trajectory=TrajectoryMode.SMOOTHED), 3)
+    _, estimate = _run(scenario, _experimental(variant, 50, trajectory=TrajectoryMode.SMOOTHED), 3)
     _, mean_estimate = _run(scenario, _config(variant, 50), 3)
     assert len(estimate.trajectory) == 80
     # the same draws: the last smoothed marginal is the filter's
@@ -157,4 +158,4 @@ def test_smoothed_trajectory_ends_at_the_filtered_mean_and_beats_dead_reckoning(
 
 def test_smoothed_trajectory_rejects_composed_gaps():
     with pytest.raises(ConfigError):
-        _config(Variant.FASTSLAM1, 10, trajectory=TrajectoryMode.SMOOTHED, compose_gaps=True)
+        _experimental(Variant.FASTSLAM1, 10, trajectory=TrajectoryMode.SMOOTHED, compose_gaps=True)
