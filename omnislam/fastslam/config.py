@@ -480,6 +480,15 @@ class FastSLAMConfig:
         "bearings.gate_probability",
         "existence.max_range_m",
     )
+    RENAMED_OPTIONS: ClassVar[dict[str, str]] = {
+        "resample_ess_fraction": "resampling.ess_fraction",
+        "association_margin_m": "association.margin_m",
+        "proposal_update": "proposal.update",
+        "proposal_max_landmark_std_m": "proposal.max_landmark_std_m",
+        "proposal_max_sightings": "proposal.max_sightings",
+        "bearing_update": "bearings.update",
+        "bearing_gate_probability": "bearings.gate_probability",
+    }
 
     variant: Variant = Variant.FASTSLAM1
     motion_noise: MotionNoise = DEFAULT_MOTION_NOISE
