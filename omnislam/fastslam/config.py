@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from enum import Enum
+from typing import ClassVar
 
 from omnislam.core.motion import MotionNoise
 from omnislam.core.types import OdometrySource
