@@ -128,13 +128,13 @@ class PoseConfig:
         pose_variables: which frames get a pose variable (default SIGHTINGS: frame 0 and the
             frames with sightings of the graph's stream, the odometry in between composed; see
             ``PoseVariables``).
-        keyframe_spacing_m: omni bearings: an image becomes a key frame (a pose variable with
-            its bearings) only once the robot has moved this far since the newest key frame [m]
-            (default 0.2); the bearings of the images in between are not used (counted), their
-            poses are the key frame's composed with the odometry. 0 uses every image.
+        keyframe_spacing_m: omni bearings: how far the robot moves before an image becomes a
+            key frame [m] (default 0.2). A key frame is a pose variable with its bearings; the
+            bearings of the images in between are not used (counted), their poses are the key
+            frame's composed with the odometry. 0 uses every image.
         odometry_sigmas: fixed (sx [m], sy [m], stheta [rad]) of every odometry factor instead
-            of the motion model, for datasets that state their odometry noise (gtsam's
-            victoria_park.txt: 0.01, 0.002, 0.002). None (default) uses ``motion_noise``.
+            of the motion model. For datasets that state their odometry noise (gtsam's
+            victoria_park.txt: 0.01, 0.002, 0.002); None (default) uses ``motion_noise``.
         odometry_min_sigma_m: floor of the std of every odometry factor's translation given its
             rotation [m] (default 1 mm; see ``factors.condition_odometry_covariance``): GTSAM
             4.3's Cholesky rejects a clique of two poses whose absolute position is known
@@ -187,20 +187,20 @@ class SolverConfig:
             the GTSAM default of 10 diverged on one of four seeds, docs/design.md).
         factorization: iSAM2's factorisation (default AUTO: Cholesky, rebuilt with QR if it
             reports an indeterminate system, as it did on a demo seed's front-end log).
-        adaptive_reorder_threshold: when iSAM2's Bayes tree holds more than this many times
-            the non-zeros a fresh batch ordering would give, GTSAM re-orders and re-eliminates
-            the whole tree (``ISAM2Params.enableAdaptiveReorder``, GTSAM 4.3); None (default)
-            disables it. Incremental orderings fill in badly once bearing-only tracks close
-            loops.
-        online_lag_key_frames: omni bearings: the online estimate is a fixed-lag smoother over
-            the variables touched within this many key frames, and ``estimate()`` is LM over
-            the whole graph (default 20; ``session.FixedLagSession``): the smoother's update
-            stays flat where iSAM2's over the whole graph grows with the run. None: iSAM2 over
-            the whole graph at every key frame. The smoother's iSAM2 takes
-            ``relinearize_threshold`` / ``relinearize_skip``; ``factorization`` and
-            ``adaptive_reorder_threshold`` act on the whole-graph iSAM2 only.
+        adaptive_reorder_threshold: iSAM2 re-orders the whole Bayes tree past this ratio of its
+            non-zeros to a fresh ordering's (default None: never). GTSAM 4.3's
+            ``ISAM2Params.enableAdaptiveReorder``: incremental orderings fill in badly once
+            bearing-only tracks close loops.
+        online_lag_key_frames: omni bearings: the online estimate's fixed-lag window [key
+            frames] (default 20). None: iSAM2 over the whole graph at every key frame. The
+            online estimate is a fixed-lag smoother over the variables touched within this many key
+            frames, and ``estimate()`` is LM over the whole graph (``session.FixedLagSession``):
+            the smoother's update stays flat where iSAM2's over the whole graph grows with the
+            run. The smoother's iSAM2 takes ``relinearize_threshold`` / ``relinearize_skip``;
+            ``factorization`` and ``adaptive_reorder_threshold`` act on the whole-graph iSAM2
+            only.
         robust_kernel: M-estimator on landmark factors (default AUTO: Huber on the omni
-            bearings, none on the other modalities; ``RobustKernel``).
+            bearings, none elsewhere). See ``RobustKernel``.
         robust_threshold: kernel threshold on the whitened residual; None (default) uses the
             kernel's own (``DEFAULT_ROBUST_THRESHOLD``: Huber 1.345, Cauchy 2.3849; AUTO's
             Huber on the omni bearings 3, ``BEARING_HUBER_THRESHOLD``).
@@ -262,7 +262,7 @@ class LandmarkConfig:
         min_sightings: sightings a bearing-only track needs before it is triangulated and
             inserted (default 3).
         min_parallax_deg: largest angle between a track's world rays needed before insertion
-            [deg] (default 3: fewer made iSAM2 throw "Indeterminate linear system").
+            [deg] (default 3). Fewer made iSAM2 throw "Indeterminate linear system".
         prior_sigma_m: std of a weak prior that holds each bearing-only landmark near the point
             it was triangulated at when inserted [m] (default 10; None: no prior): bearings
             leave a landmark's depth only weakly determined, and the prior bounds the pivots
@@ -281,11 +281,10 @@ class LandmarkConfig:
             a landmark started from a misread id would sit metres away and the outlier gate
             would then reject its correct sightings. 1 inserts on the first sighting.
         outlier_gate_probability: chi-square probability of the outlier gate on range-bearing
-            sightings of mapped landmarks with given ids (default
-            ``core.gating.OUTLIER_GATE_PROBABILITY``, 0.999): the innovation at the frame's
-            guess, with the covariance of the guess and the landmark read from iSAM2
-            (``joint_state.py``), beyond the chi-square quantile drops the sighting. 1.0
-            disables it.
+            sightings of mapped landmarks with ids (default 0.999). 1.0 disables it. The
+            innovation at the frame's guess, with the covariance of the guess and the landmark
+            read from iSAM2 (``joint_state.py``), beyond the chi-square quantile drops the
+            sighting (``core.gating.OUTLIER_GATE_PROBABILITY``).
         outlier_gate_min_sightings: sightings of landmarks with fewer sightings in the graph
             are gated 10 times wider (``core.gating.YOUNG_GATE_FACTOR``; default 20): a young
             landmark's iSAM2 marginal is linearised where its first sightings put it, and a
@@ -336,15 +335,15 @@ class AssociationConfig:
     Attributes:
         test: JOINT (default) or NEAREST (see ``AssociationTest``).
         gate_probability: chi-square probability of the gate inside which an unlabelled
-            range-bearing sighting may take a landmark (individual compatibility; with JOINT
-            also the joint gate of the frame's hypothesis, d = 2 per pairing; default 0.99).
+            sighting may take a landmark (default 0.99). Individual compatibility;
+            with JOINT also the joint gate of the frame's hypothesis, d = 2 per pairing.
         new_landmark_probability: chi-square probability beyond which an unmatched sighting
             starts a new landmark (default 0.9999); sightings between the two gates are
             ambiguous and dropped.
-        lag_frames: with JOINT, the frames with unlabelled sightings that must follow a frame
-            before its unlabelled sightings are associated: JCBB runs over the waiting frames
-            together and keeps the oldest frame's decisions (``window_association.py``);
-            default 0: each frame on its own.
+        lag_frames: with JOINT, later frames with unlabelled sightings a frame waits for before
+            its own are associated (default 0). JCBB runs over
+            the waiting frames together and keeps the oldest frame's decisions
+            (``window_association.py``); 0: each frame on its own.
         ambiguity_margin: with JOINT, a pairing that the second-best hypothesis (as many
             pairings) makes differently is dropped as ambiguous unless that hypothesis' joint
             D2 exceeds the best's by this margin (default 2 ln 10 = 4.6: the best must be 10
@@ -353,7 +352,7 @@ class AssociationConfig:
         landmark_sigma_m: fixed std of every landmark position [m] in the NEAREST gate, and in
             the loose test that picks JOINT's candidates (default 0.3).
         tentative_min_sightings: sightings a landmark started by the association needs before
-            it enters the graph (default 1: at once). 2 or more holds it as a tentative landmark
+            it enters the graph (default 1: at once). Two or more hold it as a tentative landmark
             (``tentative.py``) that is dropped, with its sightings, unless re-observed within
             ``tentative_window_frames`` frames: it removes clutter (spurious detections) from
             the map.
@@ -395,11 +394,11 @@ class FloorConfig:
     ``odometry_scale.py``, ``floor_scale.py``, ``floor_points.py``).
 
     Attributes:
-        scale: multiply each odometry translation by the scale the floor points give (default
-            True; ``floor_scale.py``): bearings alone leave the map at the odometry's scale,
-            and floor points seen from the known camera height are metric. Needs a camera
-            height (``poses.sensor_height_m`` > 0); without floor points in the log the scale
-            stays 1 and nothing changes.
+        scale: omni bearings: multiply each odometry translation by the scale the floor points
+            give (default True). Bearings alone leave the map at the odometry's scale, and floor
+            points seen from the known camera height are metric (``floor_scale.py``). Needs a
+            camera height (``poses.sensor_height_m`` > 0); without floor points in the log the
+            scale stays 1 and nothing changes.
         scale_final: with ``scale`` and the fixed-lag session: the final estimate (LM over the
             whole graph) takes every odometry translation at the run's final floor scale, not
             at the scale known when its factor was added (default True: the first frames,
@@ -470,12 +469,12 @@ class LoopClosureConfig:
     """Merging landmarks the association started that duplicate older ones (``loop_closure.py``).
 
     Attributes:
-        enabled: merge them (``loop_closure.LandmarkMerger``: the local map of recently seen
-            created landmarks matched against the older ones by joint compatibility of their
-            iSAM2 estimates, then tied by a zero ``BetweenFactorPoint2``); landmarks with given
-            ids never take part. Default False: left off, as on MR.CLAM without ids half of its
-            merges joined neighbours 0.18 m apart and on Victoria Park it cost CPU for the same
-            ATE.
+        enabled: merge landmarks the association started that duplicate older ones (default
+            False). ``loop_closure.LandmarkMerger``: the local map of recently seen created
+            landmarks matched against the older ones by joint compatibility of their iSAM2
+            estimates, then tied by a zero ``BetweenFactorPoint2``; landmarks with given ids
+            never take part. Left off: on MR.CLAM without ids half of its merges joined
+            neighbours 0.18 m apart, and on Victoria Park it cost CPU for the same ATE.
         every_frames: the local map is matched every this many frames with unlabelled sightings
             (default 10).
         window_frames: the local map holds the created landmarks seen within this many frames
@@ -543,6 +542,8 @@ class GraphSLAMConfig:
     """Settings of ``GraphSLAM`` / ``BatchGraphSLAM``: the motion noise and one section per trade.
 
     Attributes:
+        compute_covariances: ``estimate()`` returns marginal covariances of poses and landmarks
+            (default False). Marginals cost far more than the estimate.
         motion_noise: alpha coefficients of the odometry model (thesis eq. 4.41); the 3x3
             covariance of each odometry delta is ``OdometryMotionModel.covariance``.
         poses: the pose chain (``PoseConfig``).
@@ -552,8 +553,6 @@ class GraphSLAMConfig:
         floor: the odometry's scale from floor points (``FloorConfig``).
         batch: the final Levenberg-Marquardt solve (``BatchConfig``).
         experimental: switches measured and left off (``ExperimentalConfig``).
-        compute_covariances: ``estimate()`` returns marginal covariances of poses and landmarks
-            (default False: marginals cost far more than the estimate).
     """
 
     #: the options most users set (``omnislam estimators graphslam``; ``--all`` lists the rest)
@@ -575,6 +574,7 @@ class GraphSLAMConfig:
         "compute_covariances",
     )
 
+    compute_covariances: bool = False
     motion_noise: MotionNoise = field(default_factory=MotionNoise)
     poses: PoseConfig = field(default_factory=PoseConfig)
     solver: SolverConfig = field(default_factory=SolverConfig)
@@ -583,7 +583,6 @@ class GraphSLAMConfig:
     floor: FloorConfig = field(default_factory=FloorConfig)
     batch: BatchConfig = field(default_factory=BatchConfig)
     experimental: ExperimentalConfig = field(default_factory=ExperimentalConfig)
-    compute_covariances: bool = False
 
 
 #: named presets (the CLI merges ``--set key=value`` overrides on top of one of these)
