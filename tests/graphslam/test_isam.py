@@ -32,7 +32,12 @@ from omnislam.graphslam import (
     RobustKernel,
 )
 from omnislam.graphslam import factors as fx
-from omnislam.graphslam.config import AssociationConfig, PoseVariables, SolverConfig
+from omnislam.graphslam.config import (
+    AssociationConfig,
+    AssociationTest,
+    PoseVariables,
+    SolverConfig,
+)
 
 gtsam = pytest.importorskip("gtsam")
 
@@ -270,9 +275,17 @@ def test_wrong_associations_the_defaults_keep_ate_near_clean():
     assert np.median(ratios["plain"]) > 10, ratios  # the threat is real
 
 
-def test_unknown_association_recovers_the_map():
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {},  # joint compatibility, frame by frame
+        {"association": {"test": AssociationTest.NEAREST}},  # each sighting's nearest
+    ],
+    ids=["joint", "nearest"],
+)
+def test_unknown_association_recovers_the_map(changes):
     scenario = simulate_planar(np.random.default_rng(2))
-    estimator = GraphSLAM(RB, _config(), scenario.poses_true[0])
+    estimator = GraphSLAM(RB, _config(**changes), scenario.poses_true[0])
     estimate = run(estimator, hide_ids(scenario.frames))
     info = estimator.info()
     seen = len({int(i) for f in scenario.frames for i in f.range_bearing.landmark_ids})
