@@ -18,7 +18,7 @@ noise model of pass 1's estimate kept the run from the goal::
 
     PYTHONPATH=. OMNISLAM_DATA=../shared/data .venv/bin/python benchmarks/association_two_models.py
         victoria-park-gtsam --assoc-set preset=victoria-park-gtsam --assoc-set sigma_range_m=0.25
-        --assoc-set sigma_bearing_rad=0.05 --assoc-set odometry_sigmas=0.01,0.002,0.011
+        --assoc-set sigma_bearing_rad=0.05 --assoc-set poses.odometry_sigmas=0.01,0.002,0.011
         --final-set preset=victoria-park-gtsam
 """
 

@@ -24,8 +24,8 @@ the goal holds. Cells are cached as JSON under ``--cache`` (``--fresh`` ignores 
         [--rate 0.5] [--seed 0] [--cache runs/clutter] [--fresh] [--set KEY=VALUE ...]
 
 ``--set KEY=VALUE`` (repeatable) adds an option to every cell, clean and cluttered alike --
-an estimator's (``association_min_sightings=3``) or the loader's -- as ``omnislam run --set``
-does; the cells of each set of options are cached under their own names.
+an estimator's (the graph's ``association.tentative_min_sightings=3``) or the loader's -- as
+``omnislam run --set`` does; the cells of each set of options are cached under their own names.
 """
 
 from __future__ import annotations

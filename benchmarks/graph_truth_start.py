@@ -32,7 +32,7 @@ from omnislam.compare.metrics import ate
 from omnislam.core.types import Trajectory
 from omnislam.estimators import make_estimator
 from omnislam.graphslam import factors as fx
-from omnislam.graphslam.batch import optimize_batch
+from omnislam.graphslam.levenberg_marquardt import optimize_batch
 
 gtsam = require("gtsam")
 
@@ -92,7 +92,7 @@ def main() -> None:
         file=sys.stderr,
         flush=True,
     )
-    again = optimize_batch(factors, start, graph.config.batch_max_iterations, 1e-10)
+    again = optimize_batch(factors, start, graph.config.batch.max_iterations, 1e-10)
     print(
         f"{name}: graph error at the solution {factors.error(solution):.1f}, at the truth "
         f"{factors.error(start):.1f}, after LM from the truth {again.final_error:.1f} "

@@ -1,7 +1,7 @@
 """What grows in iSAM2's update on an omni log, and what GTSAM's options do about it.
 
 Replays a cached front-end log (as ``realtime_lab40.py`` does) through ``graphslam`` with
-iSAM2 over the whole graph (``online_lag_key_frames=none``), once per configuration, and for
+iSAM2 over the whole graph (``solver.online_lag_key_frames=none``), once per configuration, and for
 every key-frame update records the CPU time of ``ISAM2.update`` and its ``ISAM2Result``:
 variables re-eliminated and relinearised, and the Bayes tree's non-zeros. Prints, per
 configuration, the run's CPU time, ATE, the per-image flatness (95th percentile of the image
@@ -9,14 +9,15 @@ steps' CPU time over images 100-200 and the last 100, as ``realtime_lab40.py``) 
 re-eliminated / relinearised variables of the last 20 updates; with ``--growth``, the defaults'
 updates in eight blocks.
 
-Configurations: ``--set KEY=VALUE`` options of ``GraphSLAMConfig`` (``relinearize_threshold``,
-``relinearize_skip``, ``adaptive_reorder_threshold``), and ``P:NAME=VALUE`` for an
-``ISAM2Params`` attribute the config does not expose (``cacheLinearizedFactors``,
-``findUnusedFactorSlots``)::
+Configurations: ``--set KEY=VALUE`` options of ``GraphSLAMConfig``
+(``solver.relinearize_threshold``, ``solver.relinearize_skip``,
+``solver.adaptive_reorder_threshold``), and ``P:NAME=VALUE`` for an ``ISAM2Params`` attribute
+the config does not expose (``cacheLinearizedFactors``, ``findUnusedFactorSlots``)::
 
     PYTHONPATH=. .venv/bin/python benchmarks/isam2_options.py lab40 runs/lab40-v2 LOG \\
-        --growth --config "" --config relinearize_threshold=0.5 --config relinearize_skip=10 \\
-        --config adaptive_reorder_threshold=2 --config P:cacheLinearizedFactors=False \\
+        --growth --config "" --config solver.relinearize_threshold=0.5 \\
+        --config solver.relinearize_skip=10 --config solver.adaptive_reorder_threshold=2 \\
+        --config P:cacheLinearizedFactors=False \\
         --config P:findUnusedFactorSlots=True
 """
 
@@ -83,7 +84,7 @@ class _Recorder:
 def run(data: rt.Replay, options: dict[str, str], params: dict[str, str], growth: bool) -> None:
     recorder = _Recorder(params)
     recorder.install()
-    options = {"online_lag_key_frames": "none", **options}
+    options = {"solver.online_lag_key_frames": "none", **options}
     estimator = make_estimator("graphslam", data.info, options, np.random.default_rng(0))
     cpu = np.zeros(len(data.frames))
     start = time.process_time()

@@ -69,32 +69,38 @@ from omnislam.core.types import Trajectory
 from omnislam.datasets.registry import load_dataset
 from omnislam.estimators import make_estimator
 
+#: the option the ``true-scale`` variant sets to the truth's scale
+TRUE_SCALE_OPTION = "floor.known_odometry_scale"
 #: graph variants: label -> (estimator, --set options)
 VARIANTS: dict[str, tuple[str, dict[str, str]]] = {
     "default": ("graphslam", {}),
     "images": (
         "graphslam",
-        {"keyframe_spacing_m": "0", "landmarks_per_image": "0"},
+        {"poses.keyframe_spacing_m": "0", "landmarks.per_image": "0"},
     ),
     "images-budget": (
         "graphslam",
-        {"keyframe_spacing_m": "0", "landmarks_per_image": "40"},
+        {"poses.keyframe_spacing_m": "0", "landmarks.per_image": "40"},
     ),
-    "spacing": ("graphslam", {"landmarks_per_image": "0"}),
+    "spacing": ("graphslam", {"landmarks.per_image": "0"}),
     "frames": (
         "graphslam",
-        {"pose_variables": "frames", "keyframe_spacing_m": "0", "landmarks_per_image": "0"},
+        {
+            "poses.pose_variables": "frames",
+            "poses.keyframe_spacing_m": "0",
+            "landmarks.per_image": "0",
+        },
     ),
     "batch": ("graphslam-batch", {}),
-    "whole": ("graphslam", {"online_lag_key_frames": "none"}),
-    "wheel-scale": ("graphslam", {"floor_scale": "false"}),
-    "online-scale": ("graphslam", {"floor_scale_final": "false"}),
-    "raw-pairs-scale": ("graphslam", {"floor_scale_refine": "false"}),
+    "whole": ("graphslam", {"solver.online_lag_key_frames": "none"}),
+    "wheel-scale": ("graphslam", {"floor.scale": "false"}),
+    "online-scale": ("graphslam", {"floor.scale_final": "false"}),
+    "raw-pairs-scale": ("graphslam", {"floor.scale_refine": "false"}),
     # the odometry's true translation scale from the first frame (a diagnostic: the graph's
     # error without the floor scale's; ``true_odometry_scale``)
-    "true-scale": ("graphslam", {"known_odometry_scale": "truth"}),
+    "true-scale": ("graphslam", {"floor.known_odometry_scale": "truth"}),
     # the final LM solved to a relative error decrease of 1e-10 (the default before session 14)
-    "lm-tight": ("graphslam", {"batch_relative_error_tol": "1e-10"}),
+    "lm-tight": ("graphslam", {"batch.relative_error_tol": "1e-10"}),
 }
 #: the other estimators timed on the same log (omni options as in benchmarks/fastslam_lab40.py)
 #: (EKF-SLAM and the UKF take their default streams: on a synthetic log EKF-SLAM the poles'
@@ -302,9 +308,9 @@ def main() -> None:
         data = prepare(name, folder, log, args.frames)
         for label in names:
             estimator, options = VARIANTS[label]
-            if options.get("known_odometry_scale") == "truth":
-                options = {**options, "known_odometry_scale": repr(true_odometry_scale(data))}
-                print(f"{name}: the odometry's true scale {options['known_odometry_scale']}",
+            if options.get(TRUE_SCALE_OPTION) == "truth":
+                options = {**options, TRUE_SCALE_OPTION: repr(true_odometry_scale(data))}
+                print(f"{name}: the odometry's true scale {options[TRUE_SCALE_OPTION]}",
                       file=sys.stderr)
             results = [
                 replay_once(data, estimator, {**options, **extra}, args.seed)

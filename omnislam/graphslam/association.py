@@ -19,13 +19,13 @@ sightings, cheap because the newest pose sits in the root clique of the Bayes tr
 the drift accumulated before a loop closure puts revisited landmarks outside the gate and
 duplicates them. Landmark marginals cost a back-substitution each, per nearby landmark and
 frame, so by default every landmark gets the *fixed* covariance ``sigma_l^2 I``;
-``GraphSLAMConfig.association_landmark_marginals`` uses the iSAM2 marginal ``L`` of each
+``ExperimentalConfig.association_landmark_marginals`` uses the iSAM2 marginal ``L`` of each
 candidate close enough to matter instead (``d^2`` with ``S = C_p + L``, the pose-landmark
 cross-covariance neglected). The position estimates are refreshed from iSAM2 only for the
-landmarks near the robot (see ``isam.py``).
+landmarks near the robot (``nearest_association.py``).
 
 A landmark started here can wait as a *tentative* landmark until re-observed
-(``tentative.py``, ``GraphSLAMConfig.association_min_sightings``): tentative landmarks are
+(``tentative.py``, ``AssociationConfig.tentative_min_sightings``): tentative landmarks are
 candidates like mapped ones, with the fused covariance of their sightings.
 
 What it cannot do (measured on gtsam's victoria_park.txt with the ids hidden, see the README):

@@ -4,13 +4,14 @@ The graph is built exactly as the incremental estimator builds it (every ``step`
 update); ``estimate()`` then runs LM on all factors, **warm-started from the iSAM2 solution**.
 docs/design.md: LM from dead reckoning on gtsam's victoria_park.txt stopped in a local minimum
 (poses 19 m RMS off), while from the iSAM2 solution it reached the optimum in 2 iterations.
-Covariances, when configured, come from ``gtsam.Marginals`` at the LM solution.
+Covariances, when configured, come from ``gtsam.Marginals`` at the LM solution. The LM itself
+is ``levenberg_marquardt.optimize_batch`` with ``BatchConfig``'s stopping rules.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 from omnislam._optional import require
@@ -19,43 +20,10 @@ from omnislam.errors import EstimationError
 from omnislam.graphslam.association import Gates
 from omnislam.graphslam.export import G2O_ATTACHMENT, format_g2o
 from omnislam.graphslam.isam import GraphSLAM, GraphSLAMInfo
+from omnislam.graphslam.levenberg_marquardt import BatchResult, optimize_batch
 from omnislam.graphslam.reassociation import reassociate
 
 gtsam = require("gtsam")
-
-
-@dataclass(frozen=True, slots=True)
-class BatchResult:
-    """Outcome of one LM run.
-
-    Attributes:
-        values: the optimised ``gtsam.Values``.
-        iterations: LM iterations taken.
-        initial_error: graph error (0.5 * sum of squared whitened residuals) at the start.
-        final_error: graph error at the end.
-    """
-
-    values: Any
-    iterations: int
-    initial_error: float
-    final_error: float
-
-
-def optimize_batch(
-    graph: Any, initial: Any, max_iterations: int = 100, relative_error_tol: float = 1e-10
-) -> BatchResult:
-    """Levenberg-Marquardt on ``graph`` from ``initial`` (``gtsam.Values``)."""
-    params = gtsam.LevenbergMarquardtParams()
-    params.setMaxIterations(max_iterations)
-    params.setRelativeErrorTol(relative_error_tol)
-    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
-    values = optimizer.optimize()
-    return BatchResult(
-        values=values,
-        iterations=int(optimizer.iterations()),
-        initial_error=float(graph.error(initial)),
-        final_error=float(graph.error(values)),
-    )
 
 
 def warm_started_lm(
@@ -106,25 +74,22 @@ class BatchGraphSLAM(GraphSLAM):
         if self._frames == 0:
             raise EstimationError("the graph is empty: no frame yet")
         if self._batch is None or self._batch_frames != self._frames:
-            config = self.config
-            batch = warm_started_lm(
-                self, config.batch_max_iterations, config.batch_relative_error_tol
-            )
+            lm, association = self.config.batch, self.config.association
+            rounds = self.config.experimental.batch_reassociation_rounds
+            batch = warm_started_lm(self, lm.max_iterations, lm.relative_error_tol)
             graph = self.factor_graph()
             movable = getattr(self._graph, "reassociable", None)  # range-bearing graphs only
-            if config.batch_reassociation_rounds > 0 and movable is not None:
+            if rounds > 0 and movable is not None:
                 again = reassociate(
                     graph,
                     batch.values,
                     movable,
                     Gates.from_probabilities(
-                        config.association_gate_probability, config.new_landmark_probability
+                        association.gate_probability, association.new_landmark_probability
                     ).match,
-                    config.batch_reassociation_rounds,
+                    rounds,
                     lambda g, v: (
-                        optimize_batch(
-                            g, v, config.batch_max_iterations, config.batch_relative_error_tol
-                        ).values
+                        optimize_batch(g, v, lm.max_iterations, lm.relative_error_tol).values
                     ),
                 )
                 graph, self._reassociated = again.graph, again.moved

@@ -7,7 +7,7 @@ in the graph yet is held back until it can be triangulated (``builder.DelayedLan
 insertion") and enters as a ``Point3`` with its held-back factors and the weak prior. Bearings
 without a track id are ignored (counted).
 
-Per-image landmark budget (``GraphSLAMConfig.landmarks_per_image``, ``TrackBudget``): an omni
+Per-image landmark budget (``LandmarkConfig.per_image``, ``TrackBudget``): an omni
 image carries ~200 bearings of tracks that mostly see the same few walls; each landmark adds 3
 variables and a bearing factor per sighting, and on a route that revisits its landmarks the
 Bayes tree's cliques grow with them. With a budget B, a track enters the graph only once it is
@@ -37,7 +37,7 @@ from omnislam.core.track_budget import AZIMUTH_SECTORS, TrackBudget
 from omnislam.core.types import UNKNOWN_ID, Bearings
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam.builder import DelayedLandmarks, SightingCounts
-from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.config import LandmarkConfig
 from omnislam.graphslam.poses import ViewpointPoses
 
 gtsam = require("gtsam")
@@ -54,22 +54,31 @@ class Bearings3DGraph:
     """Omni bearings -> ``BearingFactor3D`` and delayed ``Point3`` landmarks.
 
     Args:
-        config: settings (insertion, weak prior, robust kernel, ``sensor_height_m``).
-        poses: the viewpoint chain of the graph.
+        config: the landmarks' section (insertion, weak prior, per-image budget).
+        noise: the landmark factors' noise models (with the solver's robust kernel).
+        poses: the viewpoint chain of the graph (and the viewpoint's height).
+        budget_grace_images: ``ExperimentalConfig.budget_grace_images`` (None: off).
     """
 
     modality = Modality.BEARINGS_3D
 
-    def __init__(self, config: GraphSLAMConfig, poses: ViewpointPoses) -> None:
-        self._config = config
-        self._noise = fx.NoiseModels(*config.landmark_kernel(self.modality))
+    def __init__(
+        self,
+        config: LandmarkConfig,
+        noise: fx.NoiseModels,
+        poses: ViewpointPoses,
+        budget_grace_images: int | None = None,
+    ) -> None:
+        self._noise = noise
+        self._height_m = poses.sensor_height_m
+        self._grace = budget_grace_images
         self._landmarks = DelayedLandmarks(config, poses, dim=3)
         self._ignored = 0
         self._gated = 0
         self._over_budget = 0
         self._budget = (
-            TrackBudget(config.landmarks_per_image, grace_images=config.budget_grace_images)
-            if config.landmarks_per_image > 0
+            TrackBudget(config.per_image, grace_images=budget_grace_images)
+            if config.per_image > 0
             else None
         )
         # sightings (frame, ray, sigma) of tracks not admitted (yet) by the budget
@@ -88,7 +97,7 @@ class Bearings3DGraph:
         touched: list[int] = []
         if self._budget is not None:
             in_use = None
-            if self._config.budget_grace_images is not None:
+            if self._grace is not None:
                 in_use = np.fromiter(
                     (lid in self._landmarks for lid in ids[rows].tolist()), bool, len(rows)
                 )
@@ -126,7 +135,7 @@ class Bearings3DGraph:
         if point is None:
             return False
         ray_w = se2_rotate_vectors(guess_w, ray_r)
-        to_point = point - np.array([guess_w[0], guess_w[1], self._config.sensor_height_m])
+        to_point = point - np.array([guess_w[0], guess_w[1], self._height_m])
         cosine = ray_w @ to_point / max(np.linalg.norm(to_point), 1e-12)
         return bool(cosine < np.cos(max(BEARING_GATE_SIGMAS * sigma_rad, BEARING_GATE_RAD)))
 

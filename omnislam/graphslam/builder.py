@@ -9,7 +9,7 @@ adds the pose chain (``poses.py``) and runs the iSAM2 update (``session.py``).
 * ``DelayedLandmarks``: the bearing-only path shared by omni and vertical-line bearings --
   tracks held back until they can be triangulated (``landmark_init.DelayedInsertion``), then
   inserted with their held-back factors and the weak landmark prior
-  (``GraphSLAMConfig.landmark_prior_sigma_m``).
+  (``LandmarkConfig.prior_sigma_m``).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import numpy as np
 from omnislam._optional import require
 from omnislam.core.modality import Modality
 from omnislam.graphslam import factors as fx
-from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.config import LandmarkConfig
 from omnislam.graphslam.landmark_init import DelayedInsertion, DelayedInsertionStats
 from omnislam.graphslam.poses import PoseChain
 from omnislam.graphslam.tentative import TentativeStats
@@ -167,18 +167,19 @@ class DelayedLandmarks:
     """Bearing-only tracks into the graph: delayed insertion, then the weak landmark prior.
 
     Args:
-        config: ``min_sightings``, ``min_parallax_deg`` and ``landmark_prior_sigma_m``.
+        config: the landmarks' section (``min_sightings``, ``min_parallax_deg``,
+            ``prior_sigma_m``).
         poses: the pose chain (viewpoints of earlier frames for the triangulation).
         dim: landmark dimension, 3 (``Point3``, omni) or 2 (``Point2``, vertical lines).
     """
 
-    def __init__(self, config: GraphSLAMConfig, poses: PoseChain, dim: int) -> None:
+    def __init__(self, config: LandmarkConfig, poses: PoseChain, dim: int) -> None:
         self._poses = poses
         self._dim = dim
         self._delayed = DelayedInsertion(config.min_sightings, np.deg2rad(config.min_parallax_deg))
         self._prior = None  # the weak prior's noise model (never robust: not a measurement)
-        if config.landmark_prior_sigma_m is not None:
-            sigma = float(config.landmark_prior_sigma_m)
+        if config.prior_sigma_m is not None:
+            sigma = float(config.prior_sigma_m)
             self._prior = gtsam.noiseModel.Isotropic.Sigma(dim, sigma)
         self.registry = LandmarkRegistry()
         self.points_w: dict[int, np.ndarray] = {}  # each landmark's point at insertion
@@ -204,7 +205,7 @@ class DelayedLandmarks:
                 point = gtsam.Point3(insertion.point_w)
                 values.insert(key, point)
                 self.points_w[lid] = np.asarray(insertion.point_w, dtype=float)
-                if self._prior is not None:  # see GraphSLAMConfig.landmark_prior_sigma_m
+                if self._prior is not None:  # see LandmarkConfig.prior_sigma_m
                     graph.add(gtsam.PriorFactorPoint3(key, point, self._prior))
             else:
                 point = gtsam.Point2(insertion.point_w[:2])

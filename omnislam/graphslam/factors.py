@@ -152,7 +152,7 @@ def condition_odometry_covariance(cov_r: np.ndarray, min_sigma_m: float) -> np.n
     complement ``S = C_tt - C_tr C_rr^-1 C_rt`` (t = [dx, dy], r = dtheta). Adding ``a I`` to
     ``C_tt`` adds ``a I`` to ``S``; ``a = max(0, min_sigma_m^2 - lambda_min(S))`` makes every
     direction of ``S`` at least ``min_sigma_m^2`` and leaves a covariance that already satisfies
-    it untouched. Why the graph needs it: ``GraphSLAMConfig.odometry_min_sigma_m``.
+    it untouched. Why the graph needs it: ``PoseConfig.odometry_min_sigma_m``.
 
     Args:
         cov_r: (3, 3) covariance of the robot-frame delta [dx, dy, dtheta] [m^2, m^2, rad^2].

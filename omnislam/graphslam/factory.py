@@ -14,6 +14,9 @@ from omnislam.errors import ConfigError
 from omnislam.graphslam.config import PRESETS, GraphSLAMConfig
 from omnislam.options import apply_options
 
+#: the option the dataset's camera height sets unless given (``PoseConfig.sensor_height_m``)
+SENSOR_HEIGHT_OPTION = "poses.sensor_height_m"
+
 if TYPE_CHECKING:
     from omnislam.graphslam.batch import BatchGraphSLAM
     from omnislam.graphslam.isam import GraphSLAM
@@ -26,8 +29,8 @@ def _config(info: SequenceInfo | None, options: Mapping[str, str]) -> GraphSLAMC
         raise ConfigError(f"unknown graphslam preset {preset!r}; known: {', '.join(PRESETS)}")
     config = PRESETS[preset]
     height = None if info is None else info.sensor_height_m
-    if height is not None and "sensor_height_m" not in options:
-        options["sensor_height_m"] = str(height)
+    if height is not None and SENSOR_HEIGHT_OPTION not in options:
+        options[SENSOR_HEIGHT_OPTION] = str(height)
     return apply_options(config, options)
 
 

@@ -1,4 +1,4 @@
-"""The floor tracks as metric landmarks of the final graph (``GraphSLAMConfig.floor_landmarks``).
+"""The floor tracks as metric landmarks of the final graph (``FloorConfig.landmarks``).
 
 ``FloorScale`` measures the odometry's scale with pairs of floor sightings over a trajectory;
 over the graph's own trajectory (``FloorScale.refined``) a pair's scale still spreads by a few %
@@ -14,20 +14,20 @@ odometry, now inside the bundle adjustment rather than beside it):
   bearing factor per sighting and a prior on its height alone, z = 0 with std
   ``FLOOR_HEIGHT_SIGMA_M`` (x and y free): seen from viewpoints held at the camera height h,
   its bearings then fix its range metrically, ``h / tan(depression)``;
-* with ``new_viewpoints`` (``GraphSLAMConfig.floor_viewpoints``; not the default since the
+* with ``new_viewpoints`` (``FloorConfig.viewpoints``; not the default since the
   front end's floor tracks, whose sightings are in every image) an image with floor sightings
   that is no key frame gets a ``Pose3`` of its own, with the
   planar prior, a between-factor of the odometry from its key frame and its bearings of the
   landmarks already in the graph (outliers gated), so the floor points hang on a viewpoint
   the bearings hold, not on odometry composed over up to ``keyframe_spacing_m``;
-* with ``new_viewpoints`` off (``GraphSLAMConfig``'s default) only the key frames' floor
+* with ``new_viewpoints`` off (``FloorConfig``'s default) only the key frames' floor
   sightings enter, and the joint solve stays the size of the graph whatever the number of
   floor tracks;
 * a floor track's sightings whose floor point lies more than ``max(FLOOR_POINT_GATE_M,
   FLOOR_POINT_GATE_SIGMAS sigma)`` from the track's median floor point are wrong associations
   of the front end and left out; a track keeps at least two sightings or is left out.
 
-The odometry's scale is then a fixed point (``GraphSLAM._joint_floor_scale``): its
+The odometry's scale is then a fixed point (``OdometryScaling._joint_floor_scale``): its
 translations are multiplied by the scale at which the solved key-frame trajectory agrees with
 them (``odometry_ratio`` = 1, found by the secant method in 2-3 re-solves), so that the
 odometry, which would otherwise hold the map near the wheels' scale, no longer pulls it and
@@ -122,7 +122,7 @@ def floor_landmarks(
         height_m: the camera viewpoint's height above the floor [m].
         planar_prior_noise: noise model of the planar prior of a viewpoint (``poses.py``).
         new_viewpoints: the floor sightings of frames that are no key frames enter with a
-            viewpoint of their own (``GraphSLAMConfig.floor_viewpoints``); False: they are
+            viewpoint of their own (``FloorConfig.viewpoints``); False: they are
             left out.
 
     Returns:

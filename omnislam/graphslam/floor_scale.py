@@ -34,10 +34,10 @@ must be multiplied:
   0.9901; on the log of today's render (256 floor tracks, 171 floor pairs and 27 heavy pairs of
   points 2-10 cm above the floor) the highest mode was 1.0065 and the lowest is 0.9871.
 
-``GraphSLAM`` multiplies each frame's odometry translation (and its stated covariance) by the
-current estimate before it builds the between-factors (``GraphSLAMConfig.floor_scale``), so the
-graph's map and trajectory take the floor's metric scale. Without floor points (a textureless
-floor, or no camera height) nothing changes.
+``odometry_scale.OdometryScaling`` multiplies each frame's odometry translation (and its stated
+covariance) by the current estimate before the graph builds the between-factors
+(``FloorConfig.scale``), so the graph's map and trajectory take the floor's metric scale.
+Without floor points (a textureless floor, or no camera height) nothing changes.
 """
 
 from __future__ import annotations
@@ -152,7 +152,7 @@ class FloorScale:
         agree): near 1 once the graph is at the floor's scale. Over 5-15 cm the odometry's
         per-step noise spreads the raw pairs' scales by ~16 % (lab40), the graph's trajectory,
         held by the bearings of every landmark, far less -- this is the graph's final floor
-        scale (``GraphSLAMConfig.floor_scale_refine``).
+        scale (``FloorConfig.scale_refine``).
 
         Raises:
             ValueError: ``poses`` does not hold one pose per frame observed.
@@ -247,7 +247,7 @@ class FloorScale:
 
 
 class KnownScale:
-    """A known odometry scale in ``FloorScale``'s place (``GraphSLAMConfig.known_odometry_scale``):
+    """A known odometry scale in ``FloorScale``'s place (``FloorConfig.known_odometry_scale``):
     the same reads, no floor points used."""
 
     def __init__(self, scale: float) -> None:

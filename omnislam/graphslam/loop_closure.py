@@ -8,8 +8,8 @@ so together they form a *local map* that is rigid up to one pose error: the erro
 them from the old map. ``LandmarkMerger`` recognises the revisit by matching that local map
 against the old one and merges the landmarks found to be the same:
 
-* **local map**: the created landmarks observed within the last ``loop_closure_window_frames``
-  frames (positions from iSAM2);
+* **local map**: the created landmarks observed within the last ``window_frames`` frames
+  (``LoopClosureConfig``; positions from iSAM2);
 * **candidates**: for each local landmark, every older created landmark it was never seen in the
   same frame with (two landmarks seen together are two landmarks) whose position is within a
   loose Euclidean reach of it;
@@ -22,10 +22,10 @@ against the old one and merges the landmarks found to be the same:
   Neira, Tardos & Castellanos, "Linear time vehicle relocation in SLAM", ICRA 2003: one shared
   correction must explain every pairing, so a lone landmark that happens to lie near an old one
   is not enough;
-* **acceptance**: at least ``loop_closure_min_landmarks`` pairings that the runner-up
-  hypothesis (as many pairings) does not make differently within
-  ``association_ambiguity_margin`` (``core.compatibility.decide``);
-* **merge**: a ``BetweenFactorPoint2(b, a, 0)`` with std ``loop_closure_merge_sigma_m`` per axis
+* **acceptance**: at least ``min_landmarks`` pairings that the runner-up hypothesis (as many
+  pairings) does not make differently within the association's ``ambiguity_margin``
+  (``core.compatibility.decide``);
+* **merge**: a ``BetweenFactorPoint2(b, a, 0)`` with std ``merge_sigma_m`` per axis
   ties the two variables (GTSAM has no variable elimination by identity; the factor is an
   ordinary measurement, so iSAM2 takes it in its next update, and the estimate moves both
   landmarks -- and with them the poses -- to one place). Afterwards b is *retired*: the
@@ -46,7 +46,7 @@ from omnislam.core.compatibility import Decision, Pairings, decide, jcbb
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam.association import Gates
 from omnislam.graphslam.builder import LandmarkRegistry
-from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.config import LoopClosureConfig
 
 gtsam = require("gtsam")
 
@@ -66,28 +66,40 @@ class LandmarkMerger:
     """Finds created landmarks that duplicate older ones and adds the merging factors.
 
     Args:
-        config: ``loop_closure_*`` settings, the association gates and ambiguity margin.
+        config: the loop closure's section (``every_frames``, ``window_frames``,
+            ``min_landmarks``, ``merge_sigma_m``).
         session: the iSAM2 session (landmark estimates and their joint marginal).
         registry: the landmarks in the graph (merged ones are retired there).
         is_created: ``is_created(id)`` True for landmarks the association created (only those
             take part).
+        gate_probability, new_landmark_probability: the association's chi-square gates
+            (``AssociationConfig``): a merge is decided as a sighting's association is.
+        ambiguity_margin: the association's ambiguity margin (``AssociationConfig``).
+        landmark_sigma_m: the association's fixed landmark sigma [m], widening the reach
+            within which an old landmark is a candidate (``AssociationConfig``).
     """
 
     def __init__(
         self,
-        config: GraphSLAMConfig,
+        config: LoopClosureConfig,
         session: Any,
         registry: LandmarkRegistry,
         is_created: Any,
+        *,
+        gate_probability: float,
+        new_landmark_probability: float,
+        ambiguity_margin: float,
+        landmark_sigma_m: float,
     ) -> None:
         self._config = config
         self._session = session
         self._registry = registry
         self._is_created = is_created
-        self._gates = Gates.from_probabilities(
-            config.association_gate_probability, config.new_landmark_probability
-        )
-        self._noise = gtsam.noiseModel.Isotropic.Sigma(2, config.loop_closure_merge_sigma_m)
+        self._gate_probability = gate_probability
+        self._gates = Gates.from_probabilities(gate_probability, new_landmark_probability)
+        self._ambiguity_margin = ambiguity_margin
+        self._landmark_sigma_m = landmark_sigma_m
+        self._noise = gtsam.noiseModel.Isotropic.Sigma(2, config.merge_sigma_m)
         self._frames: dict[int, set[int]] = {}  # landmark -> frames it was seen in
         self._last_seen: dict[int, int] = {}
         self._order: dict[int, int] = {}  # landmark -> rank of its first sighting
@@ -109,7 +121,7 @@ class LandmarkMerger:
         self._last_seen[kept] = max(k, self._last_seen.get(kept, k))
 
     def check(self, k: int, graph: Any) -> list[Merge]:
-        """Every ``loop_closure_every_frames`` calls: match the local map, merge (see module).
+        """Every ``every_frames`` calls: match the local map, merge (see the module).
 
         Args:
             k: the frame being added (its own sightings are not in iSAM2 yet).
@@ -119,9 +131,8 @@ class LandmarkMerger:
             The merges made now.
         """
         self._calls += 1
-        if self._calls % self._config.loop_closure_every_frames:
+        if self._calls % self._config.every_frames:
             return []
-        window = self._config.loop_closure_window_frames
         active = [
             lid
             for lid in self._frames
@@ -129,27 +140,41 @@ class LandmarkMerger:
             and self._registry.active(lid)
             and self._session.exists(fx.landmark_key(lid))
         ]
-        local = [lid for lid in active if k - self._last_seen[lid] <= window]
+        local = [lid for lid in active if k - self._last_seen[lid] <= self._config.window_frames]
         if not local or len(active) < 2:
             return []
         self.checks += 1
+        xy: dict[int, np.ndarray] = {}  # iSAM2's estimates read in this check
+        candidates = self._candidates(local, active, xy)
+        if not candidates:
+            return []
+        pairs = self._verify(candidates, xy)
+        if len(pairs) < self._config.min_landmarks:
+            return []
+        return self._merge(pairs, graph)
+
+    def _position(self, lid: int, xy: dict[int, np.ndarray]) -> np.ndarray:
+        """iSAM2's estimate of a landmark, read once per check (into ``xy``), its cached
+        position in the registry refreshed."""
+        if lid not in xy:
+            xy[lid] = np.asarray(self._session.point2(fx.landmark_key(lid)))
+            self._registry.xy[self._registry.row(lid)] = xy[lid]
+        return xy[lid]
+
+    def _candidates(
+        self, local: list[int], active: list[int], xy: dict[int, np.ndarray]
+    ) -> dict[int, list[int]]:
+        """Per local landmark, the older created landmarks it may duplicate: never seen in one
+        frame with it, and within a loose reach of it (its largest marginal std twice, plus the
+        association's landmark sigma, times the new-landmark gate's radius)."""
         cached = self._registry.xy  # positions at insertion or last refresh: a coarse filter
-        xy: dict[int, np.ndarray] = {}
-
-        def position(lid: int) -> np.ndarray:
-            """iSAM2's estimate of a landmark (read once per check, the cache refreshed)."""
-            if lid not in xy:
-                xy[lid] = np.asarray(self._session.point2(fx.landmark_key(lid)))
-                cached[self._registry.row(lid)] = xy[lid]
-            return xy[lid]
-
         loose = np.sqrt(4.0 * self._gates.new_landmark)
         candidates: dict[int, list[int]] = {}
         for b in local:
             spread = np.sqrt(
                 np.linalg.eigvalsh(self._session.marginal_covariance(fx.landmark_key(b)))[-1]
             )
-            reach = loose * (2.0 * spread + self._config.association_landmark_sigma_m)
+            reach = loose * (2.0 * spread + self._landmark_sigma_m)
             # only landmarks whose cached position is within 3x the reach are read from iSAM2
             # (one back-substitution each): the cache is at most one loop's correction stale
             coarse = cached[self._registry.row(b)]
@@ -159,12 +184,17 @@ class LandmarkMerger:
                 if self._order[a] < self._order[b]
                 and np.hypot(*(cached[self._registry.row(a)] - coarse)) <= 3.0 * reach
                 and not (self._frames[a] & self._frames[b])
-                and np.hypot(*(position(a) - position(b))) <= reach
+                and np.hypot(*(self._position(a, xy) - self._position(b, xy))) <= reach
             ]
             if near:
                 candidates[b] = near
-        if not candidates:
-            return []
+        return candidates
+
+    def _verify(
+        self, candidates: dict[int, list[int]], xy: dict[int, np.ndarray]
+    ) -> list[tuple[int, int]]:
+        """(local, old) pairings of the largest jointly compatible set that the runner-up
+        hypothesis does not make differently (see the module)."""
         measured = list(candidates)
         olds = sorted({a for near in candidates.values() for a in near}, key=self._order.get)
         involved = list(dict.fromkeys([*measured, *olds]))
@@ -181,21 +211,22 @@ class LandmarkMerger:
                 H[i, j, :, column[b] : column[b] + 2] = np.eye(2)
                 H[i, j, :, column[a] : column[a] + 2] = -np.eye(2)
         R = np.tile(1e-12 * np.eye(2), (K, 1, 1))
-        result = jcbb(Pairings(nu, H, P, R), self._config.association_gate_probability)
+        result = jcbb(Pairings(nu, H, P, R), self._gate_probability)
         decisions = decide(
             result,
             np.zeros(K, dtype=np.int64),
             self._gates.match,
             self._gates.new_landmark,
-            self._config.association_ambiguity_margin,
+            self._ambiguity_margin,
         )
-        pairs = [
+        return [
             (measured[i], olds[int(result.assignment[i])])
             for i in range(K)
             if decisions[i] == Decision.PAIRED
         ]
-        if len(pairs) < self._config.loop_closure_min_landmarks:
-            return []
+
+    def _merge(self, pairs: list[tuple[int, int]], graph: Any) -> list[Merge]:
+        """Tie each pairing's landmarks by a merging factor in ``graph`` and retire the newer."""
         merges = []
         for b, a in pairs:
             kept = self._registry.resolve(a)

@@ -9,7 +9,7 @@ Two kinds of pose variable, chosen by the modality (``GraphSLAM``):
   the robot frames serves the viewpoints); every pose also gets the planar prior holding z,
   roll and pitch.
 
-Pose variables only at *key frames* (``GraphSLAMConfig.pose_variables``): by default the
+Pose variables only at *key frames* (``PoseConfig.pose_variables``): by default the
 frames whose observation stream is not empty (every image of an omni log, ~1 frame in 5 on
 lab40; every frame of MR.CLAM) and frame 0. The odometry of the frames in between is composed
 with its covariance (``core.motion.compose_odometry``) into one between-factor from the
@@ -19,7 +19,7 @@ the odometry since (``trajectory``), and its covariance propagated the same way.
 
 Each key frame's initial guess is the newest iSAM2 estimate composed with the odometry since,
 ``wTr_key (+) delta``; the odometry covariance of one step is the dataset's fixed sigmas
-(``GraphSLAMConfig.odometry_sigmas``), else the frame's own (``Odometry.covariance``), else the
+(``PoseConfig.odometry_sigmas``), else the frame's own (``Odometry.covariance``), else the
 motion model's (``OdometryMotionModel.covariance``, thesis eq. 4.41); the composed covariance
 is turned into the between-factor's error convention (``factors.between_covariance``) and
 raised to the ``odometry_min_sigma_m`` floor (``factors.condition_odometry_covariance``).
@@ -45,7 +45,7 @@ from omnislam.core.se import (
 from omnislam.core.types import FrameInput
 from omnislam.errors import EstimationError
 from omnislam.graphslam import factors as fx
-from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.config import PoseConfig
 from omnislam.graphslam.session import ISAM2Session
 
 gtsam = require("gtsam")
@@ -70,7 +70,7 @@ class PoseChain(abc.ABC):
     """What both pose kinds share: the guess, the odometry covariance, the newest estimate.
 
     Args:
-        config: settings (prior, odometry and planar sigmas, sensor height).
+        config: the pose chain's section (prior, odometry and planar sigmas, sensor height).
         initial_pose: (3,) pose [x, y, theta] of frame 0 in the world [m, m, rad].
         session: the iSAM2 session the estimates are read from.
         motion: the odometry motion model whose covariance weighs each odometry factor
@@ -79,7 +79,7 @@ class PoseChain(abc.ABC):
 
     def __init__(
         self,
-        config: GraphSLAMConfig,
+        config: PoseConfig,
         initial_pose: np.ndarray,
         session: ISAM2Session,
         motion: OdometryMotionModel,
@@ -225,14 +225,14 @@ class PoseChain(abc.ABC):
         if steps > 1:
             cov = fx.between_covariance(delta, cov)
         # a factor far more precise than the poses' absolute uncertainty makes iSAM2's
-        # Cholesky reject the clique (see GraphSLAMConfig.odometry_min_sigma_m)
+        # Cholesky reject the clique (see PoseConfig.odometry_min_sigma_m)
         return fx.condition_odometry_covariance(cov, self._config.odometry_min_sigma_m)
 
     def rescale(self, ratios: np.ndarray | None) -> None:
         """Multiply, in the estimate only, the translation of the odometry folded up to each
         frame (into a key frame: its between-factor's; else its offset from its key frame) by
         ``ratios`` (N,), one per frame (None: as added). ``GraphSLAM`` uses it to give the final
-        estimate the run's final floor scale (``GraphSLAMConfig.floor_scale``)."""
+        estimate the run's final floor scale (``FloorConfig.scale``)."""
         if ratios is not None:
             ratios = np.asarray(ratios, dtype=float).reshape(-1)
             if ratios.shape[0] != len(self._frame_key):
@@ -389,7 +389,7 @@ class PlanarPoses(PoseChain):
 
     def __init__(
         self,
-        config: GraphSLAMConfig,
+        config: PoseConfig,
         initial_pose: np.ndarray,
         session: ISAM2Session,
         motion: OdometryMotionModel,
@@ -450,7 +450,7 @@ class ViewpointPoses(PoseChain):
 
     def __init__(
         self,
-        config: GraphSLAMConfig,
+        config: PoseConfig,
         initial_pose: np.ndarray,
         session: ISAM2Session,
         motion: OdometryMotionModel,
@@ -470,7 +470,7 @@ class ViewpointPoses(PoseChain):
 
     @property
     def sensor_height_m(self) -> float:
-        """The omni viewpoint's height above the robot frame (``GraphSLAMConfig``) [m]."""
+        """The omni viewpoint's height above the robot frame [m] (``PoseConfig``)."""
         return self._config.sensor_height_m
 
     def _add_variable(self, k: int, previous: int | None, graph: Any, values: Any) -> None:

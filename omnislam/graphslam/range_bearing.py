@@ -5,14 +5,17 @@ Each sighting becomes a ``BearingRangeFactor2D(pose, point)`` on the ``Pose2`` c
 sighting fixes a planar landmark on its own, so:
 
 * **given ids**: a new landmark enters on its first sighting at ``inverse(guess, z)``
-  (``RangeBearing2D.inverse``), or, with ``min_consistent_sightings`` > 1, once that many of
-  its sightings agree (``landmark_init.ConsistentInsertion``, against wrong ids);
-* **unknown ids** (``UNKNOWN_ID``): the sightings are associated first (``association.py``:
-  nearest neighbour in a Mahalanobis gate including the newest pose's marginal). A sighting
-  that matches takes the landmark's id; one beyond the new-landmark gate starts a landmark with
-  an id from ``CREATED_ID_BASE`` upwards (never colliding with given ids) -- at once, or as a
-  tentative landmark until re-observed (``tentative.py``, ``association_min_sightings`` > 1);
-  one between the gates is dropped as ambiguous.
+  (``RangeBearing2D.inverse``), or, with ``LandmarkConfig.min_consistent_sightings`` > 1, once
+  that many of its sightings agree (``landmark_init.ConsistentInsertion``, against wrong ids);
+  a sighting of a mapped landmark passes the outlier gate first (``outlier_gate.py``);
+* **unknown ids** (``UNKNOWN_ID``): the sightings are associated first, by joint
+  compatibility over a window of frames (``window_association.py``) or nearest neighbour
+  (``nearest_association.py``; ``AssociationConfig.test``). A sighting that matches takes the
+  landmark's id; one beyond the new-landmark gate starts a landmark with an id from
+  ``CREATED_ID_BASE`` upwards (never colliding with given ids) -- at once, or as a tentative
+  landmark until re-observed (``tentative.py``, ``AssociationConfig.tentative_min_sightings``
+  > 1); one between the gates is dropped as ambiguous. Landmarks started so that duplicate
+  older ones can be merged (``loop_closure.py``, experimental).
 """
 
 from __future__ import annotations
@@ -22,31 +25,23 @@ from typing import Any
 import numpy as np
 
 from omnislam._optional import require
-from omnislam.core.compatibility import Decision, Pairings
-from omnislam.core.gating import (
-    YOUNG_GATE_FACTOR,
-    GatedResightings,
-    Resighting,
-    chi_square_gate,
-    lies_on_a_landmark,
-)
+from omnislam.core.compatibility import Decision
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.core.modality import Modality
 from omnislam.core.types import UNKNOWN_ID, RangeBearing
 from omnislam.graphslam import factors as fx
-from omnislam.graphslam.association import (
-    AMBIGUOUS,
-    NEW_LANDMARK,
-    Gates,
-    associate,
-    mahalanobis2,
-    sighting_points,
-)
+from omnislam.graphslam.association import AMBIGUOUS, NEW_LANDMARK, Gates, sighting_points
 from omnislam.graphslam.builder import LandmarkRegistry, SightingCounts
-from omnislam.graphslam.config import AssociationTest, GraphSLAMConfig
-from omnislam.graphslam.joint_state import joint_state
+from omnislam.graphslam.config import (
+    AssociationConfig,
+    AssociationTest,
+    LandmarkConfig,
+    LoopClosureConfig,
+)
 from omnislam.graphslam.landmark_init import ConsistentInsertion
 from omnislam.graphslam.loop_closure import LandmarkMerger
+from omnislam.graphslam.nearest_association import NearestAssociation
+from omnislam.graphslam.outlier_gate import OutlierGate
 from omnislam.graphslam.poses import PlanarPoses
 from omnislam.graphslam.session import ISAM2Session
 from omnislam.graphslam.tentative import TentativeLandmarks, TentativeStats
@@ -60,57 +55,81 @@ CREATED_ID_BASE = 1_000_000_000
 
 _RANGE_BEARING = RangeBearing2D()
 
-#: a gated sighting is a misread id when the point it implies lies on another landmark; the
-#: landmarks searched are those whose cached position (the insertion point, refreshed where
-#: the association reads them) lies within this distance of that point [m]
-MISREAD_RADIUS_M = 10.0
-
 
 class RangeBearingGraph:
     """Range-bearing sightings -> ``BearingRangeFactor2D`` and ``Point2`` landmarks.
 
     Args:
-        config: settings (consistent insertion, association gates and covariances, tentative
-            stage, robust kernel).
+        landmarks: the landmarks' section (consistent insertion, outlier gate).
+        association: the association's section (test, gates, tentative stage).
+        noise: the landmark factors' noise models (with the solver's robust kernel).
         poses: the planar pose chain of the graph (the newest pose for the association).
         session: the iSAM2 session (marginals and landmark estimates for the association).
+        loop_closure: the merging of duplicated created landmarks
+            (``ExperimentalConfig.loop_closure``; off by default).
+        landmark_marginals: the NEAREST test's candidates take their iSAM2 marginals
+            (``ExperimentalConfig.association_landmark_marginals``).
     """
 
     modality = Modality.RANGE_BEARING_2D
 
-    def __init__(self, config: GraphSLAMConfig, poses: PlanarPoses, session: ISAM2Session) -> None:
-        self._config = config
+    def __init__(
+        self,
+        landmarks: LandmarkConfig,
+        association: AssociationConfig,
+        noise: fx.NoiseModels,
+        poses: PlanarPoses,
+        session: ISAM2Session,
+        loop_closure: LoopClosureConfig | None = None,
+        landmark_marginals: bool = False,
+    ) -> None:
         self._poses = poses
         self._session = session
-        self._noise = fx.NoiseModels(*config.landmark_kernel(self.modality))
-        self._gates = Gates.from_probabilities(
-            config.association_gate_probability, config.new_landmark_probability
-        )
-        self._outlier_gate = chi_square_gate(config.outlier_gate_probability, 2)
+        self._noise = noise
+        self._delay = landmarks.min_consistent_sightings > 1
+        self._registry = LandmarkRegistry()
+        self._gate = OutlierGate(landmarks, session, poses, self._registry, noise)
         self._consistent = ConsistentInsertion(
-            config.min_consistent_sightings,
-            self._gates.match,
-            release_disagreeing=not np.isfinite(self._outlier_gate),
+            landmarks.min_consistent_sightings,
+            Gates.from_probabilities(
+                association.gate_probability, association.new_landmark_probability
+            ).match,
+            release_disagreeing=not np.isfinite(self._gate.gate),
         )
         self._tentative = (
-            TentativeLandmarks(config.association_min_sightings, config.association_window_frames)
-            if config.association_min_sightings > 1
+            TentativeLandmarks(association.tentative_min_sightings,
+                               association.tentative_window_frames)
+            if association.tentative_min_sightings > 1
             else None
         )
-        self._rejected = 0
-        self._resightings = GatedResightings(self._outlier_gate, config.outlier_gate_votes)
         self._in_graph: dict[int, int] = {}  # landmark id -> its sightings in the graph
-        self._registry = LandmarkRegistry()
+        joint = association.test is AssociationTest.JOINT
         self._window = (
-            WindowAssociation(config, session, self._registry, self._tentative, self._pose_of)
-            if config.association_test is AssociationTest.JOINT
+            WindowAssociation(association, session, self._registry, self._tentative, self._pose_of)
+            if joint
             else None
+        )
+        self._nearest = (
+            None
+            if joint
+            else NearestAssociation(
+                association, session, poses, self._registry, self._tentative, landmark_marginals
+            )
         )
         self._next_created_id = CREATED_ID_BASE
         self._created = self._associated = self._ambiguous = self._jointly_rejected = 0
         self._merger = (
-            LandmarkMerger(config, session, self._registry, lambda lid: lid >= CREATED_ID_BASE)
-            if config.loop_closure
+            LandmarkMerger(
+                loop_closure,
+                session,
+                self._registry,
+                lambda lid: lid >= CREATED_ID_BASE,
+                gate_probability=association.gate_probability,
+                new_landmark_probability=association.new_landmark_probability,
+                ambiguity_margin=association.ambiguity_margin,
+                landmark_sigma_m=association.landmark_sigma_m,
+            )
+            if loop_closure is not None and loop_closure.enabled
             else None
         )
 
@@ -136,24 +155,19 @@ class RangeBearingGraph:
             )
             created = set(ids[unknown].tolist())
         unknown_row = np.cumsum(unknown) - 1  # row of each unlabelled sighting in points_w
-        delay = self._config.min_consistent_sightings > 1
         mapped = np.array(
             [not u and lid in self._registry for u, lid in zip(unknown, ids.tolist(), strict=True)]
         )
-        if mapped.any() and k > 0 and self._outlier_gate < np.inf:
-            rows = np.flatnonzero(mapped)
-            young = np.array(
-                [
-                    self._in_graph.get(lid, 0) < self._config.outlier_gate_min_sightings
-                    for lid in ids[rows].tolist()
-                ]
+        if mapped.any() and k > 0 and self._gate.enabled:
+            rejected, readmitted = self._gate.apply(
+                k, np.flatnonzero(mapped), sightings, guess_w, self._in_graph
             )
-            gates = np.where(young, YOUNG_GATE_FACTOR * self._outlier_gate, self._outlier_gate)
-            inside = self._gate_mapped(k, rows, sightings, guess_w, gates)
-            # a young landmark's gate is 10x wider already: its gated sightings never vote
-            for row in rows[~inside & ~young].tolist():
-                self._hold_gated(k, row, sightings, guess_w, graph)
-            ids[rows[~inside]] = UNKNOWN_ID
+            for lid, held in readmitted:
+                graph.add(held.payload)
+                self._in_graph[lid] += 1
+                if self._merger is not None:
+                    self._merger.seen(lid, held.frame)
+            ids[rejected] = UNKNOWN_ID
         for i, (lid, r, b, s_r, s_b) in enumerate(
             zip(
                 ids.tolist(),
@@ -172,7 +186,7 @@ class RangeBearingGraph:
             if lid in self._registry:
                 graph.add(factor)
                 self._in_graph[lid] += 1
-                self._resightings.seen(lid, k)
+                self._gate.seen(lid, k)
                 continue
             if lid in created and self._tentative is not None:  # unlabelled: wait for more
                 row = unknown_row[i]
@@ -180,7 +194,7 @@ class RangeBearingGraph:
                 if commitment is not None:
                     self._insert(lid, commitment.point_w, commitment.factors, graph, values)
                 continue
-            if not delay or lid in created:
+            if not self._delay or lid in created:
                 xy = _RANGE_BEARING.inverse(guess_w, np.array([r, b]))[0]
                 self._insert(lid, xy, (factor,), graph, values)
                 continue
@@ -263,79 +277,6 @@ class RangeBearingGraph:
             else:
                 self._insert(lid, points[i], (factor,), graph, values)
 
-    def _gate_mapped(
-        self,
-        k: int,
-        rows: np.ndarray,
-        sightings: RangeBearing,
-        guess_w: np.ndarray,
-        gates: np.ndarray,
-    ) -> np.ndarray:
-        """(len(rows),) True for the sightings ``rows`` of mapped landmarks inside the outlier gate.
-
-        The innovation of each sighting at frame k's guess and the landmark's current estimate,
-        with the covariance of both read from iSAM2 (``joint_state``):
-        ``S = H P H^T + R`` with H the Jacobian with respect to (pose k, landmark)
-        (``core.compatibility.Pairings.individual``). Sightings outside are counted as rejected.
-        """
-        lids = sightings.landmark_ids[rows].tolist()
-        state = joint_state(self._session, [], lids, (k, *self._poses.odometry_step()))
-        pose_col = state.pose_column[k]
-        K = len(rows)
-        nu = np.zeros((K, 1, 2))
-        H = np.zeros((K, 1, 2, state.dim))
-        R = np.zeros((K, 2, 2))
-        for i, (row, lid) in enumerate(zip(rows.tolist(), lids, strict=True)):
-            z_hat, H_r, H_l = _RANGE_BEARING.predict(state.pose(k), state.landmark(lid))
-            z = np.array([sightings.ranges_m[row], sightings.bearings_rad[row]])
-            nu[i, 0] = _RANGE_BEARING.residual(z, z_hat)
-            H[i, 0, :, pose_col : pose_col + 3] = H_r
-            col = state.landmark_column[lid]
-            H[i, 0, :, col : col + 2] = H_l
-            R[i] = np.diag(
-                [sightings.sigma_range_m[row] ** 2, sightings.sigma_bearing_rad[row] ** 2]
-            )
-        d2 = Pairings(nu, H, state.covariance, R).individual()[:, 0]
-        inside = d2 <= gates
-        self._rejected += int(np.sum(~inside))
-        return inside
-
-    def _hold_gated(
-        self, k: int, row: int, sightings: RangeBearing, guess_w: np.ndarray, graph: Any
-    ) -> None:
-        """A sighting of a landmark past the young stage that the outlier gate rejected: held,
-        and added with the held sightings of its landmark that agree with it once there are
-        enough (``core.gating.GatedResightings``); dropped for good when the point it implies
-        lies on another landmark (a misread id)."""
-        lid = int(sightings.landmark_ids[row])
-        r, b = float(sightings.ranges_m[row]), float(sightings.bearings_rad[row])
-        s_r, s_b = float(sightings.sigma_range_m[row]), float(sightings.sigma_bearing_rad[row])
-        points, covs = sighting_points(guess_w, *map(np.atleast_1d, (r, b, s_r, s_b)))
-        if lies_on_a_landmark(
-            points[0], covs[0], self._landmarks_near(points[0], lid), self._outlier_gate
-        ):
-            return
-        factor = fx.bearing_range_2d(k, lid, b, r, self._noise.diagonal(s_b, s_r))
-        for held in self._resightings.offer(lid, Resighting(k, points[0], covs[0], factor)):
-            graph.add(held.payload)
-            self._in_graph[lid] += 1
-            if self._merger is not None:
-                self._merger.seen(lid, held.frame)
-
-    def _landmarks_near(self, point_w: np.ndarray, other_than: int) -> np.ndarray:
-        """(M, 2) the current estimates of the active landmarks within ``MISREAD_RADIUS_M`` of
-        ``point_w`` (by their cached positions), ``other_than`` excluded."""
-        cached = self._registry.xy
-        rows = np.flatnonzero(np.hypot(*(cached - point_w).T) <= MISREAD_RADIUS_M)
-        points = []
-        for row in rows.tolist():
-            lid = self._registry.id_at(row)
-            if lid == other_than or not self._registry.active(lid):
-                continue
-            key = fx.landmark_key(lid)
-            points.append(self._session.point2(key) if self._session.exists(key) else cached[row])
-        return np.asarray(points, dtype=float).reshape(-1, 2)
-
     def _insert(self, lid: int, point_w: np.ndarray, factors: Any, graph: Any, values: Any) -> None:
         """A landmark enters the graph at ``point_w`` (2,) with its factors."""
         values.insert(fx.landmark_key(lid), gtsam.Point2(point_w))
@@ -347,64 +288,19 @@ class RangeBearingGraph:
     def _associate(
         self, k: int, rows: np.ndarray, sightings: RangeBearing, guess_w: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Ids for the unlabelled sightings ``rows``: matched, new or UNKNOWN_ID (ambiguous).
-
-        Candidates are the mapped landmarks near the robot and, with the tentative stage, the
-        tentative landmarks. A new id is registered in the graph by the caller (at once, or
+        """Ids for the unlabelled sightings ``rows`` by the NEAREST test: matched, new or
+        UNKNOWN_ID (ambiguous). A new id is registered in the graph by the caller (at once, or
         through the tentative stage).
 
         Returns:
             (ids (K,), the sightings' world points (K, 2) and covariances (K, 2, 2)).
         """
-        config = self._config
-        pose_cov = None
-        if config.association_pose_covariance and k > 0:
-            # the newest estimated pose (the previous key frame) is in the root clique: a
-            # cheap marginal
-            previous = self._session.marginal_covariance(fx.pose_key(self._poses.newest_key))
-            pose_cov = self._poses.world_covariance(previous, self._poses.newest_w[2])
-        points, covs = sighting_points(
-            guess_w,
-            sightings.ranges_m[rows],
-            sightings.bearings_rad[rows],
-            sightings.sigma_range_m[rows],
-            sightings.sigma_bearing_rad[rows],
-            pose_cov,
-        )
-        cached = self._registry.xy
-        # candidates: landmarks that could fall inside the outer gate (conservative radius)
-        spread = config.association_landmark_sigma_m + np.sqrt(
-            np.linalg.eigvalsh(covs)[:, -1].max()
-        )
-        radius = sightings.ranges_m[rows].max() + 3.0 * np.sqrt(self._gates.new_landmark) * spread
-        near = np.flatnonzero(np.hypot(*(cached - guess_w[:2]).T) <= radius)
-        near = near[[self._registry.active(self._registry.id_at(r)) for r in near.tolist()]]
-        for row in near.tolist():  # refresh only these positions from iSAM2
-            key = fx.landmark_key(self._registry.id_at(row))
-            if self._session.exists(key):
-                cached[row] = self._session.point2(key)
-        candidate_ids = [self._registry.id_at(row) for row in near.tolist()]
-        candidates_xy = cached[near]
-        candidate_covs = self._landmark_covariances(near, points, covs)
-        if self._tentative is not None:
-            self._tentative.expire(k)
-            if len(self._tentative):
-                tentative_ids, tentative_xy, tentative_covs = self._tentative.candidates()
-                candidate_ids += tentative_ids.tolist()
-                candidates_xy = np.concatenate([candidates_xy, tentative_xy])
-                candidate_covs = np.concatenate([candidate_covs, tentative_covs])
-        indices, _ = associate(
-            points,
-            covs,
-            candidates_xy,
-            config.association_landmark_sigma_m,
-            self._gates,
-            candidate_covs,
-        )
+        assert self._nearest is not None
+        match = self._nearest.associate(k, _subset(sightings, rows), guess_w)
         out = np.full(len(rows), UNKNOWN_ID, dtype=np.int64)
-        for i, index in enumerate(indices.tolist()):
+        for i, index in enumerate(match.indices.tolist()):
             if index >= 0:
-                out[i] = candidate_ids[index]
+                out[i] = match.candidate_ids[index]
                 self._associated += 1
             elif index == NEW_LANDMARK:
                 out[i] = self._next_created_id
@@ -412,28 +308,7 @@ class RangeBearingGraph:
                 self._created += 1
             elif index == AMBIGUOUS:
                 self._ambiguous += 1
-        return out, points, covs
-
-    def _landmark_covariances(
-        self, rows: np.ndarray, points_w: np.ndarray, point_covariances: np.ndarray
-    ) -> np.ndarray:
-        """Position covariances (M, 2, 2) of the mapped landmarks ``rows`` for the gate.
-
-        ``sigma_l^2 I`` (``association_landmark_sigma_m``), or with
-        ``association_landmark_marginals`` the iSAM2 marginal of each landmark whose distance
-        with ``sigma_l`` is within 4x the new-landmark gate of some sighting (a marginal costs a
-        back-substitution; the far ones could not match anyway unless their marginal were huge).
-        """
-        sigma2 = self._config.association_landmark_sigma_m**2
-        covariances = np.tile(sigma2 * np.eye(2), (len(rows), 1, 1))
-        if not self._config.association_landmark_marginals or not len(rows):
-            return covariances
-        d2 = mahalanobis2(points_w, point_covariances, self._registry.xy[rows], covariances)
-        for j in np.flatnonzero(d2.min(axis=0) <= 4.0 * self._gates.new_landmark).tolist():
-            key = fx.landmark_key(self._registry.id_at(int(rows[j])))
-            if self._session.exists(key):
-                covariances[j] = self._session.marginal_covariance(key)
-        return covariances
+        return out, match.points_w, match.covariances_w
 
     def reassociable(self, key: int) -> bool:
         """Whether a landmark key's sightings were decided by the association and may be
@@ -468,11 +343,11 @@ class RangeBearingGraph:
             landmarks_created=self._created,
             sightings_associated=self._associated,
             sightings_ambiguous=self._ambiguous,
-            sightings_gated=self._rejected
-            - self._resightings.readmitted
+            sightings_gated=self._gate.rejected
+            - self._gate.readmitted
             + self._consistent.rejected
             + self._jointly_rejected,
-            sightings_readmitted=self._resightings.readmitted,
+            sightings_readmitted=self._gate.readmitted,
             tentative=self._tentative.stats() if self._tentative is not None else TentativeStats(),
             landmarks_merged=0 if self._merger is None else self._merger.merged,
             loop_closures=0 if self._merger is None else self._merger.loop_closures,

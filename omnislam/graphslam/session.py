@@ -3,7 +3,7 @@
 ``ISAM2Session`` owns the ``gtsam.ISAM2`` object of a run and everything that is about iSAM2
 rather than about the graph's content:
 
-* the parameters (``GraphSLAMConfig``: relinearisation threshold and skip, factorisation,
+* the parameters (``SolverConfig``: relinearisation threshold and skip, factorisation,
   adaptive re-ordering; docs/design.md "iSAM2 settings");
 * ``update``: one ``ISAM2.update`` per frame. With ``Factorization.AUTO`` a Cholesky failure
   ("Indeterminate linear system") re-adds every factor so far, linearised at iSAM2's current
@@ -26,7 +26,8 @@ import numpy as np
 
 from omnislam._optional import require
 from omnislam.errors import EstimationError
-from omnislam.graphslam.config import Factorization, GraphSLAMConfig
+from omnislam.graphslam.config import BatchConfig, Factorization, SolverConfig
+from omnislam.graphslam.levenberg_marquardt import optimize_batch
 
 gtsam = require("gtsam")
 
@@ -35,14 +36,14 @@ class ISAM2Session:
     """The iSAM2 optimiser of one run, started empty.
 
     Args:
-        config: the iSAM2 settings are read from it (``relinearize_threshold``,
-            ``relinearize_skip``, ``factorization``, ``adaptive_reorder_threshold``).
+        solver: the iSAM2 settings (``relinearize_threshold``, ``relinearize_skip``,
+            ``factorization``, ``adaptive_reorder_threshold``).
     """
 
-    def __init__(self, config: GraphSLAMConfig) -> None:
-        self._config = config
+    def __init__(self, solver: SolverConfig) -> None:
+        self._solver = solver
         self._factorization = Factorization.CHOLESKY
-        self._isam = self._new_isam(config.factorization)
+        self._isam = self._new_isam(solver.factorization)
         self._all_factors = gtsam.NonlinearFactorGraph()  # every factor so far (for a rebuild)
         self._fallbacks = 0
         self._reorders = 0
@@ -51,7 +52,7 @@ class ISAM2Session:
 
     def _new_isam(self, factorization: Factorization) -> Any:
         """A fresh ``gtsam.ISAM2`` factorising with ``factorization`` (AUTO starts Cholesky)."""
-        config = self._config
+        config = self._solver
         params = gtsam.ISAM2Params()
         params.setRelinearizeThreshold(config.relinearize_threshold)
         params.relinearizeSkip = config.relinearize_skip
@@ -91,7 +92,7 @@ class ISAM2Session:
                 result = self._isam.update(graph, values)
         except RuntimeError as exc:
             if not (
-                self._config.factorization is Factorization.AUTO
+                self._solver.factorization is Factorization.AUTO
                 and self._factorization is Factorization.CHOLESKY
             ):
                 raise EstimationError(f"iSAM2 update at frame {frame_index} failed: {exc}") from exc
@@ -223,7 +224,7 @@ def _underdetermined_landmarks(factors: list[Any], candidates: set[int]) -> set[
 class FixedLagSession:
     """A fixed-lag smoother for the online estimate, the whole graph for the final one.
 
-    ``GraphSLAMConfig.online_lag_key_frames`` = L (omni bearings): every update goes to a
+    ``SolverConfig.online_lag_key_frames`` = L (omni bearings): every update goes to a
     ``gtsam.IncrementalFixedLagSmoother`` whose variables are those touched within the last L
     key frames (a pose by its own key frame, a landmark by the newest factor on it); older
     ones are marginalised, so each update re-eliminates a window of bounded size instead of
@@ -252,18 +253,22 @@ class FixedLagSession:
     Reads during the run (the newest pose, the viewpoints of held-back sightings) are the
     smoother's estimate, or for marginalised variables their estimate when they left it.
     ``estimate()`` is **Levenberg-Marquardt over every factor of the run** from those
-    estimates (``batch.optimize_batch``), cached until the next update: the final map is the
-    full smoothing solution, as with iSAM2, not the window's.
+    estimates (``levenberg_marquardt.optimize_batch``), cached until the next update: the final
+    map is the full smoothing solution, as with iSAM2, not the window's.
 
     Args:
-        config: ``online_lag_key_frames``, ``relinearize_threshold``, ``relinearize_skip``,
-            ``batch_max_iterations``, ``batch_relative_error_tol``.
+        solver: ``online_lag_key_frames``, ``relinearize_threshold``, ``relinearize_skip``.
+        final: the stopping rules of the final LM (``BatchConfig``).
+        anchor_sigma_m: std per axis of the prior a restart puts on the window's oldest pose
+            for the marginalised past (the planar prior's, ``PoseConfig.planar_sigma_m``).
     """
 
-    def __init__(self, config: GraphSLAMConfig) -> None:
-        if config.online_lag_key_frames is None:
+    def __init__(self, solver: SolverConfig, final: BatchConfig, anchor_sigma_m: float) -> None:
+        if solver.online_lag_key_frames is None:
             raise ValueError("FixedLagSession needs online_lag_key_frames")
-        self._config = config
+        self._solver = solver
+        self._final_lm = final
+        self._anchor_sigma_m = anchor_sigma_m
         self._smoother = self._new_smoother()
         self._all_factors = gtsam.NonlinearFactorGraph()
         self._last = gtsam.Values()  # every variable's newest estimate (frozen once marginalised)
@@ -285,12 +290,12 @@ class FixedLagSession:
     def _lag(self) -> float:
         """The smoother's lag in stamps (key-frame counts): variables older than the newest
         stamp minus this are marginalised."""
-        return float(self._config.online_lag_key_frames) - 0.5
+        return float(self._solver.online_lag_key_frames) - 0.5
 
     def _new_smoother(self) -> Any:
         params = gtsam.ISAM2Params()
-        params.setRelinearizeThreshold(self._config.relinearize_threshold)
-        params.relinearizeSkip = self._config.relinearize_skip
+        params.setRelinearizeThreshold(self._solver.relinearize_threshold)
+        params.relinearizeSkip = self._solver.relinearize_skip
         return gtsam.IncrementalFixedLagSmoother(self._lag, params)
 
     def update(self, graph: Any, values: Any, frame_index: int) -> None:
@@ -395,7 +400,7 @@ class FixedLagSession:
             else:
                 initial.insert(key, source.atPoint3(key))
         oldest = min(poses, key=lambda key: (self._stamp[key], gtsam.Symbol(key).index()))
-        anchor = gtsam.noiseModel.Isotropic.Sigma(6, self._config.planar_sigma_m)
+        anchor = gtsam.noiseModel.Isotropic.Sigma(6, self._anchor_sigma_m)
         factors.push_back(gtsam.PriorFactorPose3(oldest, initial.atPose3(oldest), anchor))
         try:
             self._smoother.update(factors, initial, stamps)
@@ -431,8 +436,6 @@ class FixedLagSession:
     def estimate(self) -> Any:
         """LM over every factor of the run, from the newest estimates (cached)."""
         if self._final is None:
-            from omnislam.graphslam.batch import optimize_batch
-
             start = self._last
             if self._extra is not None:
                 start = gtsam.Values(self._last)
@@ -444,8 +447,8 @@ class FixedLagSession:
             self._final = optimize_batch(
                 self.final_factors(),
                 start,
-                self._config.batch_max_iterations,
-                self._config.batch_relative_error_tol,
+                self._final_lm.max_iterations,
+                self._final_lm.relative_error_tol,
             ).values
         return self._final
 

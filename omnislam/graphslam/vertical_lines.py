@@ -18,7 +18,7 @@ from omnislam.core.modality import Modality
 from omnislam.core.types import UNKNOWN_ID, VerticalLines
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam.builder import DelayedLandmarks, SightingCounts
-from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.config import LandmarkConfig
 from omnislam.graphslam.poses import PlanarPoses
 
 gtsam = require("gtsam")
@@ -28,14 +28,17 @@ class VerticalLinesGraph:
     """Vertical-line bearings -> ``BearingFactor2D`` and delayed ``Point2`` landmarks.
 
     Args:
-        config: settings (insertion, weak prior, robust kernel).
+        config: the landmarks' section (insertion, weak prior).
+        noise: the landmark factors' noise models (with the solver's robust kernel).
         poses: the planar pose chain of the graph.
     """
 
     modality = Modality.VERTICAL_LINES
 
-    def __init__(self, config: GraphSLAMConfig, poses: PlanarPoses) -> None:
-        self._noise = fx.NoiseModels(*config.landmark_kernel(self.modality))
+    def __init__(
+        self, config: LandmarkConfig, noise: fx.NoiseModels, poses: PlanarPoses
+    ) -> None:
+        self._noise = noise
         self._landmarks = DelayedLandmarks(config, poses, dim=2)
         self._ignored = 0
 

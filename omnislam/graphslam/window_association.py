@@ -1,10 +1,10 @@
 """Joint compatibility over a sliding window of frames, for unlabelled range-bearing sightings.
 
 ``AssociationTest.JOINT`` (``config.py``). A frame's unlabelled sightings are not associated
-when the frame arrives: they wait until ``association_lag_frames`` more frames with unlabelled
-sightings have come (or the run ends). Then JCBB (``core.compatibility.jcbb``) runs over every
-waiting frame together -- the oldest and the ``lag`` after it -- and the decisions of the
-*oldest* frame are kept; the others are decided again, with one more frame, next time.
+when the frame arrives: they wait until ``AssociationConfig.lag_frames`` more frames with
+unlabelled sightings have come (or the run ends). Then JCBB (``core.compatibility.jcbb``) runs
+over every waiting frame together -- the oldest and the ``lag`` after it -- and the decisions of
+the *oldest* frame are kept; the others are decided again, with one more frame, next time.
 
 Why a window: one frame often holds a single sighting (MR.CLAM after a turn, Victoria Park:
 ~1.1 per frame), and after a stretch of odometry a lone sighting fits several landmarks (MR.CLAM's
@@ -20,7 +20,7 @@ landmarks (``tentative.py``) join with their fused covariance, independent of th
 Decisions (``core.compatibility.decide``): PAIRED takes the candidate; NEW starts a landmark
 (every free candidate beyond the new-landmark gate; a candidate paired with another sighting of
 the same frame is not free); AMBIGUOUS (between the gates, or a pairing the runner-up hypothesis
-makes differently within ``association_ambiguity_margin``) and REJECTED are dropped.
+makes differently within ``AssociationConfig.ambiguity_margin``) and REJECTED are dropped.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ from omnislam.core.types import RangeBearing
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam.association import Gates, mahalanobis2, sighting_points
 from omnislam.graphslam.builder import LandmarkRegistry
-from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.config import AssociationConfig
 from omnislam.graphslam.joint_state import joint_state
 from omnislam.graphslam.session import ISAM2Session
 from omnislam.graphslam.tentative import TentativeLandmarks
@@ -71,7 +71,8 @@ class WindowAssociation:
     """Sightings of unknown landmark waiting for ``lag`` later frames, then JCBB over them all.
 
     Args:
-        config: gates, lag, ambiguity margin, fixed landmark sigma (candidate selection).
+        config: the association's section: gates, lag, ambiguity margin, fixed landmark sigma
+            (candidate selection), re-elimination of the candidates.
         session: the iSAM2 session (poses, landmarks and their joint marginal).
         registry: the landmarks in the graph.
         tentative: the tentative landmarks (or None without a tentative stage).
@@ -80,7 +81,7 @@ class WindowAssociation:
 
     def __init__(
         self,
-        config: GraphSLAMConfig,
+        config: AssociationConfig,
         session: ISAM2Session,
         registry: LandmarkRegistry,
         tentative: TentativeLandmarks | None,
@@ -92,7 +93,7 @@ class WindowAssociation:
         self._tentative = tentative
         self._pose_of = pose_of
         self._gates = Gates.from_probabilities(
-            config.association_gate_probability, config.new_landmark_probability
+            config.gate_probability, config.new_landmark_probability
         )
         self._waiting: list[_Waiting] = []
         self.incomplete_searches = 0
@@ -118,7 +119,7 @@ class WindowAssociation:
         """
         self._waiting.append(_Waiting(k, sightings))
         decided = []
-        while len(self._waiting) > self._config.association_lag_frames:
+        while len(self._waiting) > self._config.lag_frames:
             decided.append(self._decide_oldest((k, guess_w, *odometry_step)))
         return decided
 
@@ -151,7 +152,7 @@ class WindowAssociation:
         R[:, 1, 1] = np.concatenate([w.sightings.sigma_bearing_rad for w in waiting]) ** 2
         key_from = None if newest is None else newest[2]
         mapped, tentative = self._candidates(waiting, poses, z, R, k_new, key_from)
-        if self._config.association_reorder_candidates and mapped:
+        if self._config.reorder_candidates and mapped:
             self._session.reeliminate_next(fx.landmark_key(i) for i in mapped)
         n_old = len(oldest.sightings)
         if not mapped and not tentative:
@@ -189,14 +190,14 @@ class WindowAssociation:
             for m, c in enumerate(columns):
                 H[rows, m, :, c : c + 2] = H_l[m]
             row += len(w.sightings)
-        result = jcbb(Pairings(nu, H, P, R, groups), self._config.association_gate_probability)
+        result = jcbb(Pairings(nu, H, P, R, groups), self._config.gate_probability)
         self.incomplete_searches += int(not result.complete)
         decisions = decide(
             result,
             groups,
             self._gates.match,
             self._gates.new_landmark,
-            self._config.association_ambiguity_margin,
+            self._config.ambiguity_margin,
         )[:n_old]
         ids = [*mapped, *tentative]
         candidate_ids = np.array(
@@ -219,7 +220,7 @@ class WindowAssociation:
 
         A landmark is kept when the squared distance of some sighting's world point to it --
         with the sighting noise, the newest estimated pose's marginal and the fixed landmark
-        sigma -- is within 4x the new-landmark gate (as for ``association_landmark_marginals``).
+        sigma -- is within 4x the new-landmark gate (as for the NEAREST test's landmark marginals).
         Positions of the mapped ones near the window are refreshed from iSAM2.
         """
         config = self._config
@@ -253,7 +254,7 @@ class WindowAssociation:
         cached = self._registry.xy
         if len(cached):
             reach = float(np.max(z[:, 0])) + 3.0 * np.sqrt(loose) * (
-                config.association_landmark_sigma_m
+                config.landmark_sigma_m
                 + np.sqrt(np.linalg.eigvalsh(covs_w)[:, -1].max())
             )
             centres = np.asarray(poses)[:, :2]
@@ -266,7 +267,7 @@ class WindowAssociation:
                 if self._session.exists(key):
                     cached[r] = self._session.point2(key)
             if len(near):
-                sigma2 = config.association_landmark_sigma_m**2
+                sigma2 = config.landmark_sigma_m**2
                 fixed = np.broadcast_to(sigma2 * np.eye(2), (len(near), 2, 2))
                 d2 = mahalanobis2(points_w, covs_w, cached[near], fixed)
                 close = near[d2.min(axis=0) <= loose]

@@ -84,7 +84,7 @@ def test_the_warm_start_is_the_updates_graphslam_makes(prefix):
     from omnislam.core.modality import Modality
     from omnislam.datasets.gtsam_victoria import load_gtsam_victoria
     from omnislam.graphslam import GraphSLAM
-    from omnislam.graphslam.config import PRESETS, PoseVariables
+    from omnislam.graphslam.config import PRESETS, LandmarkConfig, PoseVariables
 
     sequence = load_gtsam_victoria(prefix)
     frames = list(sequence.frame_inputs())
@@ -94,11 +94,11 @@ def test_the_warm_start_is_the_updates_graphslam_makes(prefix):
     # odometry of frames without sightings); every sighting a factor at once, as the bare
     # pass adds them (by default the outlier gate drops some and a landmark waits for its
     # second agreeing sighting)
+    preset = PRESETS["victoria-park-gtsam"]
     config = replace(
-        PRESETS["victoria-park-gtsam"],
-        pose_variables=PoseVariables.FRAMES,
-        outlier_gate_probability=1.0,
-        min_consistent_sightings=1,
+        preset,
+        poses=replace(preset.poses, pose_variables=PoseVariables.FRAMES),
+        landmarks=LandmarkConfig(outlier_gate_probability=1.0, min_consistent_sightings=1),
     )
     estimator = GraphSLAM(Modality.RANGE_BEARING_2D, config)
     for frame in frames:
@@ -174,7 +174,10 @@ def test_runs_on_a_gtsam_graph_are_scored_against_the_lm_optimum(prefix, associa
         assert metrics.landmarks.association is LandmarkAssociation.BY_ID
         assert 45 <= metrics.landmarks.matched == metrics.landmarks.estimated
         # every sighting a factor: iSAM2 itself, within the benchmark's 2 cm of the optimum
-        every = {"outlier_gate_probability": "1.0", "min_consistent_sightings": "1"}
+        every = {
+            "landmarks.outlier_gate_probability": "1.0",
+            "landmarks.min_consistent_sightings": "1",
+        }
         options = {"preset": "victoria-park-gtsam", "association": association, **every}
         plain = evaluate_run(execute_run(RunSpec(str(prefix), "graphslam", options=options)))
         assert plain.ate.rmse_m < 0.02

@@ -11,7 +11,8 @@ Every draw comes from the ``rng`` passed in: a seed gives the same scenario.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -39,6 +40,17 @@ ISAM_VS_BATCH_TOL_M = 0.02
 #: relative agreement of iSAM2 and batch marginal covariances
 MARGINALS_RTOL = 0.05
 MOTION_NOISE = MotionNoise(a_vv=0.05, a_vw=0.02, a_wv=0.01, a_ww=0.05)
+
+
+def configured(config: Any, **changes: Any) -> Any:
+    """``config`` (a ``GraphSLAMConfig``) with top-level fields replaced, a section's fields
+    given as a dict: ``configured(c, poses={"sensor_height_m": 0.8}, compute_covariances=True)``.
+    """
+    fields = {
+        name: replace(getattr(config, name), **value) if isinstance(value, dict) else value
+        for name, value in changes.items()
+    }
+    return replace(config, **fields)
 
 
 @dataclass(frozen=True)

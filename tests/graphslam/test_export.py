@@ -10,6 +10,7 @@ from graphslam_scenarios import MOTION_NOISE, SENSOR_HEIGHT_M, run, simulate_omn
 
 from omnislam.core.modality import Modality
 from omnislam.graphslam import GraphSLAM, GraphSLAMConfig, RobustKernel
+from omnislam.graphslam.config import PoseConfig, SolverConfig
 from omnislam.graphslam.export import G2O_ATTACHMENT, format_g2o, write_g2o
 
 gtsam = pytest.importorskip("gtsam")
@@ -98,7 +99,9 @@ def test_range_bearing_graph_reads_back_whole_but_for_the_prior(tmp_path, rng):
 
 def test_robust_kernels_are_dropped_and_counted(tmp_path, rng):
     scenario = simulate_planar(rng, n=20, laps=0.25)
-    config = GraphSLAMConfig(motion_noise=MOTION_NOISE, robust_kernel=RobustKernel.CAUCHY)
+    config = GraphSLAMConfig(
+        motion_noise=MOTION_NOISE, solver=SolverConfig(robust_kernel=RobustKernel.CAUCHY)
+    )
     estimator = GraphSLAM(Modality.RANGE_BEARING_2D, config, scenario.poses_true[0])
     run(estimator, scenario.frames)
     export = format_g2o(estimator.factor_graph(), estimator.values())
@@ -130,7 +133,9 @@ def test_omni_graph_reads_back_its_pose_graph_and_landmark_positions(tmp_path, r
     scenario = simulate_omni(rng, n=30, laps=0.5)
     estimator = GraphSLAM(
         Modality.BEARINGS_3D,
-        GraphSLAMConfig(motion_noise=MOTION_NOISE, sensor_height_m=SENSOR_HEIGHT_M),
+        GraphSLAMConfig(
+            motion_noise=MOTION_NOISE, poses=PoseConfig(sensor_height_m=SENSOR_HEIGHT_M)
+        ),
         scenario.poses_true[0],
     )
     estimate = run(estimator, scenario.frames)

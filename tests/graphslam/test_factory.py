@@ -36,7 +36,7 @@ BOTH = SequenceInfo(
 def test_the_factory_builds_the_graph_of_the_resolved_modality(name, cls, options, modality):
     estimator = make_estimator(name, BOTH, options, np.random.default_rng(0))
     assert type(estimator) is cls and estimator.modality is modality
-    assert estimator.config.sensor_height_m == 0.4
+    assert estimator.config.poses.sensor_height_m == 0.4
 
 
 def test_the_old_mode_option_is_unknown():

@@ -6,13 +6,15 @@ import numpy as np
 import pytest
 
 from omnislam.graphslam import factors as fx
-from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.config import BatchConfig, LandmarkConfig, SolverConfig
 from omnislam.graphslam.session import FixedLagSession
 
 gtsam = pytest.importorskip("gtsam")
 
 LANDMARK = np.array([2.0, 3.0, 1.0])
 BEARING_SIGMA_RAD = 1e-3
+#: the prior a restart puts on its window's oldest pose (the planar prior's default) [m]
+ANCHOR_SIGMA_M = 1e-3
 
 
 def _pose(k: int) -> np.ndarray:
@@ -43,8 +45,8 @@ def _chain_step(k: int, noise) -> tuple[object, object]:
 class _FailingAt(FixedLagSession):
     """A session whose smoother fails at one update, as GTSAM's did on lab40 seed 1."""
 
-    def __init__(self, config: GraphSLAMConfig, fail_at: int) -> None:
-        super().__init__(config)
+    def __init__(self, solver: SolverConfig, fail_at: int) -> None:
+        super().__init__(solver, BatchConfig(), ANCHOR_SIGMA_M)
         real, outer = self._smoother, self
 
         class Smoother:
@@ -65,8 +67,7 @@ def test_a_restart_holds_out_a_landmark_with_one_bearing_in_its_window_and_keeps
     prior -- on lab40 seed 1 GTSAM's Cholesky called that indeterminate, in the update and again
     in the restart. The restart leaves it out of the window; the final LM over every factor
     places it from all three bearings."""
-    config = GraphSLAMConfig(online_lag_key_frames=3)
-    session = _FailingAt(config, fail_at=9)
+    session = _FailingAt(SolverConfig(online_lag_key_frames=3), fail_at=9)
     step = gtsam.noiseModel.Isotropic.Sigma(6, 1e-3)
     bearing_noise = gtsam.noiseModel.Isotropic.Sigma(2, BEARING_SIGMA_RAD)
     for k in range(10):
@@ -75,7 +76,7 @@ def test_a_restart_holds_out_a_landmark_with_one_bearing_in_its_window_and_keeps
             key = fx.landmark_key(7)
             start = gtsam.Point3(*(LANDMARK + np.array([0.3, -0.2, 0.1])))
             values.insert(key, start)
-            weak = gtsam.noiseModel.Isotropic.Sigma(3, config.landmark_prior_sigma_m)
+            weak = gtsam.noiseModel.Isotropic.Sigma(3, LandmarkConfig().prior_sigma_m)
             graph.add(gtsam.PriorFactorPoint3(key, start, weak))
             for j in (1, 2, 9):
                 graph.add(_bearing(j, 7, bearing_noise))
@@ -93,8 +94,8 @@ def test_a_restart_holds_out_a_landmark_with_one_bearing_in_its_window_and_keeps
 class _Recording(_FailingAt):
     """``_FailingAt`` whose restarted smoothers record the variables of their first update."""
 
-    def __init__(self, config: GraphSLAMConfig, fail_at: int) -> None:
-        super().__init__(config, fail_at)
+    def __init__(self, solver: SolverConfig, fail_at: int) -> None:
+        super().__init__(solver, fail_at)
         self.restart_keys: list[int] = []
 
     def _new_smoother(self):
@@ -118,8 +119,7 @@ def test_a_restart_leaves_out_the_variables_its_update_would_marginalise():
     (campus1500 seed 1, frame 23330, "Asking to remove variables ... not unused"). The run
     goes on, and the final estimate is the chain's."""
     lag, fail_at = 3, 7
-    config = GraphSLAMConfig(online_lag_key_frames=lag)
-    session = _Recording(config, fail_at=fail_at)
+    session = _Recording(SolverConfig(online_lag_key_frames=lag), fail_at=fail_at)
     session.restart_keys = [-1]  # the first smoother (built in __init__) records nothing
     step = gtsam.noiseModel.Isotropic.Sigma(6, 1e-3)
     for k in range(10):

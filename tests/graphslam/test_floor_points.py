@@ -20,8 +20,9 @@ from omnislam.core.modality import Modality
 from omnislam.core.se import se3_from_se2
 from omnislam.graphslam import GraphSLAM, GraphSLAMConfig
 from omnislam.graphslam import factors as fx
+from omnislam.graphslam.config import FloorConfig, PoseConfig
 from omnislam.graphslam.floor_points import Sightings, floor_landmarks, odometry_ratio
-from omnislam.graphslam.isam import MIN_FLOOR_LANDMARKS
+from omnislam.graphslam.odometry_scale import MIN_FLOOR_LANDMARKS
 
 SIGMA_RAD = 0.003
 
@@ -128,9 +129,9 @@ def test_the_joint_floor_solve_recovers_the_scale_better_than_the_pairs(seed):
     rng = np.random.default_rng(seed)
     frames, poses, _ = _scenario(rng)
     frames = _noisy_odometry(frames, rng)
-    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M)
-    pairs = _run(frames, replace(config, floor_landmarks=False))
-    joint = _run(frames, replace(config, floor_viewpoints=True))
+    config = GraphSLAMConfig(poses=PoseConfig(sensor_height_m=SENSOR_HEIGHT_M))
+    pairs = _run(frames, replace(config, floor=FloorConfig(landmarks=False)))
+    joint = _run(frames, replace(config, floor=FloorConfig(viewpoints=True)))
     pairs_error = abs(_ate_scale(pairs.estimate(), poses) - 1)
     joint_error = abs(_ate_scale(joint.estimate(), poses) - 1)
     assert pairs_error > 7e-4
@@ -149,8 +150,9 @@ def test_the_joint_floor_solve_recovers_the_scale_better_than_the_pairs(seed):
 
 def test_without_floor_points_nothing_changes():
     frames, _, _ = _scenario(np.random.default_rng(1), floor_points=0)
-    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M)
-    on, off = _run(frames, config), _run(frames, replace(config, floor_landmarks=False))
+    config = GraphSLAMConfig(poses=PoseConfig(sensor_height_m=SENSOR_HEIGHT_M))
+    off = _run(frames, replace(config, floor=FloorConfig(landmarks=False)))
+    on = _run(frames, config)
     assert on.info().floor_landmarks == 0
     np.testing.assert_array_equal(on.estimate().trajectory.se2, off.estimate().trajectory.se2)
     np.testing.assert_array_equal(on.estimate().landmarks_w, off.estimate().landmarks_w)

@@ -18,7 +18,8 @@ from omnislam.core.modality import Modality
 from omnislam.core.se import se2_between, wrap_angle
 from omnislam.core.types import UNKNOWN_ID, Bearings, FrameInput, Odometry
 from omnislam.errors import ConfigError
-from omnislam.graphslam import GraphSLAM, GraphSLAMConfig
+from omnislam.graphslam import GraphSLAM, GraphSLAMConfig, isam
+from omnislam.graphslam.config import FloorConfig, PoseConfig, SolverConfig
 from omnislam.graphslam.floor_scale import MIN_PAIRS, FloorScale, KnownScale
 from omnislam.graphslam.session import FixedLagSession
 
@@ -161,9 +162,9 @@ def _ate_scale(estimate, poses):
 
 def test_graphslam_takes_the_floors_scale():
     frames, poses, _ = _scenario(np.random.default_rng(3))
-    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M)
+    config = GraphSLAMConfig(poses=PoseConfig(sensor_height_m=SENSOR_HEIGHT_M))
     metric = GraphSLAM(Modality.BEARINGS_3D, config)
-    wheel = GraphSLAM(Modality.BEARINGS_3D, replace(config, floor_scale=False))
+    wheel = GraphSLAM(Modality.BEARINGS_3D, replace(config, floor=FloorConfig(scale=False)))
     for frame in frames:
         metric.step(frame)
         wheel.step(frame)
@@ -172,7 +173,7 @@ def test_graphslam_takes_the_floors_scale():
     # bearings alone keep the odometry's 3% (the graph cannot see scale) ...
     assert _ate_scale(wheel.estimate(), poses) == pytest.approx(WHEEL_SCALE, rel=5e-3)
     # ... the floor points remove it, in the final estimate from the first frame on (online,
-    # the first ~20 images had the wheel's scale: 0.006 before floor_scale_final)
+    # the first ~20 images had the wheel's scale: 0.006 before floor.scale_final)
     assert abs(_ate_scale(metric.estimate(), poses) - 1) < 0.003
 
 
@@ -192,9 +193,9 @@ def test_the_final_estimate_takes_the_runs_final_floor_scale(seed):
             frame = replace(frame, bearings=Bearings(b.landmark_ids[keep], b.unit_vectors_r[keep],
                                                      b.sigmas_rad[keep]))
         late.append(frame)
-    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M)
+    config = GraphSLAMConfig(poses=PoseConfig(sensor_height_m=SENSOR_HEIGHT_M))
     final = GraphSLAM(Modality.BEARINGS_3D, config)
-    online = GraphSLAM(Modality.BEARINGS_3D, replace(config, floor_scale_final=False))
+    online = GraphSLAM(Modality.BEARINGS_3D, replace(config, floor=FloorConfig(scale_final=False)))
     for frame in late:
         final.step(frame)
         online.step(frame)
@@ -246,12 +247,17 @@ def test_refined_pairs_measure_the_trajectorys_own_scale():
 def test_the_final_floor_scale_is_refined_over_the_graphs_trajectory(seed):
     """Per-step odometry noise of 15 % leaves the raw pairs' scale 1-1.7 % off on these seeds;
     re-estimated over the graph's trajectory (held by the bearings), the final estimate's scale
-    is within 0.2 % of the truth (the pairs' path: without ``floor_landmarks``)."""
+    is within 0.2 % of the truth (the pairs' path: without ``floor.landmarks``)."""
     rng = np.random.default_rng(seed)
     frames, poses, _ = _scenario(rng)
     frames = _noisy_odometry(frames, rng)
-    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M, floor_landmarks=False)
-    raw = GraphSLAM(Modality.BEARINGS_3D, replace(config, floor_scale_refine=False))
+    config = GraphSLAMConfig(
+        poses=PoseConfig(sensor_height_m=SENSOR_HEIGHT_M), floor=FloorConfig(landmarks=False)
+    )
+    raw = GraphSLAM(
+        Modality.BEARINGS_3D,
+        replace(config, floor=FloorConfig(landmarks=False, scale_refine=False)),
+    )
     refined = GraphSLAM(Modality.BEARINGS_3D, config)
     for frame in frames:
         raw.step(frame)
@@ -268,10 +274,15 @@ def test_fixed_lag_final_estimate_is_the_whole_graph_optimum():
     """The smoother's window is bounded; ``estimate()`` smooths every factor, as iSAM2 does
     (with the odometry at the scales it was added at, as iSAM2 has it)."""
     frames, _, _ = _scenario(np.random.default_rng(4))
-    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M, online_lag_key_frames=5,
-                             floor_scale_final=False)
+    config = GraphSLAMConfig(
+        poses=PoseConfig(sensor_height_m=SENSOR_HEIGHT_M),
+        solver=SolverConfig(online_lag_key_frames=5),
+        floor=FloorConfig(scale_final=False),
+    )
     lagged = GraphSLAM(Modality.BEARINGS_3D, config)
-    whole = GraphSLAM(Modality.BEARINGS_3D, replace(config, online_lag_key_frames=None))
+    whole = GraphSLAM(
+        Modality.BEARINGS_3D, replace(config, solver=SolverConfig(online_lag_key_frames=None))
+    )
     window = []
     for frame in frames:
         lagged.step(frame)
@@ -291,8 +302,8 @@ class _FailingOnce(FixedLagSession):
 
     fail_at = 12
 
-    def __init__(self, config):
-        super().__init__(config)
+    def __init__(self, *args):
+        super().__init__(*args)
         real = self._smoother
 
         class Smoother:
@@ -310,13 +321,16 @@ class _FailingOnce(FixedLagSession):
         self._smoother = Smoother(self)
 
 
-def test_fixed_lag_restarts_on_the_window_after_a_failed_update():
+def test_fixed_lag_restarts_on_the_window_after_a_failed_update(monkeypatch):
     frames, _, _ = _scenario(np.random.default_rng(5))
-    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M, online_lag_key_frames=5)
-    restarted = GraphSLAM(Modality.BEARINGS_3D, config)
-    restarted._session = _FailingOnce(config)
-    restarted._poses._session = restarted._session
+    config = GraphSLAMConfig(
+        poses=PoseConfig(sensor_height_m=SENSOR_HEIGHT_M),
+        solver=SolverConfig(online_lag_key_frames=5),
+    )
     plain = GraphSLAM(Modality.BEARINGS_3D, config)
+    monkeypatch.setattr(isam, "FixedLagSession", _FailingOnce)
+    restarted = GraphSLAM(Modality.BEARINGS_3D, config)
+    assert isinstance(restarted.session, _FailingOnce)
     for frame in frames:
         restarted.step(frame)
         plain.step(frame)
@@ -329,7 +343,10 @@ def test_a_known_odometry_scale_replaces_the_floor_points():
     """``known_odometry_scale`` multiplies every translation from the first frame; the floor
     points are not used (the module's circle, whose wheel odometry says 3% too much)."""
     frames, poses, _ = _scenario(np.random.default_rng(3))
-    config = GraphSLAMConfig(sensor_height_m=SENSOR_HEIGHT_M, known_odometry_scale=1 / WHEEL_SCALE)
+    config = GraphSLAMConfig(
+        poses=PoseConfig(sensor_height_m=SENSOR_HEIGHT_M),
+        floor=FloorConfig(known_odometry_scale=1 / WHEEL_SCALE),
+    )
     known = GraphSLAM(Modality.BEARINGS_3D, config)
     for frame in frames:
         known.step(frame)
@@ -338,4 +355,4 @@ def test_a_known_odometry_scale_replaces_the_floor_points():
     assert KnownScale(1.0).floor_tracks().shape == (0,)
     assert _ate_scale(known.estimate(), poses) == pytest.approx(1.0, abs=2e-3)
     with pytest.raises(ConfigError, match="known_odometry_scale"):
-        GraphSLAMConfig(known_odometry_scale=0.0)
+        FloorConfig(known_odometry_scale=0.0)

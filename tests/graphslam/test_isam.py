@@ -11,6 +11,7 @@ from graphslam_scenarios import (
     MARGINALS_RTOL,
     MOTION_NOISE,
     SENSOR_HEIGHT_M,
+    configured,
     corrupt_ids,
     hide_ids,
     run,
@@ -31,7 +32,12 @@ from omnislam.graphslam import (
     RobustKernel,
 )
 from omnislam.graphslam import factors as fx
-from omnislam.graphslam.config import PoseVariables
+from omnislam.graphslam.config import (
+    AssociationConfig,
+    AssociationTest,
+    PoseVariables,
+    SolverConfig,
+)
 
 gtsam = pytest.importorskip("gtsam")
 
@@ -39,10 +45,14 @@ gtsam = pytest.importorskip("gtsam")
 SLAM_VS_DEAD_RECKONING = 0.25
 
 RB, OMNI, LINES = Modality.RANGE_BEARING_2D, Modality.BEARINGS_3D, Modality.VERTICAL_LINES
+#: the ``poses`` section's fields of the omni scenarios, and of a pose variable per frame
+OMNI_POSES = {"sensor_height_m": SENSOR_HEIGHT_M}
+EVERY_FRAME = {"pose_variables": PoseVariables.FRAMES}
 
 
-def _config(**overrides) -> GraphSLAMConfig:
-    return GraphSLAMConfig(motion_noise=MOTION_NOISE, **overrides)
+def _config(**changes) -> GraphSLAMConfig:
+    """The test's motion noise, with ``changes`` (``graphslam_scenarios.configured``)."""
+    return configured(GraphSLAMConfig(motion_noise=MOTION_NOISE), **changes)
 
 
 @pytest.mark.parametrize("modality", list(Modality))
@@ -62,7 +72,7 @@ def test_the_modality_is_required():
 
 @pytest.mark.parametrize("threshold, tol_m", [(0.1, ISAM_VS_BATCH_TOL_M), (1e-3, 1e-3)])
 def test_isam2_equals_batch_lm_on_the_same_graph(planar, threshold, tol_m):
-    cfg = _config(relinearize_threshold=threshold)
+    cfg = _config(solver={"relinearize_threshold": threshold})
     incremental = run(GraphSLAM(RB, cfg, planar.poses_true[0]), planar.frames)
     batch_estimator = BatchGraphSLAM(RB, cfg, planar.poses_true[0])
     batch = run(batch_estimator, planar.frames)
@@ -108,7 +118,7 @@ def test_isam2_marginals_match_gtsam_marginals(planar):
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_omni_bearings_never_indeterminate_and_beat_dead_reckoning(seed):
     scenario = simulate_omni(np.random.default_rng(seed))
-    estimator = GraphSLAM(OMNI, _config(sensor_height_m=SENSOR_HEIGHT_M), scenario.poses_true[0])
+    estimator = GraphSLAM(OMNI, _config(poses=OMNI_POSES), scenario.poses_true[0])
     estimate = run(estimator, scenario.frames)  # EstimationError would fail the test
     info = estimator.info()
     assert info.modality is OMNI and info.frames == len(scenario.frames)
@@ -156,7 +166,7 @@ def test_omni_default_kernel_holds_the_map_against_bearings_inside_the_gate(seed
         ("auto", bad, RobustKernel.AUTO),
         ("none", bad, RobustKernel.NONE),
     ]:
-        config = _config(sensor_height_m=SENSOR_HEIGHT_M, robust_kernel=kernel)
+        config = _config(poses=OMNI_POSES, solver={"robust_kernel": kernel})
         estimate = run(GraphSLAM(OMNI, config, scenario.poses_true[0]), frames)
         ates[name] = scenario.ate(estimate.trajectory.se2)
     assert ates["auto"] < 1.3 * ates["clean"], ates
@@ -168,7 +178,7 @@ def test_omni_tracks_that_never_qualify_are_counted():
     scenario = simulate_omni(rng, n=40, laps=0.1)
     estimator = GraphSLAM(
         OMNI,
-        _config(sensor_height_m=SENSOR_HEIGHT_M, min_parallax_deg=30.0),
+        _config(poses=OMNI_POSES, landmarks={"min_parallax_deg": 30.0}),
         scenario.poses_true[0],
     )
     run(estimator, scenario.frames)
@@ -176,7 +186,7 @@ def test_omni_tracks_that_never_qualify_are_counted():
     seen = {int(i) for f in scenario.frames for i in f.bearings.landmark_ids}
     assert info.tracks_pending > 0
     assert info.tracks_pending + info.tracks_inserted == len(seen)
-    assert info.sightings_pending >= estimator.config.min_sightings * info.tracks_pending
+    assert info.sightings_pending >= estimator.config.landmarks.min_sightings * info.tracks_pending
 
 
 def test_vertical_lines_are_mapped_as_2d_bearings(planar):
@@ -225,7 +235,7 @@ def test_frames_before_the_first_sighting_are_dead_reckoning(planar):
         (fx.pose_key(20), fx.pose_key(21)),
     ]
     # one variable per frame: the chain of 19 odometry factors
-    every = GraphSLAM(RB, _config(pose_variables=PoseVariables.FRAMES), planar.poses_true[0])
+    every = GraphSLAM(RB, _config(poses=EVERY_FRAME), planar.poses_true[0])
     estimate = run(every, blind)
     np.testing.assert_allclose(
         estimate.trajectory.se2, se2_integrate(deltas, planar.poses_true[0]), atol=1e-9
@@ -239,8 +249,13 @@ def test_wrong_associations_the_defaults_keep_ate_near_clean():
     ratios: dict[str, list[float]] = {"default": [], "cauchy": [], "plain": []}
     configs = {
         "default": _config(),
-        "cauchy": _config(robust_kernel=RobustKernel.CAUCHY, outlier_gate_probability=1.0),
-        "plain": _config(outlier_gate_probability=1.0, min_consistent_sightings=1),
+        "cauchy": _config(
+            solver={"robust_kernel": RobustKernel.CAUCHY},
+            landmarks={"outlier_gate_probability": 1.0},
+        ),
+        "plain": _config(
+            landmarks={"outlier_gate_probability": 1.0, "min_consistent_sightings": 1}
+        ),
     }
     for seed in range(5):
         scenario = simulate_planar(np.random.default_rng(seed))
@@ -260,9 +275,17 @@ def test_wrong_associations_the_defaults_keep_ate_near_clean():
     assert np.median(ratios["plain"]) > 10, ratios  # the threat is real
 
 
-def test_unknown_association_recovers_the_map():
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {},  # joint compatibility, frame by frame
+        {"association": {"test": AssociationTest.NEAREST}},  # each sighting's nearest
+    ],
+    ids=["joint", "nearest"],
+)
+def test_unknown_association_recovers_the_map(changes):
     scenario = simulate_planar(np.random.default_rng(2))
-    estimator = GraphSLAM(RB, _config(), scenario.poses_true[0])
+    estimator = GraphSLAM(RB, _config(**changes), scenario.poses_true[0])
     estimate = run(estimator, hide_ids(scenario.frames))
     info = estimator.info()
     seen = len({int(i) for f in scenario.frames for i in f.range_bearing.landmark_ids})
@@ -274,11 +297,11 @@ def test_unknown_association_recovers_the_map():
 
 
 def test_unknown_association_over_a_window_of_frames_recovers_the_map():
-    """``association_lag_frames=2``: each frame's unlabelled sightings are decided by JCBB
+    """``association.lag_frames=2``: each frame's unlabelled sightings are decided by JCBB
     together with the two frames after it (the last ones at the flush); the map and the
     trajectory are those of the frame-by-frame association's test above."""
     scenario = simulate_planar(np.random.default_rng(2))
-    estimator = GraphSLAM(RB, _config(association_lag_frames=2), scenario.poses_true[0])
+    estimator = GraphSLAM(RB, _config(association={"lag_frames": 2}), scenario.poses_true[0])
     estimate = run(estimator, hide_ids(scenario.frames))
     info = estimator.info()
     seen = len({int(i) for f in scenario.frames for i in f.range_bearing.landmark_ids})
@@ -301,7 +324,7 @@ def test_a_frame_waits_for_lag_frames_and_the_flush_decides_the_rest():
             return False
 
     window = WindowAssociation(
-        _config(association_lag_frames=2),
+        AssociationConfig(lag_frames=2),
         NoPoses(),
         LandmarkRegistry(),
         None,
@@ -319,7 +342,7 @@ def test_a_frame_waits_for_lag_frames_and_the_flush_decides_the_rest():
 
 
 def test_reordering_the_candidates_changes_the_tree_not_the_estimate(monkeypatch):
-    """``association_reorder_candidates``: the association's candidate landmarks are
+    """``association.reorder_candidates``: the association's candidate landmarks are
     re-eliminated with the next update -- the same linear system in another order, so the same
     decisions; the estimate moves by no more than iSAM2's partial relinearisation leaves open
     (its deltas below ``relinearize_threshold`` are not applied to the linearisation point, and
@@ -340,7 +363,7 @@ def test_reordering_the_candidates_changes_the_tree_not_the_estimate(monkeypatch
     runs = []
     for reorder in (False, True):
         requested.clear()
-        estimator = GraphSLAM(RB, _config(association_reorder_candidates=reorder))
+        estimator = GraphSLAM(RB, _config(association={"reorder_candidates": reorder}))
         runs.append((run(estimator, frames), estimator.info(), sum(requested)))
     (plain, plain_info, plain_keys), (reordered, reordered_info, reordered_keys) = runs
     assert plain_keys == 0 and reordered_keys > len(frames)
@@ -363,11 +386,15 @@ def test_a_creeping_robot_does_not_make_isam2_indeterminate():
     """
     scenario = simulate_stopping(np.random.default_rng(0))
     # the old behaviour: only the motion model's own floor, Cholesky without the QR fallback
-    old = GraphSLAMConfig(odometry_min_sigma_m=1e-4, factorization=Factorization.CHOLESKY)
+    old = configured(
+        GraphSLAMConfig(),
+        poses={"odometry_min_sigma_m": 1e-4},
+        solver={"factorization": Factorization.CHOLESKY},
+    )
     with pytest.raises(EstimationError, match="Indeterminate"):
         run(GraphSLAM(RB, old), scenario.frames)
     # the AUTO factorisation recovers by rebuilding with QR, and gives the same estimate
-    rescued = GraphSLAM(RB, replace(old, factorization=Factorization.AUTO))
+    rescued = GraphSLAM(RB, configured(old, solver={"factorization": Factorization.AUTO}))
     rescued_estimate = run(rescued, scenario.frames)
     assert rescued.info().factorization_fallbacks == 1
     estimator = GraphSLAM(RB, GraphSLAMConfig())
@@ -381,10 +408,12 @@ def test_a_creeping_robot_does_not_make_isam2_indeterminate():
 def test_adaptive_reorder_bounds_fill_in_and_keeps_the_estimate():
     """GTSAM's adaptive batch re-ordering: fewer non-zeros, the same solution."""
     scenario = simulate_omni(np.random.default_rng(1))
-    whole = {"sensor_height_m": SENSOR_HEIGHT_M, "online_lag_key_frames": None}  # iSAM2 itself
-    plain = GraphSLAM(OMNI, _config(**whole), scenario.poses_true[0])
+    whole = {"online_lag_key_frames": None}  # iSAM2 itself
+    plain = GraphSLAM(OMNI, _config(poses=OMNI_POSES, solver=whole), scenario.poses_true[0])
     reordering = GraphSLAM(
-        OMNI, _config(**whole, adaptive_reorder_threshold=1.2), scenario.poses_true[0]
+        OMNI,
+        _config(poses=OMNI_POSES, solver={**whole, "adaptive_reorder_threshold": 1.2}),
+        scenario.poses_true[0],
     )
     a, b = run(plain, scenario.frames), run(reordering, scenario.frames)
     # iSAM2 also re-orders everything when most variables are affected (early updates)
@@ -400,7 +429,7 @@ def test_adaptive_reorder_bounds_fill_in_and_keeps_the_estimate():
 
 def test_adaptive_reorder_threshold_must_be_a_ratio_above_one():
     with pytest.raises(ConfigError, match="adaptive_reorder_threshold"):
-        GraphSLAMConfig(adaptive_reorder_threshold=0.5)
+        SolverConfig(adaptive_reorder_threshold=0.5)
 
 
 def test_weak_landmark_prior_is_one_factor_per_landmark_and_barely_moves_the_estimate():
@@ -408,12 +437,13 @@ def test_weak_landmark_prior_is_one_factor_per_landmark_and_barely_moves_the_est
     # iSAM2 over the whole graph: without the prior it needs its QR fallback; no kernel (the
     # Huber weights, taken at each run's own linearisation points, differ by cm on their own)
     whole = {
-        "sensor_height_m": SENSOR_HEIGHT_M,
-        "online_lag_key_frames": None,
-        "robust_kernel": RobustKernel.NONE,
+        "poses": OMNI_POSES,
+        "solver": {"online_lag_key_frames": None, "robust_kernel": RobustKernel.NONE},
     }
     with_prior = GraphSLAM(OMNI, _config(**whole), scenario.poses_true[0])
-    without = GraphSLAM(OMNI, _config(**whole, landmark_prior_sigma_m=None), scenario.poses_true[0])
+    without = GraphSLAM(
+        OMNI, _config(**whole, landmarks={"prior_sigma_m": None}), scenario.poses_true[0]
+    )
     a, b = run(with_prior, scenario.frames), run(without, scenario.frames)
     graph = with_prior.factor_graph()
     priors = [

@@ -10,7 +10,7 @@ from omnislam.core.modality import Modality
 from omnislam.core.types import FrameInput
 from omnislam.graphslam import GraphSLAM, GraphSLAMConfig
 from omnislam.graphslam import factors as fx
-from omnislam.graphslam.config import PoseVariables
+from omnislam.graphslam.config import LandmarkConfig, PoseConfig, PoseVariables
 from omnislam.graphslam.joint_state import joint_state
 
 gtsam = pytest.importorskip("gtsam")
@@ -38,8 +38,9 @@ def test_joint_state_is_the_joint_marginal_and_propagates_the_newest_pose(rng):
         Modality.RANGE_BEARING_2D,
         GraphSLAMConfig(
             motion_noise=MOTION_NOISE,
-            min_consistent_sightings=1,
-            pose_variables=PoseVariables.FRAMES,  # the blind frame below gets a variable
+            landmarks=LandmarkConfig(min_consistent_sightings=1),
+            # the blind frame below gets a variable
+            poses=PoseConfig(pose_variables=PoseVariables.FRAMES),
         ),
         scenario.poses_true[0],
     )

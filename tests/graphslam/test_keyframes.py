@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 from graphslam_scenarios import (
     ISAM_VS_BATCH_TOL_M,
     MOTION_NOISE,
     SENSOR_HEIGHT_M,
+    configured,
     run,
     simulate_omni,
 )
@@ -24,14 +23,17 @@ from omnislam.graphslam.config import PoseVariables
 
 gtsam = pytest.importorskip("gtsam")
 
+#: the ``poses`` section's fields of a pose variable per frame
+EVERY_FRAME = {"pose_variables": PoseVariables.FRAMES}
 RB, OMNI = Modality.RANGE_BEARING_2D, Modality.BEARINGS_3D
 #: key poses of the composed graph against those of the every-frame graph [m]: the composed
 #: between-factor is the every-frame chain marginalised to first order
 COMPOSED_VS_CHAIN_TOL_M = 0.01
 
 
-def _config(**overrides) -> GraphSLAMConfig:
-    return GraphSLAMConfig(motion_noise=MOTION_NOISE, **overrides)
+def _config(**changes) -> GraphSLAMConfig:
+    """The test's motion noise, with ``changes`` (``graphslam_scenarios.configured``)."""
+    return configured(GraphSLAMConfig(motion_noise=MOTION_NOISE), **changes)
 
 
 def _every_fifth(frames: list[FrameInput]) -> list[FrameInput]:
@@ -42,7 +44,7 @@ def _every_fifth(frames: list[FrameInput]) -> list[FrameInput]:
 def test_composed_odometry_graph_matches_the_every_frame_chain(planar):
     frames = _every_fifth(planar.frames)
     keyed = GraphSLAM(RB, _config(), planar.poses_true[0])
-    chain = GraphSLAM(RB, _config(pose_variables=PoseVariables.FRAMES), planar.poses_true[0])
+    chain = GraphSLAM(RB, _config(poses=EVERY_FRAME), planar.poses_true[0])
     a, b = run(keyed, frames), run(chain, frames)
     assert keyed.info().key_frames == len(frames) // 5 and chain.info().key_frames == len(frames)
     assert len(a.trajectory) == len(b.trajectory) == len(frames)
@@ -93,7 +95,7 @@ def test_poses_after_the_last_sighting_get_the_propagated_covariance(planar):
     cfg = _config(compute_covariances=True)
     keyed = run(GraphSLAM(RB, cfg, planar.poses_true[0]), frames)
     chain = run(
-        GraphSLAM(RB, replace(cfg, pose_variables=PoseVariables.FRAMES), planar.poses_true[0]),
+        GraphSLAM(RB, configured(cfg, poses=EVERY_FRAME), planar.poses_true[0]),
         frames,
     )
     tail = slice(61, 80)
@@ -106,7 +108,10 @@ def test_poses_after_the_last_sighting_get_the_propagated_covariance(planar):
 
 def test_omni_key_frame_spacing_skips_close_images_and_counts_their_bearings(rng):
     scenario = simulate_omni(rng)  # ~0.5 m between frames
-    cfg = _config(sensor_height_m=SENSOR_HEIGHT_M, keyframe_spacing_m=1.2, landmarks_per_image=0)
+    cfg = _config(
+        poses={"sensor_height_m": SENSOR_HEIGHT_M, "keyframe_spacing_m": 1.2},
+        landmarks={"per_image": 0},
+    )
     estimator = GraphSLAM(OMNI, cfg, scenario.poses_true[0])
     estimate = run(estimator, scenario.frames)
     info = estimator.info()
@@ -192,8 +197,10 @@ def test_track_budget_counts_the_sectors_of_tracks_admitted_before():
 
 def test_budget_keeps_the_graph_to_admitted_tracks_with_all_their_sightings(rng):
     scenario = simulate_omni(rng)
-    base = dict(sensor_height_m=SENSOR_HEIGHT_M, keyframe_spacing_m=0.0)
-    limited = GraphSLAM(OMNI, _config(**base, landmarks_per_image=8), scenario.poses_true[0])
+    base = {"sensor_height_m": SENSOR_HEIGHT_M, "keyframe_spacing_m": 0.0}
+    limited = GraphSLAM(
+        OMNI, _config(poses=base, landmarks={"per_image": 8}), scenario.poses_true[0]
+    )
     estimate = run(limited, scenario.frames)
     info = limited.info()
     total = sum(len(f.bearings) for f in scenario.frames)
@@ -219,7 +226,7 @@ def test_budget_keeps_the_graph_to_admitted_tracks_with_all_their_sightings(rng)
     if info.sightings_gated == 0:
         assert per_landmark == {lid: sightings[lid] for lid in per_landmark}
     full = run(
-        GraphSLAM(OMNI, _config(**base, landmarks_per_image=0), scenario.poses_true[0]),
+        GraphSLAM(OMNI, _config(poses=base, landmarks={"per_image": 0}), scenario.poses_true[0]),
         scenario.frames,
     )
     assert len(estimate.landmark_ids) < len(full.landmark_ids)

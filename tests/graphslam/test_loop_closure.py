@@ -21,7 +21,13 @@ from omnislam.core.se import se2_between, se2_compose
 from omnislam.graphslam import GraphSLAM
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam.builder import LandmarkRegistry
-from omnislam.graphslam.config import GraphSLAMConfig
+from omnislam.graphslam.config import (
+    AssociationConfig,
+    ExperimentalConfig,
+    GraphSLAMConfig,
+    LoopClosureConfig,
+    SolverConfig,
+)
 from omnislam.graphslam.loop_closure import LandmarkMerger
 from omnislam.graphslam.range_bearing import CREATED_ID_BASE
 from omnislam.graphslam.session import ISAM2Session
@@ -44,13 +50,25 @@ def _graph(
     seen_after_gap: dict[int, np.ndarray],
     drift: np.ndarray,
     also_old: bool = False,
-    **overrides: float,
+    association: dict[str, float] | None = None,
+    **loop_closure: float,
 ):
-    """Session, registry and merger with A, B seen before the gap, ``seen_after_gap`` after."""
-    config = GraphSLAMConfig(loop_closure=True, **{"loop_closure_every_frames": 1, **overrides})
-    session = ISAM2Session(config)
+    """Session, registry and merger with A, B seen before the gap, ``seen_after_gap`` after
+    (``association`` and ``loop_closure``: their sections' fields)."""
+    config = LoopClosureConfig(enabled=True, **{"every_frames": 1, **loop_closure})
+    gates = AssociationConfig(**(association or {}))
+    session = ISAM2Session(SolverConfig())
     registry = LandmarkRegistry()
-    merger = LandmarkMerger(config, session, registry, lambda lid: lid >= CREATED_ID_BASE)
+    merger = LandmarkMerger(
+        config,
+        session,
+        registry,
+        lambda lid: lid >= CREATED_ID_BASE,
+        gate_probability=gates.gate_probability,
+        new_landmark_probability=gates.new_landmark_probability,
+        ambiguity_margin=gates.ambiguity_margin,
+        landmark_sigma_m=gates.landmark_sigma_m,
+    )
     graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
     noise = gtsam.noiseModel.Diagonal.Sigmas(np.array(SIGHTING_SIGMAS))
     graph.add(
@@ -127,7 +145,7 @@ def test_a_local_map_that_no_single_correction_explains_is_not_merged():
     assert merger.merged == 0 and registry.active(A2) and registry.active(B2)
     # each alone is compatible: accepting the best single pairing would merge one wrongly
     session, registry, merger = _graph(
-        other, np.zeros(3), loop_closure_min_landmarks=1, association_ambiguity_margin=0.0
+        other, np.zeros(3), association={"ambiguity_margin": 0.0}, min_landmarks=1
     )
     assert len(_check(session, merger)) == 1
 
@@ -139,7 +157,7 @@ def test_one_pairing_is_not_enough_and_landmarks_seen_together_stay_apart():
     assert _check(session, merger) == []
     assert registry.active(A2) and registry.active(B2)
     session, registry, merger = _graph(
-        {A2: TRUE_XY[A], B2: TRUE_XY[B]}, drift, also_old=True, loop_closure_min_landmarks=1
+        {A2: TRUE_XY[A], B2: TRUE_XY[B]}, drift, also_old=True, min_landmarks=1
     )
     assert [(m.duplicate, m.kept) for m in _check(session, merger)] == [(B2, B)]
 
@@ -150,7 +168,7 @@ def test_the_reach_grows_with_the_local_landmarks_own_spread():
     loop step's 0.5 m std) is what lets them be found, and merged."""
     drift = np.array([0.4, 0.3, 0.0])
     session, _, merger = _graph(
-        {A2: TRUE_XY[A], B2: TRUE_XY[B]}, drift, association_landmark_sigma_m=0.05
+        {A2: TRUE_XY[A], B2: TRUE_XY[B]}, drift, association={"landmark_sigma_m": 0.05}
     )
     assert {(m.duplicate, m.kept) for m in _check(session, merger)} == {(A2, A), (B2, B)}
 
@@ -158,11 +176,11 @@ def test_the_reach_grows_with_the_local_landmarks_own_spread():
 def test_the_local_map_is_matched_every_few_frames_and_holds_recent_landmarks_only():
     drift = np.array([0.4, 0.3, 0.0])
     seen = {A2: TRUE_XY[A], B2: TRUE_XY[B]}
-    session, _, merger = _graph(seen, drift, loop_closure_every_frames=2)
+    session, _, merger = _graph(seen, drift, every_frames=2)
     assert _check(session, merger) == [] and merger.checks == 0  # first call: no match
     assert len(_check(session, merger, 5)) == 2 and merger.checks == 1
     # A', B' last seen in frame 3: outside a 5-frame window at frame 9, inside at frame 8
-    session, _, merger = _graph(seen, drift, loop_closure_window_frames=5)
+    session, _, merger = _graph(seen, drift, window_frames=5)
     assert _check(session, merger, 9) == [] and merger.checks == 0
     assert len(_check(session, merger, 8)) == 2
 
@@ -188,9 +206,10 @@ def test_landmarks_with_given_ids_are_never_merged():
 def test_on_a_clean_loop_nothing_distinct_is_merged_and_retired_landmarks_leave_the_map(rng):
     scenario = simulate_planar(rng)
     frames = hide_ids(scenario.frames)
-    with_closure = GraphSLAM(Modality.RANGE_BEARING_2D, GraphSLAMConfig(loop_closure=True))
+    closing = ExperimentalConfig(loop_closure=LoopClosureConfig(enabled=True))
+    with_closure = GraphSLAM(Modality.RANGE_BEARING_2D, GraphSLAMConfig(experimental=closing))
     estimate = run(with_closure, frames)
-    without = run(GraphSLAM(Modality.RANGE_BEARING_2D, GraphSLAMConfig(loop_closure=False)), frames)
+    without = run(GraphSLAM(Modality.RANGE_BEARING_2D, GraphSLAMConfig()), frames)
     info = with_closure.info()
     # the association closes this loop itself: no duplicates, so nothing may be merged
     assert info.landmarks_merged == 0 and info.loop_closures == 0

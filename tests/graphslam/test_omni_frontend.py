@@ -33,13 +33,15 @@ def test_no_indeterminate_system_on_demo_seeds(tmp_path, seed):
     from omnislam.frontend.evaluation import track_truth, true_sightings
     from omnislam.frontend.pipeline import run_frontend
     from omnislam.graphslam import GraphSLAM, GraphSLAMConfig
+    from omnislam.graphslam.config import PoseConfig
 
     folder = tmp_path / f"demo{seed}"
     write_synthetic(folder, simulate(PRESETS["demo"], seed=seed, max_images=IMAGES))
     sequence = load_synthetic(folder)
     log = run_frontend(sequence, rng=np.random.default_rng(seed))
     height = float(sequence.calibration.viewpoint_r[2])
-    slam = GraphSLAM(Modality.BEARINGS_3D, GraphSLAMConfig(sensor_height_m=height))
+    config = GraphSLAMConfig(poses=PoseConfig(sensor_height_m=height))
+    slam = GraphSLAM(Modality.BEARINGS_3D, config)
     for frame in log.frames:
         slam.step(frame)
     estimate = slam.estimate()

@@ -10,6 +10,7 @@ from graphslam_scenarios import MOTION_NOISE, run, simulate_planar
 from omnislam.core.modality import Modality
 from omnislam.core.types import FrameInput, RangeBearing
 from omnislam.graphslam import GraphSLAM, GraphSLAMConfig
+from omnislam.graphslam.config import LandmarkConfig
 
 pytest.importorskip("gtsam")
 
@@ -59,7 +60,10 @@ def test_a_misread_id_is_rejected_and_the_estimate_is_as_without_it(rng):
     ungated = run(
         GraphSLAM(
             RB,
-            GraphSLAMConfig(motion_noise=MOTION_NOISE, outlier_gate_probability=1.0),
+            GraphSLAMConfig(
+                motion_noise=MOTION_NOISE,
+                landmarks=LandmarkConfig(outlier_gate_probability=1.0),
+            ),
             scenario.poses_true[0],
         ),
         corrupted,
@@ -83,7 +87,9 @@ def test_agreeing_re_sightings_close_a_loop_the_gate_rejected(seed):
     loop = simulate_biased_loop(np.random.default_rng(seed))
     ends = {}
     for votes in (0, 3):
-        config = GraphSLAMConfig(motion_noise=LOOP_MOTION_NOISE, outlier_gate_votes=votes)
+        config = GraphSLAMConfig(
+            motion_noise=LOOP_MOTION_NOISE, landmarks=LandmarkConfig(outlier_gate_votes=votes)
+        )
         estimator = GraphSLAM(RB, config, loop.poses_true[0])
         ends[votes] = loop.end_error_m(run(estimator, loop.frames).trajectory.se2)
         readmitted = estimator.info().sightings_readmitted

@@ -10,7 +10,7 @@ import pytest
 gtsam = pytest.importorskip("gtsam")
 from gtsam.symbol_shorthand import L, X  # noqa: E402
 
-from omnislam.graphslam.batch import optimize_batch  # noqa: E402
+from omnislam.graphslam.levenberg_marquardt import optimize_batch  # noqa: E402
 from omnislam.graphslam.range_bearing import CREATED_ID_BASE  # noqa: E402
 from omnislam.graphslam.reassociation import reassociate, squared_distances  # noqa: E402
 
@@ -185,9 +185,9 @@ def test_mrclam_robot1_without_ids_gains_and_with_ids_nothing_moves(monkeypatch)
         return evaluate_run(record).ate.rmse_m, info
 
     plain, _ = ate({"association": "unknown"})
-    again, info = ate({"association": "unknown", "batch_reassociation_rounds": "3"})
+    again, info = ate({"association": "unknown", "experimental.batch_reassociation_rounds": "3"})
     assert info["sightings_reassociated"] > 0
     assert again < plain - 0.005
     with_ids, _ = ate({})
-    same, info = ate({"batch_reassociation_rounds": "3"})
+    same, info = ate({"experimental.batch_reassociation_rounds": "3"})
     assert info["sightings_reassociated"] == 0 and same == with_ids

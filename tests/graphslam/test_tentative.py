@@ -10,6 +10,7 @@ from omnislam.core.modality import Modality
 from omnislam.errors import ConfigError
 from omnislam.graphslam import GraphSLAM, GraphSLAMConfig
 from omnislam.graphslam.association import Gates, associate
+from omnislam.graphslam.config import AssociationConfig
 from omnislam.graphslam.tentative import TentativeLandmarks
 
 RB = Modality.RANGE_BEARING_2D
@@ -62,8 +63,8 @@ def test_landmark_covariances_enter_the_gate():
 
 
 def test_config_rejects_a_zero_window():
-    with pytest.raises(ConfigError, match="association_window_frames"):
-        GraphSLAMConfig(association_window_frames=0)
+    with pytest.raises(ConfigError, match="tentative_window_frames"):
+        AssociationConfig(tentative_window_frames=0)
 
 
 def test_clutter_is_dropped_and_the_trajectory_matches_known_association():
@@ -78,7 +79,10 @@ def test_clutter_is_dropped_and_the_trajectory_matches_known_association():
             hide_ids(scenario.frames), CLUTTER_RATE, 7.0, np.random.default_rng(100 + seed)
         )
         assert added > 50
-        config = GraphSLAMConfig(motion_noise=MOTION_NOISE, association_min_sightings=2)
+        config = GraphSLAMConfig(
+            motion_noise=MOTION_NOISE,
+            association=AssociationConfig(tentative_min_sightings=2),
+        )
         estimator = GraphSLAM(RB, config, scenario.poses_true[0])
         estimate = run(estimator, cluttered)
         info = estimator.info()
