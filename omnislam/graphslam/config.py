@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 from omnislam.core.gating import (
     OUTLIER_GATE_MIN_SIGHTINGS,
@@ -573,6 +574,31 @@ class GraphSLAMConfig:
         "floor.scale",
         "compute_covariances",
     )
+    #: earlier flat keys renamed on the way into a section (named by the unknown-key message)
+    RENAMED_OPTIONS: ClassVar[dict[str, str]] = {
+        "landmarks_per_image": "landmarks.per_image",
+        "landmark_prior_sigma_m": "landmarks.prior_sigma_m",
+        "floor_scale": "floor.scale",
+        "floor_scale_final": "floor.scale_final",
+        "floor_scale_refine": "floor.scale_refine",
+        "floor_landmarks": "floor.landmarks",
+        "floor_viewpoints": "floor.viewpoints",
+        "association_test": "association.test",
+        "association_gate_probability": "association.gate_probability",
+        "association_lag_frames": "association.lag_frames",
+        "association_ambiguity_margin": "association.ambiguity_margin",
+        "association_landmark_sigma_m": "association.landmark_sigma_m",
+        "association_min_sightings": "association.tentative_min_sightings",
+        "association_window_frames": "association.tentative_window_frames",
+        "association_reorder_candidates": "association.reorder_candidates",
+        "loop_closure": "experimental.loop_closure.enabled",
+        "loop_closure_every_frames": "experimental.loop_closure.every_frames",
+        "loop_closure_window_frames": "experimental.loop_closure.window_frames",
+        "loop_closure_min_landmarks": "experimental.loop_closure.min_landmarks",
+        "loop_closure_merge_sigma_m": "experimental.loop_closure.merge_sigma_m",
+        "batch_max_iterations": "batch.max_iterations",
+        "batch_relative_error_tol": "batch.relative_error_tol",
+    }
 
     compute_covariances: bool = False
     motion_noise: MotionNoise = field(default_factory=MotionNoise)
