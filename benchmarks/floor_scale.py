@@ -21,10 +21,10 @@ import argparse
 
 import numpy as np
 
-from omnislam.compare.execute import _load_log, _sensor_height_m
 from omnislam.core.se import se2_between, se2_compose
 from omnislam.datasets.registry import load_dataset
 from omnislam.graphslam import floor_scale as fs
+from omnislam.harness.execute import _load_log, _sensor_height_m
 
 
 def main() -> None:

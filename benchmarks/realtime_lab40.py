@@ -2,9 +2,9 @@
 
 For each dataset (``lab40`` by default; ``demo`` and ``loop150`` with ``--dataset``) the script
 takes a rendered folder (rendering the preset into it first when it is missing), the shared
-front end's log (``--dataset NAME DIR LOG``, or the one ``compare.execute.frontend_log_for``
+front end's log (``--dataset NAME DIR LOG``, or the one ``harness.execute.frontend_log_for``
 computes once and caches), and replays the log ``--runs`` times through each graph variant and
-once through the other estimators. The replay mirrors ``omnislam run`` (``compare.execute``:
+once through the other estimators. The replay mirrors ``omnislam run`` (``harness.execute``:
 same loading, registry, SequenceInfo and ground truth) with one addition: every step is timed
 in CPU time (``time.process_time``: all threads of the process) beside wall-clock, because on a
 shared 2-core machine wall-clock mostly measures the neighbours.
@@ -51,8 +51,13 @@ from pathlib import Path
 import numpy as np
 from harness_cells import add_set_option, set_options
 
-from omnislam.compare.cache import LOGS, cache_dir
-from omnislam.compare.execute import (
+from omnislam.core.se import se2_between
+from omnislam.core.sequence_info import SequenceInfo
+from omnislam.core.types import Trajectory
+from omnislam.datasets.registry import load_dataset
+from omnislam.estimators import make_estimator
+from omnislam.harness.cache import LOGS, cache_dir
+from omnislam.harness.execute import (
     _load_log,
     _own_sighting_ids,
     _with_track_truth,
@@ -62,12 +67,7 @@ from omnislam.compare.execute import (
     reset_peak_rss,
     sequence_info,
 )
-from omnislam.compare.metrics import Alignment, LandmarkAssociation, ate, landmark_error
-from omnislam.core.se import se2_between
-from omnislam.core.sequence_info import SequenceInfo
-from omnislam.core.types import Trajectory
-from omnislam.datasets.registry import load_dataset
-from omnislam.estimators import make_estimator
+from omnislam.metrics.metrics import Alignment, LandmarkAssociation, ate, landmark_error
 
 #: graph variants: label -> (estimator, --set options)
 VARIANTS: dict[str, tuple[str, dict[str, str]]] = {

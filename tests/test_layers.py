@@ -1,6 +1,7 @@
 """omnislam's own layer order: every import (top-level or lazy) points down or sideways.
 
-``core`` <- ``camera`` <- ``datasets``, ``frontend`` <- estimators <- ``compare`` <- ``cli``
+``core`` <- ``camera`` <- ``datasets``, ``frontend`` <- estimators <- ``metrics`` <- ``harness``
+<- ``report`` <- ``demo`` <- ``cli``
 (DESIGN.md), with the package's base modules (errors, optional extras, file helpers) below
 everything; an estimator package never imports another estimator package, so shared algebra
 has to live in ``core``.
@@ -26,7 +27,10 @@ LAYERS = (
     ("omnislam.camera",),
     ("omnislam.datasets", "omnislam.frontend"),
     (*ESTIMATOR_PACKAGES, "omnislam.estimators", "omnislam.options"),
-    ("omnislam.compare",),
+    ("omnislam.metrics",),
+    ("omnislam.harness",),
+    ("omnislam.report",),
+    ("omnislam.demo",),
     ("omnislam.cli", "omnislam.__main__"),
 )
 
@@ -94,13 +98,13 @@ def test_the_checker_sees_lazy_and_relative_imports(tmp_path):
     sample = tmp_path / "omnislam" / "core" / "sample.py"
     sample.parent.mkdir(parents=True)
     sample.write_text(
-        "def f():\n    from omnislam.compare import report\n"
+        "def f():\n    from omnislam.report import plots\n"
         "from . import se\nimport omnislam.cli\n"
     )
     global ROOT
     saved, ROOT = ROOT, tmp_path / "omnislam"
     try:
-        assert imports_of(sample) == {"omnislam.compare", "omnislam.core", "omnislam.cli"}
+        assert imports_of(sample) == {"omnislam.report", "omnislam.core", "omnislam.cli"}
     finally:
         ROOT = saved
-    assert layer_of("omnislam.compare.report") > layer_of("omnislam.core.se")
+    assert layer_of("omnislam.report.report") > layer_of("omnislam.core.se")

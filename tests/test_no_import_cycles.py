@@ -3,8 +3,8 @@
 Top-level imports (module body, including ``if``/``try``/``with`` blocks and class bodies, but not
 ``if TYPE_CHECKING:``) run when a module is imported: a cycle among them makes the import order
 matter and half-initialised modules appear. Imports inside functions run later (lazy imports of
-optional or heavy parts): only the top-level graph must be acyclic, and ``compare`` has no cycle
-even with its lazy imports. ``python tests/test_no_import_cycles.py`` prints the cycles lazy
+optional or heavy parts): only the top-level graph must be acyclic, and the rooms (``metrics``,
+``harness``, ``report``, ``demo``) have no cycle even with their lazy imports. ``python tests/test_no_import_cycles.py`` prints the cycles lazy
 imports close elsewhere (when this test was written: ``datasets.synthetic.raycast`` picks its
 backend lazily from ``raycast_numpy`` / ``raycast_open3d``, which import helpers from it).
 """
@@ -21,7 +21,7 @@ Graph = dict[str, set[str]]
 
 
 def module_name(path: Path) -> str:
-    """``omnislam/compare/rundir.py`` -> ``omnislam.compare.rundir`` (packages: their folder)."""
+    """``omnislam/harness/rundir.py`` -> ``omnislam.harness.rundir`` (packages: their folder)."""
     parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
@@ -125,9 +125,9 @@ def lazy_cycles() -> list[list[str]]:
 
 def test_the_graph_sees_the_known_imports():
     top, lazy = import_graphs()
-    assert "omnislam.compare.metrics" in top["omnislam.compare.evaluation"]
-    assert "omnislam.core.types" in top["omnislam.compare.rundir"]
-    assert "omnislam.compare.plots" in lazy["omnislam.compare.report"]  # from pkg import module
+    assert "omnislam.metrics.metrics" in top["omnislam.harness.evaluation"]
+    assert "omnislam.core.types" in top["omnislam.harness.rundir"]
+    assert "omnislam.report.plots" in lazy["omnislam.report.report"]  # from pkg import module
 
 
 def test_cycle_finder_finds_a_cycle():
@@ -142,9 +142,10 @@ def test_top_level_imports_are_acyclic():
 
 def test_evaluation_and_rundir_do_not_import_each_other():
     top, lazy = import_graphs()
-    rundir, evaluation = "omnislam.compare.rundir", "omnislam.compare.evaluation"
+    rundir, evaluation = "omnislam.harness.rundir", "omnislam.harness.evaluation"
     assert evaluation not in top[rundir] | lazy[rundir]
-    assert find_cycles({m: top[m] | lazy[m] for m in top if m.startswith("omnislam.compare")}) == []
+    rooms = ("omnislam.metrics", "omnislam.harness", "omnislam.report", "omnislam.demo")
+    assert find_cycles({m: top[m] | lazy[m] for m in top if m.startswith(rooms)}) == []
 
 
 if __name__ == "__main__":

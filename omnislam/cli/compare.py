@@ -1,6 +1,6 @@
 """``omnislam compare GRID.yaml --out RESULTS_DIR [--workers N | --scheduler ADDRESS]``.
 
-Runs every cell of the grid (see ``omnislam.compare.grid``; ``--template`` prints a commented
+Runs every cell of the grid (see ``omnislam.harness.grid``; ``--template`` prints a commented
 one) on a local process pool (``--workers``, default: one per core; 0 runs in this process) or
 on a Dask cluster (``--scheduler tcp://HOST:PORT``; ``--scheduler local`` starts a LocalCluster
 of ``--workers`` processes). An existing RESULTS_DIR is refused unless ``--resume`` (keep its
@@ -18,7 +18,7 @@ import sys
 
 
 class _PrintTemplate(argparse.Action):
-    """``--template``: print ``compare.grid.grid_template()`` and exit (like ``--version``)."""
+    """``--template``: print ``harness.grid.grid_template()`` and exit (like ``--version``)."""
 
     def __init__(self, option_strings: list[str], dest: str, **kwargs: object) -> None:
         kwargs.pop("nargs", None)
@@ -31,7 +31,7 @@ class _PrintTemplate(argparse.Action):
         values: object,
         option_string: str | None = None,
     ) -> None:
-        from omnislam.compare.grid import grid_template
+        from omnislam.harness.grid import grid_template
 
         sys.stdout.write(grid_template())
         sys.stdout.flush()
@@ -80,16 +80,16 @@ def run(args: argparse.Namespace) -> int:
     from contextlib import ExitStack
 
     from omnislam._files import check_overwrite
-    from omnislam.compare.grid import check_datasets, load_grid
-    from omnislam.compare.grid_progress import GridProgress
-    from omnislam.compare.runner import (
+    from omnislam.errors import ConfigError
+    from omnislam.harness.grid import check_datasets, load_grid
+    from omnislam.harness.grid_progress import GridProgress
+    from omnislam.harness.runner import (
         GRID_COPY,
         CellStatus,
         check_results_dir,
         local_executor_factory,
         run_grid,
     )
-    from omnislam.errors import ConfigError
 
     if args.resume and args.overwrite:
         raise ConfigError("--resume and --overwrite exclude each other")

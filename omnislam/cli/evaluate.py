@@ -1,7 +1,7 @@
 """``omnislam evaluate RUN_DIR [--json]`` or ``omnislam evaluate --ref GT EST [--align A]``.
 
 With a RUN_DIR: every metric against the run's ground truth; writes ``RUN_DIR/metrics.json``
-(``compare.run_metrics``; null for what is not computed or has no ground truth) and prints a
+(``metrics.run_metrics``; null for what is not computed or has no ground truth) and prints a
 table, or the JSON with ``--json``. Every value that is missing says why. A ``metrics.json``
 computed with other settings (``--rpe-segment``, ``--landmark-gate``) is replaced only with
 ``--overwrite``.
@@ -87,8 +87,8 @@ def _fmt(value: object) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from omnislam.compare.evaluation import EvaluationOptions
     from omnislam.errors import ConfigError
+    from omnislam.harness.evaluation import EvaluationOptions
 
     EvaluationOptions(rpe_segment_m=args.rpe_segment)  # the one check of its value
     if args.ref is not None:
@@ -107,10 +107,10 @@ def run_run_dir(args: argparse.Namespace) -> int:
     import json
     from pathlib import Path
 
-    from omnislam.compare.evaluation import EvaluationOptions, evaluate_run, missing_reasons
-    from omnislam.compare.run_metrics import read_run_metrics, write_run_metrics
-    from omnislam.compare.rundir import METRICS, read_run_dir
     from omnislam.errors import ConfigError, DataError
+    from omnislam.harness.evaluation import EvaluationOptions, evaluate_run, missing_reasons
+    from omnislam.harness.rundir import METRICS, read_run_dir
+    from omnislam.metrics.run_metrics import read_run_metrics, write_run_metrics
 
     defaults = EvaluationOptions()
     options = EvaluationOptions(
@@ -219,10 +219,10 @@ def run_ref(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from omnislam._files import atomic_write_text, check_output_location, check_overwrite
-    from omnislam.compare.evaluation import compare_trajectories
-    from omnislam.compare.metrics import Alignment
     from omnislam.datasets.trajectory_io import detect_trajectory_format, read_trajectory
     from omnislam.errors import ConfigError
+    from omnislam.harness.evaluation import compare_trajectories
+    from omnislam.metrics.metrics import Alignment
 
     if args.landmark_gate is not None:
         raise ConfigError("--landmark-gate applies to a RUN_DIR (trajectory files have no map)")

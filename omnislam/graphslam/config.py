@@ -327,7 +327,7 @@ class GraphSLAMConfig:
             lab40 seeds 1 / 2 ran on for 7-9 s of CPU with the omni bearings' Huber kernel,
             changing the ATE and the landmark median by at most 0.01 mm; GTSAM's default
             1e-5 stopped loop150 seed 2 early (ATE 0.220 -> 0.232 m). The reference optimum
-            of ``compare.reference`` keeps its own 1e-10.
+            of ``harness.reference`` keeps its own 1e-10.
         batch_reassociation_rounds: batch mode only: after the final LM, give the sightings the
             association decided to landmarks again, per frame by a minimum-cost assignment
             against the LM map inside the association gate, and solve again, for at most this
