@@ -126,8 +126,9 @@ def laser_alone(dataset: str, log: str | None) -> float | None:
     laser odometry)."""
     from omnislam.core.types import OdometrySource, Trajectory
     from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
-    from omnislam.harness.cache import LOGS, cache_dir
+    from omnislam.harness.cache import cache_dir
     from omnislam.harness.execute import frontend_log_for
+    from omnislam.harness.layout import LOGS
     from omnislam.metrics.metrics import Alignment, ate
 
     sequence = load_dataset(resolve(dataset), {})

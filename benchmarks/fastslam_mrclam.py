@@ -38,7 +38,7 @@ from omnislam.graphslam.config import GraphSLAMConfig
 from omnislam.graphslam.isam import GraphSLAM
 from omnislam.harness.evaluation import evaluate_run
 from omnislam.harness.execute import RunSpec, execute_run
-from omnislam.harness.rundir import ESTIMATOR_INFO
+from omnislam.harness.layout import ESTIMATOR_INFO
 from omnislam.metrics.metrics import Alignment, ate
 
 

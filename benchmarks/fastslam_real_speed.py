@@ -124,7 +124,8 @@ def one_log_run(args: argparse.Namespace, options: dict[str, str]) -> dict:
     import tempfile
 
     from omnislam.harness.execute import RunSpec, execute_run
-    from omnislam.harness.rundir import CONFIG, write_run_dir
+    from omnislam.harness.layout import CONFIG
+    from omnislam.harness.rundir import write_run_dir
 
     spec = RunSpec(args.dataset, args.estimator, args.seed, options, log=args.log)
     record = execute_run(spec)

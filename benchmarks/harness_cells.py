@@ -20,7 +20,7 @@ from pathlib import Path
 
 from omnislam.harness.evaluation import evaluate_run
 from omnislam.harness.execute import RunSpec, execute_run
-from omnislam.harness.rundir import ESTIMATOR_INFO
+from omnislam.harness.layout import ESTIMATOR_INFO
 
 
 def run_cell(

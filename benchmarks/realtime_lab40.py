@@ -56,7 +56,7 @@ from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Trajectory
 from omnislam.datasets.registry import load_dataset
 from omnislam.estimators import make_estimator
-from omnislam.harness.cache import LOGS, cache_dir
+from omnislam.harness.cache import cache_dir
 from omnislam.harness.execute import (
     _load_log,
     _own_sighting_ids,
@@ -67,6 +67,7 @@ from omnislam.harness.execute import (
     reset_peak_rss,
     sequence_info,
 )
+from omnislam.harness.layout import LOGS
 from omnislam.metrics.metrics import Alignment, LandmarkAssociation, ate, landmark_error
 
 #: graph variants: label -> (estimator, --set options)

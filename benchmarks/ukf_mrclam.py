@@ -17,7 +17,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from omnislam.harness.rundir import METRICS
+from omnislam.harness.layout import METRICS
 from omnislam.metrics.run_metrics import RunMetrics, read_run_metrics
 
 

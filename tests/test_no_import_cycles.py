@@ -4,9 +4,10 @@ Top-level imports (module body, including ``if``/``try``/``with`` blocks and cla
 ``if TYPE_CHECKING:``) run when a module is imported: a cycle among them makes the import order
 matter and half-initialised modules appear. Imports inside functions run later (lazy imports of
 optional or heavy parts): only the top-level graph must be acyclic, and the rooms (``metrics``,
-``harness``, ``report``, ``demo``) have no cycle even with their lazy imports. ``python tests/test_no_import_cycles.py`` prints the cycles lazy
-imports close elsewhere (when this test was written: ``datasets.synthetic.raycast`` picks its
-backend lazily from ``raycast_numpy`` / ``raycast_open3d``, which import helpers from it).
+``harness``, ``report``, ``demo``) have no cycle even with their lazy imports. ``python
+tests/test_no_import_cycles.py`` prints the cycles lazy imports close elsewhere (when this test was
+written: ``datasets.synthetic.raycast`` picks its backend lazily from ``raycast_numpy`` /
+``raycast_open3d``, which import helpers from it).
 """
 
 from __future__ import annotations

@@ -83,8 +83,8 @@ def run(args: argparse.Namespace) -> int:
     from omnislam.errors import ConfigError
     from omnislam.harness.grid import check_datasets, load_grid
     from omnislam.harness.grid_progress import GridProgress
+    from omnislam.harness.layout import GRID_COPY
     from omnislam.harness.runner import (
-        GRID_COPY,
         CellStatus,
         check_results_dir,
         local_executor_factory,

@@ -109,7 +109,8 @@ def run_run_dir(args: argparse.Namespace) -> int:
 
     from omnislam.errors import ConfigError, DataError
     from omnislam.harness.evaluation import EvaluationOptions, evaluate_run, missing_reasons
-    from omnislam.harness.rundir import METRICS, read_run_dir
+    from omnislam.harness.layout import METRICS
+    from omnislam.harness.rundir import read_run_dir
     from omnislam.metrics.run_metrics import read_run_metrics, write_run_metrics
 
     defaults = EvaluationOptions()

@@ -83,7 +83,8 @@ def run(args: argparse.Namespace) -> int:
     from omnislam._files import check_output_location, check_overwrite
     from omnislam._progress import Stages
     from omnislam.harness.execute import RunSpec, check_estimator, check_spec, execute_run
-    from omnislam.harness.rundir import CONFIG, write_run_dir
+    from omnislam.harness.layout import CONFIG
+    from omnislam.harness.rundir import write_run_dir
 
     check_estimator(args.estimator)
     out = Path(args.out)

@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from omnislam._optional import require
     from omnislam._progress import Progress
     from omnislam.errors import ConfigError, DataError
-    from omnislam.harness.rundir import CONFIG
+    from omnislam.harness.layout import CONFIG
     from omnislam.report.view import ViewOptions, write_recording
 
     run_dir = Path(args.run_dir)

@@ -12,8 +12,6 @@ from pathlib import Path
 
 #: environment variable naming the cache folder
 CACHE_ENV = "OMNISLAM_CACHE"
-#: sub-folder of front-end logs (in the cache, and in a grid's results folder)
-LOGS = "logs"
 
 
 def cache_dir() -> Path:

@@ -39,7 +39,8 @@ from omnislam.core.types import UNKNOWN_ID, Bearings, Exporting, Introspectable,
 from omnislam.datasets.sequence import GroundTruth
 from omnislam.errors import ConfigError, DataError
 from omnislam.frontend.timing import cpu_with_children_s
-from omnislam.harness.cache import LOGS, cache_dir
+from omnislam.harness.cache import cache_dir
+from omnislam.harness.layout import ATTACHMENTS, ESTIMATOR_INFO, LOGS
 from omnislam.harness.perturb import (
     CLUTTER_OPTION,
     WRONG_ID_OPTION,
@@ -51,7 +52,7 @@ from omnislam.harness.perturb import (
 )
 from omnislam.harness.prior import PRIOR_MAP_OPTION, prior_map_from_run_dir
 from omnislam.harness.reference import reference_for
-from omnislam.harness.rundir import ATTACHMENTS, ESTIMATOR_INFO, RunConfig, RunRecord
+from omnislam.harness.rundir import RunConfig, RunRecord
 
 _STATUS = Path("/proc/self/status")
 _CLEAR_REFS = Path("/proc/self/clear_refs")
@@ -133,7 +134,7 @@ def check_spec(spec: RunSpec, *, rendered: bool = True) -> None:
     """
     from omnislam.datasets.registry import FORMATS, DatasetFormat, parse_options, resolve
     from omnislam.estimators import check_estimator_options
-    from omnislam.harness.rundir import CONFIG
+    from omnislam.harness.layout import CONFIG
 
     check_estimator(spec.estimator)
     if rendered:

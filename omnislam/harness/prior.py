@@ -14,7 +14,8 @@ from omnislam.core.se import se2_from_se3
 from omnislam.core.types import PriorMap
 from omnislam.datasets.trajectory_io import read_tum
 from omnislam.errors import ConfigError, DataError
-from omnislam.harness.rundir import LANDMARKS, TRAJECTORY, read_landmarks_csv
+from omnislam.harness.layout import LANDMARKS, TRAJECTORY
+from omnislam.harness.rundir import read_landmarks_csv
 
 #: the harness option naming the RUN_DIR whose landmarks become the prior map
 PRIOR_MAP_OPTION = "prior_map"

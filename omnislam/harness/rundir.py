@@ -1,6 +1,7 @@
 """RUN_DIR: what one ``omnislam run`` leaves on disk, as ``read_run_dir`` / ``write_run_dir``.
 
-Files (the README's RUN_DIR paragraph; docs/design.md, "Data flow and contracts"):
+Files (the README's RUN_DIR paragraph; docs/design.md, "Data flow and contracts"; their names:
+``harness.layout``):
 
 * ``trajectory.tum``: one estimated pose per frame (TUM format; z = 0 for planar runs).
 * ``landmarks.csv``: ``id,x,y,z`` of the estimated map (header only when there is none).
@@ -39,21 +40,18 @@ from omnislam.core.types import Estimate
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind
 from omnislam.datasets.trajectory_io import read_tum, write_tum
 from omnislam.errors import ConfigError, DataError
+from omnislam.harness.layout import (
+    ATTACHMENTS,
+    CONFIG,
+    GROUND_TRUTH,
+    GROUND_TRUTH_LANDMARKS,
+    LANDMARK_COVARIANCES,
+    LANDMARKS,
+    POSE_COVARIANCES,
+    TIMING,
+    TRAJECTORY,
+)
 
-TRAJECTORY = "trajectory.tum"
-LANDMARKS = "landmarks.csv"
-TIMING = "timing.csv"
-CONFIG = "config.yaml"
-GROUND_TRUTH = "ground_truth.tum"
-GROUND_TRUTH_LANDMARKS = "ground_truth_landmarks.csv"
-METRICS = "metrics.json"
-POSE_COVARIANCES = "pose_covariances.csv"
-LANDMARK_COVARIANCES = "landmark_covariances.csv"
-#: attachment an estimator with a factor graph exports (core.types.Exporting: graphslam)
-GRAPH_G2O = "graph.g2o"
-ESTIMATOR_INFO = "estimator_info.json"
-#: file names an attachment may take (kept small so a RUN_DIR stays a known set of files)
-ATTACHMENTS = (GRAPH_G2O, ESTIMATOR_INFO)
 _COV_COLUMNS = ",".join(f"c{r}{c}" for r in range(3) for c in range(3))
 #: every kind of ground truth but NONE comes with poses (``ground_truth.tum``)
 _KINDS_WITH_TRAJECTORY = frozenset(GroundTruthKind) - {GroundTruthKind.NONE}

@@ -53,11 +53,20 @@ from omnislam._files import atomic_write_text, check_output_location, output_err
 from omnislam._progress import say
 from omnislam.errors import ConfigError, DataError, OmnislamError
 from omnislam.frontend.timing import cpu_with_children_s
-from omnislam.harness.cache import LOGS
 from omnislam.harness.channel import ProgressChannel, StepReporter
 from omnislam.harness.evaluation import EvaluationOptions, evaluate_run
 from omnislam.harness.execute import RunSpec, StepCallback, execute_run
 from omnislam.harness.grid import Cell, Grid, column_label
+from omnislam.harness.layout import (
+    CELL_TIME,
+    CELLS,
+    CONFIG,
+    GRID_COPY,
+    LOGS,
+    METRICS,
+    RESULTS_CSV,
+    RESULTS_JSON,
+)
 from omnislam.harness.perturb import (
     CLUTTER_OPTION,
     WRONG_ID_OPTION,
@@ -66,14 +75,7 @@ from omnislam.harness.perturb import (
 )
 from omnislam.harness.prior import PRIOR_MAP_OPTION
 from omnislam.harness.renders import RenderSpec
-from omnislam.harness.rundir import (
-    CONFIG,
-    METRICS,
-    RunRecord,
-    read_run_config,
-    read_run_dir,
-    write_run_dir,
-)
+from omnislam.harness.rundir import RunRecord, read_run_config, read_run_dir, write_run_dir
 from omnislam.metrics.run_metrics import (
     CSV_FIELDS,
     RunMetrics,
@@ -81,12 +83,6 @@ from omnislam.metrics.run_metrics import (
     write_run_metrics,
 )
 
-GRID_COPY = "grid.yaml"
-CELLS = "cells"
-RESULTS_JSON = "results.json"
-RESULTS_CSV = "results.csv"
-#: a cell folder's cost on its worker (``CellTime``)
-CELL_TIME = "cell_time.json"
 #: a cell whose worker was lost is submitted at most this many times in all
 DEFAULT_MAX_ATTEMPTS = 3
 #: seconds the runner waits for a task before it passes on the workers' progress

@@ -47,11 +47,16 @@ from omnislam.datasets.registry import DatasetFormat
 from omnislam.datasets.sequence import GroundTruthKind
 from omnislam.errors import ConfigError, DataError, MissingExtraError, OmnislamError
 from omnislam.harness.evaluation import GROUND_TRUTH_LABELS, evaluate_run
-from omnislam.harness.rundir import (
+from omnislam.harness.layout import (
+    CELLS,
     CONFIG,
     ESTIMATOR_INFO,
     GRAPH_G2O,
+    GRID_COPY,
     METRICS,
+    RESULTS_JSON,
+)
+from omnislam.harness.rundir import (
     RunConfig,
     RunRecord,
     make_shareable,
@@ -220,8 +225,6 @@ def collect_cells(results_dir: str | Path) -> tuple[str, list[ReportCell]]:
     Raises:
         DataError: the folder is missing or none of the above, or a file in it is malformed.
     """
-    from omnislam.harness.runner import CELLS, RESULTS_JSON
-
     root = Path(results_dir)
     if not root.is_dir():
         raise DataError("no such folder", root)
@@ -610,7 +613,6 @@ def provenance_rows(
 ) -> list[tuple[str, str]]:
     """(field, value) of the provenance block; never raises."""
     import omnislam
-    from omnislam.harness.runner import GRID_COPY
 
     rows = [
         ("omnislam version", omnislam.__version__),

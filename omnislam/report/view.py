@@ -42,7 +42,8 @@ from omnislam._files import make_public, output_error
 from omnislam._optional import require
 from omnislam.datasets.sequence import GroundTruthKind
 from omnislam.errors import OmnislamError
-from omnislam.harness.rundir import METRICS, RunRecord, read_run_dir
+from omnislam.harness.layout import METRICS
+from omnislam.harness.rundir import RunRecord, read_run_dir
 from omnislam.metrics.metrics import Alignment, ate
 
 #: Rerun application id of the recordings

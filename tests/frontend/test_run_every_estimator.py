@@ -15,7 +15,7 @@ import yaml
 from omnislam.cli import main
 from omnislam.core.modality import PRIORITY, Modality
 from omnislam.estimators import ESTIMATORS
-from omnislam.harness.rundir import CONFIG, ESTIMATOR_INFO, GRAPH_G2O
+from omnislam.harness.layout import CONFIG, ESTIMATOR_INFO, GRAPH_G2O
 
 pytestmark = pytest.mark.slow
 

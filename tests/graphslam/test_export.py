@@ -160,7 +160,7 @@ def test_an_empty_graph_is_an_empty_file():
 
 
 def test_the_attachment_is_the_run_dir_s_graph_g2o(rng):
-    from omnislam.harness.rundir import GRAPH_G2O
+    from omnislam.harness.layout import GRAPH_G2O
 
     assert G2O_ATTACHMENT == GRAPH_G2O
     scenario = simulate_planar(rng, n=10, laps=0.1)

@@ -15,7 +15,8 @@ from room_log import write_room_log
 from test_runner import numbers
 
 from omnislam.harness.grid import load_grid
-from omnislam.harness.runner import CELLS, SerialExecutor, run_grid
+from omnislam.harness.layout import CELLS
+from omnislam.harness.runner import SerialExecutor, run_grid
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="uses /proc")
 

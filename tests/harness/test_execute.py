@@ -10,7 +10,8 @@ import pytest
 from omnislam.deadreckoning import DeadReckoning
 from omnislam.errors import ConfigError, DataError
 from omnislam.harness.execute import RunSpec, execute_run
-from omnislam.harness.rundir import ESTIMATOR_INFO, read_run_dir, write_run_dir
+from omnislam.harness.layout import ESTIMATOR_INFO
+from omnislam.harness.rundir import read_run_dir, write_run_dir
 
 
 def test_graphslam_counts_are_written_next_to_the_estimate(shared_data, tmp_path):
@@ -119,7 +120,8 @@ def test_a_loader_option_hiding_ids_reaches_the_estimator_through_the_shared_log
     byte-identical trajectories to demo)."""
     from omnislam.frontend.observation_log import load_observation_log
     from omnislam.harness.grid import load_grid
-    from omnislam.harness.runner import CELLS, CellStatus, SerialExecutor, run_grid
+    from omnislam.harness.layout import CELLS
+    from omnislam.harness.runner import CellStatus, SerialExecutor, run_grid
 
     grid_file = tmp_path / "grid.yaml"
     grid_file.write_text(

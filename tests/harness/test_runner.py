@@ -16,8 +16,8 @@ from room_log import write_room_log
 
 from omnislam.errors import ConfigError
 from omnislam.harness.grid import load_grid
-from omnislam.harness.rundir import METRICS
-from omnislam.harness.runner import CELLS, CellStatus, SerialExecutor, run_cell, run_grid
+from omnislam.harness.layout import CELLS, METRICS
+from omnislam.harness.runner import CellStatus, SerialExecutor, run_cell, run_grid
 from omnislam.metrics.run_metrics import MEASURED_KEYS, read_run_metrics
 
 GRID = """

@@ -15,15 +15,8 @@ from room_log import write_room_log
 from test_runner import CountingExecutor, numbers
 
 from omnislam.harness.grid import load_grid
-from omnislam.harness.runner import (
-    CELL_TIME,
-    CELLS,
-    RESULTS_JSON,
-    CellStatus,
-    SerialExecutor,
-    local_executor_factory,
-    run_grid,
-)
+from omnislam.harness.layout import CELL_TIME, CELLS, RESULTS_JSON
+from omnislam.harness.runner import CellStatus, SerialExecutor, local_executor_factory, run_grid
 from omnislam.metrics.run_metrics import MEASURED_KEYS
 
 GRID = """

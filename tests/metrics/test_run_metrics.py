@@ -15,8 +15,9 @@ from omnislam.datasets.sequence import GroundTruthKind
 from omnislam.errors import DataError
 from omnislam.harness.evaluation import evaluate_run
 from omnislam.harness.grid import load_grid
-from omnislam.harness.rundir import METRICS, read_run_dir, write_run_dir
-from omnislam.harness.runner import CELLS, CSV_LABELS, RESULTS_CSV, SerialExecutor, run_grid
+from omnislam.harness.layout import CELLS, METRICS, RESULTS_CSV
+from omnislam.harness.rundir import read_run_dir, write_run_dir
+from omnislam.harness.runner import CSV_LABELS, SerialExecutor, run_grid
 from omnislam.metrics.metrics import Alignment, LandmarkAssociation
 from omnislam.metrics.run_metrics import (
     CSV_FIELDS,
