@@ -38,7 +38,7 @@ from omnislam.estimators import make_estimator
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam import range_bearing
 from omnislam.graphslam.window_association import Decided
-from omnislam.harness.execute import sequence_info
+from omnislam.harness.frames import sequence_info
 
 #: chi-square 0.99 quantile, 2 dof: the loop closure's individual gate
 GATE_99 = 9.21

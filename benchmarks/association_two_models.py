@@ -39,7 +39,7 @@ from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.datasets.sequence import Sequence
 from omnislam.estimators import make_estimator
 from omnislam.graphslam import range_bearing
-from omnislam.harness.execute import sequence_info
+from omnislam.harness.frames import sequence_info
 from omnislam.harness.reference import reference_for
 from omnislam.metrics.metrics import Alignment, ate
 

@@ -45,7 +45,8 @@ from omnislam.core.se import se2_between
 from omnislam.datasets.registry import resolve
 from omnislam.estimators import make_estimator
 from omnislam.graphslam import isam, range_bearing
-from omnislam.harness.execute import RunSpec, execute_run, sequence_info
+from omnislam.harness.execute import RunSpec, execute_run
+from omnislam.harness.frames import sequence_info
 from omnislam.harness.perturb import add_clutter, clutter_stream
 from omnislam.harness.reference import reference_for
 

@@ -39,7 +39,7 @@ from omnislam.fastslam import association as fs_association
 from omnislam.fastslam.association import association_log_likelihood
 from omnislam.fastslam.landmark_store import ESTIMATED
 from omnislam.fastslam.resighting import ResightingSpread
-from omnislam.harness.execute import sequence_info
+from omnislam.harness.frames import sequence_info
 
 #: a pairing with a landmark whose true position is farther than this is another group's
 FAR_M = 0.5

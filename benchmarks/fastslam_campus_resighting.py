@@ -44,7 +44,7 @@ from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.errors import OmnislamError
 from omnislam.estimators import make_estimator
 from omnislam.fastslam.landmark_store import ESTIMATED
-from omnislam.harness.execute import sequence_info
+from omnislam.harness.frames import sequence_info
 
 
 def main() -> None:

@@ -1,7 +1,7 @@
 """FastSLAM on recorded data: CPU time of a (truncated) run, and whether two checkouts agree.
 
 A run is what ``omnislam run DATASET --estimator E --seed S --set K=V ...`` steps (the dataset's
-own sightings, the estimator built from ``execute.sequence_info`` over all frames), cut to the
+own sightings, the estimator built from ``frames.sequence_info`` over all frames), cut to the
 first ``--frames`` frames. Each run is one subprocess that loads the data, steps the estimator
 and reports the process CPU seconds and wall-clock seconds of the stepping alone (loading and
 numba's compilation, warmed on the first frames of a throwaway estimator, are not counted),
@@ -88,7 +88,7 @@ def one_run(args: argparse.Namespace, options: dict[str, str]) -> dict:
     """Load, warm up, step the first ``args.frames`` frames; CPU and wall seconds and digest."""
     from omnislam.datasets.registry import load_dataset, resolve
     from omnislam.estimators import make_estimator
-    from omnislam.harness.execute import sequence_info
+    from omnislam.harness.frames import sequence_info
 
     resolved = resolve(args.dataset)
     loader_keys = resolved.option_names()

@@ -31,7 +31,7 @@ from omnislam.core.types import Trajectory
 from omnislam.estimators import make_estimator
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam.batch import optimize_batch
-from omnislam.harness.execute import frames_for_estimator
+from omnislam.harness.frames import frames_for_estimator
 from omnislam.metrics.metrics import ate
 
 gtsam = require("gtsam")

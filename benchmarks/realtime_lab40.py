@@ -57,17 +57,15 @@ from omnislam.core.types import Trajectory
 from omnislam.datasets.registry import load_dataset
 from omnislam.estimators import make_estimator
 from omnislam.harness.cache import cache_dir
-from omnislam.harness.execute import (
-    _load_log,
-    _own_sighting_ids,
-    _with_track_truth,
+from omnislam.harness.execute import frontend_log_for, peak_rss_mb, reset_peak_rss
+from omnislam.harness.frames import (
     frames_for_estimator,
-    frontend_log_for,
-    peak_rss_mb,
-    reset_peak_rss,
+    load_log,
+    own_sighting_ids,
     sequence_info,
 )
 from omnislam.harness.layout import LOGS
+from omnislam.harness.track_truth import with_track_truth
 from omnislam.metrics.metrics import Alignment, LandmarkAssociation, ate, landmark_error
 
 #: graph variants: label -> (estimator, --set options)
@@ -155,11 +153,11 @@ def prepare(name: str, folder: str, log: str | None, frames: int | None) -> Repl
     sequence = load_dataset(str(path))
     if log is None:
         log = str(frontend_log_for(sequence, str(path), cache_dir() / LOGS, progress=True))
-    replay = _load_log(sequence, log)
-    inputs = _own_sighting_ids(sequence, list(sequence.frame_inputs(replay.frames)), log)
+    replay = load_log(sequence, log)
+    inputs = own_sighting_ids(sequence, list(sequence.frame_inputs(replay.frames)), log)
     if frames is not None:
         inputs = inputs[:frames]
-    truth, _ = _with_track_truth(sequence, replay, Path(log))
+    truth, _ = with_track_truth(sequence, replay, Path(log))
     info = sequence_info(sequence, inputs)  # what `omnislam run` tells the estimator
     images = np.array([f.bearings is not None and len(f.bearings) > 0 for f in inputs])
     return Replay(name, inputs, info, truth, images, replay.floor_ids_from)

@@ -1,14 +1,17 @@
 """Run one estimator on one dataset: the library function behind ``omnislam run`` and the grid.
 
-``execute_run(spec)`` loads the dataset (and, for data without ground truth that has a reference
-solution, that reference: ``harness.reference``), replays the shared front end's log when the
-dataset has images (``spec.log``, or the cached log ``frontend_log_for`` computes), builds the
-estimator through the registry, feeds it every frame, times each step, and returns a RunRecord.
-The RUN_DIR itself is written by ``write_run_dir``, atomically; what ``execute_run`` may write is
-cache: the front-end log of an image dataset run without ``--log`` (``cache_dir()/logs``) and
-the true points of a log's tracks next to the log (``LOG.truth.npz``). The same function runs in
-the CLI's process and in the grid runner's workers, so a cell of a grid and ``omnislam run``
-with the same arguments give the same numbers.
+``execute_run(spec)`` reads like the run: split the options (``parse_run_options``), load the
+dataset (with a prior map from an earlier run, ``harness.prior``), its reference solution when
+it has one instead of ground truth (``harness.reference``), the shared front end's log when the
+dataset has images or scans (``spec.log``, or the cached log ``frontend_log_for`` computes), the
+frames the estimator is fed (``harness.frames``), the true points of the log's tracks when its
+landmarks are the tracks (``harness.track_truth``), then the estimator through the registry,
+every frame fed and each step timed, and a RunRecord. The RUN_DIR itself is written by
+``write_run_dir``, atomically; what ``execute_run`` may write is cache: the front-end log of an
+image dataset run without ``--log`` (``cache_dir()/logs``) and the true points of a log's tracks
+next to the log (``LOG.truth.npz``). The same function runs in the CLI's process and in the
+grid runner's workers, so a cell of a grid and ``omnislam run`` with the same arguments give
+the same numbers.
 
 Peak memory is measured per run: on Linux the process's resident-set high-water mark is reset
 before the run (``/proc/self/clear_refs``), so a worker process that runs several cells reports
@@ -20,39 +23,34 @@ from __future__ import annotations
 import enum
 import hashlib
 import json
-import os
 import sys
-import tempfile
 import time
-from collections.abc import Callable, Mapping
-from contextlib import nullcontext
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import asdict, dataclass, field, is_dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from omnislam._files import NPZ_ERRORS, make_public, safe_name
-from omnislam.core.modality import Modality, modalities_of
-from omnislam.core.sequence_info import SequenceInfo
-from omnislam.core.types import UNKNOWN_ID, Bearings, Exporting, Introspectable, OdometrySource
+from omnislam._files import safe_name
+from omnislam.core.modality import Modality
+from omnislam.core.types import Estimate, Exporting, Introspectable
 from omnislam.datasets.sequence import GroundTruth
-from omnislam.errors import ConfigError, DataError
+from omnislam.errors import ConfigError
 from omnislam.frontend.timing import cpu_with_children_s
 from omnislam.harness.cache import cache_dir
-from omnislam.harness.layout import ATTACHMENTS, ESTIMATOR_INFO, LOGS
+from omnislam.harness.frames import FedFrames, fed_frames
+from omnislam.harness.layout import ATTACHMENTS, CONFIG, ESTIMATOR_INFO, LOGS
 from omnislam.harness.perturb import (
     CLUTTER_OPTION,
     WRONG_ID_OPTION,
-    add_clutter,
-    clutter_stream,
     parse_clutter_rate,
     parse_fraction,
-    reassign_ids,
 )
 from omnislam.harness.prior import PRIOR_MAP_OPTION, prior_map_from_run_dir
 from omnislam.harness.reference import reference_for
 from omnislam.harness.rundir import RunConfig, RunRecord
+from omnislam.harness.track_truth import with_track_truth
 
 _STATUS = Path("/proc/self/status")
 _CLEAR_REFS = Path("/proc/self/clear_refs")
@@ -80,6 +78,52 @@ class RunSpec:
     seed: int | None = None
     options: Mapping[str, str] = field(default_factory=dict)
     log: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class RunOptions:
+    """A run's ``--set`` options split by who takes them (``parse_run_options``).
+
+    Attributes:
+        dataset: the loader's options (the keys its dataset format accepts).
+        estimator: the estimator's options (every other key, checked against its configuration
+            dataclass by the registry).
+        wrong_id_fraction: the harness re-labels this fraction of the sightings with wrong ids
+            (``harness.perturb``; default 0: the sightings as given).
+        clutter_per_frame: the harness adds this many false range-bearing detections per frame
+            on average (``harness.perturb``; default 0: none).
+        prior_map: the RUN_DIR whose landmarks are the prior map (``harness.prior``); default
+            None: the dataset's own prior map, if any.
+    """
+
+    dataset: dict[str, str]
+    estimator: dict[str, str]
+    wrong_id_fraction: float = 0.0
+    clutter_per_frame: float = 0.0
+    prior_map: str | None = None
+
+
+def parse_run_options(options: Mapping[str, str], loader_keys: Collection[str]) -> RunOptions:
+    """Split a run's options: the harness's own (parsed), the loader's and the estimator's.
+
+    Args:
+        options: ``RunSpec.options``.
+        loader_keys: the option names the dataset's loader accepts.
+
+    Raises:
+        ConfigError: a harness option whose value does not parse.
+    """
+    rest = dict(options)
+    wrong_id_fraction = parse_fraction(rest.pop(WRONG_ID_OPTION, "0"))
+    clutter_per_frame = parse_clutter_rate(rest.pop(CLUTTER_OPTION, "0"))
+    prior_map = rest.pop(PRIOR_MAP_OPTION, None)
+    return RunOptions(
+        dataset={k: v for k, v in rest.items() if k in loader_keys},
+        estimator={k: v for k, v in rest.items() if k not in loader_keys},
+        wrong_id_fraction=wrong_id_fraction,
+        clutter_per_frame=clutter_per_frame,
+        prior_map=prior_map,
+    )
 
 
 def reset_peak_rss() -> bool:
@@ -134,7 +178,6 @@ def check_spec(spec: RunSpec, *, rendered: bool = True) -> None:
     """
     from omnislam.datasets.registry import FORMATS, DatasetFormat, parse_options, resolve
     from omnislam.estimators import check_estimator_options
-    from omnislam.harness.layout import CONFIG
 
     check_estimator(spec.estimator)
     if rendered:
@@ -143,16 +186,11 @@ def check_spec(spec: RunSpec, *, rendered: bool = True) -> None:
     else:
         fmt, fixed = DatasetFormat.SYNTHETIC, {}
         loader_keys = frozenset(FORMATS[fmt].options)
-    options = dict(spec.options)
-    parse_fraction(options.pop(WRONG_ID_OPTION, "0"))
-    parse_clutter_rate(options.pop(CLUTTER_OPTION, "0"))
-    prior_run = options.pop(PRIOR_MAP_OPTION, None)
-    if prior_run is not None and not (Path(prior_run) / CONFIG).is_file():
-        raise ConfigError(f"{PRIOR_MAP_OPTION}={prior_run}: not a RUN_DIR folder")
-    parse_options(fmt, {**fixed, **{k: v for k, v in options.items() if k in loader_keys}})
-    check_estimator_options(
-        spec.estimator, {k: v for k, v in options.items() if k not in loader_keys}
-    )
+    options = parse_run_options(spec.options, loader_keys)
+    if options.prior_map is not None and not (Path(options.prior_map) / CONFIG).is_file():
+        raise ConfigError(f"{PRIOR_MAP_OPTION}={options.prior_map}: not a RUN_DIR folder")
+    parse_options(fmt, {**fixed, **options.dataset})
+    check_estimator_options(spec.estimator, options.estimator)
 
 
 #: ``on_step(stage, done, total)``: what a run is doing ("loading", "front end", "running",
@@ -180,73 +218,102 @@ def execute_run(
             estimator can use on the data.
         DataError: missing or malformed data.
     """
-    import omnislam
-    from omnislam.datasets.registry import load_dataset, resolve
-    from omnislam.estimators import ESTIMATORS, make_estimator, resolve_estimator_modality
+    from omnislam.datasets.registry import resolve
+    from omnislam.estimators import make_estimator, resolve_estimator_modality
 
     say = RunStages(on_step if on_step is not None else _silent)
     reset_peak_rss()
     check_estimator(spec.estimator)
     say("loading", 0, 0)
     resolved = resolve(spec.dataset)
-    loader_keys = resolved.option_names()
-    options = dict(spec.options)
-    wrong_fraction = parse_fraction(options.pop(WRONG_ID_OPTION, "0"))
-    clutter_rate = parse_clutter_rate(options.pop(CLUTTER_OPTION, "0"))
-    prior_run = options.pop(PRIOR_MAP_OPTION, None)
-    dataset_options = {k: v for k, v in options.items() if k in loader_keys}
-    estimator_options = {k: v for k, v in options.items() if k not in loader_keys}
-    sequence = load_dataset(resolved, dataset_options)
-    if prior_run is not None:
-        sequence = replace(sequence, prior_map=prior_map_from_run_dir(prior_run))
+    options = parse_run_options(spec.options, resolved.option_names())
+    sequence = _load_sequence(resolved, options)
     ground_truth, reference = reference_for(resolved.format, resolved.path, sequence)
-    log = spec.log
-    if log is None and ESTIMATORS[spec.estimator].modalities:  # dead reckoning sees nothing
-        say("front end", 0, 0)
-        computed = frontend_log_for(sequence, spec.dataset, cache_dir() / LOGS, progress)
-        log = None if computed is None else str(computed)
+    log = _frontend_log(spec, sequence, say, progress)
     if reference or log is not None:  # computing them (when not cached) is not the run's memory
         reset_peak_rss()
-    replay = None
-    laser = False
-    if log is None:
-        frames = list(sequence.frame_inputs())
-    else:
-        replay = _load_log(sequence, log)
-        # a log's laser odometry replaces the wheel odometry for the SLAM estimators; dead
-        # reckoning stays the wheel odometry, the baseline they are compared with
-        laser = (
-            replay.odometry_source is OdometrySource.LASER
-            and not ESTIMATORS[spec.estimator].wheel_odometry
-        )
-        frames = _own_sighting_ids(
-            sequence, list(sequence.frame_inputs(replay.frames, odometry=laser)), log
-        )
-        frames = frames_for_estimator(spec.estimator, frames, replay.floor_ids_from)
-    reassigned = 0
-    if wrong_fraction > 0:
-        # its own stream, so the estimator draws the same numbers with and without it
-        perturb_rng = np.random.default_rng(np.random.SeedSequence(spec.seed).spawn(1)[0])
-        perturbed, reassigned = reassign_ids(iter(frames), wrong_fraction, perturb_rng)
-        frames = list(perturbed)
-    # what the data is (ids, sigmas) is told before the clutter, which is a fault injected
-    info = sequence_info(
-        sequence, frames, OdometrySource.LASER if laser else OdometrySource.WHEEL
+    fed = fed_frames(
+        sequence,
+        spec.estimator,
+        log,
+        wrong_id_fraction=options.wrong_id_fraction,
+        clutter_per_frame=options.clutter_per_frame,
+        seed=spec.seed,
     )
-    clutter_added = 0
-    if clutter_rate > 0:
-        frames, clutter_added = add_clutter(frames, clutter_rate, clutter_stream(spec.seed))
-    known = info.known_association
-    modality = resolve_estimator_modality(spec.estimator, info, estimator_options)
-    track_truth = False
-    if replay is not None and modality is Modality.BEARINGS_3D:
-        # the landmarks are the front end's tracks: score them against the tracks' true points
-        say("true points of the tracks", 0, 0)
-        ground_truth, track_truth = _with_track_truth(sequence, replay, Path(log), progress)
+    modality = resolve_estimator_modality(spec.estimator, fed.info, options.estimator)
+    ground_truth, track_truth = _track_landmarks(
+        ground_truth, sequence, fed, modality, say, progress
+    )
     rng = np.random.default_rng(spec.seed)
-    estimator = make_estimator(spec.estimator, info, estimator_options, rng)
+    estimator = make_estimator(spec.estimator, fed.info, options.estimator, rng)
+    estimate, step_s, final_s = _step_through(estimator, fed.frames, len(sequence), say)
+    attachments = {**_attachments(estimator), **_estimator_info(estimator)}
+    config = _run_config(
+        spec,
+        resolved,
+        sequence,
+        options,
+        fed,
+        truth=(ground_truth, reference, track_truth),
+        modality=modality,
+        total_s=float(step_s.sum() + final_s),
+        stages=say.finish(),
+    )
+    return RunRecord(config, estimate, step_s, ground_truth, attachments)
 
-    step_s = np.zeros(len(sequence))
+
+def _load_sequence(resolved: Any, options: RunOptions) -> Any:
+    """The dataset with its loader options, and the prior map of ``prior_map=RUN_DIR``."""
+    from omnislam.datasets.registry import load_dataset
+
+    sequence = load_dataset(resolved, options.dataset)
+    if options.prior_map is not None:
+        sequence = replace(sequence, prior_map=prior_map_from_run_dir(options.prior_map))
+    return sequence
+
+
+def _frontend_log(
+    spec: RunSpec, sequence: Any, say: StepCallback, progress: bool
+) -> str | None:
+    """The front-end log the run replays: ``spec.log``, else the shared front end's log of a
+    dataset with images or laser scans (computed once into the cache; None: its own sightings).
+    Dead reckoning sees nothing, so it needs none."""
+    from omnislam.estimators import ESTIMATORS
+
+    if spec.log is not None or not ESTIMATORS[spec.estimator].modalities:
+        return spec.log
+    say("front end", 0, 0)
+    computed = frontend_log_for(sequence, spec.dataset, cache_dir() / LOGS, progress)
+    return None if computed is None else str(computed)
+
+
+def _track_landmarks(
+    ground_truth: GroundTruth,
+    sequence: Any,
+    fed: FedFrames,
+    modality: Modality | None,
+    say: StepCallback,
+    progress: bool,
+) -> tuple[GroundTruth, bool]:
+    """(ground truth, whether its landmarks are the log's tracks): an estimator whose landmarks
+    are the front end's tracks (bearings-3d from a log) is scored against the tracks' true
+    points (``harness.track_truth``); any other against ``ground_truth``."""
+    if fed.replay is None or fed.log is None or modality is not Modality.BEARINGS_3D:
+        return ground_truth, False
+    say("true points of the tracks", 0, 0)
+    return with_track_truth(sequence, fed.replay, Path(fed.log), progress)
+
+
+def _step_through(
+    estimator: Any, frames: list[Any], n_frames: int, say: StepCallback
+) -> tuple[Estimate, np.ndarray, float]:
+    """Feed the estimator every frame, timing each step, then ask for its final estimate.
+
+    Returns:
+        (the estimate, (n_frames,) wall time of each step by frame index [s], wall time of the
+        final estimate [s]).
+    """
+    step_s = np.zeros(n_frames)
     clock = time.perf_counter
     total = len(frames)
     say("running", 0, total)
@@ -258,71 +325,60 @@ def execute_run(
     say("final estimate", total, total)
     start = clock()
     estimate = estimator.estimate()
-    final_s = clock() - start
-    attachments = {**_attachments(estimator), **_estimator_info(estimator)}
-    stages_wall_s, stages_cpu_s = say.finish()
+    return estimate, step_s, clock() - start
 
-    config = RunConfig(
+
+def _run_config(
+    spec: RunSpec,
+    resolved: Any,
+    sequence: Any,
+    options: RunOptions,
+    fed: FedFrames,
+    *,
+    truth: tuple[GroundTruth, str, bool],
+    modality: Modality | None,
+    total_s: float,
+    stages: tuple[dict[str, float], dict[str, float]],
+) -> RunConfig:
+    """The run's ``config.yaml`` (``RunConfig``), its peak memory read now.
+
+    Args:
+        truth: (the ground truth it is scored against, the name of its reference solution or
+            "", whether its landmarks are the true points of the log's tracks).
+        total_s: wall time of every step and the final estimate [s].
+        stages: (wall, CPU) seconds per stage (``RunStages.finish``).
+    """
+    import omnislam
+
+    ground_truth, reference, track_truth = truth
+    range_bearing_ids = fed.info.known_association and modality is Modality.RANGE_BEARING_2D
+    return RunConfig(
         dataset=spec.dataset,
         dataset_path=str(resolved.path),
         estimator=spec.estimator,
         omnislam_version=omnislam.__version__,
         frames=len(sequence),
         images=len(sequence.image_frames),
-        total_s=float(step_s.sum() + final_s),
+        total_s=total_s,
         peak_rss_mb=round(peak_rss_mb(), 1),
         ground_truth_kind=ground_truth.kind.value,
         ground_truth_note=ground_truth.note,
         ground_truth_reference=reference or None,
         source=sequence.source,
         seed=spec.seed,
-        dataset_options=dataset_options,
-        estimator_options=estimator_options,
-        landmark_ids_from_truth=(known and modality is Modality.RANGE_BEARING_2D) or track_truth,
-        frontend_log=None if log is None else str(log),
-        frontend_config_hash=None if log is None else _log_config_hash(log),
-        wrong_id_fraction=wrong_fraction,
-        sightings_reassigned=reassigned,
-        clutter_per_frame=clutter_rate,
-        clutter_added=clutter_added,
+        dataset_options=options.dataset,
+        estimator_options=options.estimator,
+        landmark_ids_from_truth=range_bearing_ids or track_truth,
+        frontend_log=fed.log,
+        frontend_config_hash=None if fed.log is None else _log_config_hash(fed.log),
+        wrong_id_fraction=options.wrong_id_fraction,
+        sightings_reassigned=fed.reassigned,
+        clutter_per_frame=options.clutter_per_frame,
+        clutter_added=fed.clutter_added,
         modality=None if modality is None else modality.value,
-        prior_map=prior_run,
-        stages_wall_s=stages_wall_s,
-        stages_cpu_s=stages_cpu_s,
-    )
-    return RunRecord(config, estimate, step_s, ground_truth, attachments)
-
-
-def sequence_info(
-    sequence: Any, frames: list[Any], odometry_source: OdometrySource = OdometrySource.WHEEL
-) -> SequenceInfo:
-    """What the estimators are told about a run (``core.sequence_info.SequenceInfo``), from the
-    frames as fed: their modalities, whether every range-bearing sighting carries a true id, the
-    sightings' first sigmas, the rig, the prior map.
-
-    Args:
-        sequence: the loaded Sequence.
-        frames: the FrameInputs the estimator will step through (a front-end log's, with the
-            loader's own sighting ids: ``_own_sighting_ids``).
-        odometry_source: LASER when the frames carry the log's laser odometry.
-    """
-    # the range-bearing sightings as fed (a front-end log adds its laser landmarks, which have
-    # no ids, to the loader's)
-    sightings = [f.range_bearing for f in frames if f.range_bearing is not None]
-    sightings = [rb for rb in sightings if len(rb)]
-    known = bool(sightings) and all(np.all(rb.landmark_ids != UNKNOWN_ID) for rb in sightings)
-    return SequenceInfo(
-        name=sequence.name,
-        frames=len(sequence),
-        modalities=modalities_of(frames),
-        known_association=known,
-        sigma_range_m=float(sightings[0].sigma_range_m[0]) if sightings else None,
-        sigma_bearing_rad=float(sightings[0].sigma_bearing_rad[0]) if sightings else None,
-        sensor_height_m=_sensor_height_m(sequence.calibration),
-        prior_map=sequence.prior_map,
-        calibration=sequence.calibration,
-        facts=sequence.info,
-        odometry_source=odometry_source,
+        prior_map=options.prior_map,
+        stages_wall_s=stages[0],
+        stages_cpu_s=stages[1],
     )
 
 
@@ -366,8 +422,10 @@ class RunStages:
         )
 
 
+
 def _silent(stage: str, done: int, total: int) -> None:
     """The ``on_step`` of a run nobody watches."""
+
 
 
 def log_file_name(dataset: str) -> str:
@@ -375,6 +433,7 @@ def log_file_name(dataset: str) -> str:
     full argument (two folders of the same name never share a log)."""
     digest = hashlib.sha1(dataset.encode()).hexdigest()[:10]
     return f"{safe_name(Path(dataset).name)}-{digest}.npz"
+
 
 
 def frontend_log_for(
@@ -415,198 +474,12 @@ def frontend_log_for(
     return path
 
 
-def _sensor_height_m(calibration: object) -> float | None:
-    """Height of a camera rig's single viewpoint above the robot frame (None without a rig)."""
-    viewpoint = getattr(calibration, "viewpoint_r", None)
-    return None if viewpoint is None else float(np.asarray(viewpoint)[2])
-
 
 def _log_config_hash(log: str | Path) -> str:
     from omnislam.frontend.observation_log import read_log_key
 
     return read_log_key(Path(log))[1]
 
-
-def _load_log(sequence: object, log: str) -> Any:
-    """The front-end ObservationLog to replay (RunSpec.log), built from this very sequence."""
-    try:
-        from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
-    except ImportError as exc:
-        raise ConfigError(f"--log needs the front end, which is not available ({exc})") from None
-    replay = load_observation_log(Path(log), dataset_id=dataset_fingerprint(sequence))
-    if len(replay.frames) != len(sequence):  # type: ignore[arg-type]
-        raise DataError(
-            f"the observation log has {len(replay.frames)} frames, the dataset {len(sequence)}",  # type: ignore[arg-type]
-            Path(log),
-        )
-    return replay
-
-
-def frames_for_estimator(name: str, frames: list[Any], floor_ids_from: int | None) -> list[Any]:
-    """A log's frames as estimator ``name`` is fed them: without the floor tracks' bearings
-    (ids ``floor_ids_from`` and above, ``ObservationLog.floor_ids_from``) unless it models the
-    floor (``EstimatorEntry.floor_tracks``). The frames themselves when there are none."""
-    from omnislam.estimators import ESTIMATORS
-
-    if floor_ids_from is None or ESTIMATORS[name].floor_tracks:
-        return frames
-    out = []
-    for frame in frames:
-        seen = frame.bearings
-        if seen is None or not np.any(seen.landmark_ids >= floor_ids_from):
-            out.append(frame)
-            continue
-        keep = seen.landmark_ids < floor_ids_from
-        out.append(replace(frame, bearings=Bearings(
-            seen.landmark_ids[keep], seen.unit_vectors_r[keep], seen.sigmas_rad[keep])))
-    return out
-
-
-def _own_sighting_ids(sequence: Any, frames: list[Any], log: str | Path) -> list[Any]:
-    """The replayed frames with the ids this loader gives its own range-bearing sightings.
-
-    A front-end log is shared by every cell of a dataset: each frame's range-bearing sightings
-    in it are the loader's own as the front end saw them (default loader options) followed by
-    the laser landmarks it extracted (``frontend.pipeline._merge_sightings``). A loader option
-    that changes the ids -- ``association: unknown`` hides them -- must still reach the
-    estimator, so the leading rows take the ids of this sequence's own sightings.
-
-    Raises:
-        DataError: a frame's leading rows are not this sequence's sightings (a stale log).
-    """
-    own = sequence.range_bearing
-    if own is None:
-        return frames
-    out = []
-    for frame in frames:
-        given, fed = own[frame.index], frame.range_bearing
-        if given is None or not len(given) or fed is None:
-            out.append(frame)
-            continue
-        k = len(given)
-        if len(fed) < k or not np.array_equal(fed.ranges_m[:k], given.ranges_m):
-            raise DataError(
-                f"frame {frame.index}: its range-bearing sightings are not the loader's "
-                "(a stale log: delete it to recompute)",
-                log,
-            )
-        if np.array_equal(fed.landmark_ids[:k], given.landmark_ids):
-            out.append(frame)
-            continue
-        ids = np.concatenate([given.landmark_ids, fed.landmark_ids[k:]])
-        out.append(replace(frame, range_bearing=replace(fed, landmark_ids=ids)))
-    return out
-
-
-def cache_track_truth(
-    sequence: Any,
-    log: str | Path,
-    progress: bool = False,
-    on_image: Callable[[int, int], None] | None = None,
-) -> None:
-    """Compute the true points of a log's tracks into the cache next to it, once.
-
-    The grid runner calls it in its own process before the cells start, so that workers running
-    cells of the same log read the cache instead of each computing it (``_with_track_truth``;
-    ``on_image`` is called with (images done, images to do)). Nothing to do for a sequence
-    without per-pixel ground truth.
-    """
-    if sequence.point_map_loader is None:
-        return
-    from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
-
-    replay = load_observation_log(Path(log), dataset_id=dataset_fingerprint(sequence))
-    _with_track_truth(sequence, replay, Path(log), progress=progress, on_image=on_image)
-
-
-def _with_track_truth(
-    sequence: Any,
-    replay: Any,
-    log: Path,
-    progress: bool = False,
-    on_image: Callable[[int, int], None] | None = None,
-) -> tuple[GroundTruth, bool]:
-    """Ground truth whose landmarks are the true points of the front end's tracks.
-
-    With per-pixel ground truth (``Sequence.point_map_loader``: synthetic renders) every track
-    of the log has a true 3-D position (``frontend.evaluation.track_truth``); the estimators'
-    landmarks carry the track ids, so landmark error associates by id. The true points are
-    read at the keypoints' pixels only when the sequence can (``pixel_points_loader``: the
-    same bits as whole maps, for ~1 % of the pixels), and cached next to the log
-    (``LOG.truth.npz``, keyed by the log's dataset and configuration).
-
-    Returns:
-        (ground truth, True) with the track landmarks, or (the sequence's, False) without
-        per-pixel ground truth.
-    """
-    if sequence.point_map_loader is None:
-        return sequence.ground_truth, False
-    cache = log.with_name(log.name + ".truth.npz")
-    key = f"{replay.dataset_id}:{replay.config_hash}"
-    ids = points = None
-    try:
-        with np.load(cache, allow_pickle=False) as data:
-            if str(data["key"]) == key:
-                ids, points = data["ids"], data["points_w"]
-    except NPZ_ERRORS:  # no cache entry, or a truncated one: recompute
-        pass
-    if ids is None:
-        from omnislam._progress import Progress
-        from omnislam.frontend.evaluation import (
-            sampled_true_sightings,
-            track_truth,
-            true_sightings,
-        )
-
-        images = sum(
-            f.bearings is not None and px is not None and len(f.bearings) > 0
-            for f, px in zip(replay.frames, replay.pixels, strict=True)
-        )
-        label = f"true points of the tracks of {log.name}"
-        done = 0
-
-        def advance() -> None:
-            nonlocal done
-            done += 1
-            if bar is not None:
-                bar.advance()
-            if on_image is not None:
-                on_image(done, images)
-
-        with Progress(label, images, "img") if progress else nullcontext() as bar:
-            camera = getattr(sequence.calibration, "camera", None)
-            if sequence.pixel_points_loader is not None and camera is not None:
-                # the keypoints' pixels only: bit-identical to whole maps, ~50x less work
-
-                def pixel_points_of(index: int, rows: np.ndarray, cols: np.ndarray
-                                    ) -> np.ndarray:
-                    points = sequence.pixel_points_loader(index, rows, cols)
-                    advance()
-                    return points
-
-                shape = (int(camera.height), int(camera.width))
-                sightings = sampled_true_sightings(replay, pixel_points_of, shape)
-            else:
-
-                def points_w_of(index: int) -> np.ndarray:
-                    points = sequence.point_map_loader(index)
-                    advance()
-                    return points
-
-                sightings = true_sightings(replay, points_w_of)
-            ids, points = track_truth(sightings)
-        with tempfile.NamedTemporaryFile(dir=log.parent, suffix=".npz", delete=False) as tmp:
-            np.savez_compressed(tmp, key=np.array(key), ids=ids, points_w=points)
-        make_public(tmp.name)
-        os.replace(tmp.name, cache)
-    truth = replace(
-        sequence.ground_truth,
-        landmark_ids=ids,
-        landmarks_w=points,
-        note=sequence.ground_truth.note
-        + "; landmarks: true 3-D points of the front end's tracks (per-pixel ground truth)",
-    )
-    return truth, True
 
 
 def _attachments(estimator: object) -> dict[str, bytes]:
@@ -618,6 +491,7 @@ def _attachments(estimator: object) -> dict[str, bytes]:
     if unknown:
         raise ConfigError(f"estimator attachments not known to the RUN_DIR: {unknown}")
     return files
+
 
 
 def _estimator_info(estimator: object) -> dict[str, bytes]:
@@ -632,3 +506,4 @@ def _estimator_info(estimator: object) -> dict[str, bytes]:
         for key, value in asdict(record).items()
     }
     return {ESTIMATOR_INFO: (json.dumps(fields, indent=1, sort_keys=True) + "\n").encode()}
+

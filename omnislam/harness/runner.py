@@ -55,7 +55,7 @@ from omnislam.errors import ConfigError, DataError, OmnislamError
 from omnislam.frontend.timing import cpu_with_children_s
 from omnislam.harness.channel import ProgressChannel, StepReporter
 from omnislam.harness.evaluation import EvaluationOptions, evaluate_run
-from omnislam.harness.execute import RunSpec, StepCallback, execute_run
+from omnislam.harness.execute import RunSpec, StepCallback, execute_run, parse_run_options
 from omnislam.harness.grid import Cell, Grid, column_label
 from omnislam.harness.layout import (
     CELL_TIME,
@@ -66,12 +66,6 @@ from omnislam.harness.layout import (
     METRICS,
     RESULTS_CSV,
     RESULTS_JSON,
-)
-from omnislam.harness.perturb import (
-    CLUTTER_OPTION,
-    WRONG_ID_OPTION,
-    parse_clutter_rate,
-    parse_fraction,
 )
 from omnislam.harness.prior import PRIOR_MAP_OPTION
 from omnislam.harness.renders import RenderSpec
@@ -263,13 +257,11 @@ def _matches(cell_dir: Path, cell: Cell) -> bool:
         return False
     spec = cell.spec
     options = {**config.dataset_options, **config.estimator_options}
-    wanted = dict(spec.options)
-    try:
-        wrong_fraction = parse_fraction(wanted.pop(WRONG_ID_OPTION, "0"))
-        clutter_rate = parse_clutter_rate(wanted.pop(CLUTTER_OPTION, "0"))
+    try:  # every option but the harness's is the loader's or the estimator's: no split needed
+        wanted = parse_run_options(spec.options, loader_keys=())
     except ConfigError:
         return False
-    if config.prior_map != wanted.pop(PRIOR_MAP_OPTION, None):
+    if config.prior_map != wanted.prior_map:
         return False
     if spec.log is not None:
         from omnislam.frontend.observation_log import read_log_key
@@ -282,9 +274,9 @@ def _matches(cell_dir: Path, cell: Cell) -> bool:
         config.dataset == spec.dataset
         and config.estimator == spec.estimator
         and config.seed == spec.seed
-        and options == wanted
-        and config.wrong_id_fraction == wrong_fraction
-        and config.clutter_per_frame == clutter_rate
+        and options == wanted.estimator
+        and config.wrong_id_fraction == wanted.wrong_id_fraction
+        and config.clutter_per_frame == wanted.clutter_per_frame
     )
 
 
@@ -404,7 +396,7 @@ def prepare_dataset(
     without ``--log`` replays the same log from the cache). Other datasets keep their own
     sightings. A dataset scored against a reference solution (``harness.reference``) gets it
     computed into the cache here, once, not by each of its cells; so do the true points of the
-    log's tracks (``execute.cache_track_truth``) when ``track_truth`` (some cell of the dataset
+    log's tracks (``track_truth.cache_track_truth``) when ``track_truth`` (some cell of the dataset
     consumes bearings-3d), so the workers running its cells read them from the cache.
     ``on_step(stage, done, total)`` hears what takes time: "simulating", "rendering" (images),
     "front end" (images), "track truth" (images).
@@ -412,9 +404,10 @@ def prepare_dataset(
     import time
 
     from omnislam.datasets.registry import load_dataset, resolve
-    from omnislam.harness.execute import cache_track_truth, frontend_log_for, log_file_name
+    from omnislam.harness.execute import frontend_log_for, log_file_name
     from omnislam.harness.reference import reference_for
     from omnislam.harness.renders import ensure_render
+    from omnislam.harness.track_truth import cache_track_truth, truth_cache_path
 
     log_path = Path(logs_dir) / log_file_name(dataset)
 
@@ -424,7 +417,7 @@ def prepare_dataset(
         except OSError:
             return None
 
-    truth_path = log_path.with_name(log_path.name + ".truth.npz")
+    truth_path = truth_cache_path(log_path)
     # the front end's worker processes (pipelined where this process may have children) count
     wall, cpu = time.perf_counter(), cpu_with_children_s()
 

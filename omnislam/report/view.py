@@ -142,7 +142,7 @@ def _sightings_source(
     """(sequence or None, the frames the run replayed or None, the replayed log or None)."""
     from omnislam.datasets.registry import load_dataset
     from omnislam.estimators import ESTIMATORS
-    from omnislam.harness.execute import frames_for_estimator
+    from omnislam.harness.frames import frames_for_estimator
 
     config = record.config
     try:
