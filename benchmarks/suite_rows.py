@@ -124,7 +124,7 @@ def splice_page(name: str, old: str, new: str, labels: list[str], note: str) -> 
     return _add_provenance_row(old, r"^\| runs \|[^\n]*$", f"| rows re-run | {note} |")
 
 
-#: the report's line that dates it (``omnislam.report.report``)
+#: the report's line that dates it (``omnislam.report.sections``)
 MADE_WITH = "; see Provenance at the end."
 RE_RUN = "; some rows were re-run since: see Provenance at the end."
 

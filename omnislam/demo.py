@@ -29,7 +29,8 @@ from omnislam.harness.runner import (
     local_executor_factory,
     run_grid,
 )
-from omnislam.report.report import ReportOptions, ReportSummary, write_report
+from omnislam.report.comparison import ReportSummary, write_report
+from omnislam.report.options import ReportOptions
 
 #: the estimators the demo compares, in report order (unavailable ones are skipped)
 #: (each consumes the stream the one modality rule picks: the omni bearings of the front end for

@@ -128,7 +128,7 @@ def test_the_graph_sees_the_known_imports():
     top, lazy = import_graphs()
     assert "omnislam.metrics.metrics" in top["omnislam.harness.evaluation"]
     assert "omnislam.core.types" in top["omnislam.harness.rundir"]
-    assert "omnislam.report.plots" in lazy["omnislam.report.report"]  # from pkg import module
+    assert "omnislam.report.plots" in lazy["omnislam.report.figures"]  # from pkg import module
 
 
 def test_cycle_finder_finds_a_cycle():

@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     from omnislam._files import check_overwrite
     from omnislam.demo import run_demo
     from omnislam.harness.runner import local_executor_factory
-    from omnislam.report.report import REPORT_MD, check_report_dir
+    from omnislam.report.comparison import REPORT_MD, check_report_dir
 
     start = time.perf_counter()
     out = Path(args.out)

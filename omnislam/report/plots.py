@@ -1,9 +1,9 @@
 """Report figures, each answering one question, as SVG text (matplotlib's object API, no pyplot).
 
-Imported lazily by ``report.report`` only; matplotlib is the ``plots`` extra. Every function
-takes plain arrays (world-frame positions [m], already aligned to the ground truth by the
-caller) and the report's estimator colours (``report.palette``), and returns a standalone SVG
-document (``inline_svg`` turns it into an element for an HTML page).
+Imported lazily by ``report.figures`` and ``report.render`` only; matplotlib is the ``plots``
+extra. Every function takes plain arrays (world-frame positions [m], already aligned to the ground
+truth by the caller) and the report's estimator colours (``report.palette``), and returns a
+standalone SVG document (``inline_svg`` turns it into an element for an HTML page).
 
 Conventions shared by every figure:
 

@@ -12,7 +12,8 @@ from room_log import write_room_log
 
 from omnislam.harness.grid import load_grid
 from omnislam.harness.runner import SerialExecutor, run_grid
-from omnislam.report.report import ReportOptions, write_report
+from omnislam.report.comparison import write_report
+from omnislam.report.options import ReportOptions
 
 REPO = Path(__file__).resolve().parents[2]
 _spec = importlib.util.spec_from_file_location(

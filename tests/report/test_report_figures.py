@@ -24,7 +24,9 @@ from room_log import write_room_log
 from omnislam.harness.grid import parse_grid
 from omnislam.harness.runner import SerialExecutor, run_grid
 from omnislam.report import palette, plots
-from omnislam.report.report import FIGURES, ReportOptions, write_report
+from omnislam.report.comparison import write_report
+from omnislam.report.figures import FIGURES
+from omnislam.report.options import ReportOptions
 
 SVG = "{http://www.w3.org/2000/svg}"
 XLINK_HREF = "{http://www.w3.org/1999/xlink}href"

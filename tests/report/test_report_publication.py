@@ -24,7 +24,8 @@ import omnislam
 from omnislam.harness.grid import parse_grid
 from omnislam.harness.runner import SerialExecutor, run_grid
 from omnislam.report import provenance
-from omnislam.report.report import ReportOptions, write_report
+from omnislam.report.comparison import write_report
+from omnislam.report.options import ReportOptions
 from omnislam.report.tables import latex_escape
 
 FAST = ReportOptions(exports=False, occupancy=False, command=("omnislam", "report", "R"))
