@@ -288,6 +288,25 @@ def parse_grid(text: str, path: Path) -> Grid:
             duplicate cells, a prior map from an estimator that has no cell on the same dataset
             and seed.
     """
+    raw = _top_level(text, path)
+    dataset_entries = _entries(raw.get("datasets"), "dataset", path)
+    estimators = _entries(raw.get("estimators"), "estimator", path)
+    seeds = _seeds(raw.get("seeds", [0]), "", path)
+    overrides = _overrides(raw.get("overrides") or [], path)
+    evaluation = _evaluation(raw.get("evaluation") or {}, path)
+    _check_labels(dataset_entries, estimators, overrides, path)
+    datasets = _resolve_datasets(dataset_entries, seeds, path)
+    cells = _link_prior_maps(_cells(datasets, estimators, overrides, seeds, path), path)
+    _check_specs(cells, path)
+    return Grid(str(raw.get("name") or path.stem), path, tuple(cells), evaluation, text)
+
+
+#: an override: its options, and the estimator names or labels it applies to (None: all)
+Override = tuple[dict[str, str], set[str] | None]
+
+
+def _top_level(text: str, path: Path) -> Mapping[str, object]:
+    """The grid's YAML as a mapping of known keys, its ``name`` text if given."""
     try:
         raw = yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -300,14 +319,15 @@ def parse_grid(text: str, path: Path) -> Grid:
     name = raw.get("name")
     if name is not None and (not isinstance(name, str) or not name.strip()):
         raise ConfigError(f"{path}: 'name' must be text (the report's title), got {name!r}")
-    datasets_raw = _entries(raw.get("datasets"), "dataset", path)
-    estimators = _entries(raw.get("estimators"), "estimator", path)
-    seeds = _seeds(raw.get("seeds", [0]), "", path)
-    overrides_raw = raw.get("overrides") or []
-    if not isinstance(overrides_raw, list):
+    return raw
+
+
+def _overrides(raw: object, path: Path) -> list[Override]:
+    """``overrides``: option sets, each limited to some estimators when it names them."""
+    if not isinstance(raw, list):
         raise ConfigError(f"{path}: 'overrides' must be a list of option mappings")
-    overrides: list[tuple[dict[str, str], set[str] | None]] = []
-    for i, item in enumerate(overrides_raw):
+    overrides: list[Override] = []
+    for i, item in enumerate(raw):
         if not isinstance(item, Mapping):
             raise ConfigError(f"{path}: overrides[{i}]: expected a mapping")
         only = item.get("estimators")
@@ -315,14 +335,27 @@ def parse_grid(text: str, path: Path) -> Grid:
             only = _names(only, f"overrides[{i}]", "estimators", path)
         options = _options({k: v for k, v in item.items() if k != "estimators"}, "overrides", path)
         overrides.append((options, set(only) if only is not None else None))
-    evaluation_raw = raw.get("evaluation") or {}
-    if not isinstance(evaluation_raw, Mapping):
+    return overrides
+
+
+def _evaluation(raw: object, path: Path) -> EvaluationOptions:
+    """``evaluation``: the EvaluationOptions of every cell."""
+    if not isinstance(raw, Mapping):
         raise ConfigError(f"{path}: 'evaluation' must be a mapping")
     try:
-        evaluation = EvaluationOptions(**evaluation_raw)
+        return EvaluationOptions(**raw)
     except (TypeError, ConfigError) as exc:
         raise ConfigError(f"{path}: evaluation: {exc}") from None
 
+
+def _check_labels(
+    datasets: list[dict[str, object]],
+    estimators: list[dict[str, object]],
+    overrides: list[Override],
+    path: Path,
+) -> None:
+    """Every estimator an override or a dataset names is in the grid, every prior map comes
+    from another estimator's label, every estimator is available."""
     names = {str(e["estimator"]) for e in estimators} | {str(e["label"]) for e in estimators}
     labels = {str(e["label"]) for e in estimators}
     for i, (_, only) in enumerate(overrides):
@@ -330,7 +363,7 @@ def parse_grid(text: str, path: Path) -> Grid:
             raise ConfigError(
                 f"{path}: overrides[{i}]: estimators {sorted(only - names)} are not in the grid"
             )
-    for i, entry in enumerate(datasets_raw):
+    for i, entry in enumerate(datasets):
         only = set(entry["estimators"] or ())  # type: ignore[arg-type]
         if not only <= labels:
             raise ConfigError(
@@ -347,8 +380,16 @@ def parse_grid(text: str, path: Path) -> Grid:
             check_estimator(str(entry["estimator"]))
         except ConfigError as exc:
             raise ConfigError(f"{path}: {exc}") from None
-    datasets = _resolve_datasets(datasets_raw, seeds, path)
 
+
+def _cells(
+    datasets: list[_Dataset],
+    estimators: list[dict[str, object]],
+    overrides: list[Override],
+    seeds: list[int],
+    path: Path,
+) -> list[Cell]:
+    """Every (dataset, estimator, override, seed) cell, in that order; ids must be unique."""
     cells: list[Cell] = []
     for dataset in datasets:
         for estimator in estimators:
@@ -382,9 +423,13 @@ def parse_grid(text: str, path: Path) -> Grid:
     duplicates = sorted({i for i in ids if ids.count(i) > 1})
     if duplicates:
         raise ConfigError(f"{path}: cells with the same id {duplicates} (give them labels)")
-    cells = _link_prior_maps(cells, path)
+    return cells
+
+
+def _check_specs(cells: list[Cell], path: Path) -> None:
+    """Every cell's options, before any work starts (each distinct run once)."""
     checked: set[tuple[str, str, tuple[tuple[str, str], ...]]] = set()
-    for cell in cells:  # every cell's options, before any work starts
+    for cell in cells:
         key = (cell.spec.dataset, cell.spec.estimator, tuple(sorted(cell.spec.options.items())))
         if key in checked:
             continue
@@ -393,7 +438,6 @@ def parse_grid(text: str, path: Path) -> Grid:
             check_spec(cell.spec, rendered=cell.render is None)
         except OmnislamError as exc:
             raise ConfigError(f"{path}: cell {cell.cell_id}: {exc}") from None
-    return Grid(str(raw.get("name") or path.stem), path, tuple(cells), evaluation, text)
 
 
 def _cell_id(dataset: str, estimator: str, seed: int, override: str) -> str:

@@ -270,175 +270,24 @@ def write_recording(
     run_dir, out = Path(run_dir), Path(out)
     record = read_run_dir(run_dir)
     notes: list[str] = []
-    gtTest, alignment = _se2_alignment(record)
-    R, t = gtTest[:3, :3], gtTest[:3, 3]
-    estimate = record.estimate
-    poses = estimate.trajectory.poses_w.copy()
-    poses[:, :3, :3] = R @ poses[:, :3, :3]
-    poses[:, :3, 3] = poses[:, :3, 3] @ R.T + t
-    stamps = estimate.trajectory.stamps_s
-    landmarks_w = estimate.landmarks_w @ R.T + t if len(estimate.landmark_ids) else np.zeros((0, 3))
-    landmark_of = {
-        int(i): p for i, p in zip(estimate.landmark_ids, landmarks_w, strict=True)
-    }
-
+    aligned = _Aligned.of(record)
     sequence = frames = log = None
     if options.sightings or options.images:
         sequence, frames, log = _sightings_source(record, notes)
-
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
-        os.close(fd)
-    except OSError as exc:
-        raise output_error(exc, out, "recording") from None
-    images_logged = 0
-    ellipsoids = 0
+    tmp = _temporary_file(out)
     try:
         rec = rr.RecordingStream(APPLICATION_ID)
         rec.save(tmp)
-        rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        truth = record.ground_truth
-        if truth.trajectory is not None:
-            rec.log(
-                "world/ground_truth/path",
-                rr.LineStrips3D([truth.trajectory.positions_w], colors=[_GROUND_TRUTH]),
-                static=True,
-            )
-        else:
-            notes.append(f"no ground-truth trajectory ({truth.kind.value})")
-        rec.log(
-            "world/estimate/path",
-            rr.LineStrips3D([poses[:, :3, 3]], colors=[_ESTIMATE]),
-            static=True,
-        )
-        if len(truth.landmark_ids):
-            rec.log(
-                "world/ground_truth/landmarks",
-                rr.Points3D(truth.landmarks_w, colors=[_GROUND_TRUTH], radii=0.03),
-                static=True,
-            )
-        if len(estimate.landmark_ids):
-            rec.log(
-                "world/estimate/landmarks",
-                rr.Points3D(
-                    landmarks_w,
-                    colors=[_ESTIMATE],
-                    radii=0.03,
-                    labels=[str(int(i)) for i in estimate.landmark_ids],
-                    show_labels=False,
-                ),
-                static=True,
-            )
-        if estimate.landmark_covariances is not None and len(estimate.landmark_ids):
-            rotated = R @ estimate.landmark_covariances @ R.T
-            half, quaternions = covariance_ellipsoids(rotated)
-            rec.log(
-                "world/estimate/landmark_covariances",
-                rr.Ellipsoids3D(
-                    centers=landmarks_w,
-                    half_sizes=half,
-                    quaternions=[rr.Quaternion(xyzw=q) for q in quaternions],
-                    colors=[_ESTIMATE],
-                ),
-                static=True,
-            )
-            ellipsoids = len(half)
-        elif len(estimate.landmark_ids):
-            notes.append(f"{record.config.estimator} gives no landmark covariances")
-
-        errors = {}
-        if alignment is not None:
-            errors = {
-                float(s): float(e)
-                for s, e in zip(alignment.stamps_s, alignment.errors_m, strict=True)
-            }
-        truth_at = {}
-        if truth.trajectory is not None:
-            truth_at = {float(s): p for s, p in zip(
-                truth.trajectory.stamps_s, truth.trajectory.positions_w, strict=True
-            )}
-        viewpoint_r = np.asarray(
-            getattr(getattr(sequence, "calibration", None), "viewpoint_r", np.zeros(3)),
-            dtype=float,
-        ).reshape(3)
-        image_frames = set()
-        if sequence is not None and options.images and sequence.image_loader is not None:
-            image_frames = {
-                int(i) for k, i in enumerate(sequence.image_frames) if k % options.image_every == 0
-            }
-        pose_covariances = estimate.pose_covariances
-        rec.log(
-            "world/estimate/robot", rr.TransformAxes3D(axis_length=0.3), static=True
-        )
-        for k in range(len(stamps)):
-            rec.set_time("frame", sequence=k)
-            rec.set_time("time", duration=float(stamps[k] - stamps[0]))
-            wTr = poses[k]
-            q = _quaternion_xyzw(wTr[:3, :3])
-            rec.log(
-                "world/estimate/robot",
-                rr.Transform3D(translation=wTr[:3, 3], quaternion=rr.Quaternion(xyzw=q)),
-            )
-            rec.log(
-                "world/estimate/position",
-                rr.Points3D([wTr[:3, 3]], colors=[_ESTIMATE], radii=0.05),
-            )
-            p_true = truth_at.get(float(stamps[k]))
-            if p_true is not None:
-                rec.log(
-                    "world/ground_truth/robot",
-                    rr.Points3D([p_true], colors=[_GROUND_TRUTH], radii=0.05),
-                )
-            error = errors.get(float(stamps[k]))
-            if error is not None:
-                rec.log("errors/position_m", rr.Scalars(error))
-            if pose_covariances is not None:
-                cov = np.zeros((3, 3))
-                cov[:2, :2] = R[:2, :2] @ pose_covariances[k][:2, :2] @ R[:2, :2].T
-                half, quaternions = covariance_ellipsoids(cov[None])
-                rec.log(
-                    "world/estimate/pose_covariance",
-                    rr.Ellipsoids3D(
-                        centers=[wTr[:3, 3]],
-                        half_sizes=half,
-                        quaternions=[rr.Quaternion(xyzw=quaternions[0])],
-                        colors=[_ESTIMATE],
-                    ),
-                )
-            if frames is not None and options.sightings:
-                segments = _rays(frames[k], wTr, landmark_of, viewpoint_r)
-                rec.log(
-                    "world/sightings",
-                    rr.LineStrips3D(segments, colors=[_SIGHTING], radii=0.005)
-                    if segments
-                    else rr.Clear(recursive=False),
-                )
-            if k in image_frames:
-                image = sequence.image(k)
-                rec.log("camera/image", rr.Image(image).compress(jpeg_quality=JPEG_QUALITY))
-                images_logged += 1
-                pixels = log.pixels[k] if log is not None else None
-                bearings = frames[k].bearings if frames is not None else None
-                if pixels is not None and bearings is not None and len(pixels):
-                    ids = np.asarray(bearings.landmark_ids, dtype=np.int64)
-                    rec.log(
-                        "camera/image/sightings",
-                        rr.Points2D(pixels, class_ids=ids % 65536, radii=3.0),
-                    )
-                else:
-                    rec.log("camera/image/sightings", rr.Clear(recursive=False))
+        ellipsoids = _log_maps(rr, rec, record, aligned, notes)
+        frame_log = _FrameLog(rr, rec, record, aligned, sequence, frames, log, options)
+        for k in range(frame_log.count):
+            frame_log.log(k)
             if on_frame is not None:
-                on_frame(k + 1, len(stamps))
+                on_frame(k + 1, frame_log.count)
         if sequence is not None and options.images and sequence.image_loader is None:
             notes.append("the dataset has no images")
-        rec.log(
-            "run",
-            rr.TextDocument(
-                _run_text(record, run_dir, alignment, notes), media_type=rr.MediaType.MARKDOWN
-            ),
-            static=True,
-        )
+        text = _run_text(record, run_dir, aligned.alignment, notes)
+        rec.log("run", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True)
         rec.flush()
         rec.disconnect()
         make_public(tmp)
@@ -450,8 +299,236 @@ def write_recording(
         Path(tmp).unlink(missing_ok=True)
         raise
     return ViewSummary(
-        out, len(stamps), images_logged, len(estimate.landmark_ids), ellipsoids, tuple(notes)
+        out,
+        frame_log.count,
+        frame_log.images,
+        len(record.estimate.landmark_ids),
+        ellipsoids,
+        tuple(notes),
     )
+
+
+@dataclass(frozen=True, slots=True)
+class _Aligned:
+    """The estimate moved into the ground truth's frame by its ATE's SE(2) alignment.
+
+    Attributes:
+        R, t: rotation (3, 3) and translation (3,) of that alignment (identity without one).
+        alignment: the ATE result (None without ground truth).
+        poses: (N, 4, 4) estimated poses, aligned.
+        landmarks_w: (M, 3) estimated landmarks, aligned.
+        landmark_of: landmark id -> its aligned position.
+    """
+
+    R: np.ndarray
+    t: np.ndarray
+    alignment: Any
+    poses: np.ndarray
+    landmarks_w: np.ndarray
+    landmark_of: dict[int, np.ndarray]
+
+    @classmethod
+    def of(cls, record: RunRecord) -> _Aligned:
+        gtTest, alignment = _se2_alignment(record)
+        R, t = gtTest[:3, :3], gtTest[:3, 3]
+        estimate = record.estimate
+        poses = estimate.trajectory.poses_w.copy()
+        poses[:, :3, :3] = R @ poses[:, :3, :3]
+        poses[:, :3, 3] = poses[:, :3, 3] @ R.T + t
+        landmarks_w = (
+            estimate.landmarks_w @ R.T + t if len(estimate.landmark_ids) else np.zeros((0, 3))
+        )
+        landmark_of = {
+            int(i): p for i, p in zip(estimate.landmark_ids, landmarks_w, strict=True)
+        }
+        return cls(R, t, alignment, poses, landmarks_w, landmark_of)
+
+
+def _temporary_file(out: Path) -> str:
+    """A hidden temporary file next to ``out``, renamed into place when the recording is done.
+
+    Raises:
+        ConfigError: ``out``'s folder cannot be written.
+    """
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
+        os.close(fd)
+    except OSError as exc:
+        raise output_error(exc, out, "recording") from None
+    return tmp
+
+
+def _log_maps(rr: Any, rec: Any, record: RunRecord, aligned: _Aligned, notes: list[str]) -> int:
+    """The static part: both paths, both maps and the landmark covariance ellipsoids.
+
+    Returns:
+        The number of ellipsoids logged.
+    """
+    rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+    truth, estimate = record.ground_truth, record.estimate
+    if truth.trajectory is not None:
+        rec.log(
+            "world/ground_truth/path",
+            rr.LineStrips3D([truth.trajectory.positions_w], colors=[_GROUND_TRUTH]),
+            static=True,
+        )
+    else:
+        notes.append(f"no ground-truth trajectory ({truth.kind.value})")
+    rec.log(
+        "world/estimate/path",
+        rr.LineStrips3D([aligned.poses[:, :3, 3]], colors=[_ESTIMATE]),
+        static=True,
+    )
+    if len(truth.landmark_ids):
+        rec.log(
+            "world/ground_truth/landmarks",
+            rr.Points3D(truth.landmarks_w, colors=[_GROUND_TRUTH], radii=0.03),
+            static=True,
+        )
+    if not len(estimate.landmark_ids):
+        return 0
+    rec.log(
+        "world/estimate/landmarks",
+        rr.Points3D(
+            aligned.landmarks_w,
+            colors=[_ESTIMATE],
+            radii=0.03,
+            labels=[str(int(i)) for i in estimate.landmark_ids],
+            show_labels=False,
+        ),
+        static=True,
+    )
+    if estimate.landmark_covariances is None:
+        notes.append(f"{record.config.estimator} gives no landmark covariances")
+        return 0
+    half, quaternions = covariance_ellipsoids(
+        aligned.R @ estimate.landmark_covariances @ aligned.R.T
+    )
+    rec.log(
+        "world/estimate/landmark_covariances",
+        rr.Ellipsoids3D(
+            centers=aligned.landmarks_w,
+            half_sizes=half,
+            quaternions=[rr.Quaternion(xyzw=q) for q in quaternions],
+            colors=[_ESTIMATE],
+        ),
+        static=True,
+    )
+    return len(half)
+
+
+class _FrameLog:
+    """Logs one frame at a time: the poses, the position error, the pose covariance, the
+    sighting rays and the image with its keypoints (``log(k)``); counts the images logged."""
+
+    def __init__(
+        self,
+        rr: Any,
+        rec: Any,
+        record: RunRecord,
+        aligned: _Aligned,
+        sequence: Any,
+        frames: list[Any] | None,
+        log: Any,
+        options: ViewOptions,
+    ) -> None:
+        self.rr, self.rec, self.aligned = rr, rec, aligned
+        self.sequence, self.frames, self.log_replayed, self.options = sequence, frames, log, options
+        self.stamps = record.estimate.trajectory.stamps_s
+        self.count = len(self.stamps)
+        self.images = 0
+        self.pose_covariances = record.estimate.pose_covariances
+        alignment = aligned.alignment
+        self.errors = {}
+        if alignment is not None:
+            self.errors = {
+                float(s): float(e)
+                for s, e in zip(alignment.stamps_s, alignment.errors_m, strict=True)
+            }
+        truth = record.ground_truth.trajectory
+        self.truth_at = {}
+        if truth is not None:
+            self.truth_at = {
+                float(s): p for s, p in zip(truth.stamps_s, truth.positions_w, strict=True)
+            }
+        self.viewpoint_r = np.asarray(
+            getattr(getattr(sequence, "calibration", None), "viewpoint_r", np.zeros(3)),
+            dtype=float,
+        ).reshape(3)
+        self.image_frames: set[int] = set()
+        if sequence is not None and options.images and sequence.image_loader is not None:
+            self.image_frames = {
+                int(i) for k, i in enumerate(sequence.image_frames) if k % options.image_every == 0
+            }
+        rec.log("world/estimate/robot", rr.TransformAxes3D(axis_length=0.3), static=True)
+
+    def log(self, k: int) -> None:
+        """Everything of frame ``k``, on the timelines ``frame`` and ``time``."""
+        rr, rec, stamp = self.rr, self.rec, float(self.stamps[k])
+        rec.set_time("frame", sequence=k)
+        rec.set_time("time", duration=float(self.stamps[k] - self.stamps[0]))
+        wTr = self.aligned.poses[k]
+        q = _quaternion_xyzw(wTr[:3, :3])
+        rec.log(
+            "world/estimate/robot",
+            rr.Transform3D(translation=wTr[:3, 3], quaternion=rr.Quaternion(xyzw=q)),
+        )
+        rec.log(
+            "world/estimate/position", rr.Points3D([wTr[:3, 3]], colors=[_ESTIMATE], radii=0.05)
+        )
+        p_true = self.truth_at.get(stamp)
+        if p_true is not None:
+            rec.log(
+                "world/ground_truth/robot",
+                rr.Points3D([p_true], colors=[_GROUND_TRUTH], radii=0.05),
+            )
+        error = self.errors.get(stamp)
+        if error is not None:
+            rec.log("errors/position_m", rr.Scalars(error))
+        if self.pose_covariances is not None:
+            self._pose_covariance(wTr, self.pose_covariances[k])
+        if self.frames is not None and self.options.sightings:
+            segments = _rays(self.frames[k], wTr, self.aligned.landmark_of, self.viewpoint_r)
+            rec.log(
+                "world/sightings",
+                rr.LineStrips3D(segments, colors=[_SIGHTING], radii=0.005)
+                if segments
+                else rr.Clear(recursive=False),
+            )
+        if k in self.image_frames:
+            self._image(k)
+
+    def _pose_covariance(self, wTr: np.ndarray, covariance: np.ndarray) -> None:
+        """The x-y covariance of the pose as a flat ellipsoid at it."""
+        rr, R = self.rr, self.aligned.R
+        cov = np.zeros((3, 3))
+        cov[:2, :2] = R[:2, :2] @ covariance[:2, :2] @ R[:2, :2].T
+        half, quaternions = covariance_ellipsoids(cov[None])
+        self.rec.log(
+            "world/estimate/pose_covariance",
+            rr.Ellipsoids3D(
+                centers=[wTr[:3, 3]],
+                half_sizes=half,
+                quaternions=[rr.Quaternion(xyzw=quaternions[0])],
+                colors=[_ESTIMATE],
+            ),
+        )
+
+    def _image(self, k: int) -> None:
+        """Frame ``k``'s image (JPEG) and the keypoints of its bearings, coloured by track."""
+        rr, rec = self.rr, self.rec
+        image = self.sequence.image(k)
+        rec.log("camera/image", rr.Image(image).compress(jpeg_quality=JPEG_QUALITY))
+        self.images += 1
+        pixels = self.log_replayed.pixels[k] if self.log_replayed is not None else None
+        bearings = self.frames[k].bearings if self.frames is not None else None
+        if pixels is not None and bearings is not None and len(pixels):
+            ids = np.asarray(bearings.landmark_ids, dtype=np.int64)
+            keypoints = rr.Points2D(pixels, class_ids=ids % 65536, radii=3.0)
+            rec.log("camera/image/sightings", keypoints)
+        else:
+            rec.log("camera/image/sightings", rr.Clear(recursive=False))
 
 
 def _quaternion_xyzw(R: np.ndarray) -> np.ndarray:

@@ -2,19 +2,16 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from small_mrclam import write_small_mrclam
 
 from omnislam.cli import main
 from omnislam.harness.rundir import read_run_dir
 from omnislam.metrics.metrics import Alignment, ate
 from omnislam.report.view import SIGMAS, covariance_ellipsoids
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from small_mrclam import write_small_mrclam
 
 rr = pytest.importorskip("rerun")
 from rerun.chunk import RrdReader  # noqa: E402
