@@ -44,7 +44,7 @@ from omnislam.core.compatibility import Decision, innovation_widening
 from omnislam.graphslam import range_bearing
 from omnislam.graphslam import window_association as wa
 from omnislam.harness.execute import RunSpec, execute_run
-from omnislam.metrics.metrics import associate, ate
+from omnislam.metrics.trajectory import associate, ate
 
 
 class _Recorder:

@@ -41,7 +41,7 @@ from omnislam.estimators import make_estimator
 from omnislam.graphslam import range_bearing
 from omnislam.harness.frames import sequence_info
 from omnislam.harness.reference import reference_for
-from omnislam.metrics.metrics import Alignment, ate
+from omnislam.metrics.trajectory import Alignment, ate
 
 #: a decided sighting: (frame index, range [m], bearing [rad]) -> the landmark it was given
 Decisions = dict[tuple[int, float, float], int]

@@ -129,7 +129,7 @@ def laser_alone(dataset: str, log: str | None) -> float | None:
     from omnislam.harness.cache import cache_dir
     from omnislam.harness.execute import frontend_log_for
     from omnislam.harness.layout import LOGS
-    from omnislam.metrics.metrics import Alignment, ate
+    from omnislam.metrics.trajectory import Alignment, ate
 
     sequence = load_dataset(resolve(dataset), {})
     path = log if log is not None else frontend_log_for(sequence, dataset, cache_dir() / LOGS)

@@ -64,7 +64,8 @@ from omnislam.datasets.synthetic.writer import write_synthetic
 from omnislam.estimators import make_estimator, resolve_estimator_modality
 from omnislam.fastslam import FastSLAM
 from omnislam.fastslam.config import TrajectoryMode
-from omnislam.metrics.metrics import Alignment, ate, pose_nees
+from omnislam.metrics.consistency import pose_nees
+from omnislam.metrics.trajectory import Alignment, ate
 
 PRESET = "loop150"
 #: graphslam read out causally (its newest pose after every step)

@@ -39,7 +39,7 @@ from omnislam.graphslam.isam import GraphSLAM
 from omnislam.harness.evaluation import evaluate_run
 from omnislam.harness.execute import RunSpec, execute_run
 from omnislam.harness.layout import ESTIMATOR_INFO
-from omnislam.metrics.metrics import Alignment, ate
+from omnislam.metrics.trajectory import Alignment, ate
 
 
 def run(dataset: str, estimator: str, seed: int, options: dict[str, str]):

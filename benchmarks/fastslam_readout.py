@@ -25,7 +25,7 @@ from harness_cells import set_options
 
 from omnislam.core.types import Trajectory
 from omnislam.harness.execute import RunSpec, execute_run
-from omnislam.metrics.metrics import ate
+from omnislam.metrics.trajectory import ate
 
 
 def average(trajectories: list[Trajectory], weights: np.ndarray) -> Trajectory:

@@ -23,7 +23,7 @@ from harness_cells import set_options
 from omnislam.core.types import Trajectory
 from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.harness.execute import RunSpec, execute_run
-from omnislam.metrics.metrics import Alignment, associate, ate
+from omnislam.metrics.trajectory import Alignment, associate, ate
 
 PARTS = 20
 #: a gap without sightings longer than this is listed [s]

@@ -32,7 +32,7 @@ from omnislam.estimators import make_estimator
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam.batch import optimize_batch
 from omnislam.harness.frames import frames_for_estimator
-from omnislam.metrics.metrics import ate
+from omnislam.metrics.trajectory import ate
 
 gtsam = require("gtsam")
 

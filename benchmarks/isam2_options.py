@@ -37,7 +37,7 @@ from harness_cells import set_options
 from omnislam.core.types import Trajectory
 from omnislam.estimators import make_estimator
 from omnislam.graphslam import session as session_module
-from omnislam.metrics.metrics import ate
+from omnislam.metrics.trajectory import ate
 
 
 class _Recorder:

@@ -37,7 +37,7 @@ from omnislam.core.types import Trajectory
 from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.frontend.config import FrontendConfig, LaserOdometryConfig
 from omnislam.frontend.scan_matching import laser_odometry
-from omnislam.metrics.metrics import Alignment, ate
+from omnislam.metrics.trajectory import Alignment, ate
 
 
 def report(dataset: str, submap_scans: int) -> None:

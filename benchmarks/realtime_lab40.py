@@ -66,7 +66,8 @@ from omnislam.harness.frames import (
 )
 from omnislam.harness.layout import LOGS
 from omnislam.harness.track_truth import with_track_truth
-from omnislam.metrics.metrics import Alignment, LandmarkAssociation, ate, landmark_error
+from omnislam.metrics.landmarks import LandmarkAssociation, landmark_error
+from omnislam.metrics.trajectory import Alignment, ate
 
 #: graph variants: label -> (estimator, --set options)
 VARIANTS: dict[str, tuple[str, dict[str, str]]] = {

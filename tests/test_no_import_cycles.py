@@ -126,7 +126,7 @@ def lazy_cycles() -> list[list[str]]:
 
 def test_the_graph_sees_the_known_imports():
     top, lazy = import_graphs()
-    assert "omnislam.metrics.metrics" in top["omnislam.harness.evaluation"]
+    assert "omnislam.metrics.trajectory" in top["omnislam.harness.evaluation"]
     assert "omnislam.core.types" in top["omnislam.harness.rundir"]
     assert "omnislam.report.plots" in lazy["omnislam.report.figures"]  # from pkg import module
 

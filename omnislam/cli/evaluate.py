@@ -223,7 +223,7 @@ def run_ref(args: argparse.Namespace) -> int:
     from omnislam._files import atomic_write_text, check_output_location, check_overwrite
     from omnislam.errors import ConfigError
     from omnislam.harness.evaluation import compare_trajectories
-    from omnislam.metrics.metrics import Alignment
+    from omnislam.metrics.trajectory import Alignment
 
     if args.landmark_gate is not None:
         raise ConfigError("--landmark-gate applies to a RUN_DIR (trajectory files have no map)")
@@ -328,7 +328,7 @@ def _print_ref(result: Any, numbers: dict[str, Any], what: str, args: argparse.N
     """The table of ``evaluate --ref``: one line per statistic, what is missing and why."""
     import math
 
-    from omnislam.metrics.metrics import Alignment
+    from omnislam.metrics.trajectory import Alignment
 
     ate, rpe, frame = result.ate, result.rpe, result.rpe_frame
     alignment = Alignment(args.align)

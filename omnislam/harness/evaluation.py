@@ -1,4 +1,4 @@
-"""Evaluate one run: every metric of ``metrics.metrics`` on a RunRecord, as a RunMetrics.
+"""Evaluate one run: every metric of ``omnislam.metrics`` on a RunRecord, as a RunMetrics.
 
 Which numbers mean what (every number is labelled with the kind of its ground truth; when that
 is a reference solution computed by omnislam, ``GroundTruthInfo.reference`` names it, e.g.
@@ -8,8 +8,8 @@ is a reference solution computed by omnislam, ``GroundTruthInfo.reference`` name
   with the first pose anchored instead (``origin_*``: drift shows fully).
 * RPE (``rpe``): segments of ``segment_m`` metres of ground-truth travel (all start poses,
   evo's pair rule), SE(2) errors for planar runs; by default 10 m, shorter for a run that
-  travels less than 40 m (``metrics.auto_rpe_segment_m``: a quarter of its travel, rounded down
-  to 1-2-5); ``frame_*``: consecutive frames (delta 1);
+  travels less than 40 m (``metrics.trajectory.auto_rpe_segment_m``: a quarter of its travel,
+  rounded down to 1-2-5); ``frame_*``: consecutive frames (delta 1);
   ``by_distance``: the error-over-distance curve (KITTI-like segment lengths).
 * Landmarks (``landmarks``): the estimate's map moved with the SE(2) trajectory alignment
   (or aligned on the landmarks themselves when there is no ground-truth trajectory), then
@@ -31,25 +31,8 @@ import numpy as np
 from omnislam.datasets.sequence import GroundTruthKind
 from omnislam.errors import ConfigError
 from omnislam.harness.rundir import RunRecord
-from omnislam.metrics.metrics import (
-    DEFAULT_LANDMARK_GATE_M,
-    Alignment,
-    AteResult,
-    DeltaUnit,
-    LandmarkAssociation,
-    NeesResult,
-    accumulated_distances,
-    associate,
-    ate,
-    auto_rpe_segment_m,
-    landmark_error,
-    landmark_nees,
-    pose_nees,
-    rpe,
-    segment_lengths,
-    timing_stats,
-    umeyama,
-)
+from omnislam.metrics.consistency import NeesResult, landmark_nees, pose_nees
+from omnislam.metrics.landmarks import DEFAULT_LANDMARK_GATE_M, LandmarkAssociation, landmark_error
 from omnislam.metrics.run_metrics import (
     AteMetrics,
     ConsistencyMetrics,
@@ -60,6 +43,19 @@ from omnislam.metrics.run_metrics import (
     RunInfo,
     RunMetrics,
     TimingMetrics,
+)
+from omnislam.metrics.timing import timing_stats
+from omnislam.metrics.trajectory import (
+    Alignment,
+    AteResult,
+    DeltaUnit,
+    accumulated_distances,
+    associate,
+    ate,
+    auto_rpe_segment_m,
+    rpe,
+    segment_lengths,
+    umeyama,
 )
 
 #: how reports name each kind of ground truth, next to every number
@@ -80,7 +76,7 @@ class EvaluationOptions:
     Attributes:
         rpe_segment_m: segment length of ``RpeMetrics.trans_rmse_m`` [m]; None (the default):
             10 m, or a quarter of the ground truth's travel rounded down to 1-2-5 when the run
-            travels less than 40 m (``metrics.auto_rpe_segment_m``).
+            travels less than 40 m (``metrics.trajectory.auto_rpe_segment_m``).
         landmark_gate_m: association gate for maps without true ids [m].
         curve_lengths: number of segment lengths in ``RpeMetrics.by_distance``.
     """

@@ -33,7 +33,8 @@ import numpy as np
 from omnislam._files import atomic_write_text
 from omnislam.datasets.sequence import GroundTruthKind
 from omnislam.errors import DataError
-from omnislam.metrics.metrics import Alignment, LandmarkAssociation
+from omnislam.metrics.landmarks import LandmarkAssociation
+from omnislam.metrics.trajectory import Alignment
 
 #: version of the metrics.json layout this module writes (and the only one it reads)
 SCHEMA_VERSION = 1
@@ -207,7 +208,7 @@ class ConsistencyMetrics:
         pose_anees: average NEES per degree of freedom.
         pose_dof: degrees of freedom of the pose error.
         pose_within_bounds: fraction of the poses' NEES inside the two-sided chi-square
-            interval (``metrics.metrics.NEES_CONFIDENCE``) [0, 1].
+            interval (``metrics.consistency.NEES_CONFIDENCE``) [0, 1].
         pose_count: poses with a usable covariance (the NEES is computed over them).
         has_landmark_covariances: the estimate carries a covariance per landmark.
         landmark_mean, landmark_anees, landmark_dof, landmark_count: the same for the matched

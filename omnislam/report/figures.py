@@ -19,7 +19,7 @@ from omnislam.datasets.registry import DatasetFormat
 from omnislam.datasets.sequence import GroundTruthKind
 from omnislam.errors import DataError, OmnislamError
 from omnislam.harness.rundir import RunRecord, read_run_dir
-from omnislam.metrics.metrics import Alignment, AteResult, ate
+from omnislam.metrics.trajectory import Alignment, AteResult, ate
 from omnislam.report.model import Figure
 from omnislam.report.options import ReportOptions
 from omnislam.report.results import ReportCell, columns, gt_label

@@ -5,7 +5,7 @@
 
 * ``world/ground_truth/path`` and ``world/estimate/path``: the whole trajectories (static), the
   estimate moved into the ground truth's frame by the same SE(2) alignment as its ATE
-  (``metrics.metrics.ate``; without ground truth it is shown as estimated);
+  (``metrics.trajectory.ate``; without ground truth it is shown as estimated);
 * ``world/ground_truth/robot`` and ``world/estimate/robot``: the pose at each frame (a point
   and the robot's axes), ``world/estimate/pose_covariance``: the 2-sigma ellipse of the pose's
   x-y covariance where the estimator gives one;
@@ -44,7 +44,7 @@ from omnislam.datasets.sequence import GroundTruthKind
 from omnislam.errors import OmnislamError
 from omnislam.harness.layout import METRICS
 from omnislam.harness.rundir import RunRecord, read_run_dir
-from omnislam.metrics.metrics import Alignment, ate
+from omnislam.metrics.trajectory import Alignment, ate
 
 #: Rerun application id of the recordings
 APPLICATION_ID = "omnislam"

@@ -16,7 +16,7 @@ from omnislam.core.types import UNKNOWN_ID, Trajectory
 from omnislam.datasets.sequence import GroundTruthKind
 from omnislam.datasets.victoria_park import load_victoria_park
 from omnislam.errors import DataError
-from omnislam.metrics.metrics import Alignment, ate
+from omnislam.metrics.trajectory import Alignment, ate
 
 DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 PARK = DATA / "victoria_park"

@@ -18,7 +18,7 @@ from omnislam.harness import reference as ref  # noqa: E402
 from omnislam.harness.cache import CACHE_ENV  # noqa: E402
 from omnislam.harness.evaluation import evaluate_run  # noqa: E402
 from omnislam.harness.execute import RunSpec, execute_run  # noqa: E402
-from omnislam.metrics.metrics import LandmarkAssociation  # noqa: E402
+from omnislam.metrics.landmarks import LandmarkAssociation  # noqa: E402
 
 GTSAM_FILE = find_gtsam_file()
 pytestmark = pytest.mark.skipif(

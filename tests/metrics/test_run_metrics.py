@@ -18,7 +18,7 @@ from omnislam.harness.grid import load_grid
 from omnislam.harness.layout import CELLS, METRICS, RESULTS_CSV
 from omnislam.harness.rundir import read_run_dir, write_run_dir
 from omnislam.harness.runner import CSV_LABELS, SerialExecutor, run_grid
-from omnislam.metrics.metrics import Alignment, LandmarkAssociation
+from omnislam.metrics.landmarks import LandmarkAssociation
 from omnislam.metrics.run_metrics import (
     CSV_FIELDS,
     MEASURED_KEYS,
@@ -37,6 +37,7 @@ from omnislam.metrics.run_metrics import (
     read_run_metrics,
     write_run_metrics,
 )
+from omnislam.metrics.trajectory import Alignment
 
 #: the metrics.json keys DESIGN.md promises to scripts, benchmarks and reports
 DESIGN_CONTRACT_KEYS = (

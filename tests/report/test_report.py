@@ -15,7 +15,7 @@ from omnislam.harness.evaluation import EvaluationOptions, evaluate_run
 from omnislam.harness.grid import parse_grid
 from omnislam.harness.rundir import read_run_dir, write_run_dir
 from omnislam.harness.runner import SerialExecutor, run_grid
-from omnislam.metrics.metrics import LandmarkAssociation
+from omnislam.metrics.landmarks import LandmarkAssociation
 from omnislam.report.comparison import write_report
 from omnislam.report.occupancy import occupancy_grid
 from omnislam.report.options import ReportOptions

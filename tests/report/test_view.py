@@ -10,7 +10,7 @@ from small_mrclam import write_small_mrclam
 
 from omnislam.cli import main
 from omnislam.harness.rundir import read_run_dir
-from omnislam.metrics.metrics import Alignment, ate
+from omnislam.metrics.trajectory import Alignment, ate
 from omnislam.report.view import SIGMAS, covariance_ellipsoids
 
 rr = pytest.importorskip("rerun")

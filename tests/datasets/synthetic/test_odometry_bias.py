@@ -13,7 +13,7 @@ from omnislam.core.types import Trajectory
 from omnislam.datasets.synthetic.presets import PRESETS
 from omnislam.datasets.synthetic.routes import NO_BIAS, OdometryBias, measured_odometry
 from omnislam.datasets.synthetic.simulate import drive, simulate
-from omnislam.metrics.metrics import translational_drift
+from omnislam.metrics.trajectory import translational_drift
 
 #: alpha noise switched off (the floor keeps a valid model; 1e-12 m is invisible here)
 NOISELESS = MotionNoise(0.0, 0.0, 0.0, 0.0, (1e-12, 1e-12, 1e-12))

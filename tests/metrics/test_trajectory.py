@@ -1,21 +1,17 @@
-"""ATE, alignment and stamp association."""
+"""ATE, alignment, stamp association and RPE (the same numbers as evo's)."""
 
 import numpy as np
 import pytest
 
 from omnislam.core.se import se3_exp
 from omnislam.core.types import Trajectory
-from omnislam.metrics.metrics import (
+from omnislam.metrics.trajectory import (
     ORIGIN_HEADING_BASELINE_M,
     Alignment,
     DeltaUnit,
-    LandmarkAssociation,
     associate,
     ate,
-    landmark_error,
-    nees,
     pairs_by_distance,
-    pose_nees,
     rpe,
     umeyama,
 )
@@ -324,71 +320,3 @@ def test_rpe_against_position_only_truth_has_no_rotation_error():
         truth_has_orientation=False,
     )
     assert result.rot_errors_rad is None and result.trans_rmse_m < 1e-9
-
-
-# ---------------------------------------------------------------------------------------------
-# landmarks
-# ---------------------------------------------------------------------------------------------
-
-
-def test_landmarks_by_id_after_alignment():
-    rng = np.random.default_rng(40)
-    truth = np.column_stack([rng.uniform(-10, 10, (20, 2)), np.zeros(20)])
-    T = np.eye(4)
-    T[:2, :2] = [[np.cos(0.3), -np.sin(0.3)], [np.sin(0.3), np.cos(0.3)]]
-    T[:2, 3] = [1.0, -2.0]
-    est = (truth - T[:3, 3]) @ T[:3, :3]  # the truth in the estimate's frame
-    est[:5, 0] += 0.3  # five landmarks 0.3 m off
-    ids = np.arange(20)
-    result = landmark_error(
-        np.r_[ids[:18], 99], np.r_[est[:18], est[18:19]], ids, truth, T, LandmarkAssociation.BY_ID
-    )
-    assert result.matched == 18 and result.missed == 2 and result.spurious == 1
-    assert result.rmse_m == pytest.approx(np.sqrt(5 * 0.09 / 18))
-
-
-def test_landmarks_by_assignment_count_duplicates_spurious_and_misses():
-    truth = np.array([[0, 0, 0], [10, 0, 0], [0, 10, 0], [10, 10, 0]], float)
-    est = np.array(
-        [
-            [0.1, 0, 0],  # matches 0
-            [0.5, 0.2, 0],  # a duplicate of 0 (inside the gate, farther)
-            [10, 0.2, 0],  # matches 1
-            [0, 10.3, 0],  # matches 2
-            [30, 30, 0],  # spurious
-        ]
-    )
-    result = landmark_error(np.arange(5) + 100, est, np.arange(4), truth, gate_m=1.0)
-    assert result.matched == 3 and result.duplicates == 1
-    assert result.spurious == 1 and result.missed == 1
-    assert sorted(result.errors_m) == pytest.approx([0.1, 0.2, 0.3])
-
-
-# ---------------------------------------------------------------------------------------------
-# NEES
-# ---------------------------------------------------------------------------------------------
-
-
-def test_nees_of_a_consistent_estimator_is_its_dimension():
-    rng = np.random.default_rng(50)
-    n = 4000
-    A = rng.normal(size=(n, 3, 3)) * [0.3, 0.2, 0.05]
-    cov = A @ np.swapaxes(A, 1, 2) + 1e-4 * np.eye(3)
-    errors = np.einsum("kij,kj->ki", np.linalg.cholesky(cov), rng.normal(size=(n, 3)))
-    result = nees(errors, cov)
-    assert result.dof == 3 and result.mean == pytest.approx(3.0, rel=0.05)
-    assert result.anees == pytest.approx(1.0, rel=0.05)
-    assert result.within_bounds == pytest.approx(0.95, abs=0.015)
-    assert nees(2.0 * errors, cov).anees == pytest.approx(4.0, rel=0.06)  # overconfident
-
-
-def test_pose_nees_wraps_the_yaw_residual_and_skips_singular_covariances():
-    stamps = np.arange(4, dtype=float)
-    truth = np.array([[0, 0, 0], [1, 0, np.pi - 0.01], [2, 0, -np.pi + 0.01], [3, 0, 0.0]])
-    est = truth.copy()
-    est[1:, 2] = [-np.pi + 0.01, np.pi - 0.01, 0.0]  # 0.02 rad off across the cut
-    cov = np.tile(np.diag([0.01, 0.01, 0.02**2]), (4, 1, 1))
-    cov[0] = 0.0  # the anchored first pose: no uncertainty
-    result = pose_nees(Trajectory.from_se2(stamps, est), cov, Trajectory.from_se2(stamps, truth))
-    assert result.skipped == 1
-    assert result.values == pytest.approx([1.0, 1.0, 0.0], abs=1e-9)
