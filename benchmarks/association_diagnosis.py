@@ -32,13 +32,13 @@ import sys
 import numpy as np
 from harness_cells import set_options
 
-from omnislam.compare.execute import sequence_info
 from omnislam.core.compatibility import Decision
 from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.estimators import make_estimator
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam import range_bearing
 from omnislam.graphslam.window_association import Decided
+from omnislam.harness.frames import sequence_info
 
 #: chi-square 0.99 quantile, 2 dof: the loop closure's individual gate
 GATE_99 = 9.21

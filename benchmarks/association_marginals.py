@@ -37,8 +37,8 @@ import numpy as np
 from harness_cells import set_options
 
 from omnislam._progress import Stages
-from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.graphslam import session as graph_session
+from omnislam.harness.execute import RunSpec, execute_run
 
 
 class _StopError(Exception):

@@ -40,11 +40,11 @@ import numpy as np
 from association_diagnosis import landmarks_decided
 from harness_cells import set_options
 
-from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.metrics import associate, ate
 from omnislam.core.compatibility import Decision, innovation_widening
 from omnislam.graphslam import range_bearing
 from omnislam.graphslam import window_association as wa
+from omnislam.harness.execute import RunSpec, execute_run
+from omnislam.metrics.trajectory import associate, ate
 
 
 class _Recorder:

@@ -34,14 +34,14 @@ import numpy as np
 from association_diagnosis import landmarks_decided
 from harness_cells import set_options
 
-from omnislam.compare.execute import sequence_info
-from omnislam.compare.metrics import Alignment, ate
-from omnislam.compare.reference import reference_for
 from omnislam.core.types import RangeBearing
 from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.datasets.sequence import Sequence
 from omnislam.estimators import make_estimator
 from omnislam.graphslam import range_bearing
+from omnislam.harness.frames import sequence_info
+from omnislam.harness.reference import reference_for
+from omnislam.metrics.trajectory import Alignment, ate
 
 #: a decided sighting: (frame index, range [m], bearing [rad]) -> the landmark it was given
 Decisions = dict[tuple[int, float, float], int]

@@ -8,7 +8,7 @@ of the true landmark count and the ATE within 1.5x of the clean run. A cell is w
     omnislam evaluate R --json
 
 reports (``execute_run`` / ``evaluate_run``): the harness option ``clutter_per_frame``
-(``compare.perturb.add_clutter``) adds a Poisson number of range-bearing detections per frame,
+(``harness.perturb.add_clutter``) adds a Poisson number of range-bearing detections per frame,
 uniform over the span of the data's own sightings (range, bearing), with the data's median
 sigmas and no id, from its own random stream (the estimator's is the same with and without).
 The ids of the real sightings are hidden too (``association=unknown``): clutter is only told

@@ -5,7 +5,7 @@ Two diagnoses of issue 16's clutter goal (``benchmarks/clutter.py`` measures the
 ``decisions DATASET`` runs ``graphslam`` on a dataset with ids (MR.CLAM) with the ids hidden
 (``association=unknown``) and ``--rate`` false detections per frame added exactly as
 ``omnislam run DATASET --estimator graphslam --set association=unknown --set
-clutter_per_frame=RATE --seed SEED`` adds them (``compare.perturb.add_clutter`` with the
+clutter_per_frame=RATE --seed SEED`` adds them (``harness.perturb.add_clutter`` with the
 harness's random stream). Every association decision is scored: a sighting is *real* when it
 is one of the dataset's own (found by frame, range and bearing in the dataset loaded with ids),
 else *clutter*; a landmark is *clutter-started* or *real-started* after the sighting that
@@ -40,14 +40,15 @@ import numpy as np
 from association_diagnosis import hidden_ids, landmarks_decided
 from harness_cells import set_options
 
-from omnislam.compare.execute import RunSpec, execute_run, sequence_info
-from omnislam.compare.perturb import add_clutter, clutter_stream
-from omnislam.compare.reference import reference_for
 from omnislam.core.compatibility import Decision
 from omnislam.core.se import se2_between
 from omnislam.datasets.registry import resolve
 from omnislam.estimators import make_estimator
 from omnislam.graphslam import isam, range_bearing
+from omnislam.harness.execute import RunSpec, execute_run
+from omnislam.harness.frames import sequence_info
+from omnislam.harness.perturb import add_clutter, clutter_stream
+from omnislam.harness.reference import reference_for
 
 #: the label of a false detection (no dataset id is negative)
 CLUTTER = -9

@@ -53,8 +53,6 @@ from pathlib import Path
 import numpy as np
 from harness_cells import set_options
 
-from omnislam.compare.evaluation import evaluate_run
-from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.core.se import se2_integrate
 from omnislam.datasets.registry import CARMEN_ODOMETRY_NOISE, load_dataset, resolve
 from omnislam.frontend.config import (
@@ -63,6 +61,8 @@ from omnislam.frontend.config import (
     LaserOdometryConfig,
     LineLandmarks,
 )
+from omnislam.harness.evaluation import evaluate_run
+from omnislam.harness.execute import RunSpec, execute_run
 
 ESTIMATORS = ("deadreckoning", "graphslam", "fastslam1", "fastslam2", "ekfslam")
 #: the CARMEN column of the log's laser odometry composed on its own (no landmarks)
@@ -124,11 +124,12 @@ def laser_alone(dataset: str, log: str | None) -> float | None:
     """ATE [m] (SE(2)-aligned, as ``omnislam evaluate``) of the log's laser odometry composed
     on its own: what the SLAM estimators start from before any landmark (None: the log has no
     laser odometry)."""
-    from omnislam.compare.cache import LOGS, cache_dir
-    from omnislam.compare.execute import frontend_log_for
-    from omnislam.compare.metrics import Alignment, ate
     from omnislam.core.types import OdometrySource, Trajectory
     from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
+    from omnislam.harness.cache import cache_dir
+    from omnislam.harness.execute import frontend_log_for
+    from omnislam.harness.layout import LOGS
+    from omnislam.metrics.trajectory import Alignment, ate
 
     sequence = load_dataset(resolve(dataset), {})
     path = log if log is not None else frontend_log_for(sequence, dataset, cache_dir() / LOGS)

@@ -46,7 +46,7 @@ import numpy as np
 
 from omnislam.frontend.timing import children_cpu_s  # POSIX: never None here
 
-#: the stages ``compare.execute`` reports, in order
+#: the stages ``harness.execute`` reports, in order
 STAGES = ("loading", "front end", "true points of the tracks", "running", "final estimate")
 #: the replay of a cached log: the estimator's steps and its final estimate
 REPLAY_STAGES = ("running", "final estimate")

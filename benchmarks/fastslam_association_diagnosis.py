@@ -33,13 +33,13 @@ import sys
 import numpy as np
 from association_diagnosis import diagnose_each, hidden_ids
 
-from omnislam.compare.execute import sequence_info
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.estimators import make_estimator
 from omnislam.fastslam import association as fs_association
 from omnislam.fastslam.association import association_log_likelihood
 from omnislam.fastslam.landmark_store import ESTIMATED
 from omnislam.fastslam.resighting import ResightingSpread
+from omnislam.harness.frames import sequence_info
 
 #: a pairing with a landmark whose true position is farther than this is another group's
 FAR_M = 0.5

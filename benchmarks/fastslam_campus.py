@@ -33,11 +33,11 @@ from pathlib import Path
 import numpy as np
 from harness_cells import set_options
 
-from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
-from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.frontend.observation_log import save_observation_log
 from omnislam.frontend.pipeline import run_frontend
+from omnislam.harness.evaluation import EvaluationOptions, evaluate_run
+from omnislam.harness.execute import RunSpec, execute_run
 
 CONFIGS = (
     ("fastslam1", 50),

@@ -37,7 +37,6 @@ from pathlib import Path
 import numpy as np
 from harness_cells import set_options
 
-from omnislam.compare.execute import sequence_info
 from omnislam.core.batch_linalg import inverse_and_logdet, transpose
 from omnislam.core.gaussian import gaussian_log_likelihood
 from omnislam.core.measurement import RangeBearing2D
@@ -45,6 +44,7 @@ from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.errors import OmnislamError
 from omnislam.estimators import make_estimator
 from omnislam.fastslam.landmark_store import ESTIMATED
+from omnislam.harness.frames import sequence_info
 
 
 def main() -> None:

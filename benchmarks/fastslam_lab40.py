@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 from harness_cells import add_set_option, set_options
 
-from omnislam.compare.evaluation import EvaluationOptions, evaluate_run
-from omnislam.compare.execute import RunSpec, execute_run
+from omnislam.harness.evaluation import EvaluationOptions, evaluate_run
+from omnislam.harness.execute import RunSpec, execute_run
 
 DEFAULT_DATASET = "runs/lab40"
 DEFAULT_LOG = "runs/lab40-results/logs/benchmarks-grids-..-..-runs-lab40.npz"

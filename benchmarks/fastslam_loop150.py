@@ -52,7 +52,6 @@ from pathlib import Path
 import numpy as np
 from harness_cells import set_options
 
-from omnislam.compare.metrics import Alignment, ate, pose_nees
 from omnislam.core.modality import modalities_of
 from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Trajectory
@@ -65,6 +64,8 @@ from omnislam.datasets.synthetic.writer import write_synthetic
 from omnislam.estimators import make_estimator, resolve_estimator_modality
 from omnislam.fastslam import FastSLAM
 from omnislam.fastslam.config import TrajectoryMode
+from omnislam.metrics.consistency import pose_nees
+from omnislam.metrics.trajectory import Alignment, ate
 
 PRESET = "loop150"
 #: graphslam read out causally (its newest pose after every step)

@@ -30,16 +30,16 @@ import time
 import numpy as np
 from harness_cells import set_options
 
-from omnislam.compare.evaluation import evaluate_run
-from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.metrics import Alignment, ate
-from omnislam.compare.rundir import ESTIMATOR_INFO
 from omnislam.core.modality import Modality
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.types import Trajectory
 from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.graphslam.config import GraphSLAMConfig
 from omnislam.graphslam.isam import GraphSLAM
+from omnislam.harness.evaluation import evaluate_run
+from omnislam.harness.execute import RunSpec, execute_run
+from omnislam.harness.layout import ESTIMATOR_INFO
+from omnislam.metrics.trajectory import Alignment, ate
 
 
 def run(dataset: str, estimator: str, seed: int, options: dict[str, str]):

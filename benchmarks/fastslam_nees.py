@@ -3,7 +3,7 @@ particle spread against the error, early and late in the run.
 
 For each run (MR.CLAM dataset 6 robots 1-5 with ids through the ``omnislam run`` harness, and
 ``loop150`` simulated as in ``fastslam_loop150.py``), with the pose error taken as ``omnislam
-evaluate``'s NEES takes it (first pose anchored, ``compare.metrics.pose_nees``):
+evaluate``'s NEES takes it (first pose anchored, ``metrics.consistency.pose_nees``):
 
 * the NEES mean (the issue's number), median and the share of frames with NEES <= 30;
 * per component (x, y, heading) the median of |error| / std, where std is the particle set's
@@ -29,15 +29,10 @@ from pathlib import Path
 import numpy as np
 from harness_cells import set_options
 
-from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.metrics import (
-    Alignment,
-    associate,
-    ate,
-    pose_nees,
-    to_estimate_frame,
-)
 from omnislam.core.types import Estimate, Trajectory
+from omnislam.harness.execute import RunSpec, execute_run
+from omnislam.metrics.consistency import pose_nees, to_estimate_frame
+from omnislam.metrics.trajectory import Alignment, associate, ate
 
 #: the particle counts of the thesis's route-1 cells on loop150 (Fig. 5.6)
 LOOP150_PARTICLES = {"fastslam2": 10, "fastslam1": 50}

@@ -23,9 +23,9 @@ import sys
 import numpy as np
 from harness_cells import set_options
 
-from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.metrics import ate
 from omnislam.core.types import Trajectory
+from omnislam.harness.execute import RunSpec, execute_run
+from omnislam.metrics.trajectory import ate
 
 
 def average(trajectories: list[Trajectory], weights: np.ndarray) -> Trajectory:

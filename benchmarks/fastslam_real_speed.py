@@ -1,7 +1,7 @@
 """FastSLAM on recorded data: CPU time of a (truncated) run, and whether two checkouts agree.
 
 A run is what ``omnislam run DATASET --estimator E --seed S --set K=V ...`` steps (the dataset's
-own sightings, the estimator built from ``execute.sequence_info`` over all frames), cut to the
+own sightings, the estimator built from ``frames.sequence_info`` over all frames), cut to the
 first ``--frames`` frames. Each run is one subprocess that loads the data, steps the estimator
 and reports the process CPU seconds and wall-clock seconds of the stepping alone (loading and
 numba's compilation, warmed on the first frames of a throwaway estimator, are not counted),
@@ -86,9 +86,9 @@ def outputs_text(estimator: object) -> str:
 
 def one_run(args: argparse.Namespace, options: dict[str, str]) -> dict:
     """Load, warm up, step the first ``args.frames`` frames; CPU and wall seconds and digest."""
-    from omnislam.compare.execute import sequence_info
     from omnislam.datasets.registry import load_dataset, resolve
     from omnislam.estimators import make_estimator
+    from omnislam.harness.frames import sequence_info
 
     resolved = resolve(args.dataset)
     loader_keys = resolved.option_names()
@@ -123,8 +123,9 @@ def one_log_run(args: argparse.Namespace, options: dict[str, str]) -> dict:
     digest of the RUN_DIR's files but the timings."""
     import tempfile
 
-    from omnislam.compare.execute import RunSpec, execute_run
-    from omnislam.compare.rundir import CONFIG, write_run_dir
+    from omnislam.harness.execute import RunSpec, execute_run
+    from omnislam.harness.layout import CONFIG
+    from omnislam.harness.rundir import write_run_dir
 
     spec = RunSpec(args.dataset, args.estimator, args.seed, options, log=args.log)
     record = execute_run(spec)

@@ -19,8 +19,8 @@ import sys
 
 import numpy as np
 
-from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.fastslam import association
+from omnislam.harness.execute import RunSpec, execute_run
 
 #: percentiles printed
 PERCENTILES = (50, 90, 99)

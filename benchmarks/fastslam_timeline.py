@@ -20,10 +20,10 @@ import numpy as np
 from fastslam_mrclam import graphslam_online_trajectory
 from harness_cells import set_options
 
-from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.metrics import Alignment, associate, ate
 from omnislam.core.types import Trajectory
 from omnislam.datasets.registry import load_dataset, resolve
+from omnislam.harness.execute import RunSpec, execute_run
+from omnislam.metrics.trajectory import Alignment, associate, ate
 
 PARTS = 20
 #: a gap without sightings longer than this is listed [s]

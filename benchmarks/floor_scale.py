@@ -21,10 +21,10 @@ import argparse
 
 import numpy as np
 
-from omnislam.compare.execute import _load_log, _sensor_height_m
 from omnislam.core.se import se2_between, se2_compose
 from omnislam.datasets.registry import load_dataset
 from omnislam.graphslam import floor_scale as fs
+from omnislam.harness.frames import load_log, sensor_height_m
 
 
 def main() -> None:
@@ -34,11 +34,11 @@ def main() -> None:
     parser.add_argument("--truth", action="store_true", help="the diagnostics against the truth")
     args = parser.parse_args()
     sequence = load_dataset(args.dataset, {})
-    height = _sensor_height_m(sequence.calibration)
+    height = sensor_height_m(sequence.calibration)
     if height is None:
         raise SystemExit(f"{args.dataset}: no camera rig, so no camera height")
     for log in args.logs:
-        frames = list(sequence.frame_inputs(_load_log(sequence, log).frames))
+        frames = list(sequence.frame_inputs(load_log(sequence, log).frames))
         floor = fs.FloorScale(height)
         for frame in frames:
             floor.observe(frame.odometry.delta, frame.bearings)

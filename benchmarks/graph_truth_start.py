@@ -27,12 +27,12 @@ from harness_cells import add_set_option, set_options
 from realtime_lab40 import prepare
 
 from omnislam._optional import require
-from omnislam.compare.execute import frames_for_estimator
-from omnislam.compare.metrics import ate
 from omnislam.core.types import Trajectory
 from omnislam.estimators import make_estimator
 from omnislam.graphslam import factors as fx
 from omnislam.graphslam.levenberg_marquardt import optimize_batch
+from omnislam.harness.frames import frames_for_estimator
+from omnislam.metrics.trajectory import ate
 
 gtsam = require("gtsam")
 

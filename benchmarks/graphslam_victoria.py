@@ -5,7 +5,7 @@ Both sides get the same data, parsed once before any timing by the omnislam load
 odometry between-factor (the file's sigmas 0.01 m, 0.002 m, 0.002 rad), one
 ``BearingRangeFactor2D`` per sighting (a landmark enters with its first sighting), one
 ``ISAM2.update`` (relinearizeSkip=1, threshold 0.1), and a read of the newest pose only. The
-bare loop is ``compare.reference.isam2_pass`` -- the warm start of the victoria-park-gtsam
+bare loop is ``harness.reference.isam2_pass`` -- the warm start of the victoria-park-gtsam
 reference -- with the file's sigmas as one shared model, as omnislam's preset has them. Runs
 alternate (omnislam, bare, omnislam, ...) so that drift of the machine hits both alike.
 
@@ -26,12 +26,12 @@ import time
 import gtsam
 import numpy as np
 
-from omnislam.compare.reference import graph_frames, isam2_pass
 from omnislam.core.modality import Modality
 from omnislam.datasets.gtsam_victoria import load_gtsam_victoria
 from omnislam.graphslam import GraphSLAM
 from omnislam.graphslam.batch import warm_started_lm
 from omnislam.graphslam.config import PRESETS
+from omnislam.harness.reference import graph_frames, isam2_pass
 
 ODOMETRY_SIGMAS = (0.01, 0.002, 0.002)  # the file's ODOMETRY covariance diag(1e-4, 4e-6, 4e-6)
 

@@ -4,7 +4,7 @@ Why does association without ids fail on ``victoria-park-gtsam`` when it works o
 Victoria Park log? This prints the measurements behind the answer in docs/results.md:
 
 * the residuals of every factor at the warm-started LM optimum with ids
-  (``omnislam.compare.reference``, the runs' reference): odometry per axis, range, bearing --
+  (``omnislam.harness.reference``, the runs' reference): odometry per axis, range, bearing --
   against the sigmas the file states (gtsam's ``load2D`` conversion, ``datasets.gtsam_victoria``);
 * the heading error the odometry accumulates over n steps, ``sum_{i<n} e_theta,i`` (the
   optimum's heading minus the composed odometry's), against the ``sqrt(n) sigma_theta`` a
@@ -27,10 +27,10 @@ import sys
 
 import numpy as np
 
-from omnislam.compare.reference import lm_reference
 from omnislam.core.se import wrap_angle
 from omnislam.datasets.gtsam_victoria import find_gtsam_file, read_gtsam_graph
 from omnislam.datasets.registry import load_dataset, resolve
+from omnislam.harness.reference import lm_reference
 
 #: step counts over which the accumulated heading error is measured
 WINDOWS = (1, 3, 10, 30, 100, 300, 1000)

@@ -18,9 +18,9 @@ import time
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from omnislam.compare.evaluation import evaluate_run
-from omnislam.compare.execute import RunSpec, execute_run
-from omnislam.compare.rundir import ESTIMATOR_INFO
+from omnislam.harness.evaluation import evaluate_run
+from omnislam.harness.execute import RunSpec, execute_run
+from omnislam.harness.layout import ESTIMATOR_INFO
 
 
 def run_cell(

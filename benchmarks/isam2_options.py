@@ -35,10 +35,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import realtime_lab40 as rt
 from harness_cells import set_options
 
-from omnislam.compare.metrics import ate
 from omnislam.core.types import Trajectory
 from omnislam.estimators import make_estimator
 from omnislam.graphslam import session as session_module
+from omnislam.metrics.trajectory import ate
 
 
 class _Recorder:

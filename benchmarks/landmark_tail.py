@@ -22,12 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from omnislam.compare.metrics import umeyama
-from omnislam.compare.rundir import read_run_dir
 from omnislam.core.se import se2_rotate_vectors
 from omnislam.core.triangulation import triangulate_rays
 from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
+from omnislam.harness.rundir import read_run_dir
+from omnislam.metrics.trajectory import umeyama
 
 
 def world_rays(poses: np.ndarray, frame: np.ndarray, rays_r: np.ndarray, height: float):

@@ -32,12 +32,12 @@ from pathlib import Path
 
 import numpy as np
 
-from omnislam.compare.metrics import Alignment, ate
 from omnislam.core.se import se2_between, se2_integrate, wrap_angle
 from omnislam.core.types import Trajectory
 from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.frontend.config import FrontendConfig, LaserOdometryConfig
 from omnislam.frontend.scan_matching import laser_odometry
+from omnislam.metrics.trajectory import Alignment, ate
 
 
 def report(dataset: str, submap_scans: int) -> None:
@@ -84,10 +84,10 @@ def report(dataset: str, submap_scans: int) -> None:
 
 def with_and_without(dataset: str, estimators: list[str]) -> None:
     """Each estimator on the dataset's own sightings, wheel odometry against laser odometry."""
-    from omnislam.compare.evaluation import evaluate_run
-    from omnislam.compare.execute import RunSpec, execute_run
     from omnislam.frontend.observation_log import save_observation_log
     from omnislam.frontend.pipeline import run_frontend
+    from omnislam.harness.evaluation import evaluate_run
+    from omnislam.harness.execute import RunSpec, execute_run
 
     sequence = load_dataset(resolve(dataset), {})
     with tempfile.TemporaryDirectory() as tmp:

@@ -22,13 +22,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from omnislam.compare.cache import LOGS, cache_dir
-from omnislam.compare.execute import frontend_log_for
 from omnislam.core.measurement import RangeBearing2D
 from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.frontend.config import LaserLandmarkConfig
 from omnislam.frontend.laser_landmarks import sighting_noise
 from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
+from omnislam.harness.cache import cache_dir
+from omnislam.harness.execute import frontend_log_for
+from omnislam.harness.layout import LOGS
 
 #: range bands of the table [m]
 BANDS_M = ((0.0, 1.0), (1.0, 2.0), (2.0, 4.0), (4.0, 9.0))

@@ -6,7 +6,7 @@ and compared with the true route, with no world and no rendering:
 
 - drift: the mean relative translation error over segments of 10 m of true travel (half the
   route when it is shorter), as a percentage of the segment (KITTI's translational error; RPE in
-  metres, ``compare.metrics.rpe``);
+  metres, ``metrics.trajectory.rpe``);
 - end: the final position error as a percentage of the whole route;
 - ATE: dead reckoning's SE(2)-aligned RMSE, what the reports show for it.
 
@@ -21,12 +21,12 @@ import sys
 
 import numpy as np
 
-from omnislam.compare.metrics import Alignment, accumulated_distances, ate, translational_drift
 from omnislam.core.se import se2_integrate
 from omnislam.core.types import Trajectory
 from omnislam.datasets.synthetic.presets import PRESETS, Preset
 from omnislam.datasets.synthetic.routes import NO_BIAS
 from omnislam.datasets.synthetic.simulate import drive
+from omnislam.metrics.trajectory import Alignment, accumulated_distances, ate, translational_drift
 
 SEGMENT_M = 10.0
 

@@ -19,13 +19,14 @@ import sys
 
 import numpy as np
 
-from omnislam.compare.cache import LOGS, cache_dir
-from omnislam.compare.execute import frontend_log_for
 from omnislam.core.motion import OdometryMotionModel
 from omnislam.core.se import se2_between, wrap_angle
 from omnislam.datasets.registry import load_dataset, resolve
 from omnislam.fastslam.config import DEFAULT_MOTION_NOISE
 from omnislam.frontend.observation_log import dataset_fingerprint, load_observation_log
+from omnislam.harness.cache import cache_dir
+from omnislam.harness.execute import frontend_log_for
+from omnislam.harness.layout import LOGS
 
 
 def _error(delta: np.ndarray, truth: np.ndarray) -> np.ndarray:

@@ -48,8 +48,6 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from omnislam.compare.evaluation import evaluate_run
-from omnislam.compare.execute import RunSpec, execute_run
 from omnislam.core.types import Bearings
 from omnislam.datasets.registry import load_dataset
 from omnislam.datasets.synthetic.loader import SyntheticFolder
@@ -59,6 +57,8 @@ from omnislam.frontend.observation_log import (
     load_observation_log,
     save_observation_log,
 )
+from omnislam.harness.evaluation import evaluate_run
+from omnislam.harness.execute import RunSpec, execute_run
 
 VARIANTS = ("front end", "clean", "returns", "merged", "noisy truth", "exact")
 

@@ -2,9 +2,9 @@
 
 For each dataset (``lab40`` by default; ``demo`` and ``loop150`` with ``--dataset``) the script
 takes a rendered folder (rendering the preset into it first when it is missing), the shared
-front end's log (``--dataset NAME DIR LOG``, or the one ``compare.execute.frontend_log_for``
+front end's log (``--dataset NAME DIR LOG``, or the one ``harness.execute.frontend_log_for``
 computes once and caches), and replays the log ``--runs`` times through each graph variant and
-once through the other estimators. The replay mirrors ``omnislam run`` (``compare.execute``:
+once through the other estimators. The replay mirrors ``omnislam run`` (``harness.execute``:
 same loading, registry, SequenceInfo and ground truth) with one addition: every step is timed
 in CPU time (``time.process_time``: all threads of the process) beside wall-clock, because on a
 shared 2-core machine wall-clock mostly measures the neighbours.
@@ -51,23 +51,23 @@ from pathlib import Path
 import numpy as np
 from harness_cells import add_set_option, set_options
 
-from omnislam.compare.cache import LOGS, cache_dir
-from omnislam.compare.execute import (
-    _load_log,
-    _own_sighting_ids,
-    _with_track_truth,
-    frames_for_estimator,
-    frontend_log_for,
-    peak_rss_mb,
-    reset_peak_rss,
-    sequence_info,
-)
-from omnislam.compare.metrics import Alignment, LandmarkAssociation, ate, landmark_error
 from omnislam.core.se import se2_between
 from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Trajectory
 from omnislam.datasets.registry import load_dataset
 from omnislam.estimators import make_estimator
+from omnislam.harness.cache import cache_dir
+from omnislam.harness.execute import frontend_log_for, peak_rss_mb, reset_peak_rss
+from omnislam.harness.frames import (
+    frames_for_estimator,
+    load_log,
+    own_sighting_ids,
+    sequence_info,
+)
+from omnislam.harness.layout import LOGS
+from omnislam.harness.track_truth import with_track_truth
+from omnislam.metrics.landmarks import LandmarkAssociation, landmark_error
+from omnislam.metrics.trajectory import Alignment, ate
 
 #: the option the ``true-scale`` variant sets to the truth's scale
 TRUE_SCALE_OPTION = "floor.known_odometry_scale"
@@ -160,11 +160,11 @@ def prepare(name: str, folder: str, log: str | None, frames: int | None) -> Repl
     sequence = load_dataset(str(path))
     if log is None:
         log = str(frontend_log_for(sequence, str(path), cache_dir() / LOGS, progress=True))
-    replay = _load_log(sequence, log)
-    inputs = _own_sighting_ids(sequence, list(sequence.frame_inputs(replay.frames)), log)
+    replay = load_log(sequence, log)
+    inputs = own_sighting_ids(sequence, list(sequence.frame_inputs(replay.frames)), log)
     if frames is not None:
         inputs = inputs[:frames]
-    truth, _ = _with_track_truth(sequence, replay, Path(log))
+    truth, _ = with_track_truth(sequence, replay, Path(log))
     info = sequence_info(sequence, inputs)  # what `omnislam run` tells the estimator
     images = np.array([f.bearings is not None and len(f.bearings) > 0 for f in inputs])
     return Replay(name, inputs, info, truth, images, replay.floor_ids_from)

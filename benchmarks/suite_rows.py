@@ -38,8 +38,8 @@ from pathlib import Path
 
 import yaml
 
-from omnislam.compare.grid import load_grid
-from omnislam.compare.tables import latex_escape
+from omnislam.harness.grid import load_grid
+from omnislam.report.tables import latex_escape
 
 REPO = Path(__file__).resolve().parents[1]
 #: tables of the whole suite, one row per dataset
@@ -55,7 +55,7 @@ class SpliceError(Exception):
 
 def subset_grid(path: Path, pattern: str) -> tuple[dict, list[str]]:
     """The grid file's contents with only the datasets whose label (as ``omnislam compare``
-    labels them, ``compare.grid``) matches ``pattern``, and those labels. Relative dataset
+    labels them, ``harness.grid``) matches ``pattern``, and those labels. Relative dataset
     paths are made absolute, so the subset grid may be written anywhere."""
     grid = yaml.safe_load(path.read_text())
     labels = load_grid(path).datasets
@@ -124,7 +124,7 @@ def splice_page(name: str, old: str, new: str, labels: list[str], note: str) -> 
     return _add_provenance_row(old, r"^\| runs \|[^\n]*$", f"| rows re-run | {note} |")
 
 
-#: the report's line that dates it (``omnislam.compare.report``)
+#: the report's line that dates it (``omnislam.report.sections``)
 MADE_WITH = "; see Provenance at the end."
 RE_RUN = "; some rows were re-run since: see Provenance at the end."
 

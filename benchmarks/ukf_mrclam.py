@@ -17,8 +17,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from omnislam.compare.run_metrics import RunMetrics, read_run_metrics
-from omnislam.compare.rundir import METRICS
+from omnislam.harness.layout import METRICS
+from omnislam.metrics.run_metrics import RunMetrics, read_run_metrics
 
 
 def run(dataset: str, estimator: str, sets: list[str], out: Path) -> RunMetrics:

@@ -42,7 +42,7 @@ class EstimatorEntry:
         preset: the preset of ``config`` the estimator starts from when it is a mapping.
         floor_tracks: it models the floor, so it takes the front end's floor tracks
             (``frontend.floor_tracks``, ``ObservationLog.floor_ids_from``) among the omni
-            bearings; the others are fed the landmark tracks alone (``compare.execute``). The
+            bearings; the others are fed the landmark tracks alone (``harness.frames``). The
             graph places them on the floor (``graphslam.floor_points``); a filter would take
             them as ordinary landmarks and, on lab40, FastSLAM 2.0's map came out ~3 % small
             with them (docs/results.md, "The joint floor solve's viewpoints").

@@ -1,13 +1,20 @@
 """omnislam's own layer order: every import (top-level or lazy) points down or sideways.
 
-``core`` <- ``camera`` <- ``datasets``, ``frontend`` <- estimators <- ``compare`` <- ``cli``
+``core`` <- ``camera`` <- ``datasets``, ``frontend`` <- estimators <- ``metrics`` <- ``harness``
+<- ``report`` <- ``demo`` <- ``cli``
 (DESIGN.md), with the package's base modules (errors, optional extras, file helpers) below
 everything; an estimator package never imports another estimator package, so shared algebra
-has to live in ``core``.
+has to live in ``core``. The rooms: ``metrics`` (numbers of a run) below ``harness`` (running
+estimators, writing what they leave on disk) below ``report`` (reading it), and ``demo`` above
+both; the report reads the harness's file layout, RUN_DIRs and evaluation but never reaches
+its runner or executor, not even through another module.
 """
 
 import ast
+from collections.abc import Mapping
 from pathlib import Path
+
+from test_no_import_cycles import import_graphs
 
 import omnislam
 
@@ -26,9 +33,16 @@ LAYERS = (
     ("omnislam.camera",),
     ("omnislam.datasets", "omnislam.frontend"),
     (*ESTIMATOR_PACKAGES, "omnislam.estimators", "omnislam.options"),
-    ("omnislam.compare",),
+    ("omnislam.metrics",),
+    ("omnislam.harness",),
+    ("omnislam.report",),
+    ("omnislam.demo",),
     ("omnislam.cli", "omnislam.__main__"),
 )
+#: the harness's machinery that runs estimators: the report reads what the harness wrote (the
+#: file names of ``harness.layout``, RUN_DIRs, metrics) and never imports it, not even through
+#: another module, so a report can be written where nothing can run
+RUNNING = ("omnislam.harness.execute", "omnislam.harness.runner")
 
 
 def _owner(module: str, groups: tuple[str, ...]) -> str | None:
@@ -94,13 +108,38 @@ def test_the_checker_sees_lazy_and_relative_imports(tmp_path):
     sample = tmp_path / "omnislam" / "core" / "sample.py"
     sample.parent.mkdir(parents=True)
     sample.write_text(
-        "def f():\n    from omnislam.compare import report\n"
+        "def f():\n    from omnislam.report import plots\n"
         "from . import se\nimport omnislam.cli\n"
     )
     global ROOT
     saved, ROOT = ROOT, tmp_path / "omnislam"
     try:
-        assert imports_of(sample) == {"omnislam.compare", "omnislam.core", "omnislam.cli"}
+        assert imports_of(sample) == {"omnislam.report", "omnislam.core", "omnislam.cli"}
     finally:
         ROOT = saved
-    assert layer_of("omnislam.compare.report") > layer_of("omnislam.core.se")
+    assert layer_of("omnislam.report.comparison") > layer_of("omnislam.core.se")
+
+
+def reachable(start: str, graph: Mapping[str, set[str]]) -> set[str]:
+    """Every module ``start`` imports, directly or through other modules."""
+    seen: set[str] = set()
+    pending = [start]
+    while pending:
+        for target in graph.get(pending.pop(), ()):
+            if target not in seen:
+                seen.add(target)
+                pending.append(target)
+    return seen
+
+
+def test_the_report_imports_neither_the_runner_nor_the_executor():
+    top, lazy = import_graphs()
+    graph = {m: top[m] | lazy[m] for m in top}
+    report = [m for m in sorted(graph) if _owner(m, ("omnislam.report",))]
+    assert "omnislam.report.view" in report
+    running = {m: sorted(reachable(m, graph) & set(RUNNING)) for m in report}
+    assert {m: names for m, names in running.items() if names} == {}
+    # what the report does read of the harness
+    assert "omnislam.harness.layout" in reachable("omnislam.report.comparison", graph)
+    # the check sees a path when there is one: the demo runs the grid through the runner
+    assert set(RUNNING) <= reachable("omnislam.demo", graph)

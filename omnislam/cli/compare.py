@@ -1,6 +1,6 @@
 """``omnislam compare GRID.yaml --out RESULTS_DIR [--workers N | --scheduler ADDRESS]``.
 
-Runs every cell of the grid (see ``omnislam.compare.grid``; ``--template`` prints a commented
+Runs every cell of the grid (see ``omnislam.harness.grid``; ``--template`` prints a commented
 one) on a local process pool (``--workers``, default: one per core; 0 runs in this process) or
 on a Dask cluster (``--scheduler tcp://HOST:PORT``; ``--scheduler local`` starts a LocalCluster
 of ``--workers`` processes). An existing RESULTS_DIR is refused unless ``--resume`` (keep its
@@ -15,10 +15,18 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from concurrent.futures import Executor
+    from contextlib import ExitStack
+
+    from omnislam.harness.runner import GridResult
 
 
 class _PrintTemplate(argparse.Action):
-    """``--template``: print ``compare.grid.grid_template()`` and exit (like ``--version``)."""
+    """``--template``: print ``harness.grid.grid_template()`` and exit (like ``--version``)."""
 
     def __init__(self, option_strings: list[str], dest: str, **kwargs: object) -> None:
         kwargs.pop("nargs", None)
@@ -31,7 +39,7 @@ class _PrintTemplate(argparse.Action):
         values: object,
         option_string: str | None = None,
     ) -> None:
-        from omnislam.compare.grid import grid_template
+        from omnislam.harness.grid import grid_template
 
         sys.stdout.write(grid_template())
         sys.stdout.flush()
@@ -75,32 +83,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import logging
-    import os
     from contextlib import ExitStack
 
     from omnislam._files import check_overwrite
-    from omnislam.compare.grid import check_datasets, load_grid
-    from omnislam.compare.grid_progress import GridProgress
-    from omnislam.compare.runner import (
-        GRID_COPY,
-        CellStatus,
-        check_results_dir,
-        local_executor_factory,
-        run_grid,
-    )
-    from omnislam.errors import ConfigError
+    from omnislam.harness.grid import check_datasets, load_grid
+    from omnislam.harness.grid_progress import GridProgress
+    from omnislam.harness.layout import GRID_COPY
+    from omnislam.harness.runner import check_results_dir, run_grid
 
-    if args.resume and args.overwrite:
-        raise ConfigError("--resume and --overwrite exclude each other")
-    if args.max_attempts < 1:
-        raise ConfigError(f"--max-attempts must be >= 1, got {args.max_attempts}")
-    if args.scheduler not in (None, "local") and args.workers is not None:
-        raise ConfigError("--workers cannot be combined with a remote --scheduler")
-    if args.workers is not None and args.workers < 0:
-        raise ConfigError(f"--workers must be >= 0, got {args.workers}")
-    if args.scheduler == "local" and args.workers == 0:  # 0 means in-process, not a cluster
-        raise ConfigError("--scheduler local needs --workers >= 1 (its cluster's size)")
+    _check_arguments(args)
     grid = load_grid(args.grid)
     check_results_dir(args.out)
     if not args.resume:  # (check_results_dir refused a folder that is not a results folder)
@@ -114,40 +105,7 @@ def run(args: argparse.Namespace) -> int:
         )
     check_datasets(grid)  # a corrupt dataset file is bad input, before the results folder
     with ExitStack() as stack:
-        if args.scheduler is None:
-            factory = local_executor_factory(
-                args.workers if args.workers is not None else os.cpu_count() or 1
-            )
-            engine = f"{args.workers if args.workers is not None else os.cpu_count()} local"
-        else:
-            from omnislam._optional import require
-
-            distributed = require("distributed")
-            if args.scheduler == "local":
-                n = args.workers or os.cpu_count() or 1
-                cluster = stack.enter_context(
-                    distributed.LocalCluster(
-                        n_workers=n,
-                        threads_per_worker=1,
-                        processes=True,
-                        dashboard_address=None,
-                        # its shutdown chatter: a worker's heartbeat racing the scheduler's
-                        # close is logged at ERROR with a traceback (CI, 3 Dec 2026); a failed
-                        # task reaches the runner as an exception and fails its cell visibly
-                        silence_logs=logging.INFO
-                        if getattr(args, "verbose", False)
-                        else logging.CRITICAL,
-                    )
-                )
-                address = cluster.scheduler_address
-            else:
-                address = args.scheduler
-            try:
-                client = stack.enter_context(distributed.Client(address, timeout="10s"))
-            except OSError as exc:
-                raise ConfigError(f"cannot reach the Dask scheduler {address!r} ({exc})") from None
-            factory = client.get_executor
-            engine = f"Dask at {address}"
+        factory, engine = _executor_factory(args, stack)
         bar = stack.enter_context(GridProgress(grid, f"compare ({engine})"))
         result = run_grid(
             grid,
@@ -158,6 +116,70 @@ def run(args: argparse.Namespace) -> int:
             on_progress=bar.on_progress,
             reuse=args.resume,
         )
+    return _print_outcomes(result, args.out)
+
+
+def _check_arguments(args: argparse.Namespace) -> None:
+    """Refuse options that exclude each other or are out of range (ConfigError)."""
+    from omnislam.errors import ConfigError
+
+    if args.resume and args.overwrite:
+        raise ConfigError("--resume and --overwrite exclude each other")
+    if args.max_attempts < 1:
+        raise ConfigError(f"--max-attempts must be >= 1, got {args.max_attempts}")
+    if args.scheduler not in (None, "local") and args.workers is not None:
+        raise ConfigError("--workers cannot be combined with a remote --scheduler")
+    if args.workers is not None and args.workers < 0:
+        raise ConfigError(f"--workers must be >= 0, got {args.workers}")
+    if args.scheduler == "local" and args.workers == 0:  # 0 means in-process, not a cluster
+        raise ConfigError("--scheduler local needs --workers >= 1 (its cluster's size)")
+
+
+def _executor_factory(
+    args: argparse.Namespace, stack: ExitStack
+) -> tuple[Callable[[], Executor], str]:
+    """(the factory of the executor that runs the cells, how to name it): a local process pool,
+    or a Dask cluster (a LocalCluster entered on ``stack`` for ``--scheduler local``)."""
+    import logging
+    import os
+
+    from omnislam.errors import ConfigError
+    from omnislam.harness.runner import local_executor_factory
+
+    if args.scheduler is None:
+        if args.workers is not None:  # 0: in this process
+            return local_executor_factory(args.workers), f"{args.workers} local"
+        return local_executor_factory(os.cpu_count() or 1), f"{os.cpu_count()} local"
+    from omnislam._optional import require
+
+    distributed = require("distributed")
+    if args.scheduler == "local":
+        cluster = stack.enter_context(
+            distributed.LocalCluster(
+                n_workers=args.workers or os.cpu_count() or 1,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                # its shutdown chatter: a worker's heartbeat racing the scheduler's close is
+                # logged at ERROR with a traceback; a failed task reaches the runner as an
+                # exception and fails its cell visibly
+                silence_logs=logging.INFO if getattr(args, "verbose", False) else logging.CRITICAL,
+            )
+        )
+        address = cluster.scheduler_address
+    else:
+        address = args.scheduler
+    try:
+        client = stack.enter_context(distributed.Client(address, timeout="10s"))
+    except OSError as exc:
+        raise ConfigError(f"cannot reach the Dask scheduler {address!r} ({exc})") from None
+    return client.get_executor, f"Dask at {address}"
+
+
+def _print_outcomes(result: GridResult, out: str) -> int:
+    """One line per cell and a summary on stdout, each failure on stderr; 1 if any failed."""
+    from omnislam.harness.runner import CellStatus
+
     computed = result.count(CellStatus.COMPUTED)
     reused = result.count(CellStatus.REUSED)
     failed = [o for o in result.outcomes if o.status is CellStatus.FAILED]
@@ -168,7 +190,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{outcome.cell.cell_id.ljust(width)}  {outcome.status.value:8s}  {text}")
     print(
         f"omnislam compare: {len(result.outcomes)} cells ({computed} computed, {reused} reused, "
-        f"{len(failed)} failed) -> {args.out}"
+        f"{len(failed)} failed) -> {out}"
     )
     for outcome in failed:
         print(

@@ -1,4 +1,4 @@
-"""``omnislam demo [--out DIR]``: the embedded default, end to end (see compare/demo.py).
+"""``omnislam demo [--out DIR]``: the embedded default, end to end (see omnislam/demo.py).
 
 Renders the demo world, runs the shared front end, every available estimator and the report,
 each step with its progress on stderr (images rendered and processed, frames stepped by each
@@ -16,9 +16,9 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from omnislam._progress import Progress
-    from omnislam.compare.grid import Grid
-    from omnislam.compare.grid_progress import GridProgress
-    from omnislam.compare.runner import CellOutcome, CellProgress, PrepareProgress
+    from omnislam.harness.grid import Grid
+    from omnislam.harness.grid_progress import GridProgress
+    from omnislam.harness.runner import CellOutcome, CellProgress, PrepareProgress
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -45,7 +45,7 @@ class DemoProgress:
         self._report: Progress | None = None
 
     def on_grid(self, grid: Grid) -> None:
-        from omnislam.compare.grid_progress import GridProgress
+        from omnislam.harness.grid_progress import GridProgress
 
         self._grid = GridProgress(grid, "demo estimators")
 
@@ -87,9 +87,9 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from omnislam._files import check_overwrite
-    from omnislam.compare.demo import run_demo
-    from omnislam.compare.report import REPORT_MD, check_report_dir
-    from omnislam.compare.runner import local_executor_factory
+    from omnislam.demo import run_demo
+    from omnislam.harness.runner import local_executor_factory
+    from omnislam.report.comparison import REPORT_MD, check_report_dir
 
     start = time.perf_counter()
     out = Path(args.out)

@@ -21,11 +21,11 @@ FROM_THE_DATA = {
 
 
 def harness_options() -> dict[str, tuple[str, str]]:
-    """Options the harness (``compare.execute``) takes for every estimator:
+    """Options the harness (``harness.execute``) takes for every estimator:
     key -> (what it takes, meaning)."""
-    from omnislam.compare.perturb import CLUTTER_OPTION, WRONG_ID_OPTION
-    from omnislam.compare.prior import PRIOR_MAP_OPTION
     from omnislam.core.modality import MODALITY_OPTION, Modality
+    from omnislam.harness.perturb import CLUTTER_OPTION, WRONG_ID_OPTION
+    from omnislam.harness.prior import PRIOR_MAP_OPTION
 
     return {
         MODALITY_OPTION: (

@@ -1,7 +1,7 @@
 """``omnislam evaluate RUN_DIR [--json]`` or ``omnislam evaluate --ref GT EST [--align A]``.
 
 With a RUN_DIR: every metric against the run's ground truth; writes ``RUN_DIR/metrics.json``
-(``compare.run_metrics``; null for what is not computed or has no ground truth) and prints a
+(``metrics.run_metrics``; null for what is not computed or has no ground truth) and prints a
 table, or the JSON with ``--json``. Every value that is missing says why. A ``metrics.json``
 computed with other settings (``--rpe-segment``, ``--landmark-gate``) is replaced only with
 ``--overwrite``.
@@ -23,6 +23,8 @@ The RPE segment defaults to 10 m, or to a quarter of the ground truth's travel (
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+from typing import Any
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -87,8 +89,8 @@ def _fmt(value: object) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from omnislam.compare.evaluation import EvaluationOptions
     from omnislam.errors import ConfigError
+    from omnislam.harness.evaluation import EvaluationOptions
 
     EvaluationOptions(rpe_segment_m=args.rpe_segment)  # the one check of its value
     if args.ref is not None:
@@ -107,10 +109,11 @@ def run_run_dir(args: argparse.Namespace) -> int:
     import json
     from pathlib import Path
 
-    from omnislam.compare.evaluation import EvaluationOptions, evaluate_run, missing_reasons
-    from omnislam.compare.run_metrics import read_run_metrics, write_run_metrics
-    from omnislam.compare.rundir import METRICS, read_run_dir
     from omnislam.errors import ConfigError, DataError
+    from omnislam.harness.evaluation import EvaluationOptions, evaluate_run, missing_reasons
+    from omnislam.harness.layout import METRICS
+    from omnislam.harness.rundir import read_run_dir
+    from omnislam.metrics.run_metrics import read_run_metrics, write_run_metrics
 
     defaults = EvaluationOptions()
     options = EvaluationOptions(
@@ -215,14 +218,12 @@ def _describe(settings: tuple[float | None, float | None]) -> str:
 def run_ref(args: argparse.Namespace) -> int:
     """``evaluate --ref GT EST``: ATE and RPE of two trajectory files, as evo computes them."""
     import json
-    import math
     from pathlib import Path
 
     from omnislam._files import atomic_write_text, check_output_location, check_overwrite
-    from omnislam.compare.evaluation import compare_trajectories
-    from omnislam.compare.metrics import Alignment
-    from omnislam.datasets.trajectory_io import detect_trajectory_format, read_trajectory
     from omnislam.errors import ConfigError
+    from omnislam.harness.evaluation import compare_trajectories
+    from omnislam.metrics.trajectory import Alignment
 
     if args.landmark_gate is not None:
         raise ConfigError("--landmark-gate applies to a RUN_DIR (trajectory files have no map)")
@@ -230,71 +231,110 @@ def run_ref(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_overwrite(args.out, args.overwrite, "metrics file")
         check_output_location(args.out, "metrics file")
-    formats = []
-    for path in (reference_path, estimate_path):
-        formats.append(detect_trajectory_format(path) if args.format == "auto" else args.format)
-    if formats[0] != formats[1]:
-        raise ConfigError(
-            f"{estimate_path}: a {formats[1]} file against a {formats[0]} reference "
-            f"({reference_path}); give both in one format (KITTI files have no stamps)"
-        )
-    reference = read_trajectory(reference_path, formats[0])
-    estimate = read_trajectory(estimate_path, formats[1])
+    fmt, reference, estimate = _read_pair(reference_path, estimate_path, args.format)
     alignment = Alignment(args.align)
     result = compare_trajectories(reference, estimate, alignment, args.rpe_segment)
-    ate, rpe, frame = result.ate, result.rpe, result.rpe_frame
-
-    def stats(values: object) -> dict[str, float | None]:
-        import numpy as np
-
-        x = np.asarray(values, dtype=float)
-        if not x.size:
-            return dict.fromkeys(("rmse", "mean", "median", "std", "min", "max"))
-        return {
-            "rmse": float(np.sqrt(np.mean(x**2))),
-            "mean": float(np.mean(x)),
-            "median": float(np.median(x)),
-            "std": float(np.std(x)),
-            "min": float(np.min(x)),
-            "max": float(np.max(x)),
-        }
-
-    def degrees(values: object) -> object:
-        import numpy as np
-
-        return None if values is None else np.degrees(np.asarray(values, dtype=float))
-
     numbers = {
         "reference": str(reference_path),
         "estimate": str(estimate_path),
-        "format": formats[0],
+        "format": fmt,
         "alignment": alignment.value,
-        "scale": ate.scale,
-        "poses_matched": ate.matched,
-        "coverage": ate.coverage,
-        "ate_m": stats(ate.errors_m),
-        "rpe_segment_m": rpe.delta,
-        "rpe_pairs": rpe.count,
-        "rpe_trans_m": stats(rpe.trans_errors_m),
-        "rpe_rot_deg": stats(degrees(rpe.rot_errors_rad) if rpe.rot_errors_rad is not None else []),
-        "rpe_frame_pairs": frame.count,
-        "rpe_frame_trans_m": stats(frame.trans_errors_m),
-        "rpe_frame_rot_deg": stats(
-            degrees(frame.rot_errors_rad) if frame.rot_errors_rad is not None else []
-        ),
-        "travel_m": result.travel_m,
-        "planar": rpe.planar,
-        "missing": result.why,
+        **_ref_numbers(result),
     }
     if args.out is not None:
         atomic_write_text(args.out, json.dumps(numbers, indent=2) + "\n")
     if args.json:
         print(json.dumps(numbers, indent=2))
         return 0
+    _print_ref(result, numbers, f"{estimate_path} against {reference_path} ({fmt})", args)
+    if args.out is not None:
+        print(f"-> {args.out}")
+    return 0
+
+
+def _read_pair(reference_path: Path, estimate_path: Path, fmt: str) -> tuple[str, Any, Any]:
+    """(format, reference, estimate): two trajectory files of one format (``--format``, or
+    detected from each file).
+
+    Raises:
+        ConfigError: the two files are of different formats.
+    """
+    from omnislam.datasets.trajectory_io import detect_trajectory_format, read_trajectory
+    from omnislam.errors import ConfigError
+
+    formats = [
+        detect_trajectory_format(path) if fmt == "auto" else fmt
+        for path in (reference_path, estimate_path)
+    ]
+    if formats[0] != formats[1]:
+        raise ConfigError(
+            f"{estimate_path}: a {formats[1]} file against a {formats[0]} reference "
+            f"({reference_path}); give both in one format (KITTI files have no stamps)"
+        )
+    return (
+        formats[0],
+        read_trajectory(reference_path, formats[0]),
+        read_trajectory(estimate_path, formats[1]),
+    )
+
+
+def _ref_numbers(result: Any) -> dict[str, object]:
+    """The numbers of ``evaluate --ref`` (``harness.evaluation.compare_trajectories``): ATE and
+    RPE error statistics, pairs, travel and why what is missing is missing."""
+    ate, rpe, frame = result.ate, result.rpe, result.rpe_frame
+    return {
+        "scale": ate.scale,
+        "poses_matched": ate.matched,
+        "coverage": ate.coverage,
+        "ate_m": _stats(ate.errors_m),
+        "rpe_segment_m": rpe.delta,
+        "rpe_pairs": rpe.count,
+        "rpe_trans_m": _stats(rpe.trans_errors_m),
+        "rpe_rot_deg": _stats(_degrees(rpe.rot_errors_rad)),
+        "rpe_frame_pairs": frame.count,
+        "rpe_frame_trans_m": _stats(frame.trans_errors_m),
+        "rpe_frame_rot_deg": _stats(_degrees(frame.rot_errors_rad)),
+        "travel_m": result.travel_m,
+        "planar": rpe.planar,
+        "missing": result.why,
+    }
+
+
+def _stats(values: object) -> dict[str, float | None]:
+    """RMSE, mean, median, std, min and max of the values (all None when there are none)."""
+    import numpy as np
+
+    x = np.asarray(values, dtype=float)
+    if not x.size:
+        return dict.fromkeys(("rmse", "mean", "median", "std", "min", "max"))
+    return {
+        "rmse": float(np.sqrt(np.mean(x**2))),
+        "mean": float(np.mean(x)),
+        "median": float(np.median(x)),
+        "std": float(np.std(x)),
+        "min": float(np.min(x)),
+        "max": float(np.max(x)),
+    }
+
+
+def _degrees(radians: object) -> object:
+    """The angles in degrees ([] for None: no rotation errors)."""
+    import numpy as np
+
+    return [] if radians is None else np.degrees(np.asarray(radians, dtype=float))
+
+
+def _print_ref(result: Any, numbers: dict[str, Any], what: str, args: argparse.Namespace) -> None:
+    """The table of ``evaluate --ref``: one line per statistic, what is missing and why."""
+    import math
+
+    from omnislam.metrics.trajectory import Alignment
+
+    ate, rpe, frame = result.ate, result.rpe, result.rpe_frame
+    alignment = Alignment(args.align)
     print(
-        f"{estimate_path} against {reference_path} ({formats[0]}): {ate.matched} poses "
-        f"matched ({ate.coverage:.1%} of the estimate), aligned {alignment.value}"
-        + (f", scale {ate.scale:.6g}" if alignment is Alignment.SIM3 else "")
+        f"{what}: {ate.matched} poses matched ({ate.coverage:.1%} of the estimate), aligned "
+        f"{alignment.value}" + (f", scale {ate.scale:.6g}" if alignment is Alignment.SIM3 else "")
     )
     width = 34
 
@@ -307,25 +347,15 @@ def run_ref(args: argparse.Namespace) -> int:
         )
         print(f"  {name.ljust(width)}  {text}")
 
-    row("ATE [m]", numbers["ate_m"])  # type: ignore[arg-type]
+    row("ATE [m]", numbers["ate_m"])
     segment = f"{rpe.delta:g} m"
-    row(
-        f"RPE {segment} trans [m] ({rpe.count} pairs)",
-        numbers["rpe_trans_m"],  # type: ignore[arg-type]
-        result.why.get("rpe"),
-    )
-    row(
-        f"RPE {segment} rot [deg]",
-        numbers["rpe_rot_deg"],  # type: ignore[arg-type]
-        result.why.get("rpe"),
-    )
-    row(f"RPE 1 frame trans [m] ({frame.count} pairs)", numbers["rpe_frame_trans_m"])  # type: ignore[arg-type]
-    row("RPE 1 frame rot [deg]", numbers["rpe_frame_rot_deg"])  # type: ignore[arg-type]
+    why_not = result.why.get("rpe")
+    row(f"RPE {segment} trans [m] ({rpe.count} pairs)", numbers["rpe_trans_m"], why_not)
+    row(f"RPE {segment} rot [deg]", numbers["rpe_rot_deg"], why_not)
+    row(f"RPE 1 frame trans [m] ({frame.count} pairs)", numbers["rpe_frame_trans_m"])
+    row("RPE 1 frame rot [deg]", numbers["rpe_frame_rot_deg"])
     if args.rpe_segment is None and math.isfinite(result.travel_m):
         print(
             f"  (RPE segment {rpe.delta:g} m chosen for a reference of {result.travel_m:.3g} m; "
             "set it with --rpe-segment)"
         )
-    if args.out is not None:
-        print(f"-> {args.out}")
-    return 0

@@ -17,7 +17,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from omnislam.compare.report import ReportOptions, ReportSummary
+    from omnislam.report.comparison import ReportSummary
+    from omnislam.report.options import ReportOptions
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -41,8 +42,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from omnislam._files import check_overwrite
-    from omnislam.compare.report import REPORT_MD, ReportOptions, check_report_dir
     from omnislam.errors import ConfigError
+    from omnislam.report.comparison import REPORT_MD, check_report_dir
+    from omnislam.report.options import ReportOptions
 
     if not args.resolution > 0:
         raise ConfigError(f"--resolution must be positive, got {args.resolution}")
@@ -76,7 +78,7 @@ def write_report_with_progress(
     from dataclasses import replace
 
     from omnislam._progress import Progress
-    from omnislam.compare.report import write_report
+    from omnislam.report.comparison import write_report
 
     with Progress(f"report {Path(str(out)).name}", None, "dataset") as bar:
 

@@ -1,11 +1,11 @@
 """``omnislam run DATASET --estimator NAME --out RUN_DIR [--seed N] [--set K=V ...] [--log LOG]``.
 
 Loads the dataset (registered name or path), builds the estimator, feeds it every frame, times
-each step, and writes RUN_DIR atomically (see ``omnislam.compare.rundir``); an existing
+each step, and writes RUN_DIR atomically (see ``omnislam.harness.rundir``); an existing
 RUN_DIR is replaced only with ``--overwrite``. Progress (frames done, rate, ETA) goes to
 stderr. A dataset with images replays the shared front end's log: ``--log LOG`` (written by
 ``omnislam frontend``), or the log computed once and cached
-(``omnislam.compare.execute.frontend_log_for``). ``--set`` keys that the dataset's loader
+(``omnislam.harness.execute.frontend_log_for``). ``--set`` keys that the dataset's loader
 accepts (e.g. ``robot=3``) go to the loader; ``modality``, ``prior_map``,
 ``wrong_id_fraction`` and ``clutter_per_frame`` to the harness; the others to the estimator.
 """
@@ -70,7 +70,7 @@ def parse_set(items: list[str]) -> dict[str, str]:
 
 def peak_rss_mb() -> float:
     """Peak resident set size of this process [MB] (kept for callers of the old name)."""
-    from omnislam.compare.execute import peak_rss_mb as measure
+    from omnislam.harness.execute import peak_rss_mb as measure
 
     return measure()
 
@@ -82,8 +82,9 @@ def run(args: argparse.Namespace) -> int:
 
     from omnislam._files import check_output_location, check_overwrite
     from omnislam._progress import Stages
-    from omnislam.compare.execute import RunSpec, check_estimator, check_spec, execute_run
-    from omnislam.compare.rundir import CONFIG, write_run_dir
+    from omnislam.harness.execute import RunSpec, check_estimator, check_spec, execute_run
+    from omnislam.harness.layout import CONFIG
+    from omnislam.harness.rundir import write_run_dir
 
     check_estimator(args.estimator)
     out = Path(args.out)

@@ -2,7 +2,7 @@
 
 Writes ``FILE.rrd`` (default ``RUN_DIR/run.rrd``) with the trajectory against the ground
 truth, the landmarks with their covariance ellipsoids, the sightings over time and, for image
-datasets, every image with its keypoints (``omnislam.compare.view``). ``--spawn`` then opens it
+datasets, every image with its keypoints (``omnislam.report.view``). ``--spawn`` then opens it
 in the Rerun viewer (``rerun FILE.rrd``). Open it later with ``rerun FILE.rrd``. Needs the
 ``view`` extra: ``pip install 'omnislam[view]'``.
 """
@@ -45,9 +45,9 @@ def run(args: argparse.Namespace) -> int:
     from omnislam._files import check_output_location, check_overwrite
     from omnislam._optional import require
     from omnislam._progress import Progress
-    from omnislam.compare.rundir import CONFIG
-    from omnislam.compare.view import ViewOptions, write_recording
     from omnislam.errors import ConfigError, DataError
+    from omnislam.harness.layout import CONFIG
+    from omnislam.report.view import ViewOptions, write_recording
 
     run_dir = Path(args.run_dir)
     if not (run_dir / CONFIG).is_file():

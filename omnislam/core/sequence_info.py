@@ -1,8 +1,8 @@
 """What an estimator may know about a run before it sees the frames (``SequenceInfo``).
 
 Every estimator factory takes one (``omnislam.estimators.EstimatorFactory``): the harness builds
-it from the loaded sequence and the frames as fed (``harness`` / ``compare.execute
-.sequence_info``), and the registry fills in the modality it resolved.
+it from the loaded sequence and the frames as fed (``harness.frames.sequence_info``), and the
+registry fills in the modality it resolved.
 """
 
 from __future__ import annotations

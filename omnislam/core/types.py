@@ -291,7 +291,7 @@ class Estimate:
 
 @runtime_checkable
 class Estimator(Protocol):
-    """The one protocol every back end implements; ``compare`` calls nothing else."""
+    """The one protocol every back end implements; the harness calls nothing else."""
 
     name: str
 

@@ -19,7 +19,7 @@ sightings with data association solved. One line per factor (format of gtsam's
 Poses and landmarks share one id space. Frames are the poses in chain order; the file has no
 time stamps, so frame k gets the nominal stamp k [s]. There is no ground truth, and loaders never
 estimate: the Sequence's ground truth is NONE, and ``omnislam run`` scores against the reference
-solution ``omnislam.compare.reference`` computes and caches (the warm-started LM optimum of this
+solution ``omnislam.harness.reference`` computes and caches (the warm-started LM optimum of this
 file's graph, ``GroundTruthKind.REFERENCE``).
 """
 
@@ -215,7 +215,7 @@ def load_gtsam_victoria(
         sigma_range_m, sigma_bearing_rad: sighting noise given to the estimators instead of the
             file's (``--set sigma_range_m=... --set sigma_bearing_rad=...``, as for the raw
             ``victoria-park``); None keeps the file's, gtsam's ``load2D`` conversion. The
-            reference (``compare.reference``) is always the optimum with the file's noise.
+            reference (``harness.reference``) is always the optimum with the file's noise.
         odometry_sigma_theta_rad: heading std of every odometry step given to the estimators
             instead of the file's [rad] (the translation sigmas stay the file's); None keeps it.
 
@@ -278,7 +278,7 @@ def load_gtsam_victoria(
         ground_truth=GroundTruth(
             kind=GroundTruthKind.NONE,
             note="no ground truth; runs are scored against the warm-started LM optimum "
-            "(omnislam.compare.reference)",
+            "(omnislam.harness.reference)",
         ),
         range_bearing=range_bearing,
         odometry_covariance_r=np.concatenate(

@@ -32,7 +32,7 @@ def warm_started_lm(
     """LM on every factor of an incremental estimator, started from its iSAM2 solution.
 
     The one implementation of "the warm-started LM optimum" (``BatchGraphSLAM.estimate``, the
-    reference solution of gtsam's victoria_park.txt in ``omnislam.compare.reference``, and
+    reference solution of gtsam's victoria_park.txt in ``omnislam.harness.reference``, and
     ``benchmarks/graphslam_victoria.py``).
 
     Args:

@@ -454,7 +454,7 @@ class BatchConfig:
         relative_error_tol: relative decrease of the graph error below which the final solve
             stops (default 1e-6, Ceres's ``function_tolerance``): tighter ran on for seconds
             of CPU changing the estimate by hundredths of a millimetre, GTSAM's 1e-5 stopped
-            early. The reference optimum of ``compare.reference`` keeps its own 1e-10.
+            early. The reference optimum of ``harness.reference`` keeps its own 1e-10.
     """
 
     max_iterations: int = 100

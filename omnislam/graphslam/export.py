@@ -47,7 +47,7 @@ from omnislam._optional import require
 
 gtsam = require("gtsam")
 
-#: the RUN_DIR file name of the export (``compare.rundir.GRAPH_G2O``)
+#: the RUN_DIR file name of the export (``harness.layout.GRAPH_G2O``)
 G2O_ATTACHMENT = "graph.g2o"
 
 #: g2o's (tx, ty, tz, rx, ry, rz) in gtsam's Pose3 tangent order (rx, ry, rz, tx, ty, tz)

@@ -9,17 +9,14 @@ from __future__ import annotations
 
 import gzip
 import shutil
-import sys
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
+from room_log import write_room_log
 
 from omnislam.cli import main
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "compare"))
-from room_log import write_room_log
 
 # ---- generated fixtures ------------------------------------------------------------------------
 

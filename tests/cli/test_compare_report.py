@@ -4,15 +4,12 @@ from __future__ import annotations
 
 import json
 import re
-import sys
 from pathlib import Path
 
 import pytest
+from room_log import write_room_log
 
 from omnislam.cli import COMMANDS, main
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "compare"))
-from room_log import write_room_log
 
 
 @pytest.fixture(autouse=True)

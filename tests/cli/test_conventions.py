@@ -14,17 +14,15 @@ from pathlib import Path
 
 import pytest
 import yaml
+from room_log import write_room_log
+from small_mrclam import write_small_mrclam
 
 import omnislam
 from omnislam.cli import COMMANDS, build_parser, main
-from omnislam.compare.evaluation import EvaluationOptions
-from omnislam.compare.grid import _TOP_KEYS, EVALUATION_COMMENTS, grid_template, parse_grid
 from omnislam.estimators import ESTIMATORS, estimator_defaults
+from omnislam.harness.evaluation import EvaluationOptions
+from omnislam.harness.grid import _TOP_KEYS, EVALUATION_COMMENTS, grid_template, parse_grid
 from omnislam.options import apply_options, describe_options
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "compare"))
-from room_log import write_room_log
-from small_mrclam import write_small_mrclam
 
 REPO = Path(__file__).resolve().parents[2]
 

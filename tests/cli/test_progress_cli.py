@@ -11,12 +11,10 @@ import sys
 from pathlib import Path
 
 import pytest
-
-from omnislam.compare import channel
-from omnislam.compare.channel import ProgressChannel
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "compare"))
 from small_mrclam import write_small_mrclam
+
+from omnislam.harness import channel
+from omnislam.harness.channel import ProgressChannel
 
 REPO = Path(__file__).resolve().parents[2]
 CONTROL = re.compile(r"[\r\x1b]")

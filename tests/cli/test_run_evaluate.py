@@ -8,10 +8,10 @@ import pytest
 import yaml
 
 from omnislam.cli import main
-from omnislam.compare.metrics import Alignment
-from omnislam.compare.run_metrics import read_run_metrics
-from omnislam.compare.rundir import read_run_dir
 from omnislam.datasets.registry import REGISTRY
+from omnislam.harness.rundir import read_run_dir
+from omnislam.metrics.run_metrics import read_run_metrics
+from omnislam.metrics.trajectory import Alignment
 
 #: dead-reckoning ATE (SE(2) aligned) measured when the loaders were written: a regression guard
 DEAD_RECKONING_ATE_M = {

@@ -5,7 +5,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from omnislam.compare.metrics import Alignment, ate
 from omnislam.core.ackermann import (
     AckermannGeometry,
     integrate_ackermann,
@@ -17,6 +16,7 @@ from omnislam.core.types import UNKNOWN_ID, Trajectory
 from omnislam.datasets.sequence import GroundTruthKind
 from omnislam.datasets.victoria_park import load_victoria_park
 from omnislam.errors import DataError
+from omnislam.metrics.trajectory import Alignment, ate
 
 DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 PARK = DATA / "victoria_park"

@@ -237,8 +237,8 @@ def test_only_the_estimators_that_model_the_floor_are_fed_its_tracks(
 ):
     """``omnislam run --log``: the graph takes the floor tracks, FastSLAM 2.0 and EKF-SLAM the
     landmark tracks alone (``EstimatorEntry.floor_tracks``)."""
-    from omnislam.compare.execute import RunSpec, execute_run
     from omnislam.frontend.observation_log import save_observation_log
+    from omnislam.harness.execute import RunSpec, execute_run
 
     floor = demo_logs[1]
     path = tmp_path / "floor.npz"

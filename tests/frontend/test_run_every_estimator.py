@@ -13,9 +13,9 @@ import pytest
 import yaml
 
 from omnislam.cli import main
-from omnislam.compare.rundir import CONFIG, ESTIMATOR_INFO, GRAPH_G2O
 from omnislam.core.modality import PRIORITY, Modality
 from omnislam.estimators import ESTIMATORS
+from omnislam.harness.layout import CONFIG, ESTIMATOR_INFO, GRAPH_G2O
 
 pytestmark = pytest.mark.slow
 
@@ -53,7 +53,7 @@ def test_graphslam_exports_a_graph_gtsam_reads(runs):
     out, _ = runs
     path = out / "graphslam" / GRAPH_G2O
     assert path.is_file()
-    from omnislam.compare.rundir import read_run_dir
+    from omnislam.harness.rundir import read_run_dir
 
     record = read_run_dir(out / "graphslam")
     graph, values = gtsam.readG2o(str(path), True)

@@ -165,7 +165,7 @@ def test_an_empty_graph_is_an_empty_file():
 
 
 def test_the_attachment_is_the_run_dir_s_graph_g2o(rng):
-    from omnislam.compare.rundir import GRAPH_G2O
+    from omnislam.harness.layout import GRAPH_G2O
 
     assert G2O_ATTACHMENT == GRAPH_G2O
     scenario = simulate_planar(rng, n=10, laps=0.1)
@@ -200,8 +200,8 @@ def test_gtsam_s_2d_reader_loses_the_factors_after_a_line_it_does_not_know(tmp_p
 def test_run_dir_graph_g2o_reads_back_with_gtsam(tmp_path, estimator):
     """``omnislam run mrclam6-r1 --estimator E --out R``: R/graph.g2o through gtsam.readG2o."""
     from omnislam.cli import main
-    from omnislam.compare.rundir import read_run_dir
     from omnislam.datasets.registry import REGISTRY, load_dataset
+    from omnislam.harness.rundir import read_run_dir
 
     if not REGISTRY["mrclam6-r1"].found():
         pytest.skip(f"mrclam6-r1 not found at {REGISTRY['mrclam6-r1'].location()}")

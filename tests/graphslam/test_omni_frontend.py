@@ -12,7 +12,7 @@ import pytest
 
 pytest.importorskip("cv2")
 
-from omnislam.compare.metrics import Alignment, ate
+from omnislam.metrics.trajectory import Alignment, ate
 
 #: images rendered per seed (the first part of the demo loop)
 IMAGES = 24

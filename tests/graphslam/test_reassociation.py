@@ -172,8 +172,8 @@ DATASET6 = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "mrc
 @pytest.mark.skipif(not (DATASET6 / "MRCLAM_Dataset6").is_dir(), reason="no MR.CLAM data")
 def test_mrclam_robot1_without_ids_gains_and_with_ids_nothing_moves(monkeypatch):
     """Robot 1 without ids: the batch optimum 0.095 m, re-associated 0.084 m (with ids: 0.061 m)."""
-    from omnislam.compare.evaluation import evaluate_run
-    from omnislam.compare.execute import RunSpec, execute_run
+    from omnislam.harness.evaluation import evaluate_run
+    from omnislam.harness.execute import RunSpec, execute_run
 
     monkeypatch.setenv("OMNISLAM_DATA", str(DATASET6.parent))
 

@@ -7,13 +7,13 @@ import dataclasses
 import numpy as np
 import pytest
 
-from omnislam.compare.metrics import translational_drift
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
 from omnislam.core.se import se2_integrate
 from omnislam.core.types import Trajectory
 from omnislam.datasets.synthetic.presets import PRESETS
 from omnislam.datasets.synthetic.routes import NO_BIAS, OdometryBias, measured_odometry
 from omnislam.datasets.synthetic.simulate import drive, simulate
+from omnislam.metrics.trajectory import translational_drift
 
 #: alpha noise switched off (the floor keeps a valid model; 1e-12 m is invisible here)
 NOISELESS = MotionNoise(0.0, 0.0, 0.0, 0.0, (1e-12, 1e-12, 1e-12))

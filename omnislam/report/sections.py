@@ -1,0 +1,211 @@
+"""The report's sections, built once from its runs (``model.Section``), in report order.
+
+1. the title;
+2. the verdict: per dataset the best estimator by median ATE RMSE over seeds, dead reckoning
+   excluded, its margin over the runner-up and whether that is within the seed spread
+   (``metrics.verdict``), then how to read every number;
+3. the headline: ATE RMSE per dataset and estimator;
+4. per dataset: its ground truth, its metrics per estimator beside the dead-reckoning baseline,
+   the association decisions each run counted, the runs that failed, its figures (``figures``);
+5. what the report left out (figures, exports) and the notes of what could not be made;
+6. the estimators of this installation and which are in the report;
+7. the provenance block (``provenance``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+from omnislam.errors import ConfigError
+from omnislam.report.figures import dataset_figures
+from omnislam.report.metric_tables import (
+    association_table,
+    dataset_verdicts,
+    headline_table,
+    metrics_table,
+    verdict_table,
+)
+from omnislam.report.model import Section
+from omnislam.report.options import ReportOptions
+from omnislam.report.provenance import UNKNOWN
+from omnislam.report.results import ReportCell, gt_label
+from omnislam.report.tables import make_table
+
+#: how the verdict ranks, under its table
+VERDICT_RULE = (
+    "Best: the lowest median ATE RMSE over seeds; dead reckoning is the baseline and is "
+    "not ranked. The margin is the runner-up's median minus the best's (in % of the "
+    "runner-up's). A margin is within the seed spread when the two estimators' min–max "
+    "ranges over seeds overlap; medians less than 1 µm apart are a tie."
+)
+#: what every metric of the tables means, under the verdict
+METRICS_MEANING = (
+    "ATE: position RMSE after SE(2) alignment to the ground truth (Sturm et al. 2012); "
+    "drift: the same with only the first pose anchored. RPE: segments of the stated length "
+    "of ground-truth travel, SE(2) errors for planar runs. Landmark error: after the "
+    "trajectory's alignment, matched by id where the data has ids, else by optimal "
+    "assignment within a gate. NEES: pose error against the estimator's own covariance "
+    "(3 when consistent; '–' when the estimator has no covariance). Values are mean ± "
+    "standard deviation over seeds. Every row names the kind of ground truth it is "
+    "measured against; pseudo ground truth (CARMEN) comes from another SLAM system and "
+    "is not independent."
+)
+#: what the association table counts, under it
+ASSOCIATION_MEANING = (
+    "Association decisions as each estimator counts them (estimator_info.json): "
+    "landmarks in the final map, landmarks created by the association, sightings "
+    "associated with a landmark, left out as ambiguous, rejected by a gate, "
+    "tentative landmarks dropped, landmarks merged by a loop closure and loop "
+    "closures; '–' where the estimator does not count it."
+)
+#: what a report without figures says instead
+NO_FIGURES = (
+    "Figures: not drawn for this report (omnislam report --no-figures); "
+    "omnislam report RESULTS_DIR --out DIR draws them from the same results."
+)
+#: what the exports are
+EXPORTS = (
+    "Exports: exports/CELL/trajectory.tum and trajectory.kitti for every run, "
+    "landmarks.ply where the run has landmarks, graph.g2o where the estimator "
+    "exported its factor graph."
+)
+#: how to read the provenance block
+PROVENANCE_MEANING = (
+    "Options are the estimator options a run was given (estimator_options in each "
+    "RUN_DIR's config.yaml); 'defaults' means none were set. Path length is that of the "
+    "ground truth, else of dead reckoning."
+)
+
+
+def title_section(title: str) -> Section:
+    """The report's title (a level-1 heading)."""
+    return Section(title, level=1)
+
+
+def verdict_section(cells: Sequence[ReportCell], made: Mapping[str, str]) -> Section:
+    """The verdict of every dataset, how it ranks, what made the report, what the numbers mean.
+
+    Args:
+        cells: every run of the report.
+        made: the provenance block's fields (``provenance.provenance_rows``).
+    """
+    verdicts = dataset_verdicts(cells)
+    commit = made["git commit"]
+    made_with = (
+        f"Made with omnislam {made['omnislam version']} (commit "
+        f"{commit[:12] if commit != UNKNOWN else commit}) on {made['date (UTC)']}; "
+        "see Provenance at the end."
+    )
+    return Section(
+        "Verdict",
+        tables=(verdict_table(verdicts),),
+        paragraphs=(*(v.sentence() for v in verdicts), VERDICT_RULE, made_with, METRICS_MEANING),
+    )
+
+
+def headline_section(cells: Sequence[ReportCell]) -> Section:
+    """ATE RMSE per dataset and estimator, one table."""
+    return Section("ATE RMSE [m] per dataset and estimator", tables=(headline_table(cells),))
+
+
+def dataset_sections(
+    cells: Sequence[ReportCell],
+    colours: Mapping[str, str],
+    options: ReportOptions,
+    notes: list[str],
+) -> list[Section]:
+    """One section per dataset, in the order of the cells (``dataset_section``), telling
+    ``options.on_step`` as each dataset's figures are drawn."""
+    say = options.on_step or _silent
+    datasets = list(dict.fromkeys(c.dataset for c in cells))
+    sections = []
+    for index, dataset in enumerate(datasets):
+        say(f"figures of {dataset}", index, len(datasets))
+        group = [c for c in cells if c.dataset == dataset]
+        sections.append(dataset_section(dataset, group, colours, options, notes))
+    say("figures", len(datasets), len(datasets))
+    return sections
+
+
+def dataset_section(
+    dataset: str,
+    cells: Sequence[ReportCell],
+    colours: Mapping[str, str],
+    options: ReportOptions,
+    notes: list[str],
+) -> Section:
+    """One dataset: its ground truth, its metrics and association tables, the runs that failed
+    and its figures (what could not be drawn is appended to ``notes``)."""
+    note = next((c.metrics.ground_truth.note for c in cells if c.ok and c.metrics is not None), "")
+    association = association_table(dataset, cells)
+    failed = tuple(f"Failed: {c.cell_id}: {c.error}" for c in cells if not c.ok)
+    figures = dataset_figures(dataset, cells, colours, options, notes) if options.figures else []
+    return Section(
+        f"{dataset} — {gt_label(cells)}",
+        lead=(f"Ground truth: {note}",) if note else (),
+        tables=(metrics_table(dataset, cells), *([association] if association else [])),
+        paragraphs=((ASSOCIATION_MEANING,) if association else ()) + failed,
+        figures=tuple(figures),
+    )
+
+
+def left_out_section(options: ReportOptions) -> Section:
+    """What the report did not draw (figures) or wrote beside it (exports); no heading."""
+    paragraphs = ((NO_FIGURES,) if not options.figures else ()) + (
+        (EXPORTS,) if options.exports else ()
+    )
+    return Section(None, paragraphs=paragraphs)
+
+
+def notes_sections(notes: Sequence[str]) -> list[Section]:
+    """The Notes: what could not be drawn or written, and why (none: no section)."""
+    return [Section("Notes", notes=tuple(notes))] if notes else []
+
+
+def estimators_section(cells: Sequence[ReportCell]) -> Section:
+    """Every estimator of omnislam, whether this installation has it and whether it ran here."""
+    ran = {c.estimator for c in cells}
+    return Section(
+        "Estimators",
+        tables=(
+            make_table(
+                "estimators",
+                "Estimators of omnislam and whether they are in this report",
+                ["estimator", "status", "in this report"],
+                [
+                    [name, status, "yes" if name in ran else "no"]
+                    for name, status in _estimator_availability()
+                ],
+            ),
+        ),
+    )
+
+
+def provenance_section(made: Sequence[tuple[str, str]]) -> Section:
+    """How the report was made (``provenance.provenance_rows``)."""
+    return Section(
+        "Provenance",
+        tables=(
+            make_table("provenance", "How this report was made", ["what", "value"],
+                       [[k, v] for k, v in made]),
+        ),
+        paragraphs=(PROVENANCE_MEANING,),
+    )
+
+
+def _estimator_availability() -> list[tuple[str, str]]:
+    from omnislam.estimators import ESTIMATORS, estimator_factory
+
+    out = []
+    for name in ESTIMATORS:
+        try:
+            estimator_factory(name)
+            out.append((name, "available"))
+        except (ConfigError, ImportError) as exc:
+            reason = "not available yet" if "not available yet" in str(exc) else str(exc)
+            out.append((name, reason))
+    return out
+
+
+def _silent(stage: str, done: int, total: int) -> None:
+    """The ``on_step`` of a report nobody watches."""
