@@ -51,8 +51,8 @@ class EKFSLAMConfig:
             later, with its pose 0.8 m / 25 deg uncertain: without them in the map, their
             sightings paired with landmarks 14 and 15, 2 m away (ATE 2.13 m; 0.18 m with ids).
             12 m: MR.CLAM robot 1 without ids 0.18 m, robot 5 0.11 -> 0.18 m; carmen-aces,
-            carmen-intel and Victoria Park within noise (docs/results.md, "EKF-SLAM on
-            MR.CLAM without ids"); 2-5 m throws carmen-aces (0.98 m per frame) from 1.62 to
+            carmen-intel and Victoria Park within noise (docs/results/ekfslam.md,
+            "MR.CLAM without ids"); 2-5 m throws carmen-aces (0.98 m per frame) from 1.62 to
             3.9 m, no limit throws carmen-intel from 0.26 to 0.65 m.
         known_gate_probability: the outlier gate for sightings *with* ids: an update whose
             innovation lies outside the chi-square quantile of this probability (2 dof, under
@@ -87,7 +87,7 @@ class EKFSLAMConfig:
             1.62, 4.31 -> 1.61, 4.30 -> 3.50 m). At 20 MR.CLAM 6 without ids (robots 1-5; also at
             40), carmen-intel (also at 5-50), Victoria Park and corridor21 stay within 3 mm; at 10
             MR.CLAM robot 5 goes from 0.11 to 0.18 m, and with every pairing held to it (1) robot 2
-            from 0.49 to 0.75 m (docs/results.md, "CARMEN aces, fourth attempt"). inf: off.
+            from 0.49 to 0.75 m (docs/results/ekfslam.md, "CARMEN aces"). inf: off.
         loop_sigma_ratio: with "joint", a pairing of unknown id whose innovation covariance
             S is wider than the sighting's noise R by more than this factor (largest std of
             R^-1/2 S R^-1/2) is a loop closure: a landmark the robot is no longer tied to.
@@ -100,7 +100,7 @@ class EKFSLAMConfig:
             from 4.20 to 1.40 m on one front-end log (4.19 -> 4.27 m on another: the ICP's
             realisation decides) but MR.CLAM robot 1 without ids from 2.13 to 2.89 m (robots 2,
             3, 5 unchanged, robot 4 0.29 -> 0.26 m; Victoria Park unchanged at a ratio of 10;
-            docs/results.md): off by default.
+            docs/results/ekfslam.md): off by default.
         displaced_sigma_ratio: with "joint", a pairing of unknown id whose innovation is wider
             than the sighting's noise by more than this factor (``innovation_widening``) is
             dropped as ambiguous when its sighting is individually nearer (smaller D2) to a
@@ -139,7 +139,7 @@ class EKFSLAMConfig:
             more admissions): with 40 lab40's state grew from 619 to 1197 landmarks and the
             replay to 16.5 s (< 20x real time); 30 gives 8.2 s and ATE / landmark RMSE 3.08 /
             17.7 cm against 3.26 / 18.8 (demo 2.96 / 6.4 against 2.71 / 9.1 cm, loop150 21.6 /
-            41.1 against 23.5 / 42.8 cm; docs/results.md, session 7).
+            41.1 against 23.5 / 42.8 cm; docs/results/ekfslam.md, "Omni bearings").
     """
 
     motion_noise: MotionNoise = field(default_factory=MotionNoise)

@@ -156,8 +156,8 @@ class TrajectoryMode(Enum):
         over seeds 0-9 / 0-29 fastslam1 1.93 / 2.00 -> 1.42 / 1.78 m, fastslam2 1.81 / 1.81
         -> 1.77 / 1.77 m; corridor21, demo, intel, MR.CLAM and loop150 unchanged within the
         seeds' spread, pose NEES worse (the smoothed weights sit on few particles). Not the
-        default: it does not bring FastSLAM to 0.3x dead reckoning on aces (docs/results.md,
-        "CARMEN aces, sixth attempt").
+        default: it does not bring FastSLAM to 0.3x dead reckoning on aces
+        (docs/results/fastslam.md, "What was tried and did not work").
     """
 
     WEIGHTED_MEAN = "weighted_mean"
@@ -222,7 +222,7 @@ class FastSLAMConfig:
             ATE over seeds 0-2 falls from 9.44 to 2.58 m, but on MR.CLAM 6 with ids (2 cm
             steps, longer ones across sighting gaps) from 0.203 to 0.233 m and fastslam1's r1
             from 0.30 to 0.52 m: worse beyond the seed spread, so it is not the default
-            (docs/results.md, "Victoria Park: FastSLAM against GPS").
+            (docs/results/fastslam.md, "Victoria Park: drift between revisits").
         stated_odometry_noise: where a frame's odometry states its covariance
             (``Odometry.covariance``: the front end's laser odometry, MR.CLAM, CARMEN logs with
             ``odometry_noise``, gtsam's victoria_park.txt), whether poses are sampled from it
@@ -265,8 +265,8 @@ class FastSLAMConfig:
             sampled odometry noise, K filters average K draws; not the posterior's combination
             (which would weigh the islands by their evidence: measured to pick one island).
             Set ``n_particles`` to K times the particles of one filter. 1 (default): one filter.
-            Measured with full-size islands (each the default filter; docs/results.md, CARMEN
-            aces, session 18): carmen-aces median ATE over seeds 0-9 fastslam1 1.93 -> 1.41 /
+            Measured with full-size islands (each the default filter; docs/results/fastslam.md,
+            "CARMEN aces"): carmen-aces median ATE over seeds 0-9 fastslam1 1.93 -> 1.41 /
             1.12 m at K = 3 / 5, fastslam2 1.81 -> 1.31 / 1.19 m; intel and loop150 gain,
             MR.CLAM with ids within its seed spread, lab40's paths better and maps worse; K
             times the CPU, hence not the default.
@@ -297,7 +297,7 @@ class FastSLAMConfig:
             frame's sightings in 262 of 7230 frames) it takes fastslam2's median ATE over seeds
             0-2 from 9.44 to 4.93 m, but on MR.CLAM 6 without ids (seed 0) it is worse on four
             of five robots with more landmarks on all, and CARMEN was not measured
-            (docs/results.md, "Victoria Park: FastSLAM against GPS").
+            (docs/results/fastslam.md, "Victoria Park: drift between revisits").
         resighting_spread: sightings of unknown association are compared with each landmark
             under an innovation covariance that also holds the odometry's pose covariance
             accumulated since that landmark was last seen, times this factor
@@ -313,7 +313,7 @@ class FastSLAMConfig:
             1.63-1.82 m to 2.9-14.8 m, carmen-intel from 0.24-1.08 m to 5.7-11.1 m and Victoria
             Park from 8.9-10.7 m to 91-111 m (at 1: aces 3.3-9.2 m, intel 3.4-6.2 m): the
             composed spread makes neighbouring laser landmarks compatible, so it is not the
-            default (docs/results.md, "FastSLAM without ids on MR.CLAM").
+            default (docs/results/fastslam.md, "MR.CLAM without ids").
         association_pose_spread: sightings of unknown association are compared with each
             landmark under an innovation covariance that also holds this factor times the
             filter's pose covariance relative to its maps (``pose_spread.PoseSpread``: predicted
@@ -325,7 +325,7 @@ class FastSLAMConfig:
             / 0.709 / 0.235 / 0.327 m (16-38 landmarks; robot 4 within 1.5x of its ATE with
             ids, 16 landmarks), but carmen-aces' median goes from 1.805 to 2.015 m,
             carmen-intel's from 0.627 to 1.021 m and Victoria Park (seed 0) from 8.85 to 26.8
-            m, so it is not the default (docs/results.md, "FastSLAM without ids on MR.CLAM").
+            m, so it is not the default (docs/results/fastslam.md, "MR.CLAM without ids").
         association_gate_probability: 1.0 (default): a sighting of unknown association starts
             a new landmark when its likeliest landmark's log-likelihood is below
             ``new_landmark_log_likelihood`` (Montemerlo 2003 sec. 3.4.1). Below 1: when no
@@ -348,7 +348,7 @@ class FastSLAMConfig:
             are never tentative. 1 (default): every landmark counts from its first
             re-sighting. Measured on carmen-aces (one front-end log, seeds 0-9, median ATE
             fastslam1 / fastslam2): 1.93 / 1.81 m at 1, 1.96 / 2.37 m at 2, fastslam2 1.86 m
-            at 3 -- no gain, so it stays off (docs/results.md, "CARMEN aces, fifth attempt").
+            at 3 -- no gain, so it stays off (docs/results/fastslam.md, "CARMEN aces").
         bearing_gate_probability: 3-D only: a bearing innovation whose squared Mahalanobis
             distance exceeds the chi-square quantile of this probability (degrees of freedom = the
             measurement's dimension) is an outlier -- a feature track that jumped to another

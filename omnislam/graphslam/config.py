@@ -83,7 +83,7 @@ DEFAULT_ROBUST_THRESHOLD: dict[RobustKernel, float] = {
 }
 #: Huber threshold of ``RobustKernel.AUTO`` on the omni bearings [whitened residual]: 3 sigmas
 #: keep a calibrated bearing (chi-square 2 dof: 98.9 % of them) fully weighted; 1.345 cost
-#: lab40 accuracy (seed 0 ATE 0.24 -> 0.42 cm against 0.38 cm at 3; docs/results.md)
+#: lab40 accuracy (seed 0 ATE 0.24 -> 0.42 cm against 0.38 cm at 3; docs/results/graph.md)
 BEARING_HUBER_THRESHOLD = 3.0
 
 
@@ -124,7 +124,7 @@ class GraphSLAMConfig:
         budget_grace_images: omni bearings: an admitted track that has not entered the graph
             this many images after its admission (far, it does not triangulate) stops counting
             against ``landmarks_per_image`` (``core.track_budget``; default None: every
-            admitted track counts). Measured at 10 (docs/results.md, "The landmark budget
+            admitted track counts). Measured at 10 (docs/results/graph.md, "The landmark budget
             outdoors"): campus1500 seed 0 ATE 39.3 -> 20.2 m (1278 -> 10 303 landmarks); lab40
             seeds 0-1 unchanged, seed 2 1.6 -> 2.8 mm; not the default.
         odometry_min_sigma_m: floor of the std of every odometry factor's translation given its
@@ -206,7 +206,7 @@ class GraphSLAMConfig:
             0.52 / 0.39 cm). Without the front end's floor tracks (a log with ``floor.enabled``
             off: the landmark tracks' few hundred floor points) the viewpoints pay for
             themselves: False gave lab40 seeds 1 / 2 ATE 0.36 / 0.29 cm against 0.25 / 0.16 cm
-            (docs/results.md, "The joint floor solve's viewpoints").
+            (docs/results/graph.md, "The joint floor solve's viewpoints").
         known_odometry_scale: the wheel odometry's translation scale when it is known (a
             calibrated wheel radius): each translation is multiplied by it from the first frame
             and the floor points are not used (None: ``floor_scale`` decides). With the truth's
@@ -302,8 +302,8 @@ class GraphSLAMConfig:
             the root, so its walk to the root is recomputed each frame it stays a candidate.
             Re-eliminated, it moves into the top of the tree, read there on the next frames.
             The same linear system in another order: on Victoria Park the same decisions and
-            ATE, 14 % less CPU over the run, 2x over its first half (docs/results.md, "The
-            association's joint marginal on Victoria Park").
+            ATE, 14 % less CPU over the run, 2x over its first half (docs/results/association.md,
+            "The cost of the association on Victoria Park").
         loop_closure: merge landmarks started by the association that duplicate older ones
             (``loop_closure.LandmarkMerger``: the local map of recently seen created landmarks
             matched against the older ones by joint compatibility of their iSAM2 estimates,
@@ -311,7 +311,7 @@ class GraphSLAMConfig:
             part. Default False: on MR.CLAM with the ids hidden 2 of the 4 merges it made were
             wrong by the hidden ids (3-sighting landmarks joined to a neighbour 0.18 m away),
             r1 went from 1.60 to 1.46 m and the others did not move, and on Victoria Park it
-            cost 64 % more CPU for the same ATE (docs/results.md).
+            cost 64 % more CPU for the same ATE (docs/results/association.md).
         loop_closure_every_frames: the local map is matched every this many frames with
             unlabelled sightings (default 10).
         loop_closure_window_frames: the local map holds the created landmarks seen within this

@@ -135,7 +135,7 @@ class UKFConfig:
             frame of MR.CLAM holds one or two sightings, so the paper's d_it kept 124 of 1534
             of robot 1's sightings and left the pose to the commanded odometry between them
             (median ATE with ids 0.15-0.29 m over robots 1-5, every sighting 0.07-0.13 m;
-            ``benchmarks/ukf_mrclam.py``, docs/results.md). ``d_it_m`` stays the paper's for
+            ``benchmarks/ukf_mrclam.py``, docs/results/ukf.md). ``d_it_m`` stays the paper's for
             images.
         d_it_tolerance: a frame is processed once the travel reaches (1 - tolerance) d_it (ours:
             images arrive at discrete places; without it an image spacing just under d_it
