@@ -3,7 +3,8 @@
 #   make test   runs ruff and the unit tests
 # Both create .venv and install what is needed first (system libraries too, when root on Debian).
 #   make suite  every estimator on every dataset (benchmarks/grids/suite.yaml): results in
-#               runs/suite (not committed), the report in reports/suite, the README's table
+#               runs/suite (not committed), the report in reports/suite, the results table of
+#               the README and of docs/results/index.md
 
 PYTHON ?= python3
 VENV   := .venv
@@ -73,6 +74,8 @@ suite: kernels
 	$(BIN)/omnislam report $(SUITE_RESULTS) --out $(SUITE_REPORT) --no-exports --no-figures \
 	  --overwrite \
 	  && $(BIN)/python benchmarks/suite_table.py --report $(SUITE_REPORT) --readme README.md \
+	  && $(BIN)/python benchmarks/suite_table.py --report $(SUITE_REPORT) \
+	       --readme docs/results/index.md \
 	  || exit $$?; \
 	size=$$(du -sb $(SUITE_REPORT) | cut -f1); \
 	if [ $$size -gt $(SUITE_MAX_BYTES) ]; then \

@@ -12,7 +12,8 @@ substantial one). Used to tell whether a front-end configuration keeps enough fl
 the logged translations, and the true step directions with the logged magnitudes, each against
 its own true scale (1 for the truth, else the run's distance ratio true / logged), and the
 logged / true distance ratio over the floor pairs (first and latest sighting >= 35 deg below the
-horizon): where the floor scale's error comes from (docs/results.md, session 7).
+horizon): where the floor scale's error comes from (docs/results/graph.md, "The
+odometry's scale from the floor").
 """
 
 from __future__ import annotations

@@ -10,8 +10,8 @@ keep the solution's value).
 Printed: the graph error (0.5 x the sum of squared whitened residuals) at the solution, at the
 truth and after LM from the truth, and the key frames' ATE (SE(2)-aligned) of both solutions.
 If LM from the truth comes back to the solution's error and ATE, the optimiser found the
-graph's optimum and what remains is the data's (issue 15's loop150: docs/results.md, "Session
-24: floor tracks by default")::
+graph's optimum and what remains is the data's (loop150: docs/results/graph.md, "What limits
+loop150")::
 
     PYTHONPATH=. OMNISLAM_DATA=../shared/data .venv/bin/python benchmarks/graph_truth_start.py
         --dataset loop150 runs/loop150 [LOG] [--set KEY=VALUE ...]

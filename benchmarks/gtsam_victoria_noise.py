@@ -1,7 +1,7 @@
 """The stated noise of gtsam's victoria_park.txt against its residuals at the LM optimum (issue 16).
 
 Why does association without ids fail on ``victoria-park-gtsam`` when it works on the raw
-Victoria Park log? This prints the measurements behind the answer in docs/results.md:
+Victoria Park log? This prints the measurements behind the answer in docs/results/association.md:
 
 * the residuals of every factor at the warm-started LM optimum with ids
   (``omnislam.harness.reference``, the runs' reference): odometry per axis, range, bearing --

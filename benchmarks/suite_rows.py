@@ -17,9 +17,10 @@ suite`` does) and puts their results into the report in place of the old ones:
   inlines re-encoded;
 * a provenance row names the re-run datasets, the commit and the date.
 
-Every other row stays as the full run left it. The README's table is then
-``benchmarks/suite_table.py`` (this script runs it). Nothing is written unless every step
-succeeded: a row or section of a matched dataset missing from either report is an error.
+Every other row stays as the full run left it. The results table of the README and of
+``docs/results/index.md`` is then ``benchmarks/suite_table.py`` (this script runs it for both).
+Nothing is written unless every step succeeded: a row or section of a matched dataset missing
+from either report is an error.
 """
 
 from __future__ import annotations
@@ -291,8 +292,9 @@ def main(argv: list[str] | None = None) -> int:
     for path, text in files.items():
         (args.report / path).write_text(text)
     print(f"spliced {len(files)} files of {args.report}", file=sys.stderr)
-    run([sys.executable, str(REPO / "benchmarks/suite_table.py"), "--report", str(args.report),
-         "--readme", str(REPO / "README.md")])  # fmt: skip
+    for page in ("README.md", "docs/results/index.md"):
+        run([sys.executable, str(REPO / "benchmarks/suite_table.py"), "--report", str(args.report),
+             "--readme", str(REPO / page)])  # fmt: skip
     return 0
 
 

@@ -45,7 +45,7 @@ class EstimatorEntry:
             bearings; the others are fed the landmark tracks alone (``harness.frames``). The
             graph places them on the floor (``graphslam.floor_points``); a filter would take
             them as ordinary landmarks and, on lab40, FastSLAM 2.0's map came out ~3 % small
-            with them (docs/results.md, "The joint floor solve's viewpoints").
+            with them (docs/results/frontend.md, "Floor tracks").
         wheel_odometry: it always steps on the dataset's own odometry, even where the front
             end's log carries laser odometry that replaces it for the others (dead reckoning:
             the baseline the SLAM estimators are compared with).

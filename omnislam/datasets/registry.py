@@ -68,7 +68,7 @@ def _carmen_odometry_noise(text: str) -> object:
 #: (``--set odometry_noise=...``, ``benchmarks/ekfslam_accuracy.py --stated-odometry``) the
 #: wider gates let the unknown association of the laser landmarks go wrong more often: aces
 #: gets worse for graphslam and EKF-SLAM (FastSLAM samples its own motion model and ignores a
-#: stated covariance); docs/results.md, EKF-SLAM.
+#: stated covariance); docs/results/ekfslam.md.
 CARMEN_ODOMETRY_NOISE = {
     "carmen-intel": "0.0313,0.0438,0.0028,0.0721,0.0373,0.0024",
     "carmen-aces": "0.0575,0.005,0.0039,0.1308,0.0302,0.0018",

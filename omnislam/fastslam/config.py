@@ -344,7 +344,7 @@ class ExistenceIndexConfig:
 
 @dataclass(frozen=True, slots=True)
 class ExperimentalConfig:
-    """Research switches that were measured and left off (docs/results.md has the numbers).
+    """Research switches that were measured and left off (docs/results/fastslam.md has the numbers).
 
     Attributes:
         trajectory: which trajectory ``estimate()`` reports (``TrajectoryMode``). Default

@@ -37,7 +37,7 @@ class FirstOctave(enum.Enum):
     pyramid of a SIFT of sigma / 2, which OpenCV's descriptor already uses for ``NATIVE``):
     on lab40 a quarter less SIFT CPU than ``NATIVE`` but fewer verified sightings and a
     less accurate graph (landmark RMSE 5.6 instead of 4.8 cm, ATE 2.3 instead of 1.0 cm;
-    docs/results.md, "A halved scale space"), so not the default.
+    docs/results/frontend.md, "What was tried and did not work"), so not the default.
     """
 
     DOUBLED = "doubled"  # Lowe 2004, OpenCV's detector
@@ -120,8 +120,8 @@ LOWE = SiftConfig()
 #: image (22.2 instead of 17.2 images/s on 2 quiet cores). Shared out,
 #: not the strongest of the whole ring, because the graph takes the odometry's scale from floor
 #: points, which are low-contrast: the whole ring's strongest kept 383 of 1102 floor keypoints
-#: on 12 lab40 images (1-5 on some), the buckets 668 (docs/results.md, "Front-end speed and
-#: quality").
+#: on 12 lab40 images (1-5 on some), the buckets 668 (docs/results/frontend.md, "The
+#: keypoint budget").
 OMNI_THESIS = SiftConfig(contrast_threshold=0.02, edge_threshold=2.0,
                          first_octave=FirstOctave.NATIVE, features_per_kpx=1.2)
 SIFT_PRESETS: dict[str, SiftConfig] = {"lowe": LOWE, "omni-thesis": OMNI_THESIS}
@@ -206,8 +206,8 @@ class VerificationConfig:
             constraint cannot see a floor texture that repeats along the direction of travel
             (a tile matched one period on moves within its epipolar plane), the floor's height
             can. On ``loop150``'s tiled corridors 45-60 % of the tracks' sighting pairs were
-            such mismatches, 9-10 % are mismatched with the check (docs/results.md, "Floor tiles
-            matched one period on").
+            such mismatches, 9-10 % are mismatched with the check (docs/results/frontend.md, "The
+            below-floor check").
     """
 
     threshold_rad: float = 0.004
@@ -376,11 +376,11 @@ class LaserLandmarkConfig:
             (seeds 0-9, two front-end logs) FastSLAM 2.0's median ATE goes from 2.16 / 2.52 m
             to 1.62 / 1.95 m, FastSLAM 1.0's from 2.45 / 1.82 m to 1.81 / 2.11 m, the graph's
             from 0.81 / 1.04 to 0.80 / 0.80 m; intel is unchanged within the seeds' spread
-            (docs/results.md). 0: the tutorial's range-proportional noise only.
+            (docs/results/frontend.md). 0: the tutorial's range-proportional noise only.
         line_landmarks: ``corners`` (default: intersections of two lines that both reach
             them, points fixed in the world) or ``feet`` (the tutorial's feet of the
             perpendicular from the odometry origin, which slide along the walls as the odometry
-            drifts); see ``laser_landmarks`` and docs/results.md for both on CARMEN.
+            drifts); see ``laser_landmarks`` and docs/results/frontend.md for both on CARMEN.
         corner_min_angle_deg: two lines closer than this to parallel make no corner.
         corner_max_gap_m: a corner needs a supporting reading of each line within this.
         persistence_radius_m: keep only the sightings the previous scan saw within this
@@ -438,7 +438,7 @@ class LaserOdometryConfig:
         min_range_m: ranges at or below are not used.
         submap_scans: register to the union of this many previous scans (1: the previous scan),
             placed with the laser odometry (3: intel's laser odometry alone 0.70 m against 2.1
-            m with 1; docs/results.md).
+            m with 1; docs/results/frontend.md).
         submap_radius_m: keep the submap's points within this distance of the previous scan
             (None: all).
         submap_voxel_m: thin the submap to one point per cell of this size (0: not thinned).
@@ -526,7 +526,7 @@ class FloorTrackConfig:
     session 24: the floor tracks are a stream of their own (``ObservationLog.floor_ids_from``),
     fed only to the estimators that model the floor (the graphs, which place them on the floor
     plane and take the map's metric scale from them); on the demo the graph's ATE went from
-    1.87 to 0.21 cm with them (docs/results.md, "Floor tracks in the front end").
+    1.87 to 0.21 cm with them (docs/results/frontend.md, "Floor tracks").
 
     Attributes:
         enabled: track floor keypoints (on top of the landmark tracks).

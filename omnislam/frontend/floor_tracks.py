@@ -4,7 +4,7 @@ The landmark tracker (``tracks.py``) finds a keypoint again by its descriptor (L
 and keeps only keypoints of feature groups that are recognised as a whole (thesis 4.1.3, 4.2).
 A tiled floor's corners lie apart, so they form no groups and are dropped (on the demo: with the
 groups and the object rule relaxed to single keypoints, 33 low tracks appear, against 1;
-docs/results.md); and every corner looks like the next, which leaves the ratio test no
+docs/results/frontend.md); and every corner looks like the next, which leaves the ratio test no
 distinct nearest neighbour. Yet the floor is what gives a bearing-only map its metric scale
 (``graphslam.floor_scale``): a point on the floor seen at depression delta from the
 viewpoint's height h lies ``h / tan(delta)`` away.

@@ -30,7 +30,7 @@ both placed through the estimators' odometry (the laser odometry on CARMEN, accu
 scan to the next). On carmen-aces 271 of 680 spikes have no spike of the scan before or after
 within 0.2 m (placed with the corrected poses: seen once, or not a fixed point); the check
 keeps 280 spikes, 2 of them such. With every sighting, every estimator there ended worse than
-its laser odometry alone (docs/results.md).
+its laser odometry alone (docs/results/frontend.md, "The laser front end (CARMEN)").
 
 **Noise** (``sighting_noise``): the tutorial's 1 % of the range and 1 deg, plus an isotropic
 position std that does not shrink with the range (``LaserLandmarkConfig.sigma_floor_m``, 3 cm):

@@ -358,7 +358,7 @@ class LandmarkTracker:
                 rows = np.flatnonzero(seen)[result.inliers]
                 # frame to frame only: re-recognition's baseline is dead reckoning over an
                 # unknown stretch (checking its recent references too cost lab40 2.6 % of
-                # its true sighting pairs; docs/results.md, "Floor tiles matched one period on")
+                # its true sighting pairs; docs/results/frontend.md, "The below-floor check")
                 if guided and self._floor_check and result.kind is ModelKind.ESSENTIAL:
                     assert result.pose is not None
                     below = beyond_the_floor(

@@ -16,7 +16,7 @@ trade, each handed only to the collaborators of that trade:
 * ``experimental`` (``ExperimentalConfig``): switches that were measured and left off.
 
 The measured facts behind the iSAM2 and insertion defaults are in docs/design.md ("Facts measured
-when the design was fixed") and docs/results.md. Which observation stream the graph is built
+when the design was fixed") and docs/results/graph.md. Which observation stream the graph is built
 from is not configured here: it is the ``core.modality.Modality`` the registry resolves once
 and hands to ``GraphSLAM`` (``--set modality=NAME`` overrides the shared rule).
 """
@@ -500,7 +500,7 @@ class LoopClosureConfig:
 
 @dataclass(frozen=True, slots=True)
 class ExperimentalConfig:
-    """Switches that were measured and left off, each with the reason (docs/results.md holds
+    """Switches that were measured and left off, each with the reason (docs/results/graph.md holds
     the measurements).
 
     Attributes:

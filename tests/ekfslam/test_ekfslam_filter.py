@@ -319,7 +319,7 @@ def test_a_young_landmark_is_gated_wider_than_a_well_observed_one(rng, sigmas, g
 def test_a_loop_closed_by_one_sighting_is_dropped_by_three_kept():
     """With the pose a metre uncertain (S 20x wider than R), one sighting inside an old
     landmark's gate is no evidence (``experimental.loop_min_pairings``: carmen-aces,
-    docs/results.md); three jointly compatible ones are; the default (1) keeps the lone
+    docs/results/ekfslam.md); three jointly compatible ones are; the default (1) keeps the lone
     pairing."""
     from omnislam.core.types import FrameInput, Odometry
 
@@ -387,7 +387,7 @@ def test_agreeing_re_sightings_close_a_loop_the_gate_rejected(seed):
 def test_a_wide_pairing_moved_off_its_sightings_best_landmark_is_dropped():
     """After a gap (the pose a metre uncertain) two sightings of a landmark and of a new
     neighbour 0.17 m beside it: JCBB's most pairings take another pair of landmarks 1.2 m away
-    (MR.CLAM robot 2, frame 194, docs/results.md); ``association.displaced_sigma_ratio`` drops
+    (MR.CLAM robot 2, frame 194, docs/results/ekfslam.md); ``association.displaced_sigma_ratio`` drops
     those pairings, as each sighting is individually nearer a landmark no pairing takes."""
 
     landmarks = np.array([[3.0, 0.0], [3.0, 1.2], [3.0, 1.37]])

@@ -127,7 +127,7 @@ def test_only_sightings_the_previous_scan_saw_there_too_are_kept():
 
 
 def test_the_default_laser_landmarks_are_persistent_corners_and_spikes():
-    """The defaults (docs/results.md, CARMEN): corners rather than the tutorial's feet, and
+    """The defaults (docs/results/frontend.md, CARMEN): corners rather than the tutorial's feet, and
     only sightings the previous scan saw there too."""
     config = LaserLandmarkConfig()
     assert config.line_landmarks is LineLandmarks.CORNERS
