@@ -7,12 +7,12 @@ the other frames carry odometry (and range-bearing sightings) only. Bearings are
 in the robot frame from the camera's viewpoint with the angular sigma of their pixel
 (``CameraModel.angular_sigma``: larger towards the mirror rim, thesis eq. 4.23).
 
-A sequence with a laser and no images gets laser odometry (``scan_matching``: each scan
-registered to the last few by ICP, with a covariance; the wheel odometry where a match is
-rejected) as its frames' odometry (``ObservationLog.odometry_source``, LASER); the laser
-landmarks are placed through it to keep only those the previous scan saw there too
-(``laser_landmarks.persistent_sightings``), and the tutorial's feet of the perpendicular, when
-asked for, are dropped through it.
+A sequence with a laser (``LaserRole.SENSOR``: not one kept for the occupancy grid only) and
+no images gets laser odometry (``scan_matching``: each scan registered to the last few by ICP,
+with a covariance; the wheel odometry where a match is rejected) as its frames' odometry
+(``ObservationLog.odometry_source``, LASER); the laser landmarks are placed through it to keep
+only those the previous scan saw there too (``laser_landmarks.persistent_sightings``), and the
+tutorial's feet of the perpendicular, when asked for, are dropped through it.
 
 Because the whole sequence is processed before any estimator runs, tracks with fewer than
 ``TrackConfig.min_track_length`` sightings (features seen once, unmatched) are dropped from the
@@ -44,6 +44,7 @@ import numpy as np
 
 from omnislam.core.se import se2_integrate
 from omnislam.core.types import Bearings, FrameInput, Odometry, OdometrySource, RangeBearing
+from omnislam.datasets.sequence import LaserRole
 from omnislam.errors import DataError
 from omnislam.frontend import kernels_aot
 from omnislam.frontend.bearing_noise import bearing_sigmas
@@ -476,8 +477,9 @@ def run_frontend(
     images_cpu_s = time.process_time() - cpu_start + max(prepared_cpu_s, children_s)
 
     laser_odom = None
+    sensing = sequence.laser is not None and sequence.laser.role is LaserRole.SENSOR
     if (
-        sequence.laser is not None
+        sensing
         and config.laser_odometry.enabled
         and (config.laser_odometry.with_images or sequence.image_loader is None)
     ):
@@ -491,7 +493,7 @@ def run_frontend(
             )
 
     laser_sightings: dict[int, RangeBearing] = {}
-    if sequence.laser is not None and config.laser.enabled and (
+    if sensing and config.laser.enabled and (
         config.laser.merge_with_sightings or not _has_own_sightings(sequence)
     ):
         from omnislam.frontend.laser_landmarks import extract_laser_landmarks
