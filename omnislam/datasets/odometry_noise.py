@@ -571,7 +571,7 @@ def fit_odometry_noise(
 
     Args:
         sequence: a loaded dataset with a ground-truth trajectory.
-        gt: its ground truth's per-sample noise (``ground_truth_noise``).
+        gt: its ground truth's per-sample noise (e.g. ``second_difference_noise`` of its stream).
         config: the procedure's settings.
 
     Raises:
