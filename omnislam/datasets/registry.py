@@ -17,10 +17,14 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from omnislam.datasets._common import DATA_ENV, Association, data_root
 from omnislam.datasets.sequence import GroundTruthKind, Sequence
 from omnislam.errors import ConfigError, DataError
+
+if TYPE_CHECKING:
+    from omnislam.datasets.synthetic.presets import Preset
 
 
 def _bool(text: str) -> bool:
@@ -398,16 +402,26 @@ def list_datasets() -> list[ListedDataset]:
         from omnislam.datasets.synthetic import PRESETS
     except (ImportError, AttributeError):
         PRESETS = {}
-    for preset in PRESETS:
+    for name, preset in PRESETS.items():
         rows.append(
             ListedDataset(
-                str(preset),
+                str(name),
                 "synthetic preset",
                 "omnislam synthetic omni world",
-                "rendered omni images; true/noisy odometry",
+                _synthetic_sensors(preset),
                 GroundTruthKind.EXACT.value,
                 True,
-                "render with: omnislam dataset synth " + str(preset) + " --out DIR",
+                "render with: omnislam dataset synth " + str(name) + " --out DIR",
             )
         )
     return rows
+
+
+def _synthetic_sensors(preset: Preset) -> str:
+    """What a synthetic preset's folder provides, one line for ``dataset list``."""
+    from omnislam.datasets.synthetic.presets import CameraKind
+
+    if preset.camera is CameraKind.NONE:
+        ids = " without ids" if preset.association is Association.UNKNOWN else ""
+        return f"laser pole sightings{ids}, laser scans, no images; true/noisy odometry"
+    return "rendered omni images; true/noisy odometry"

@@ -70,6 +70,15 @@ class GroundTruth:
         )
 
 
+class LaserRole(enum.Enum):
+    """What a sequence's laser scans are for."""
+
+    SENSOR = "sensor"  # the front end may register them (laser odometry) and extract landmarks
+    # the occupancy grid of reports only, never the estimators: the thesis's lower laser
+    # ("nao influencia de forma alguma no SLAM", Guizilini 2008 sec. 5.1.1)
+    OCCUPANCY = "occupancy"
+
+
 @dataclass(frozen=True, slots=True)
 class LaserScans:
     """Planar laser scans, one row per frame (NaN where a frame has no scan).
@@ -78,11 +87,14 @@ class LaserScans:
         angles_rad: (B,) beam angles in the robot frame, counter-clockwise from the heading.
         ranges_m: (N, B) ranges; values >= max_range_m mean "no return".
         max_range_m: the sensor's maximum range.
+        role: SENSOR (the default) or OCCUPANCY (for the occupancy grid only: the front end
+            neither registers nor extracts landmarks from them).
     """
 
     angles_rad: np.ndarray
     ranges_m: np.ndarray
     max_range_m: float
+    role: LaserRole = LaserRole.SENSOR
 
     def __post_init__(self) -> None:
         angles = _frozen(self.angles_rad, float, (None,), "LaserScans.angles_rad")

@@ -7,12 +7,12 @@ the other frames carry odometry (and range-bearing sightings) only. Bearings are
 in the robot frame from the camera's viewpoint with the angular sigma of their pixel
 (``CameraModel.angular_sigma``: larger towards the mirror rim, thesis eq. 4.23).
 
-A sequence with a laser and no images gets laser odometry (``scan_matching``: each scan
-registered to the last few by ICP, with a covariance; the wheel odometry where a match is
-rejected) as its frames' odometry (``ObservationLog.odometry_source``, LASER); the laser
-landmarks are placed through it to keep only those the previous scan saw there too
-(``laser_landmarks.persistent_sightings``), and the tutorial's feet of the perpendicular, when
-asked for, are dropped through it.
+A sequence with a laser (``LaserRole.SENSOR``: not one kept for the occupancy grid only) and
+no images gets laser odometry (``scan_matching``: each scan registered to the last few by ICP,
+with a covariance; the wheel odometry where a match is rejected) as its frames' odometry
+(``ObservationLog.odometry_source``, LASER); the laser landmarks are placed through it to keep
+only those the previous scan saw there too (``laser_landmarks.persistent_sightings``), and the
+tutorial's feet of the perpendicular, when asked for, are dropped through it.
 
 Because the whole sequence is processed before any estimator runs, tracks with fewer than
 ``TrackConfig.min_track_length`` sightings (features seen once, unmatched) are dropped from the
@@ -44,6 +44,7 @@ import numpy as np
 
 from omnislam.core.se import se2_integrate
 from omnislam.core.types import FrameInput, Odometry, OdometrySource, RangeBearing
+from omnislam.datasets.sequence import LaserRole, Sequence
 from omnislam.errors import DataError
 from omnislam.frontend import kernels_aot
 from omnislam.frontend.config import FrontendConfig, ScheduleConfig, ScheduleMode, config_hash
@@ -109,6 +110,12 @@ def log_key(config: FrontendConfig, max_images: int | None = None, seed: int = D
     if max_images is not None:
         key = f"{key}-first{max_images}"
     return key if seed == DEFAULT_SEED else f"{key}-seed{seed}"
+
+
+def _sensing_laser(sequence: Sequence) -> bool:
+    """The sequence has a laser the front end registers and extracts landmarks from (not one
+    kept for the occupancy grid only, ``LaserRole.OCCUPANCY``)."""
+    return sequence.laser is not None and sequence.laser.role is LaserRole.SENSOR
 
 
 def _has_own_sightings(sequence: Any) -> bool:
@@ -479,7 +486,7 @@ class _FrontendRun:
         """The laser odometry (``scan_matching``) when the sequence has a laser and the
         configuration asks for it (with images only when ``with_images``), else None."""
         sequence, config = self.sequence, self.config.laser_odometry
-        if sequence.laser is None or not config.enabled or not (
+        if not _sensing_laser(sequence) or not config.enabled or not (
             config.with_images or sequence.image_loader is None
         ):
             return None
@@ -496,7 +503,7 @@ class _FrontendRun:
         """Per frame with a scan, its laser landmarks (``laser_landmarks``), when the laser is
         on and the sequence has no sightings of its own or they are to be merged."""
         sequence, config = self.sequence, self.config.laser
-        if sequence.laser is None or not config.enabled or not (
+        if not _sensing_laser(sequence) or not config.enabled or not (
             config.merge_with_sightings or not _has_own_sightings(sequence)
         ):
             return {}

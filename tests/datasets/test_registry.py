@@ -33,6 +33,14 @@ def test_every_real_dataset_is_found_in_the_shared_data():
         assert rows[name].found, rows[name].location
 
 
+def test_the_thesis_presets_are_listed_as_laser_data_without_ids():
+    rows = {row.name: row for row in list_datasets()}
+    for name in ("thesis-route1", "thesis-route2"):
+        assert rows[name].kind == "synthetic preset"
+        assert "without ids" in rows[name].sensors and "no images" in rows[name].sensors
+    assert "omni images" in rows["loop150"].sensors
+
+
 def test_missing_data_names_where_it_looked(tmp_path, monkeypatch):
     monkeypatch.setenv("OMNISLAM_DATA", str(tmp_path / "nowhere"))
     with pytest.raises(

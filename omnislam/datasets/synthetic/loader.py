@@ -7,11 +7,13 @@ the calibration in memory.
 
 from __future__ import annotations
 
+import enum
 import io
 import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
@@ -20,11 +22,19 @@ from omnislam.core.se import se2_from_se3
 from omnislam.core.types import UNKNOWN_ID, PriorMap, RangeBearing
 from omnislam.datasets._common import Association
 from omnislam.datasets._text import Table, check_integers, check_range, check_unique
-from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, LaserScans, Sequence
+from omnislam.datasets.sequence import (
+    GroundTruth,
+    GroundTruthKind,
+    LaserRole,
+    LaserScans,
+    Sequence,
+)
 from omnislam.datasets.synthetic.hit_distances import plane_distances
 from omnislam.datasets.synthetic.world import MAX_COORDINATE_M
 from omnislam.datasets.synthetic.writer import FORMAT_NAME, FORMAT_VERSION, frame_name
 from omnislam.errors import DataError
+
+_E = TypeVar("_E", bound=enum.Enum)
 
 #: plausible odometry step of one frame (10 Hz) [m] and [rad]: the presets' largest, measured
 #: and true, are 0.073 m (campus1500) and 0.067 rad (demo); 10 m and pi leave a margin of over
@@ -322,7 +332,42 @@ def _line_colours(path: Path, landmark_ids: np.ndarray) -> tuple[np.ndarray, np.
     return left, right
 
 
-def _read_laser(path: Path, frames: int) -> LaserScans:
+def _meta_enum(meta: dict[str, object], key: str, default: _E, root: Path) -> _E:
+    """The enum member ``meta[key]`` names (``default`` when absent).
+
+    Raises:
+        DataError: naming ``meta.json``: a value that is no member's.
+    """
+    value = meta.get(key, default.value)
+    try:
+        return type(default)(value)
+    except ValueError:
+        names = ", ".join(str(m.value) for m in type(default))
+        raise DataError(f"{key!r} must be one of {names}, got {value!r}",
+                        root / "meta.json") from None
+
+
+def _pole_range_m(meta: dict[str, object], laser: LaserScans, root: Path) -> float:
+    """Maximum range of the laser that sighted the poles: the pole scanner's (``meta.json``)
+    when the folder has one, else the scans' own.
+
+    Raises:
+        DataError: naming ``meta.json``: a pole scanner without a positive ``max_range_m``.
+    """
+    scanner = meta.get("pole_scanner")
+    if scanner is None:
+        return laser.max_range_m
+    try:
+        value = float(scanner["laser"]["max_range_m"])  # type: ignore[index]
+    except (TypeError, KeyError, ValueError):
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise DataError("pole_scanner.laser.max_range_m must be a positive number",
+                        root / "meta.json")
+    return value
+
+
+def _read_laser(path: Path, frames: int, role: LaserRole = LaserRole.SENSOR) -> LaserScans:
     """``laser.npz`` checked against the folder: one scan per frame, ranges in [0, max]."""
     try:
         with np.load(path, allow_pickle=False) as data:
@@ -350,17 +395,19 @@ def _read_laser(path: Path, frames: int) -> LaserScans:
         raise DataError(
             f"scan {frame}, beam {beam}: range {ranges[frame, beam]} outside "
             f"[0, max_range_m = {max_range:g}] ({int(bad.sum())} such ranges)", path)
-    return LaserScans(angles, ranges, max_range)
+    return LaserScans(angles, ranges, max_range, role)
 
 
-def load_synthetic(path: str | Path, association: Association = Association.KNOWN) -> Sequence:
+def load_synthetic(path: str | Path, association: Association | None = None) -> Sequence:
     """Read a synthetic folder as a Sequence (images on demand, exact ground truth).
 
     Args:
         path: the folder.
         association: KNOWN hands the pole sightings' true ids to the estimators; UNKNOWN
             replaces them by ``UNKNOWN_ID`` (the thesis's experiments, where the filter must
-            associate by itself; evaluation still uses the true map).
+            associate by itself; evaluation still uses the true map). None: the folder's own
+            default (``meta.json``'s ``association``, written by the thesis presets), else
+            KNOWN.
 
     Raises:
         DataError: naming the file: a malformed or inconsistent file, images lost or named
@@ -380,12 +427,15 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
         raise DataError(f"'frames' is {recorded!r}, odometry.csv has {n} rows",
                         root / "meta.json")
     _check_odometry(odometry_table, folder.groundtruth.stamps_s)
-    laser = _read_laser(root / "laser.npz", n)
+    if association is None:
+        association = _meta_enum(folder.meta, "association", Association.KNOWN, root)
+    laser = _read_laser(root / "laser.npz", n,
+                        _meta_enum(folder.meta, "laser_role", LaserRole.SENSOR, root))
     landmarks_table = _read_csv(root / "landmarks.csv", 4)
     _check_landmarks(landmarks_table)
     landmarks = landmarks_table.values
     poles_table = _read_csv(root / "poles.csv", 6)
-    _check_poles(poles_table, n, landmarks[:, 0], laser.max_range_m)
+    _check_poles(poles_table, n, landmarks[:, 0], _pole_range_m(folder.meta, laser, root))
     poles = poles_table.values
     frames = poles[:, 0].astype(np.int64)
     sightings = []
@@ -447,6 +497,8 @@ def load_synthetic(path: str | Path, association: Association = Association.KNOW
             "frames": str(n),
             "images": str(len(images)),
             "backend": str(meta.get("backend")),
+            "association": association.value,
+            "laser": "occupancy grid only" if laser.role is LaserRole.OCCUPANCY else "sensor",
         },
     )
 

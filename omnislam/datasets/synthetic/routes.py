@@ -19,14 +19,17 @@ reckoning drift by percent of the distance travelled.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
-from omnislam.core.se import se2_between, wrap_angle
+from omnislam.core.se import se2_between
 from omnislam.errors import ConfigError
+
+_TWO_PI = 2.0 * math.pi
 
 
 @dataclass(frozen=True, slots=True)
@@ -128,6 +131,25 @@ def _polyline_points(points: np.ndarray, cumlen: np.ndarray, s: np.ndarray) -> n
     return points[k] + a[:, None] * (points[k + 1] - points[k])
 
 
+def _polyline_point(
+    points: list[tuple[float, float]], cumlen: list[float], s: float
+) -> tuple[float, float]:
+    """``_polyline_points`` of one arc length on Python floats, bit for bit (the same IEEE
+    operations in the same order, without numpy's per-call cost: the path follower asks for one
+    point per sub-step)."""
+    s = min(max(s, 0.0), cumlen[-1])
+    k = min(max(bisect.bisect_right(cumlen, s) - 1, 0), len(points) - 2)
+    seg = cumlen[k + 1] - cumlen[k]
+    a = (s - cumlen[k]) / seg if seg > 0 else 0.0
+    (x0, y0), (x1, y1) = points[k], points[k + 1]
+    return x0 + a * (x1 - x0), y0 + a * (y1 - y0)
+
+
+def _wrap(angle: float) -> float:
+    """``core.se.wrap_angle`` of one Python float: the same floored modulo, bit for bit."""
+    return (angle + math.pi) % _TWO_PI - math.pi
+
+
 def drive_through(
     waypoints_w: np.ndarray,
     limits: DriveLimits = DriveLimits(),
@@ -150,6 +172,8 @@ def drive_through(
         raise ConfigError(f"waypoints must be (K >= 2, 2), got {points.shape}")
     cumlen = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
     total = float(cumlen[-1])
+    point_list = [(float(px), float(py)) for px, py in points]
+    cumlen_list = [float(c) for c in cumlen]
     d0 = points[1] - points[0]
     yaw = math.atan2(d0[1], d0[0]) if initial_yaw_rad is None else float(initial_yaw_rad)
     x, y = float(points[0, 0]), float(points[0, 1])
@@ -168,8 +192,8 @@ def drive_through(
         goal_dist = math.hypot(points[-1, 0] - x, points[-1, 1] - y)
         if total - s_progress < limits.lookahead_m and goal_dist < limits.goal_tolerance_m:
             break
-        target = _polyline_points(points, cumlen, np.array([s_progress + limits.lookahead_m]))[0]
-        alpha = wrap_angle(math.atan2(target[1] - y, target[0] - x) - yaw)
+        target = _polyline_point(point_list, cumlen_list, s_progress + limits.lookahead_m)
+        alpha = _wrap(math.atan2(target[1] - y, target[0] - x) - yaw)
         dist = max(math.hypot(target[0] - x, target[1] - y), 1e-6)
         kappa = 2.0 * math.sin(alpha) / dist
         remaining = max(total - s_progress, goal_dist) - 0.5 * limits.goal_tolerance_m
@@ -177,13 +201,12 @@ def drive_through(
         v_goal = limits.max_speed_mps if abs(alpha) < math.pi / 3 else 0.0
         v_goal = min(v_goal, v_stop + 0.01,
                      limits.max_turn_rate_radps / max(abs(kappa), 1e-9))
-        v += float(np.clip(v_goal - v, -limits.max_accel_mps2 * dt, limits.max_accel_mps2 * dt))
+        v += min(max(v_goal - v, -limits.max_accel_mps2 * dt), limits.max_accel_mps2 * dt)
         v = max(v, 0.0)
         if v_goal == 0.0 and v < 1e-3:
             omega = math.copysign(limits.max_turn_rate_radps, alpha) * min(1.0, abs(alpha) / 0.3)
         else:
-            omega = float(np.clip(v * kappa, -limits.max_turn_rate_radps,
-                                  limits.max_turn_rate_radps))
+            omega = min(max(v * kappa, -limits.max_turn_rate_radps), limits.max_turn_rate_radps)
         # exact unicycle step
         if abs(omega) < 1e-9:
             x += v * dt * math.cos(yaw)
@@ -191,7 +214,7 @@ def drive_through(
         else:
             x += v / omega * (math.sin(yaw + omega * dt) - math.sin(yaw))
             y -= v / omega * (math.cos(yaw + omega * dt) - math.cos(yaw))
-        yaw = float(wrap_angle(yaw + omega * dt))
+        yaw = _wrap(yaw + omega * dt)
         steps += 1
         if steps % limits.substeps == 0:
             samples.append((x, y, yaw))

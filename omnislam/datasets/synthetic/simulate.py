@@ -1,5 +1,9 @@
 """Run a preset: build its world, drive its route, sample odometry, laser and pole sightings.
 
+The pole sightings come from the preset's ``laser`` (each visible pole's centre with noise) or,
+when the preset has a ``pole_scanner``, from that second laser's scan (its local minima: the
+thesis's two lasers, sec. 5.1.1), drawn after each frame's scan from the same laser stream.
+
 Randomness is split into independent streams of one ``SeedSequence(seed)`` (world details,
 odometry noise, laser noise), so limiting the number of frames or changing the laser does not
 change the world or the odometry noise of the frames that remain.
@@ -14,7 +18,13 @@ import numpy as np
 
 from omnislam.camera.rig import CameraRig
 from omnislam.core.types import RangeBearing
-from omnislam.datasets.synthetic.laser import pole_sightings, pole_table, scan
+from omnislam.datasets.synthetic.laser import (
+    pole_of_surface,
+    pole_sightings,
+    pole_table,
+    scan,
+    scanned_poles,
+)
 from omnislam.datasets.synthetic.presets import Preset
 from omnislam.datasets.synthetic.raycast import Backend, make_ray_caster
 from omnislam.datasets.synthetic.routes import drive_through, measured_odometry
@@ -36,8 +46,8 @@ class Simulation:
         odometry_true_r: (N, 3) true robot-frame deltas (row 0 zero).
         odometry_r: (N, 3) measured deltas (systematic bias, then the thesis alpha model).
         image_frames: (K,) frame indices that get an image.
-        laser_ranges_m: (N, B) noisy laser ranges.
-        poles: per-frame pole sightings.
+        laser_ranges_m: (N, B) noisy ranges of the preset's ``laser``.
+        poles: per-frame pole sightings (of ``preset.pole_scanner`` when it has one).
     """
 
     preset: Preset
@@ -116,11 +126,19 @@ def simulate(
     laser_rng = np.random.default_rng(laser_ss)
     table = pole_table(world)
     is_pole = np.array([q.kind is SurfaceKind.POLE for q in world.quads], dtype=bool)
+    scanner = preset.pole_scanner
+    surface_pole = None if scanner is None else pole_of_surface(world, table)
     ranges = np.empty((n, preset.laser.beams))
     sightings = []
     for i in range(n):
         ranges[i] = scan(caster, preset.laser, poses[i], laser_rng)
-        sightings.append(pole_sightings(caster, is_pole, table, preset.laser, poses[i], laser_rng))
+        if scanner is None:
+            sightings.append(
+                pole_sightings(caster, is_pole, table, preset.laser, poses[i], laser_rng))
+        else:
+            assert surface_pole is not None
+            sightings.append(
+                scanned_poles(caster, surface_pole, table, scanner, poses[i], laser_rng))
     return Simulation(
         preset=preset,
         seed=seed,

@@ -11,7 +11,10 @@ byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
     "images", "image_every_k", "description", "source", "odometry_bias", "motion_noise"}``
     (``image_every_k``: one image every that many frames, the preset's unless ``omnislam dataset
     synth --image-every`` chose another; the last two: the simulated robot's systematic odometry
-    errors and alpha coefficients, as dicts).
+    errors and alpha coefficients, as dicts). Optional, present only where a preset sets them:
+    ``"pole_scanner"`` (the laser whose scan's local minima are the pole sightings, as a dict),
+    ``"association": "unknown"`` (the loader hides the sightings' ids unless told otherwise)
+    and ``"laser_role": "occupancy"`` (``laser.npz`` is for the occupancy grid only).
 ``world.json``
     The world: quads (surface id = index), texture specs, poles, vertical lines, 2-D walls.
 ``calibration.yaml``
@@ -36,7 +39,9 @@ byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
     ``angles_rad`` (B,), ``ranges_m`` (N, B) (``max_range_m`` = no return), ``max_range_m``.
 ``poles.csv``
     ``frame,landmark_id,range_m,bearing_rad,sigma_range_m,sigma_bearing_rad``: noisy pole
-    sightings with true ids (the thesis's laser stand-in for the camera, ch. 5.1.1).
+    sightings with true ids (the thesis's laser stand-in for the camera, ch. 5.1.1), of the
+    preset's pole scanner when it has one (the thesis's upper laser: ``laser.npz`` then holds
+    the lower one's scans).
 ``landmarks.csv``
     ``id,x,y,z`` ground-truth 2-D landmarks (pole centres, door-frame vertical lines), z = 0.
 ``walls.csv``
@@ -64,6 +69,8 @@ import numpy as np
 
 from omnislam._files import check_output_location, output_error
 from omnislam.core.types import Trajectory
+from omnislam.datasets._common import Association
+from omnislam.datasets.sequence import LaserRole
 from omnislam.datasets.synthetic.line_survey import LineSurvey
 from omnislam.datasets.synthetic.raycast import Backend
 from omnislam.datasets.synthetic.render import Renderer
@@ -192,6 +199,7 @@ def _write_meta(folder: Path, sim: Simulation, backend: Backend, supersample: in
         "odometry_bias": dataclasses.asdict(sim.preset.odometry_bias),
         "motion_noise": dataclasses.asdict(sim.preset.motion_noise),
     }
+    meta.update(_loader_defaults(sim))
     (folder / "meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
 
 
@@ -263,6 +271,19 @@ def _write_images(folder: Path, sim: Simulation, backend: Backend, supersample: 
             survey.rows().astype(object),
             ["%d", "%d"] + [_FLOAT] * 6,
         )
+
+
+def _loader_defaults(sim: Simulation) -> dict[str, object]:
+    """The ``meta.json`` keys that change how the folder loads, only where the preset departs
+    from the default (folders of the other presets stay byte for byte as they were)."""
+    out: dict[str, object] = {}
+    if sim.preset.pole_scanner is not None:
+        out["pole_scanner"] = dataclasses.asdict(sim.preset.pole_scanner)
+    if sim.preset.association is not Association.KNOWN:
+        out["association"] = sim.preset.association.value
+    if sim.preset.laser_role is not LaserRole.SENSOR:
+        out["laser_role"] = sim.preset.laser_role.value
+    return out
 
 
 def _remove_stale_partials(out: Path) -> None:

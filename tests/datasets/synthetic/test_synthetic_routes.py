@@ -39,3 +39,16 @@ def test_measured_odometry_is_noisy_and_reproducible():
     np.testing.assert_array_equal(a, b)
     assert np.all(a[0] == 0)
     assert 0 < np.abs(a[1:] - odo[1:]).mean() < 0.01
+
+
+def test_the_path_followers_point_is_the_polylines_bit_for_bit():
+    """The scalar look-ahead point (``_polyline_point``) is the vectorised one's, to the bit."""
+    from omnislam.datasets.synthetic.routes import _polyline_point, _polyline_points
+
+    cumlen = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(WAYPOINTS, axis=0), axis=1))])
+    s = np.random.default_rng(3).uniform(-1.0, cumlen[-1] + 1.0, 500)
+    s[:4] = [0.0, cumlen[1], cumlen[-1], cumlen[2] + 1e-12]
+    expected = _polyline_points(WAYPOINTS, cumlen, s)
+    points = [tuple(map(float, p)) for p in WAYPOINTS]
+    got = np.array([_polyline_point(points, cumlen.tolist(), float(v)) for v in s])
+    assert np.array_equal(got, expected)
