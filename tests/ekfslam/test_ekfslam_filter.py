@@ -387,8 +387,8 @@ def test_agreeing_re_sightings_close_a_loop_the_gate_rejected(seed):
 def test_a_wide_pairing_moved_off_its_sightings_best_landmark_is_dropped():
     """After a gap (the pose a metre uncertain) two sightings of a landmark and of a new
     neighbour 0.17 m beside it: JCBB's most pairings take another pair of landmarks 1.2 m away
-    (MR.CLAM robot 2, frame 194, docs/results/ekfslam.md); ``association.displaced_sigma_ratio`` drops
-    those pairings, as each sighting is individually nearer a landmark no pairing takes."""
+    (MR.CLAM robot 2, frame 194, docs/results/ekfslam.md); ``association.displaced_sigma_ratio``
+    drops those pairings, as each sighting is individually nearer a landmark no pairing takes."""
 
     landmarks = np.array([[3.0, 0.0], [3.0, 1.2], [3.0, 1.37]])
 
