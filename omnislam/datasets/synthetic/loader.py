@@ -398,6 +398,41 @@ def _read_laser(path: Path, frames: int, role: LaserRole = LaserRole.SENSOR) -> 
     return LaserScans(angles, ranges, max_range, role)
 
 
+def _pole_sightings(
+    poles: np.ndarray, frames: int, association: Association
+) -> tuple[RangeBearing, ...]:
+    """One RangeBearing per frame from ``poles.csv``'s rows (ids hidden with UNKNOWN)."""
+    of_frame = poles[:, 0].astype(np.int64)
+    sightings = []
+    for i in range(frames):
+        rows = poles[of_frame == i]
+        ids = rows[:, 1].astype(np.int64)
+        if association is Association.UNKNOWN:
+            ids = np.full_like(ids, UNKNOWN_ID)
+        sightings.append(RangeBearing(ids, rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5]))
+    return tuple(sightings)
+
+
+def _prior_map(folder: SyntheticFolder, landmarks: np.ndarray) -> PriorMap:
+    """The world's 2-D map as a prior map: ``landmarks.csv``'s poles and vertical lines (with
+    the colours ``line_colours.csv`` surveyed, when present) and ``walls.csv``."""
+    landmark_ids = landmarks[:, 0].astype(np.int64)
+    line_ids = {line.landmark_id for line in folder.world.vertical_lines}
+    walls = np.array([[w.x0_m, w.y0_m, w.x1_m, w.y1_m] for w in folder.world.walls_2d])
+    means = _line_colours(folder.path / "line_colours.csv", landmark_ids)
+    return PriorMap(
+        source="the world's 2-D map (landmarks.csv: poles and vertical lines; walls.csv"
+        + ("; MC surveyed in the rendered images, line_colours.csv)" if means else ")"),
+        landmark_ids=landmark_ids,
+        points_w=landmarks[:, 1:4],
+        vertical_line=np.isin(landmark_ids, sorted(line_ids)),
+        means_left=means[0] if means else None,
+        means_right=means[1] if means else None,
+        walls_w=walls.reshape(-1, 2, 2),
+        initial_pose_w=se2_from_se3(folder.groundtruth.poses_w[0]),
+    )
+
+
 def load_synthetic(path: str | Path, association: Association | None = None) -> Sequence:
     """Read a synthetic folder as a Sequence (images on demand, exact ground truth).
 
@@ -436,34 +471,11 @@ def load_synthetic(path: str | Path, association: Association | None = None) -> 
     landmarks = landmarks_table.values
     poles_table = _read_csv(root / "poles.csv", 6)
     _check_poles(poles_table, n, landmarks[:, 0], _pole_range_m(folder.meta, laser, root))
-    poles = poles_table.values
-    frames = poles[:, 0].astype(np.int64)
-    sightings = []
-    for i in range(n):
-        rows = poles[frames == i]
-        ids = rows[:, 1].astype(np.int64)
-        if association is Association.UNKNOWN:
-            ids = np.full_like(ids, UNKNOWN_ID)
-        sightings.append(RangeBearing(ids, rows[:, 2], rows[:, 3], rows[:, 4], rows[:, 5]))
+    sightings = _pole_sightings(poles_table.values, n, association)
     images = _image_frames(root, folder.meta, n)
     gt_traj = folder.groundtruth
     meta = folder.meta
-    world = folder.world
     landmark_ids = landmarks[:, 0].astype(np.int64)
-    line_ids = {line.landmark_id for line in world.vertical_lines}
-    walls = np.array([[w.x0_m, w.y0_m, w.x1_m, w.y1_m] for w in world.walls_2d])
-    means = _line_colours(root / "line_colours.csv", landmark_ids)
-    prior_map = PriorMap(
-        source="the world's 2-D map (landmarks.csv: poles and vertical lines; walls.csv"
-        + ("; MC surveyed in the rendered images, line_colours.csv)" if means else ")"),
-        landmark_ids=landmark_ids,
-        points_w=landmarks[:, 1:4],
-        vertical_line=np.isin(landmark_ids, sorted(line_ids)),
-        means_left=means[0] if means else None,
-        means_right=means[1] if means else None,
-        walls_w=walls.reshape(-1, 2, 2),
-        initial_pose_w=se2_from_se3(gt_traj.poses_w[0]),
-    )
     if images and folder.rig is None:
         raise DataError("file missing: the folder has images but no calibration",
                         root / "calibration.yaml")
@@ -483,14 +495,14 @@ def load_synthetic(path: str | Path, association: Association | None = None) -> 
             landmarks_w=landmarks[:, 1:4],
             note="exact: the renderer's own poses and landmark positions",
         ),
-        range_bearing=tuple(sightings),
+        range_bearing=sightings,
         laser=laser,
         image_loader=folder.image if images else None,
         image_frames=np.array(images, dtype=np.int64),
         point_map_loader=(lambda i: folder.ground_truth_maps(i).points_w) if images else None,
         pixel_points_loader=folder.pixel_points if images else None,
         calibration=folder.rig,
-        prior_map=prior_map,
+        prior_map=_prior_map(folder, landmarks),
         info={
             "preset": str(meta["preset"]),
             "seed": str(meta["seed"]),
