@@ -77,6 +77,20 @@ def _sections(options: list[dict]) -> dict[str, list[dict]]:
     return grouped
 
 
+def _with_data_notes(options: list[dict]) -> list[dict]:
+    """The options, with the note ``omnislam estimators`` prints on a default the factories
+    take from the dataset appended where the meaning does not say so itself."""
+    from omnislam.cli.estimators import FROM_THE_DATA
+
+    out = []
+    for option in options:
+        note = FROM_THE_DATA.get(str(option["key"]).rsplit(".", 1)[-1])
+        if note and not re.search(r"\brig\b", str(option["meaning"])):
+            option = {**option, "meaning": f"{option['meaning']} {note}"}
+        out.append(option)
+    return out
+
+
 def preset_differences(name: str) -> list[tuple[str, list[str]]]:
     """(preset, ``key=value`` of every option it sets differently from estimator ``name``'s
     starting configuration) for each preset of ``name``; empty when it has none."""
@@ -121,7 +135,7 @@ def estimator_tables(name: str) -> str:
     from omnislam.cli.estimators import describe
 
     described = describe(name)
-    options: list[dict] = list(described["options"])  # type: ignore[arg-type]
+    options = _with_data_notes(list(described["options"]))  # type: ignore[arg-type]
     if not options:
         return f"`{name}` takes no options of its own.\n"
     text = _presets_table(name, str(described["preset"]))

@@ -12,7 +12,9 @@ from omnislam.estimators import ESTIMATORS, estimator_defaults
 from omnislam.options import describe_options, main_options
 
 REPO = Path(__file__).resolve().parents[1]
-_spec = importlib.util.spec_from_file_location("options_tables", REPO / "docs" / "options_tables.py")
+_spec = importlib.util.spec_from_file_location(
+    "options_tables", REPO / "docs" / "options_tables.py"
+)
 options_tables = importlib.util.module_from_spec(_spec)
 sys.modules["options_tables"] = options_tables  # dataclasses look their module up
 _spec.loader.exec_module(options_tables)
@@ -29,7 +31,8 @@ PAGES = {
 
 
 def _page(name: str) -> str:
-    return f"# {name}\n\nintro\n\n<!-- options:{name}:begin -->\nstale\n<!-- options:{name}:end -->\n"
+    block = f"<!-- options:{name}:begin -->\nstale\n<!-- options:{name}:end -->\n"
+    return f"# {name}\n\nintro\n\n{block}"
 
 
 def _option_rows(block: str) -> list[list[str]]:
