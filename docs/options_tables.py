@@ -144,10 +144,22 @@ def estimator_tables(name: str) -> str:
     if main:
         text += "### Main options\n\n" + HEADER + "".join(_row(o) for o in main) + "\n"
     rest = [o for o in options if o["key"] not in main_keys]
+    about = _section_docs(name)
     for section, members in _sections(rest).items():
         title = f"Section `{section}`" if section else "Other top-level options"
-        text += f"### {title}\n\n" + HEADER + "".join(_row(o) for o in members) + "\n"
+        intro = f"`{section}`: {cell(about[section])}\n\n" if about.get(section) else ""
+        text += f"### {title}\n\n{intro}" + HEADER + "".join(_row(o) for o in members) + "\n"
     return text
+
+
+def _section_docs(name: str) -> dict[str, str]:
+    """Section -> what the configuration's ``Attributes:`` entry says of it (its default and
+    why, where the section's own fields cannot: the motion noise's alphas differ per estimator)."""
+    from omnislam.estimators import estimator_defaults
+    from omnislam.options import attribute_docs
+
+    config, _ = estimator_defaults(name)
+    return {} if config is None else attribute_docs(type(config))
 
 
 def harness_table() -> str:

@@ -109,3 +109,15 @@ def test_a_wrong_name_or_an_unclosed_block_exits_2(tmp_path, capsys):
 
 def test_a_cell_stays_one_cell():
     assert options_tables.cell("a | b\n  c <x> <= 3") == "a \\| b c &lt;x> <= 3"
+
+
+def test_a_section_opens_with_what_its_configuration_says_of_it():
+    """The motion noise's alphas have no reason of their own (they differ per estimator): the
+    section's entry in the configuration's docstring gives it."""
+    from omnislam.fastslam.config import FastSLAMConfig
+    from omnislam.options import attribute_docs
+
+    block = options_tables.block_text("fastslam1")
+    about = options_tables.cell(attribute_docs(FastSLAMConfig)["motion_noise"])
+    assert "twice the simulator's" in about
+    assert f"### Section `motion_noise`\n\n`motion_noise`: {about}\n\n| key |" in block
