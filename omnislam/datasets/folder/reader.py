@@ -41,7 +41,6 @@ from omnislam.datasets.sequence import (
     GroundTruthKind,
     LaserRole,
     LaserScans,
-    Sequence,
 )
 from omnislam.errors import DataError
 
@@ -257,7 +256,8 @@ def read_sightings(
     table = sightings.table
     sightings.require_values((layout.STAMP, "range_m", "bearing_rad"))
     frames = frame_rows(sightings.column(layout.STAMP), frame_stamps_s, sightings)
-    check_stamps(sightings.column(layout.STAMP), table.line_numbers, path, StampOrder.NON_DECREASING)
+    order = StampOrder.NON_DECREASING
+    check_stamps(sightings.column(layout.STAMP), table.line_numbers, path, order)
     ids = sightings.column("landmark_id")
     known = np.isfinite(ids)
     if known.any():
