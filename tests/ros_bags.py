@@ -96,7 +96,8 @@ def write_bag(sequence, path: Path, kind: str, *, image_format: str = "png",
     truth = sequence.ground_truth.trajectory
     stream = []  # (stamp, topic, msgtype, message)
     for i, stamp in enumerate(sequence.stamps_s.tolist()):
-        stream.append((stamp, "/odom", "nav_msgs/msg/Odometry", messages.odometry(stamp, *poses[i])))
+        odometry = messages.odometry(stamp, *poses[i])
+        stream.append((stamp, "/odom", "nav_msgs/msg/Odometry", odometry))
         stream.append((stamp, "/tf", "tf2_msgs/msg/TFMessage", messages.tf(stamp, truth.poses_w[i])))
         if scan:
             laser = sequence.laser
@@ -123,6 +124,6 @@ def write_bag(sequence, path: Path, kind: str, *, image_format: str = "png",
                 connections[topic] = writer.add_connection(topic, msgtype,
                                                            typestore=messages.store)
         for stamp, topic, msgtype, message in stream:
-            writer.write(connections[topic], int(round(stamp * 1e9)),
+            writer.write(connections[topic], round(stamp * 1e9),
                          messages.serialize(message, msgtype))
     return path
