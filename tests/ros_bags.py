@@ -98,7 +98,8 @@ def write_bag(sequence, path: Path, kind: str, *, image_format: str = "png",
     for i, stamp in enumerate(sequence.stamps_s.tolist()):
         odometry = messages.odometry(stamp, *poses[i])
         stream.append((stamp, "/odom", "nav_msgs/msg/Odometry", odometry))
-        stream.append((stamp, "/tf", "tf2_msgs/msg/TFMessage", messages.tf(stamp, truth.poses_w[i])))
+        transform = messages.tf(stamp, truth.poses_w[i])
+        stream.append((stamp, "/tf", "tf2_msgs/msg/TFMessage", transform))
         if scan:
             laser = sequence.laser
             stream.append((stamp, "/scan", "sensor_msgs/msg/LaserScan", messages.scan(
