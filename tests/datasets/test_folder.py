@@ -201,3 +201,23 @@ def test_a_render_exported_runs_the_front_end_and_graphslam_to_the_same_bytes(tm
     exported = load_folder(tmp_path / "exported")
     np.testing.assert_array_equal(exported.image(int(exported.image_frames[-1])),
                                   load_dataset(str(render)).image(int(exported.image_frames[-1])))
+
+
+def test_the_specification_documents_every_metadata_key():
+    from omnislam.datasets.folder.layout import schema
+
+    spec = (Path(__file__).resolve().parents[2] / "docs" / "datasets" / "folder-format.md")
+    text = spec.read_text()
+    for key, value in schema()["properties"].items():
+        assert f"`{key}" in text, key
+        for inner in value.get("properties", {}):
+            assert inner in text, f"{key}.{inner}"
+
+
+def test_metadata_is_written_with_number_lists_on_one_line():
+    from omnislam.datasets.folder.writer import metadata_text
+
+    meta = {**META, "laser": {"angles_rad": [-0.5, 0.0, 2.5e-05], "max_range_m": 8.0}}
+    text = metadata_text(meta)
+    assert '"angles_rad": [-0.5, 0.0, 2.5e-05]' in text
+    assert json.loads(text) == meta

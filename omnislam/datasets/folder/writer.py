@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 from pathlib import Path
 from typing import Any
@@ -61,7 +62,7 @@ def export_folder(sequence: Sequence, out: str | Path, *, licence: str = SOURCE_
         _write_images(tmp, sequence)
         meta |= _write_ground_truth(tmp, sequence)
         meta |= _write_prior_map(tmp, sequence.prior_map)
-        (tmp / layout.METADATA).write_text(json.dumps(meta, indent=1) + "\n")
+        (tmp / layout.METADATA).write_text(metadata_text(meta))
         _move_into_place(tmp, out)
     except OSError as exc:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -70,6 +71,18 @@ def export_folder(sequence: Sequence, out: str | Path, *, licence: str = SOURCE_
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return out
+
+
+def metadata_text(meta: dict[str, Any]) -> str:
+    """``dataset.json``'s text: indented, each list of numbers on one line (a laser's beam
+    angles are one line, not hundreds)."""
+    text = json.dumps(meta, indent=1)
+    numbers = re.compile(r"\[\s*(-?[0-9][-0-9.eE+]*(?:,\s*-?[0-9][-0-9.eE+]*)*)\s*\]")
+
+    def one_line(match: re.Match[str]) -> str:
+        return "[" + ", ".join(v.strip() for v in match.group(1).split(",")) + "]"
+
+    return numbers.sub(one_line, text) + "\n"
 
 
 def _move_into_place(tmp: Path, out: Path) -> None:
