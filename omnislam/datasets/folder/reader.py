@@ -190,26 +190,22 @@ def _covariance(
     if len(present) != len(layout.COVARIANCE):
         missing = next(n for n in layout.COVARIANCE if n not in present)
         raise DataError(f"line 1: column {missing!r} missing (all six or none)", path)
-    rows, cols = np.triu_indices(3)
     lower = [n for n in layout.COVARIANCE_LOWER if odometry.has(n)]
-    names = layout.COVARIANCE
-    if lower:
-        if len(lower) != len(layout.COVARIANCE_LOWER):
-            missing = next(n for n in layout.COVARIANCE_LOWER if n not in lower)
-            raise DataError(f"line 1: column {missing!r} missing (all three or none)", path)
-        names += layout.COVARIANCE_LOWER
-        rows, cols = np.r_[rows, 1, 2, 2], np.r_[cols, 0, 0, 1]
-    else:
-        rows, cols = np.r_[rows, cols[[1, 2, 4]]], np.r_[cols, rows[[1, 2, 4]]]
-    upper = odometry.block(names).copy()
-    if len(upper) and np.isnan(upper[0]).all():
-        upper[0] = 0.0  # the first frame has no motion to state a noise for
-    if not lower:
-        upper = np.hstack([upper, upper[:, [1, 2, 4]]])
-    covariance = np.zeros((len(upper), 3, 3))
-    covariance[:, rows, cols] = upper
-    finite = np.isfinite(upper).all(axis=1)
-    definite = np.ones(len(upper), dtype=bool)
+    if lower and len(lower) != len(layout.COVARIANCE_LOWER):
+        missing = next(n for n in layout.COVARIANCE_LOWER if n not in lower)
+        raise DataError(f"line 1: column {missing!r} missing (all three or none)", path)
+    values = odometry.block(layout.COVARIANCE + (layout.COVARIANCE_LOWER if lower else ()))
+    values = values.copy()
+    if len(values) and np.isnan(values[0]).all():
+        values[0] = 0.0  # the first frame has no motion to state a noise for
+    rows, cols = np.triu_indices(3)
+    covariance = np.zeros((len(values), 3, 3))
+    covariance[:, rows, cols] = values[:, :6]
+    covariance[:, cols, rows] = values[:, :6]
+    if lower:  # (y, x), (theta, x), (theta, y) as given
+        covariance[:, [1, 2, 2], [0, 0, 1]] = values[:, 6:]
+    finite = np.isfinite(values).all(axis=1)
+    definite = np.ones(len(values), dtype=bool)
     definite[1:] = np.linalg.eigvalsh(np.where(finite[1:, None, None], covariance[1:],
                                                np.eye(3)))[:, 0] > 0
     bad = ~finite | ~definite
@@ -377,8 +373,8 @@ class FolderImages:
         position = int(np.searchsorted(self.frames, index))
         if position >= len(self.frames) or self.frames[position] != index:
             raise DataError(f"frame {index} has no image")
-        bgr = read_image(self.paths[position])
-        return require("cv2").cvtColor(bgr, require("cv2").COLOR_BGR2RGB)
+        cv2 = require("cv2")
+        return cv2.cvtColor(read_image(self.paths[position]), cv2.COLOR_BGR2RGB)
 
 
 def read_images(root: Path, frame_stamps_s: np.ndarray) -> FolderImages | None:
