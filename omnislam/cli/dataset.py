@@ -21,7 +21,10 @@ import json
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("dataset", help="list known datasets, render synthetic ones")
+    p = sub.add_parser(
+        "dataset",
+        help="list known datasets, render synthetic ones, check, export and import folders",
+    )
     p.set_defaults(handler=lambda args: p.print_help() or 2)
     actions = p.add_subparsers(dest="action", metavar="ACTION")
 
