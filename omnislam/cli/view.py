@@ -4,7 +4,7 @@ Writes ``FILE.rrd`` (default ``RUN_DIR/run.rrd``) with the trajectory against th
 truth, the landmarks with their covariance ellipsoids, the sightings over time and, for image
 datasets, every image with its keypoints (``omnislam.report.view``). ``--spawn`` then opens it
 in the Rerun viewer (``rerun FILE.rrd``). Open it later with ``rerun FILE.rrd``. Needs the
-``view`` extra: ``pip install 'omnislam[view]'``.
+``view`` extra: ``pip install '.[view]'`` in a clone.
 """
 
 from __future__ import annotations

@@ -93,7 +93,7 @@ def compiled() -> SimpleNamespace:
     """The kernels compiled with ``numba.njit`` (compiled once per process, cached on disk).
 
     Raises:
-        MissingExtraError: numba is not installed (``pip install omnislam[fast]``).
+        MissingExtraError: numba is not installed (the ``fast`` extra).
     """
     global _COMPILED
     if _COMPILED is None:
