@@ -78,7 +78,7 @@ class SiftConfig:
             ``HALVED``, octave 0 at every second pixel).
         precise_upscale: with ``first_octave`` DOUBLED, OpenCV doubles the image by mapping
             pixel x to 2x exactly (``enable_precise_upscale``) instead of its default resize,
-            which shifts keypoints (measured in the README's front-end section).
+            which shifts keypoints (docs/results/frontend.md, what was tried).
         backend: OpenCV or pycolmap (pycolmap: DOUBLED or NONE only).
     """
 
@@ -522,11 +522,11 @@ class FloorTrackConfig:
     the odometry tell the tiles apart (they are tens of cm apart; the odometry errs by mm
     between images).
     Keypoints fixed to the robot (its body in the mirror) move with the robot and start a new
-    track in every image, which ``tracks.min_track_length`` drops. On by default since
-    session 24: the floor tracks are a stream of their own (``ObservationLog.floor_ids_from``),
-    fed only to the estimators that model the floor (the graphs, which place them on the floor
-    plane and take the map's metric scale from them); on the demo the graph's ATE went from
-    1.87 to 0.21 cm with them (docs/results/frontend.md, "Floor tracks").
+    track in every image, which ``tracks.min_track_length`` drops. On by default: the floor
+    tracks are a stream of their own (``ObservationLog.floor_ids_from``), fed only to the
+    estimators that model the floor (the graphs, which place them on the floor plane and take
+    the map's metric scale from them; docs/results/graph.md, "The odometry's scale from the
+    floor").
 
     Attributes:
         enabled: track floor keypoints (on top of the landmark tracks).
