@@ -4,10 +4,10 @@ Comments, docstrings, the benchmarks and the documentation say what the software
 was measured and the command that reproduces it; they do not narrate how the project got there.
 The scan flags the marks of such narration: numbered work periods (the word for a sitting
 followed by its number), issue numbers of our own (the word "issue" followed by a number, a
-number in brackets after a hash, the possessive of "issue" after "the"), and dates of work (ISO dates, or a day, a
-month and a year). URLs are left out before the scan: another project's issue, cited by its
-address (github.com/OWNER/REPO/issues/N), is a reference, not our history. CHANGELOG.md is the
-one place for history, and so is a docs/changelog.md that only includes it.
+number in brackets after a hash, the possessive of "issue" after "the"), and dates of work
+(ISO dates, or a day, a month and a year). URLs are left out before the scan: another project's
+issue, cited by its address (github.com/OWNER/REPO/issues/N), is a reference, not our history.
+CHANGELOG.md is the one place for history, and so is a docs/changelog.md that only includes it.
 
 The patterns are assembled from pieces below, so that this file, which the scan also reads, holds
 none of them literally.
