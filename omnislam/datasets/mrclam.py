@@ -459,8 +459,8 @@ def _ground_truth(
     initial_pose = None
     if vicon is not None:
         # the truth at the frames with sightings (and frame 0) only: the frames that fill the
-        # gaps carry nothing to estimate from, and the trajectory metrics keep the stamps they
-        # had before the gaps were filled
+        # gaps carry nothing to estimate from, and the trajectory metrics stay at the sighting
+        # stamps whatever max_step_s is
         valid, poses_true = interpolate_se2(
             vicon.stamps_s, vicon.se2, sighting_frames, VICON_MAX_GAP_S
         )

@@ -298,7 +298,7 @@ def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipeline
 
     Pipelined, up to ``LOOKAHEAD`` images are prepared ahead in ``WORKERS`` processes while
     this one tracks (threads would not overlap: the preparation is mostly numpy calls that
-    hold the GIL; measured in the README). Until the workers have started, this process
+    hold the GIL; docs/results/real-time.md). Until the workers have started, this process
     prepares the images itself (``_WorkerPool``). A sequence whose image loader cannot be sent
     to another process is prepared here, one image at a time.
     """
