@@ -39,6 +39,7 @@ def _load_hook(name: str):
 
 
 reference = _load_hook("reference")
+repository_links = _load_hook("repository_links")
 
 
 # -- the API reference ------------------------------------------------------------------------
@@ -97,6 +98,42 @@ def test_the_reference_skips_private_modules_and_nests_packages(tmp_path):
         {"a": "reference/a.md"},
         {"sub": ["reference/sub/index.md", {"b": "reference/sub/b.md"}]},
     ]
+
+
+# -- links to repository files outside docs/ ---------------------------------------------------
+@pytest.fixture
+def repo(tmp_path):
+    for relative in ("docs/results/index.md", "docs/metrics.md", "benchmarks/README.md",
+                     "CHANGELOG.md"):
+        (tmp_path / relative).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / relative).write_text("# x\n")
+    return tmp_path
+
+
+def test_links_leaving_docs_become_repository_paths_or_addresses(repo):
+    page_dir = repo / "docs" / "results"
+    text = (
+        "See [the scripts](../../benchmarks/README.md#speed), [`benchmarks/README.md`]"
+        "(../../benchmarks/README.md), [metrics](../metrics.md#ate) and [gone](../../nope.md).\n"
+        "```sh\ncat [x](../../benchmarks/README.md)\n```\n"
+    )
+    plain = repository_links.LinkRebaser(repo, repo / "docs", page_dir, page_dir, None)
+    assert plain.rewrite(text) == (
+        "See the scripts (`benchmarks/README.md`), `benchmarks/README.md`, [metrics]"
+        "(../metrics.md#ate) and [gone](../../nope.md).\n"
+        "```sh\ncat [x](../../benchmarks/README.md)\n```\n"
+    )
+    web = repository_links.LinkRebaser(repo, repo / "docs", page_dir, page_dir, "https://h/o/r/")
+    assert "[the scripts](https://h/o/r/blob/HEAD/benchmarks/README.md#speed)" in web.rewrite(text)
+
+
+def test_the_changelog_links_are_rebased_from_the_repository_root(repo):
+    docs = repo / "docs"
+    rebaser = repository_links.LinkRebaser(repo, docs, repo, docs, None)
+    text = "[results](docs/results/index.md), ![p](docs/metrics.md), [b](benchmarks/README.md)"
+    assert rebaser.rewrite(text) == (
+        "[results](results/index.md), ![p](metrics.md), b (`benchmarks/README.md`)"
+    )
 
 
 # -- commands shown on the pages ----------------------------------------------------------------
