@@ -106,14 +106,16 @@ def _roots(config: Any) -> tuple[Path, Path]:
 
 def on_files(files: Any, config: Any) -> Any:
     """Add ``changelog.md``, made from the repository's CHANGELOG.md."""
+    from mkdocs.exceptions import PluginError
     from mkdocs.structure.files import File
 
     repo_root, docs_dir = _roots(config)
     source = repo_root / CHANGELOG
-    if source.is_file():
-        rebaser = LinkRebaser(repo_root, docs_dir, repo_root, docs_dir, config.repo_url)
-        content = rebaser.rewrite(source.read_text(encoding="utf-8"))
-        files.append(File.generated(config, CHANGELOG_PAGE, content=content))
+    if not source.is_file():
+        raise PluginError(f"{source} not found: the site's changelog page is made from it")
+    rebaser = LinkRebaser(repo_root, docs_dir, repo_root, docs_dir, config.repo_url)
+    content = rebaser.rewrite(source.read_text(encoding="utf-8"))
+    files.append(File.generated(config, CHANGELOG_PAGE, content=content))
     return files
 
 
