@@ -503,7 +503,8 @@ def load_mrclam(
         robot: robot number (1-5).
         association: KNOWN keeps the landmark ids in the sightings (ground truth keeps them
             always), UNKNOWN hides them from the estimators.
-        sigma_range_m, sigma_bearing_rad: sighting noise given to the estimators.
+        sigma_range_m: range noise of the sightings given to the estimators [m].
+        sigma_bearing_rad: bearing noise of the sightings given to the estimators [rad].
         depth_ranges: convert the file's optical-axis depths into ranges (``DEPTH_BIAS_M``);
             False keeps the column as it is.
         command_delay_s: delay of the commanded velocities (``COMMAND_DELAY_S``) [s].

@@ -83,7 +83,10 @@ def sighting_points(
 
     Args:
         wTr: (3,) robot pose [x, y, theta] in the world.
-        ranges_m, bearings_rad, sigma_range_m, sigma_bearing_rad: (K,) each.
+        ranges_m: (K,) ranges [m].
+        bearings_rad: (K,) bearings [rad].
+        sigma_range_m: (K,) range stds [m].
+        sigma_bearing_rad: (K,) bearing stds [rad].
         pose_covariance: (3, 3) covariance of ``wTr`` in world [x, y, theta], or None.
 
     Returns:
