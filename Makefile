@@ -64,7 +64,7 @@ demo: kernels
 	$(BIN)/omnislam demo --overwrite
 
 # SUITE_WORKERS=N: N local worker processes (default: one per core);
-# SCHEDULER=tcp://HOST:8786: a Dask cluster (README, "Running the suite on a cluster"), or
+# SCHEDULER=tcp://HOST:8786: a Dask cluster (docs/tutorials/dask.md), or
 # SCHEDULER=local for a LocalCluster. Finished cells, renders and front-end logs are reused.
 SUITE_RESULTS ?= runs/suite
 SUITE_REPORT  ?= reports/suite
