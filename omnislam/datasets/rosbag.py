@@ -146,7 +146,8 @@ def import_bag(
         out: the folder to write.
         topics: role -> topic (``parse_topics``).
         calibration: the camera rig YAML of the images (required with ``images``).
-        world_frame, gt_frame: parent and child frames of the ground truth on a TF topic.
+        world_frame: parent frame of the ground truth on a TF topic.
+        gt_frame: child frame of the ground truth on a TF topic.
         source: one line saying where the data come from (default: the bag's name).
         licence: the data's licence.
 
