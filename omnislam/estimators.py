@@ -246,8 +246,8 @@ def _declared(point: EntryPoint) -> Mapping[object, object]:
     """What one entry point declares: name -> entry (not yet checked).
 
     Raises:
-        Exception: whatever importing the plugin raises, or TypeError for a declaration of
-            another kind.
+        ConfigError: a declaration of another kind.
+        Exception: whatever importing the plugin raises.
     """
     declared = point.load()
     if isinstance(declared, EstimatorEntry):
@@ -256,7 +256,7 @@ def _declared(point: EntryPoint) -> Mapping[object, object]:
         declared = declared()
         if isinstance(declared, Mapping):
             return declared
-    raise TypeError(
+    raise ConfigError(
         f"declares a {type(declared).__name__}; expected an EstimatorEntry or a callable "
         "returning a mapping of name -> EstimatorEntry"
     )
@@ -281,8 +281,8 @@ def load_registry(points: Iterable[EntryPoint] = ()) -> Registry:
         try:
             declared = _declared(point)
         except Exception as exc:  # a broken plugin must not take the others down
-            reason = " ".join(f"{type(exc).__name__}: {exc}".split())
-            problems.append(PluginProblem(where, reason))
+            reason = str(exc) if isinstance(exc, ConfigError) else f"{type(exc).__name__}: {exc}"
+            problems.append(PluginProblem(where, " ".join(reason.split())))
             continue
         for name, entry in declared.items():
             problem = entry_problem(name, entry)
