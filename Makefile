@@ -1,6 +1,6 @@
 # Two commands do everything on a fresh machine:
 #   make demo   renders the embedded `demo` world and runs the pipeline end to end
-#   make test   runs ruff and the unit tests
+#   make test   runs ruff, the unit tests and the example estimator plugin's tests
 # Both create .venv and install what is needed first (system libraries too, when root on Debian).
 #   make suite  every estimator on every dataset (benchmarks/grids/suite.yaml): results in
 #               runs/suite (not committed), the report in reports/suite, the results table of
@@ -9,18 +9,20 @@
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
-STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+PLUGIN := examples/estimator_plugin
+STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml $(PLUGIN)/pyproject.toml | cksum | cut -d' ' -f1)
 SYSLIBS := libusb-1.0-0 libgl1 libegl1 libx11-6 libudev1 libgomp1
 
 .PHONY: test demo suite venv kernels syslibs lint clean
 
 venv: $(STAMP)
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml $(PLUGIN)/pyproject.toml
 	@$(MAKE) --no-print-directory syslibs
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	$(BIN)/python -m pip install --quiet --no-deps -e $(PLUGIN)
 	@rm -f $(VENV)/.installed-*
 	@touch $@
 
@@ -53,6 +55,7 @@ lint: venv
 test: kernels
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q $(PLUGIN)/tests
 
 demo: kernels
 	$(BIN)/omnislam demo --overwrite
