@@ -246,6 +246,10 @@ def provenance_rows(
         group = [c for c in cells if c.column == column]
         group_configs = [configs[c.cell_id] for c in group if configs[c.cell_id] is not None]
         estimator = group[0].estimator
+        external = sorted({cfg.external for cfg in group_configs if cfg.external})  # type: ignore[union-attr]
+        if external:  # another system's results (harness.external)
+            rows.append((f"estimator {column}", " / ".join(external)))
+            continue
         chosen = sorted({_options_text(cfg.estimator_options) for cfg in group_configs})  # type: ignore[union-attr]
         rows.append(
             (f"estimator {column}", f"{estimator}; options: {' / '.join(chosen) or 'unknown'}")
