@@ -141,7 +141,7 @@ def external_record(spec: RunSpec, external: ExternalResult) -> RunRecord:
         DataError: a dataset, trajectory or landmark file that is missing or malformed.
         ConfigError: options other than the loader's.
     """
-    import omnislam
+    from omnislam._version import __version__
     from omnislam.datasets.registry import load_dataset, resolve
 
     resolved = resolve(spec.dataset)
@@ -158,7 +158,7 @@ def external_record(spec: RunSpec, external: ExternalResult) -> RunRecord:
         dataset=spec.dataset,
         dataset_path=str(resolved.path),
         estimator=EXTERNAL,
-        omnislam_version=omnislam.__version__,
+        omnislam_version=__version__,
         frames=len(trajectory),
         total_s=0.0,
         peak_rss_mb=0.0,

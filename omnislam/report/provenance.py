@@ -36,9 +36,7 @@ def package_commit(source: Path | None = None) -> str:
     """
     try:
         if source is None:
-            import omnislam
-
-            source = Path(omnislam.__file__).resolve().parent.parent
+            source = Path(__file__).resolve().parents[2]  # omnislam/report/provenance.py
         if not (source / ".git").exists():
             return UNKNOWN
         head = subprocess.run(
@@ -199,10 +197,10 @@ def provenance_rows(
     results_dir: Path, title: str, cells: Sequence[ReportCell], options: ReportOptions
 ) -> list[tuple[str, str]]:
     """(field, value) of the provenance block; never raises."""
-    import omnislam
+    from omnislam._version import __version__
 
     rows = [
-        ("omnislam version", omnislam.__version__),
+        ("omnislam version", __version__),
         ("git commit", package_commit()),
         ("date (UTC)", now_utc()),
         ("command line", command_line(options.command)),
