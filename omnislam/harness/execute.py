@@ -62,7 +62,9 @@ class RunSpec:
 
     Attributes:
         dataset: registered name or path.
-        estimator: estimator name (a key of ``omnislam.estimators.ESTIMATORS``).
+        estimator: estimator name (a key of ``omnislam.estimators.ESTIMATORS``), or
+            ``external`` in a grid cell that reads another system's results from files
+            (``Cell.external``, ``harness.external``) instead of running anything.
         seed: random seed (None: fresh entropy).
         options: ``--set`` options; keys the dataset's loader accepts go to the loader,
             ``wrong_id_fraction`` to the harness (``harness.perturb``: re-label that fraction
