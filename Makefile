@@ -1,6 +1,7 @@
 # Two commands do everything on a fresh machine:
 #   make demo   renders the embedded `demo` world and runs the pipeline end to end
-#   make test   runs ruff, the unit tests and the documentation site's strict build
+#   make test   runs ruff, the unit tests, the example estimator plugin's tests and the
+#               documentation site's strict build
 # Both create .venv and install what is needed first (system libraries too, when root on Debian).
 #   make docs   the documentation site (mkdocs.yml) into site/, with `mkdocs build --strict`
 #   make suite  every estimator on every dataset (benchmarks/grids/suite.yaml): results in
@@ -10,18 +11,20 @@
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
-STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+PLUGIN := examples/estimator_plugin
+STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml $(PLUGIN)/pyproject.toml | cksum | cut -d' ' -f1)
 SYSLIBS := libusb-1.0-0 libgl1 libegl1 libx11-6 libudev1 libgomp1
 
 .PHONY: test demo docs suite venv kernels syslibs lint clean
 
 venv: $(STAMP)
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml $(PLUGIN)/pyproject.toml
 	@$(MAKE) --no-print-directory syslibs
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	$(BIN)/python -m pip install --quiet --no-deps -e $(PLUGIN)
 	@rm -f $(VENV)/.installed-*
 	@touch $@
 
@@ -54,6 +57,7 @@ lint: venv
 test: kernels
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q $(PLUGIN)/tests
 	@$(MAKE) --no-print-directory docs
 
 # the site reads the package's docstrings from this checkout (mkdocs.yml: paths [.])

@@ -19,7 +19,13 @@ from test_no_import_cycles import import_graphs
 import omnislam
 
 ROOT = Path(omnislam.__file__).parent
-BASE = ("omnislam.errors", "omnislam._optional", "omnislam._files", "omnislam._progress")
+BASE = (
+    "omnislam.errors",
+    "omnislam._optional",
+    "omnislam._files",
+    "omnislam._progress",
+    "omnislam._version",
+)
 ESTIMATOR_PACKAGES = (
     "omnislam.graphslam",
     "omnislam.fastslam",

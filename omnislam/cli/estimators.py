@@ -1,9 +1,10 @@
 """``omnislam estimators [NAME ...] [--all] [--json]``: the registered estimators and their options.
 
-For each estimator of the registry (``omnislam.estimators.ESTIMATORS``): what it is, the
-observation streams it consumes, whether this installation can run it, its presets, and its
-main ``--set KEY=VALUE`` options with their defaults and meaning, then the sections its other
-options live in; ``--all`` lists every option, section by section. Everything is read from the
+For each estimator of the registry (``omnislam.estimators.ESTIMATORS``: the built-ins and the
+installed plugins): what it is, the plugin it comes from, the observation streams it consumes,
+whether this installation can run it, its presets, and its main ``--set KEY=VALUE`` options
+with their defaults and meaning, then the sections its other options live in; ``--all`` lists
+every option, section by section. Everything is read from the
 estimator's configuration dataclasses and the ``Attributes:`` sections of their docstrings
 (``omnislam.options.describe_options``), so the list cannot drift from the code. The options
 the harness takes for every estimator (``modality``, ``prior_map``, ``wrong_id_fraction``,
@@ -80,7 +81,7 @@ def _availability(name: str) -> str:
 
 def describe(name: str) -> dict[str, object]:
     """What ``omnislam estimators`` says about one estimator (the JSON object)."""
-    from omnislam.estimators import ESTIMATORS, estimator_defaults
+    from omnislam.estimators import ESTIMATORS, estimator_defaults, estimator_origin
     from omnislam.options import describe_options, main_options
 
     entry = ESTIMATORS[name]
@@ -90,6 +91,7 @@ def describe(name: str) -> dict[str, object]:
     return {
         "name": name,
         "summary": entry.summary,
+        "origin": estimator_origin(name),
         "consumes": sorted(m.value for m in entry.modalities),
         "status": _availability(name),
         "presets": list(presets),
@@ -182,6 +184,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     for d in described:
         print(f"{d['name']}: {d['summary']}")
+        if d["origin"] != "omnislam":
+            print(f"  plugin: {d['origin']} (entry point group omnislam.estimators)")
         consumes = ", ".join(d["consumes"]) or "no sightings (odometry only)"  # type: ignore[arg-type]
         print(f"  consumes: {consumes}; {d['status']}")
         if d["presets"]:

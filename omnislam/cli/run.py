@@ -21,8 +21,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--estimator",
         required=True,
-        help="deadreckoning, graphslam, graphslam-batch, fastslam1, fastslam2, ekfslam or ukf "
-        "(`omnislam estimators` lists them with their options)",
+        help="deadreckoning, graphslam, graphslam-batch, fastslam1, fastslam2, ekfslam, ukf or "
+        "an installed plugin's (`omnislam estimators` lists them all with their options)",
     )
     p.add_argument("--out", required=True, metavar="RUN_DIR", help="output folder")
     p.add_argument(

@@ -17,7 +17,8 @@ is a reference solution computed by omnislam, ``GroundTruthInfo.reference`` name
   ``landmark_gate_m``.
 * NEES (``nees``: poses and landmarks): in the estimate's frame with the ORIGIN alignment;
   None when the estimator gives no covariances.
-* Timing (``timing``): per-step wall time, total, peak RSS of the run.
+* Timing (``timing``): per-step wall time, total, peak RSS of the run; none for results read
+  from another system's files (``RunConfig.external``), which were not timed here.
 """
 
 from __future__ import annotations
@@ -172,7 +173,7 @@ def evaluate_run(record: RunRecord, options: EvaluationOptions | None = None) ->
         landmarks, landmark_result = _landmark_metrics(record, options, se2, origin)
     else:
         landmarks = LandmarkMetrics(estimated=len(estimate.landmark_ids))
-    timing = timing_stats(record.step_s)
+    timing = timing_stats(record.step_s if config.external is None else np.zeros(0))
     return RunMetrics(
         run=RunInfo(
             dataset=config.dataset,
@@ -203,8 +204,8 @@ def evaluate_run(record: RunRecord, options: EvaluationOptions | None = None) ->
             step_p95_ms=_finite(timing.p95_ms),
             step_mean_ms=_finite(timing.mean_ms),
             step_max_ms=_finite(timing.max_ms),
-            total_s=config.total_s,
-            peak_rss_mb=config.peak_rss_mb,
+            total_s=config.total_s if config.external is None else None,
+            peak_rss_mb=config.peak_rss_mb if config.external is None else None,
         ),
         ground_truth=GroundTruthInfo(
             alignment=Alignment.SE2 if se2 is not None else None,

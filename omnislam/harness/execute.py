@@ -62,7 +62,9 @@ class RunSpec:
 
     Attributes:
         dataset: registered name or path.
-        estimator: estimator name (a key of ``omnislam.estimators.ESTIMATORS``).
+        estimator: estimator name (a key of ``omnislam.estimators.ESTIMATORS``), or
+            ``external`` in a grid cell that reads another system's results from files
+            (``Cell.external``, ``harness.external``) instead of running anything.
         seed: random seed (None: fresh entropy).
         options: ``--set`` options; keys the dataset's loader accepts go to the loader,
             ``wrong_id_fraction`` to the harness (``harness.perturb``: re-label that fraction
@@ -348,7 +350,7 @@ def _run_config(
         total_s: wall time of every step and the final estimate [s].
         stages: (wall, CPU) seconds per stage (``RunStages.finish``).
     """
-    import omnislam
+    from omnislam._version import __version__
 
     ground_truth, reference, track_truth = truth
     range_bearing_ids = fed.info.known_association and modality is Modality.RANGE_BEARING_2D
@@ -356,7 +358,7 @@ def _run_config(
         dataset=spec.dataset,
         dataset_path=str(resolved.path),
         estimator=spec.estimator,
-        omnislam_version=omnislam.__version__,
+        omnislam_version=__version__,
         frames=len(sequence),
         images=len(sequence.image_frames),
         total_s=total_s,

@@ -13,6 +13,7 @@ A grid file::
       - deadreckoning
       - {estimator: fastslam1, label: fs1, options: {particles.n_particles: 100}, seeds: [0, 1, 2]}
       - {estimator: ukf, label: ukf-on-graph, options: {prior_map: {from: graphslam}}}
+      - {estimator: external, label: mysys, files: "results/{dataset}/{seed}.tum"}
     seeds: [0, 1]                   # default [0]; an estimator's own `seeds` win
     overrides:                      # optional option sets crossed with the estimators
       - {particles.n_particles: 50, estimators: [fastslam1]}   # `estimators`: where it applies
@@ -34,6 +35,14 @@ the grid's) into the cache (``harness.renders``), and *every* estimator runs on 
 seed, that seed seeding both the render and the estimator -- so the spread over seeds of a
 synthetic row is over worlds too.
 
+``estimator: external`` is another system's results, read from files instead of run
+(``harness.external``): ``files`` names its trajectory for each cell, ``{dataset}`` (the
+dataset's label) and ``{seed}`` filled in, relative to the grid file (TUM, or KITTI with one
+pose per frame; ``format: tum|kitti|auto``, default auto); ``landmarks`` optionally names its
+map the same way (``id,x,y,z`` CSV), ``true_landmark_ids: true`` when the map's ids are the
+dataset's landmark ids. Every file must exist when the grid is read. It takes no ``options``,
+and overrides do not apply to it: it runs once per dataset and seed.
+
 ``prior_map: {from: LABEL}`` gives a localiser the map of another cell of the grid: the RUN_DIR
 of estimator LABEL on the same dataset with the same seed (the same override if it has one),
 whose landmarks become the prior map (``harness.prior``). The runner computes that cell first;
@@ -52,12 +61,22 @@ from omnislam._files import safe_name, yaml_error_line
 from omnislam.errors import ConfigError, OmnislamError
 from omnislam.harness.evaluation import EvaluationOptions
 from omnislam.harness.execute import RunSpec, check_estimator, check_spec
+from omnislam.harness.external import (
+    EXTERNAL,
+    PLACEHOLDERS,
+    ExternalResult,
+    TrajectoryFormat,
+    fill_pattern,
+    pattern_fields,
+)
 from omnislam.harness.prior import PRIOR_MAP_OPTION
 from omnislam.harness.renders import RenderSpec, render_spec
 
 _TOP_KEYS = {"name", "datasets", "estimators", "seeds", "overrides", "evaluation"}
 _DATASET_KEYS = {"dataset", "synthetic", "label", "options", "seeds", "images", "estimators"}
 _ESTIMATOR_KEYS = {"estimator", "label", "options", "seeds"}
+#: the keys of an ``estimator: external`` entry besides ``estimator``, ``label`` and ``seeds``
+_EXTERNAL_KEYS = {"files", "landmarks", "format", "true_landmark_ids"}
 #: the key of ``prior_map: {from: LABEL}``
 FROM_KEY = "from"
 
@@ -74,6 +93,9 @@ class Cell:
             not in the cache yet); None for data on disk.
         prior_from: the cell whose RUN_DIR is this cell's prior map (``prior_map: {from:}``);
             the runner fills ``spec.options["prior_map"]`` with its folder. None otherwise.
+        external: the files of another system's results (``estimator: external``,
+            ``harness.external``): the cell reads them instead of running an estimator. None
+            for a cell that runs one.
     """
 
     cell_id: str
@@ -83,6 +105,7 @@ class Cell:
     spec: RunSpec
     render: RenderSpec | None = None
     prior_from: str | None = None
+    external: ExternalResult | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,7 +192,7 @@ def _entries(raw: object, key: str, path: Path) -> list[dict[str, object]]:
     (a dataset may be ``synthetic: PRESET`` instead)."""
     if not isinstance(raw, list) or not raw:
         raise ConfigError(f"{path}: '{key}s' must be a non-empty list")
-    allowed = _DATASET_KEYS if key == "dataset" else _ESTIMATOR_KEYS
+    allowed = _DATASET_KEYS if key == "dataset" else _ESTIMATOR_KEYS | _EXTERNAL_KEYS
     out = []
     for i, item in enumerate(raw):
         where = f"{key}s[{i}]"
@@ -218,9 +241,88 @@ def _entries(raw: object, key: str, path: Path) -> list[dict[str, object]]:
                 if "estimators" in item
                 else None
             ),
+            "external": _external(item, where, path) if key == "estimator" else None,
+            "where": where,
         }
         out.append(entry)
     return out
+
+
+def _external(item: Mapping[str, object], where: str, path: Path) -> dict[str, object] | None:
+    """The keys of an ``estimator: external`` entry, checked (None for any other estimator).
+
+    Raises:
+        ConfigError: naming the grid file, the entry and the key.
+    """
+    given = _EXTERNAL_KEYS & set(item)
+    if item["estimator"] != EXTERNAL:
+        if given:
+            raise ConfigError(
+                f"{path}: {where}: {sorted(given)} apply to 'estimator: {EXTERNAL}' only"
+            )
+        return None
+    if "options" in item:
+        raise ConfigError(f"{path}: {where}: an external estimator takes no 'options'")
+    out: dict[str, object] = {}
+    for key in ("files", "landmarks"):
+        pattern = item.get(key)
+        if pattern is None and key == "landmarks":
+            continue
+        if not isinstance(pattern, str) or not pattern.strip():
+            raise ConfigError(
+                f"{path}: {where}: '{key}' must be a file pattern such as "
+                f"'results/{{dataset}}/{{seed}}.tum', got {pattern!r}"
+            )
+        try:
+            unknown = pattern_fields(pattern) - PLACEHOLDERS
+        except ConfigError as exc:
+            raise ConfigError(f"{path}: {where}: '{key}': {exc}") from None
+        if unknown:
+            raise ConfigError(
+                f"{path}: {where}: '{key}': unknown placeholders {sorted(unknown)}; "
+                f"known: {{dataset}}, {{seed}}"
+            )
+        out[key] = pattern
+    try:
+        out["format"] = TrajectoryFormat(item.get("format", "auto"))
+    except ValueError:
+        known = ", ".join(f.value for f in TrajectoryFormat)
+        raise ConfigError(
+            f"{path}: {where}: 'format' must be one of {known}, got {item['format']!r}"
+        ) from None
+    ids = item.get("true_landmark_ids", False)
+    if not isinstance(ids, bool):
+        raise ConfigError(f"{path}: {where}: 'true_landmark_ids' must be true or false")
+    out["true_landmark_ids"] = ids
+    return out
+
+
+def _external_result(
+    estimator: Mapping[str, object], dataset: str, seed: int, path: Path
+) -> ExternalResult:
+    """The files of one external cell, each of which must exist.
+
+    Raises:
+        ConfigError: a missing file, naming the grid file, the entry, the key and the cell.
+    """
+    keys: Mapping[str, object] = estimator["external"]  # type: ignore[assignment]
+    files: dict[str, str | None] = {"landmarks": None}
+    for key in ("files", "landmarks"):
+        if key not in keys:
+            continue
+        file = fill_pattern(str(keys[key]), path.parent, dataset, seed)
+        if not file.is_file():
+            raise ConfigError(
+                f"{path}: {estimator['where']}: '{key}': {file} not found (dataset "
+                f"{dataset}, seed {seed})"
+            )
+        files[key] = str(file)
+    return ExternalResult(
+        str(files["files"]),
+        keys["format"],  # type: ignore[arg-type]
+        files["landmarks"],
+        bool(keys["true_landmark_ids"]),
+    )
 
 
 def _dataset_argument(name: str, path: Path) -> tuple[str, str]:
@@ -370,6 +472,8 @@ def _check_labels(
                 f"{path}: datasets[{i}]: estimators {sorted(only - labels)} are not in the grid"
             )
     for i, entry in enumerate(estimators):
+        if entry["external"] is not None:
+            continue
         source = entry["prior_from"]
         if source is not None and (source not in labels or source == entry["label"]):
             raise ConfigError(
@@ -399,6 +503,8 @@ def _cells(
             applicable = [
                 options for options, only in overrides if only is None or {name, e_label} & only
             ] or [{}]
+            if estimator["external"] is not None:
+                applicable = [{}]  # results read from files: no option changes them
             if dataset.renders is not None:
                 runs = list(dataset.renders.items())
             else:
@@ -408,6 +514,11 @@ def _cells(
                 for seed, (argument, render) in runs:
                     options = {**dataset.options, **estimator["options"], **override}
                     cell_id = _cell_id(dataset.label, e_label, seed, o_label)
+                    external = (
+                        None
+                        if estimator["external"] is None
+                        else _external_result(estimator, dataset.label, seed, path)
+                    )
                     cells.append(
                         Cell(
                             cell_id,
@@ -417,6 +528,7 @@ def _cells(
                             RunSpec(argument, name, seed, options),
                             render,
                             estimator["prior_from"],  # a label until resolved below
+                            external,
                         )
                     )
     ids = [c.cell_id for c in cells]
@@ -431,7 +543,7 @@ def _check_specs(cells: list[Cell], path: Path) -> None:
     checked: set[tuple[str, str, tuple[tuple[str, str], ...]]] = set()
     for cell in cells:
         key = (cell.spec.dataset, cell.spec.estimator, tuple(sorted(cell.spec.options.items())))
-        if key in checked:
+        if key in checked or cell.external is not None:  # external: files checked when read
             continue
         checked.add(key)
         try:
@@ -539,6 +651,9 @@ estimators:                     # names from `omnislam estimators`, with their -
                                 #   a localiser in the map of the graphslam cell of the same
                                 #   dataset and seed (computed first; recomputed with it)
   # - {{estimator: fastslam2, seeds: [0, 1, 2, 3, 4]}}   # its own seeds instead of the grid's
+  # - {{estimator: external, label: mysys, files: "mysys/{{dataset}}/{{seed}}.tum"}}
+                                #   another system's results (TUM or KITTI; `landmarks:` an
+                                #   id,x,y,z CSV), scored and ranked beside the others
 
 seeds: [0, 1, 2]                # one run per seed (default [0]); the verdict uses their spread
 

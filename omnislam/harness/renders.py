@@ -72,9 +72,7 @@ def renderer_code(package_dir: Path | None = None) -> Closure:
     Args:
         package_dir: the omnislam source folder to read (default: this installation's).
     """
-    import omnislam
-
-    return code_closure(RENDER_ROOTS, package_dir or Path(omnislam.__file__).parent)
+    return code_closure(RENDER_ROOTS, package_dir or Path(__file__).resolve().parents[1])
 
 
 @lru_cache(maxsize=1)

@@ -98,6 +98,9 @@ class RunConfig:
             "true points of the tracks", "running", "final estimate"; ``execute.RunStages``).
         stages_cpu_s: CPU seconds of the same stages (the process and the front end's worker
             processes).
+        external: for results of another system read from files by an ``estimator: external``
+            grid cell (``harness.external``), where they came from (files and their SHA-256):
+            the run was not made here and has no step times. None for a run made by omnislam.
     """
 
     dataset: str
@@ -126,6 +129,7 @@ class RunConfig:
     images: int | None = None
     stages_wall_s: Mapping[str, float] = field(default_factory=dict)
     stages_cpu_s: Mapping[str, float] = field(default_factory=dict)
+    external: str | None = None
 
 
 @dataclass(frozen=True, slots=True)

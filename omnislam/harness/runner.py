@@ -8,7 +8,9 @@ in-process. Two kinds of task run on the workers:
    (``harness.renders``) and run the shared front end unless its log is current;
 2. ``run_cell``, once per cell as soon as its dataset is ready (a cell that reads another
    cell's map, ``Cell.prior_from``, once that cell is stored): ``execute_run(cell.spec)``,
-   returning the RunRecord and what it cost.
+   returning the RunRecord and what it cost; for another system's results
+   (``Cell.external``) ``read_external_cell`` instead, which reads them from their files (and is
+   never reused: reading them again is cheap and sees a changed file).
 
 This process writes each cell and evaluates it, so every cell is written atomically by one
 writer; the workers read the data, the cache (renders) and the front-end logs in
@@ -56,6 +58,7 @@ from omnislam.frontend.timing import cpu_with_children_s
 from omnislam.harness.channel import ProgressChannel, StepReporter
 from omnislam.harness.evaluation import EvaluationOptions, evaluate_run
 from omnislam.harness.execute import RunSpec, StepCallback, execute_run, parse_run_options
+from omnislam.harness.external import ExternalResult
 from omnislam.harness.grid import Cell, Grid, column_label
 from omnislam.harness.layout import (
     CELL_TIME,
@@ -480,6 +483,25 @@ def run_cell(spec: RunSpec, reporter: StepReporter | None = None) -> tuple[RunRe
     )
 
 
+def read_external_cell(
+    spec: RunSpec, external: ExternalResult, reporter: StepReporter | None = None
+) -> tuple[RunRecord, CellTime]:
+    """``harness.external.external_record``: another system's results as a cell; runs on a
+    worker (``reporter`` hears that it is loading)."""
+    import socket
+    import time
+
+    from omnislam.harness.external import external_record
+
+    if reporter is not None:
+        reporter("loading", 0, 0)
+    wall, cpu = time.perf_counter(), time.process_time()
+    record = external_record(spec, external)
+    return record, CellTime(
+        time.perf_counter() - wall, time.process_time() - cpu, socket.gethostname()
+    )
+
+
 def read_cell_time(cell_dir: Path) -> CellTime | None:
     """The ``cell_time.json`` of a cell folder (None when absent or unreadable)."""
     try:
@@ -658,7 +680,8 @@ class _GridRun:
 
         cells = [c for c in self.grid.cells if c.spec.dataset == dataset]
         track_truth = any(
-            Modality.BEARINGS_3D in ESTIMATORS[c.spec.estimator].modalities for c in cells
+            c.external is None and Modality.BEARINGS_3D in ESTIMATORS[c.spec.estimator].modalities
+            for c in cells
         )
         reporter = self.channel.reporter(PREPARE_KEY + dataset) if self.channel else None
         self._submit(
@@ -680,6 +703,11 @@ class _GridRun:
 
     def _submit_cell(self, cell: Cell) -> None:
         reporter = self.channel.reporter(cell.cell_id) if self.channel is not None else None
+        if cell.external is not None:
+            self._submit(
+                "cell", cell.cell_id, read_external_cell, cell.spec, cell.external, reporter
+            )
+            return
         self._submit("cell", cell.cell_id, run_cell, self._spec(cell), reporter)
 
     def _relay(self, finishing: str | None = None) -> None:
@@ -754,7 +782,7 @@ class _GridRun:
                 continue
             reused = (
                 _reuse(cell, self.cells_dir / cell.cell_id, self.grid.evaluation)
-                if self.reuse
+                if self.reuse and cell.external is None
                 else None
             )
             if reused is not None:

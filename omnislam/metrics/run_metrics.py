@@ -238,8 +238,9 @@ class TimingMetrics:
     Attributes:
         frames: frames processed (one estimator step each).
         step_median_ms, step_p95_ms, step_mean_ms, step_max_ms: wall time per step [ms].
-        total_s: wall time of all estimator steps [s].
-        peak_rss_mb: peak resident memory of the process [MB].
+        total_s: wall time of all estimator steps [s]; None for results read from another
+            system's files (not run here).
+        peak_rss_mb: peak resident memory of the process [MB]; None likewise.
     """
 
     frames: int = field(metadata=metric(csv=True))
@@ -247,8 +248,8 @@ class TimingMetrics:
     step_p95_ms: float | None = field(metadata=metric("step_ms_p95", csv=True, measured=True))
     step_mean_ms: float | None = field(metadata=metric("step_ms_mean", measured=True))
     step_max_ms: float | None = field(metadata=metric("step_ms_max", measured=True))
-    total_s: float = field(metadata=metric(csv=True, measured=True))
-    peak_rss_mb: float = field(metadata=metric(csv=True, measured=True))
+    total_s: float | None = field(metadata=metric(csv=True, measured=True))
+    peak_rss_mb: float | None = field(metadata=metric(csv=True, measured=True))
 
     def __post_init__(self) -> None:
         _validate(self)

@@ -36,9 +36,7 @@ def package_commit(source: Path | None = None) -> str:
     """
     try:
         if source is None:
-            import omnislam
-
-            source = Path(omnislam.__file__).resolve().parent.parent
+            source = Path(__file__).resolve().parents[2]  # omnislam/report/provenance.py
         if not (source / ".git").exists():
             return UNKNOWN
         head = subprocess.run(
@@ -199,10 +197,10 @@ def provenance_rows(
     results_dir: Path, title: str, cells: Sequence[ReportCell], options: ReportOptions
 ) -> list[tuple[str, str]]:
     """(field, value) of the provenance block; never raises."""
-    import omnislam
+    from omnislam._version import __version__
 
     rows = [
-        ("omnislam version", omnislam.__version__),
+        ("omnislam version", __version__),
         ("git commit", package_commit()),
         ("date (UTC)", now_utc()),
         ("command line", command_line(options.command)),
@@ -246,6 +244,10 @@ def provenance_rows(
         group = [c for c in cells if c.column == column]
         group_configs = [configs[c.cell_id] for c in group if configs[c.cell_id] is not None]
         estimator = group[0].estimator
+        external = sorted({cfg.external for cfg in group_configs if cfg.external})  # type: ignore[union-attr]
+        if external:  # another system's results (harness.external)
+            rows.append((f"estimator {column}", " / ".join(external)))
+            continue
         chosen = sorted({_options_text(cfg.estimator_options) for cfg in group_configs})  # type: ignore[union-attr]
         rows.append(
             (f"estimator {column}", f"{estimator}; options: {' / '.join(chosen) or 'unknown'}")

@@ -19,7 +19,7 @@ from small_mrclam import write_small_mrclam
 
 import omnislam
 from omnislam.cli import COMMANDS, build_parser, main
-from omnislam.estimators import ESTIMATORS, estimator_defaults
+from omnislam.estimators import BUILTIN_ESTIMATORS, ESTIMATORS, estimator_defaults
 from omnislam.harness.evaluation import EvaluationOptions
 from omnislam.harness.grid import _TOP_KEYS, EVALUATION_COMMENTS, grid_template, parse_grid
 from omnislam.options import apply_options, describe_options
@@ -235,7 +235,8 @@ def test_help_texts_say_what_the_code_does():
     run_help = " ".join(commands["run"].format_help().split())
     assert "--log" in run_help and "omnislam frontend" in run_help
     estimator_help = next(a.help for a in commands["run"]._actions if a.dest == "estimator")
-    assert all(name in estimator_help for name in ESTIMATORS)
+    assert all(name in estimator_help for name in BUILTIN_ESTIMATORS)
+    assert "plugin" in estimator_help
 
 
 # ---- files are readable by others ------------------------------------------------------------
