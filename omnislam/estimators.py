@@ -10,6 +10,7 @@ options they do not know, so a typo on ``--set`` never passes silently.
 
 from __future__ import annotations
 
+import enum
 import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
@@ -23,6 +24,17 @@ from omnislam.errors import ConfigError
 
 #: factory(info, options, rng) -> Estimator
 EstimatorFactory = Callable[[SequenceInfo, Mapping[str, str], np.random.Generator], Estimator]
+
+
+class Family(enum.Enum):
+    """The method family of an estimator: a verdict names the best of each family and the margin
+    between families rather than ranking every variant of one method against the others."""
+
+    FACTOR_GRAPH = "factor graph"
+    PARTICLE_FILTER = "particle filter"
+    KALMAN_FILTER = "Kalman filter"
+    LOCALISER = "localiser in a known map"
+    DEAD_RECKONING = "dead reckoning"
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,6 +61,12 @@ class EstimatorEntry:
         wheel_odometry: it always steps on the dataset's own odometry, even where the front
             end's log carries laser odometry that replaces it for the others (dead reckoning:
             the baseline the SLAM estimators are compared with).
+        stochastic: it draws from the run's random generator (particle filters), so its result
+            depends on the seed; a deterministic one (default False) gives the same trajectory
+            for every seed on the same input, and a grid runs it once per dataset on data on
+            disk (``harness.grid``).
+        family: its method family (``Family``), by which a verdict groups the estimators
+            (default ``Family.KALMAN_FILTER``).
     """
 
     target: str
@@ -59,6 +77,8 @@ class EstimatorEntry:
     preset: str = ""
     floor_tracks: bool = False
     wheel_odometry: bool = False
+    stochastic: bool = False
+    family: Family = Family.KALMAN_FILTER
 
 
 _SLAM_2D_3D = frozenset({Modality.RANGE_BEARING_2D, Modality.BEARINGS_3D})
@@ -73,6 +93,7 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
         summary="the odometry composed, sightings ignored: the baseline every SLAM back end "
         "must beat",
         wheel_odometry=True,
+        family=Family.DEAD_RECKONING,
     ),
     "graphslam": EstimatorEntry(
         "omnislam.graphslam:make_estimator",
@@ -82,6 +103,7 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
         config="omnislam.graphslam.config:PRESETS",
         preset="default",
         floor_tracks=True,
+        family=Family.FACTOR_GRAPH,
     ),
     "graphslam-batch": EstimatorEntry(
         "omnislam.graphslam:make_batch_estimator",
@@ -91,6 +113,7 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
         config="omnislam.graphslam.config:PRESETS",
         preset="default",
         floor_tracks=True,
+        family=Family.FACTOR_GRAPH,
     ),
     "fastslam1": EstimatorEntry(
         "omnislam.fastslam:make_fastslam1",
@@ -100,6 +123,8 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
         "(thesis sec. 4.4)",
         config="omnislam.fastslam.config:PRESETS",
         preset="fastslam1",
+        stochastic=True,
+        family=Family.PARTICLE_FILTER,
     ),
     "fastslam2": EstimatorEntry(
         "omnislam.fastslam:make_fastslam2",
@@ -108,6 +133,8 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
         summary="FastSLAM 2.0: the proposal refined by the matched sightings (Montemerlo 2003)",
         config="omnislam.fastslam.config:PRESETS",
         preset="fastslam2",
+        stochastic=True,
+        family=Family.PARTICLE_FILTER,
     ),
     "ukf": EstimatorEntry(
         "omnislam.ukf:make_estimator",
@@ -115,6 +142,7 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
         "omnislam.ukf.factory:check_options",
         summary="UKF localiser on vertical-line bearings in a known map (Barra & Costa)",
         config="omnislam.ukf.config:UKFConfig",
+        family=Family.LOCALISER,
     ),
     "ekfslam": EstimatorEntry(
         "omnislam.ekfslam:make_estimator",
@@ -123,6 +151,7 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
         summary="EKF-SLAM on range-bearing sightings or omni bearings (delayed triangulation), "
         "one joint Gaussian (SLAM for Dummies)",
         config="omnislam.ekfslam.config:EKFSLAMConfig",
+        family=Family.KALMAN_FILTER,
     ),
 }
 

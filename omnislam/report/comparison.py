@@ -53,7 +53,7 @@ from omnislam.report.sections import (
     notes_sections,
     provenance_section,
     title_section,
-    verdict_section,
+    verdict_sections,
 )
 from omnislam.report.tables import to_csv, to_latex
 
@@ -151,7 +151,7 @@ def _write_into(
     colours = palette.colours(columns(cells))
     body = [
         title_section(title),
-        verdict_section(cells, dict(made)),
+        *verdict_sections(cells, dict(made)),
         headline_section(cells),
         *dataset_sections(cells, colours, options, notes),
     ]

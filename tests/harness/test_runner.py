@@ -64,11 +64,10 @@ class CountingExecutor(SerialExecutor):
 
 def test_grid_cells_are_named_deterministically(tmp_path):
     grid = load_grid(make_grid(tmp_path))
+    # dead reckoning is deterministic: once per dataset on data on disk, with the first seed
     assert [c.cell_id for c in grid.cells] == [
         "room_a__deadreckoning__s0",
-        "room_a__deadreckoning__s1",
         "b__deadreckoning__s0",
-        "b__deadreckoning__s1",
     ]
     assert grid.evaluation.rpe_segment_m == 2.0
 
