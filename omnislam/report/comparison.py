@@ -52,6 +52,7 @@ from omnislam.report.sections import (
     left_out_section,
     notes_sections,
     provenance_section,
+    summary_section,
     title_section,
     verdict_sections,
 )
@@ -153,6 +154,7 @@ def _write_into(
         title_section(title),
         *verdict_sections(cells, dict(made)),
         headline_section(cells),
+        *summary_section(cells, colours, options),
         *dataset_sections(cells, colours, options, notes),
     ]
     if options.exports:

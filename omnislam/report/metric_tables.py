@@ -78,8 +78,14 @@ DETAIL_COLUMNS: tuple[tuple[str, Metric | None], ...] = (
     ("landmarks matched / estimated", None),
     ("pose NEES median", None),
     ("poses in NEES 95 % band", lambda m: m.nees.pose_within_bounds),
+    ("seeds", None),
+)
+#: the columns of a dataset's table of costs (a table of its own: one table of both would be
+#: wider than the page)
+COST_COLUMNS: tuple[tuple[str, Metric | None], ...] = (
     ("step median [ms]", lambda m: m.timing.step_median_ms),
     ("step p95 [ms]", lambda m: m.timing.step_p95_ms),
+    ("step max [ms]", lambda m: m.timing.step_max_ms),
     ("warm-up [s]", lambda m: m.timing.warmup_s),
     ("total [s]", lambda m: m.timing.total_s),
     ("peak RSS [MB]", lambda m: m.timing.peak_rss_mb),
@@ -115,9 +121,12 @@ def _landmarks_cell(ok: Sequence[ReportCell]) -> Cell:
     return f"{seed_number(matched).text} / {seed_number(estimated).text}"
 
 
-def detail_rows(cells: Sequence[ReportCell]) -> tuple[list[str], list[list[Cell]]]:
-    """(header, one row per estimator column) of a dataset's table (``DETAIL_COLUMNS``)."""
-    header = ["estimator", *(name for name, _ in DETAIL_COLUMNS)]
+def detail_rows(
+    cells: Sequence[ReportCell], spec: Sequence[tuple[str, Metric | None]] = DETAIL_COLUMNS
+) -> tuple[list[str], list[list[Cell]]]:
+    """(header, one row per estimator column) of a dataset's table (``DETAIL_COLUMNS`` or
+    ``COST_COLUMNS``)."""
+    header = ["estimator", *(name for name, _ in spec)]
     by_column = {col: [c for c in cells if c.column == col] for col in columns(cells)}
     baseline = column_summary([c for c in cells if c.column == BASELINE], ate_rmse)
     rows = []
@@ -130,7 +139,7 @@ def detail_rows(cells: Sequence[ReportCell]) -> tuple[list[str], list[list[Cell]
             "seeds": _seeds_cell(group),
         }
         row: list[Cell] = [column]
-        for name, metric in DETAIL_COLUMNS:
+        for name, metric in spec:
             row.append(seed_number(column_summary(ok, metric)) if metric else special[name])
         rows.append(row)
     return header, rows
@@ -353,6 +362,18 @@ def metrics_table(dataset: str, cells: Sequence[ReportCell]) -> Table:
     return make_table(
         f"{slug(dataset)}-metrics",
         f"{dataset}: metrics per estimator, {STATISTIC} ({gt_label(cells)})",
+        header,
+        rows,
+    )
+
+
+def cost_table(dataset: str, cells: Sequence[ReportCell]) -> Table:
+    """One dataset's costs per estimator column (``COST_COLUMNS``): step times after the
+    warm-up (``metrics.timing``), the warm-up, the total and the memory."""
+    header, rows = detail_rows(cells, COST_COLUMNS)
+    return make_table(
+        f"{slug(dataset)}-cost",
+        f"{dataset}: cost per estimator, {STATISTIC}; step times exclude the warm-up",
         header,
         rows,
     )

@@ -22,6 +22,7 @@ from omnislam.errors import ConfigError
 from omnislam.report.figures import dataset_figures
 from omnislam.report.metric_tables import (
     association_table,
+    cost_table,
     dataset_verdicts,
     headline_table,
     metrics_table,
@@ -76,8 +77,9 @@ ASSOCIATION_MEANING = (
 )
 #: what a report without figures says instead
 NO_FIGURES = (
-    "Figures: not drawn for this report (omnislam report --no-figures); "
-    "omnislam report RESULTS_DIR --out DIR draws them from the same results."
+    "Figures: not drawn for this report but the summary figures (omnislam report "
+    "--no-figures); omnislam report RESULTS_DIR --out DIR draws each dataset's from the same "
+    "results."
 )
 #: what the exports are
 EXPORTS = (
@@ -123,6 +125,18 @@ def verdict_sections(cells: Sequence[ReportCell], made: Mapping[str, str]) -> li
     ]
 
 
+def summary_section(
+    cells: Sequence[ReportCell], colours: Mapping[str, str], options: ReportOptions
+) -> list[Section]:
+    """The summary figures (``report.summary``); none when not asked for or nothing to draw."""
+    from omnislam.report.summary import summary_figures
+
+    if not options.summary_figures:
+        return []
+    figures = summary_figures(cells, dataset_verdicts(cells), colours)
+    return [Section("Summary figures", figures=tuple(figures))] if figures else []
+
+
 def headline_section(cells: Sequence[ReportCell]) -> Section:
     """ATE RMSE per dataset and estimator, one table."""
     return Section("ATE RMSE [m] per dataset and estimator", tables=(headline_table(cells),))
@@ -165,6 +179,7 @@ def dataset_section(
         lead=(f"Ground truth: {note}",) if note else (),
         tables=(
             metrics_table(dataset, cells),
+            cost_table(dataset, cells),
             seeds_table(dataset, cells),
             *([association] if association else []),
         ),
