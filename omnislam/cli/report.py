@@ -30,7 +30,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--title", default=None, help="report title (default: the grid's name)")
     p.add_argument("--no-exports", action="store_true", help="skip exports/ (TUM, KITTI, PLY, g2o)")
     p.add_argument(
-        "--no-figures", action="store_true", help="verdicts, tables and the summary figures only (a small report)"
+        "--no-figures",
+        action="store_true",
+        help="verdicts, tables and the summary figures only (a small report)",
     )
     p.add_argument("--no-occupancy", action="store_true", help="skip occupancy grids")
     p.add_argument(
