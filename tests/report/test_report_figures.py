@@ -148,8 +148,10 @@ def test_figures_are_vector_readable_and_one_colour_per_estimator(report):
     page = (out / "index.html").read_text()
     assert "<img" not in page and "data:image/png" not in page.split("<svg", 1)[0]
     svgs = inline_svgs(page)
-    stems = [f"room-{stem}.svg" for stem, _ in FIGURES]
-    assert list(summary.figures) == stems  # every figure of FIGURES, in that order
+    # the summary figures, then every figure of FIGURES in that order
+    summary_figures = ["room-ate-by-input.svg", "accuracy-vs-time.svg", "families.svg"]
+    stems = summary_figures + [f"room-{stem}.svg" for stem, _ in FIGURES]
+    assert list(summary.figures) == stems
     assert len(svgs) == len(stems)
     md = (out / "report.md").read_text()
     seen: dict[str, dict[str, set[str]]] = {}
@@ -186,6 +188,8 @@ def test_figures_are_vector_readable_and_one_colour_per_estimator(report):
         "occupancy",
     ):
         assert set(seen[f"room-{stem}.svg"]) == everyone, stem
+    assert set(seen["room-ate-by-input.svg"]) == everyone
+    assert set(seen["accuracy-vs-time.svg"]) == everyone - {"deadreckoning"}  # its reference
     assert set(seen["room-landmarks.svg"]) == {"mapper_odo"}  # the only one with a map
     # and in every table of the page: the swatch before an estimator's name has its colour
     swatches = re.findall(
