@@ -12,9 +12,10 @@ suite`` does) and puts their results into the report in place of the old ones:
 
 * ``tables/LABEL-*.csv|tex`` copied from the new report;
 * the datasets' rows of ``tables/ate-rmse`` and ``tables/verdict`` (CSV and LaTeX) and, in
-  ``report.md`` and ``index.html``, their verdict sentences, their rows of the verdict, ATE and
+  ``report.md`` and ``index.html``, their verdict notes, their rows of the verdict, ATE and
   provenance tables and their sections replaced, and the CSV/LaTeX files that ``index.html``
-  inlines re-encoded;
+  inlines re-encoded (the summary figures, drawn over every dataset, are not: ``make suite``
+  redraws them);
 * a provenance row names the re-run datasets, the commit and the date.
 
 Every other row stays as the full run left it. The results table of the README and of
@@ -79,9 +80,12 @@ def subset_grid(path: Path, pattern: str) -> tuple[dict, list[str]]:
 
 
 def _replace_all(old: str, new: str, pattern: str, what: str) -> str:
-    """``old`` with each match of ``pattern`` replaced by the same-numbered match in ``new``."""
+    """``old`` with each match of ``pattern`` replaced by the same-numbered match in ``new``
+    (verdict notes may be absent from both)."""
     old_hits = list(re.finditer(pattern, old, flags=re.M | re.S))
     new_hits = list(re.finditer(pattern, new, flags=re.M | re.S))
+    if not old_hits and not new_hits and what.split(" ")[1] == "notes":
+        return old
     if not old_hits or len(old_hits) != len(new_hits):
         raise SpliceError(f"{what}: {len(old_hits)} in the old report, {len(new_hits)} in the new")
     out, last = [], 0
@@ -97,13 +101,13 @@ PAGE_PARTS = {
     "report.md": (
         ("rows", r"^\| LABEL \|[^\n]*$"),
         ("provenance", r"^\| dataset LABEL \|[^\n]*$"),
-        ("verdict", r"^LABEL: [^\n]*$"),
+        ("notes", r"^- LABEL \([^\n]*$"),
         ("section", rf"^## LABEL — .*?(?=^## |^{TRAILERS})"),
     ),
     "index.html": (
         ("rows", r"<tr><td>LABEL</td>[^\n]*?</tr>"),
         ("provenance", r"<tr><td>dataset LABEL</td>[^\n]*?</tr>"),
-        ("verdict", r"<p>LABEL: [^\n]*?</p>"),
+        ("notes", r'<p class="note">LABEL \([^\n]*?</p>'),
         ("section", rf"<h2>LABEL — .*?(?=<h2>|<p>{TRAILERS})"),
     ),
 }
@@ -156,31 +160,38 @@ def splice_table(old: str, new: str, labels: list[str], suffix: str, what: str) 
 
 
 def splice_csv(old: str, new: str, labels: list[str], what: str) -> str:
-    """A suite CSV table: the labels' rows from ``new``, laid out in ``old``'s columns.
+    """A suite CSV table: the labels' rows from ``new`` (a dataset may have several, one per
+    input and method family in the verdict), laid out in ``old``'s columns.
 
-    A report leaves out an estimator's "std" column when no dataset ran it on several seeds, so
-    the re-run datasets' report may lack columns the whole suite's has: those cells are empty,
-    as they are in the whole report for an estimator run on one seed.
+    A report leaves out an estimator's "min" and "max" columns when no dataset ran it on several
+    seeds, so the re-run datasets' report may lack columns the whole suite's has: those cells
+    are empty, as they are in the whole report for an estimator run once.
     """
     old_rows = list(csv.reader(io.StringIO(old)))
     new_rows = list(csv.reader(io.StringIO(new)))
     header, new_header = old_rows[0], new_rows[0]
     missing = [c for c in new_header if c not in header]
-    lacking = [c for c in header if c not in new_header and not c.endswith(" std")]
+    lacking = [
+        c for c in header if c not in new_header and not c.endswith((" min", " max"))
+    ]
     if missing or lacking:
         raise SpliceError(f"{what}: columns {missing or lacking} are in one report only")
-    by_label = {row[0]: dict(zip(new_header, row, strict=True)) for row in new_rows[1:]}
+    by_label: dict[str, list[dict[str, str]]] = {}
+    for row in new_rows[1:]:
+        by_label.setdefault(row[0], []).append(dict(zip(new_header, row, strict=True)))
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(header)
     seen = set()
     for row in old_rows[1:]:
-        if row[0] in labels:
-            if row[0] not in by_label:
-                raise SpliceError(f"{what}: no row {row[0]} in the new report")
-            seen.add(row[0])
-            row = [by_label[row[0]].get(column, "") for column in header]
-        writer.writerow(row)
+        if row[0] not in labels:
+            writer.writerow(row)
+            continue
+        if row[0] not in by_label:
+            raise SpliceError(f"{what}: no row {row[0]} in the new report")
+        if row[0] not in seen:  # the label's rows of the new report, once, where its first was
+            writer.writerows([r.get(column, "") for column in header] for r in by_label[row[0]])
+        seen.add(row[0])
     if seen != set(labels):
         raise SpliceError(f"{what}: no row {sorted(set(labels) - seen)} in the old report")
     return out.getvalue()

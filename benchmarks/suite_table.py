@@ -5,12 +5,14 @@
 
 ``make suite`` runs it after ``omnislam compare benchmarks/grids/suite.yaml`` and ``omnislam
 report``. It reads two tables the report writes -- ``tables/ate-rmse.csv`` (ATE RMSE per dataset
-and estimator, mean and standard deviation over seeds) and ``tables/verdict.csv`` (per dataset
-the best estimator by median ATE over seeds, dead reckoning excluded, the runner-up and whether
-the margin is within the seed spread, dead reckoning's median) -- and rewrites the block of the
-README between ``<!-- suite-table:begin -->`` and ``<!-- suite-table:end -->``: no number in
-that block is typed by hand. The last column names the best estimator with its median, its
-margin over the next, and says when dead reckoning's median is lower still. ``--check``
+and estimator, the median over seeds with its min and max) and ``tables/verdict.csv`` (per
+dataset and input one row per method family: its best estimator by median ATE over seeds, dead
+reckoning excluded, how far behind the best family it is, whether the seed spread separates
+them, dead reckoning's median) -- and rewrites the block of the README between
+``<!-- suite-table:begin -->`` and ``<!-- suite-table:end -->``: no number in that block is
+typed by hand. The last column names, per input, the best estimator with its median and the
+next family's best with its distance behind, and says when dead reckoning's median is lower
+still. ``--check``
 rewrites nothing and exits 1 when the block is not what the report gives (for CI, after the
 report changed).
 """
@@ -39,12 +41,22 @@ class SuiteTableError(Exception):
 
 @dataclass(frozen=True, slots=True)
 class Verdict:
-    """One row of verdict.csv, as far as the table shows it."""
+    """The first two rows of one dataset and input of verdict.csv, as far as the table shows it.
 
+    Attributes:
+        input: what the ranked estimators consumed.
+        best: the best family's best estimator.
+        runner_up: the next family's best estimator ("" when only one family ran).
+        behind_percent: how far the runner-up is behind the best, in % of its own median.
+        separated: "yes", "no" or "unknown (1 seed)" ("" without a runner-up).
+        best_median, baseline_median: medians over seeds of the best and of dead reckoning.
+    """
+
+    input: str
     best: str
     runner_up: str
-    margin_percent: float | None
-    within_spread: str
+    behind_percent: float | None
+    separated: str
     best_median: float | None = None
     baseline_median: float | None = None
 
@@ -76,33 +88,60 @@ def _number(text: str) -> float | None:
     return None if math.isnan(value) else value
 
 
-def _format(mean: str, std: str) -> str:
-    """``0.113``, ``0.532 ± 0.095``; the report's own text (``– (failed)``) when no number."""
-    value = _number(mean)
+def _format(median: str, low: str, high: str) -> str:
+    """``0.113``, ``0.532 [0.49–0.61]``; the report's own text (``– (failed)``) when no number."""
+    value = _number(median)
     if value is None:
-        return mean.strip() or "–"
-    spread = _number(std)
-    return f"{value:.3g}" if spread is None else f"{value:.3g} ± {spread:.2g}"
+        return median.strip() or "–"
+    lo, hi = _number(low), _number(high)
+    return f"{value:.3g}" if lo is None or hi is None else f"{value:.3g} [{lo:.3g}–{hi:.3g}]"
 
 
-def read_verdicts(report: Path) -> dict[str, Verdict]:
-    """Dataset label -> its verdict (datasets without a ranked estimator are absent)."""
+def read_verdicts(report: Path) -> dict[str, list[Verdict]]:
+    """Dataset label -> its verdict per input (datasets without a ranked estimator are absent)."""
     _, rows = _read_csv(report / VERDICT_TABLE)
-    out = {}
-    for row in rows:
-        try:
-            if row["best"]:
-                out[row["dataset"]] = Verdict(
+    first: dict[tuple[str, str], dict[str, str]] = {}
+    second: dict[tuple[str, str], dict[str, str]] = {}
+    try:
+        for row in rows:
+            key = (row["dataset"], row["input"])
+            if row["best"] and row["rank"] == "1":
+                first[key] = row
+            elif row["best"] and row["rank"] == "2":
+                second[key] = row
+        out: dict[str, list[Verdict]] = {}
+        for (dataset, kind), row in first.items():
+            runner = second.get((dataset, kind))
+            out.setdefault(dataset, []).append(
+                Verdict(
+                    kind,
                     row["best"],
-                    row["runner-up"],
-                    _number(row["margin [%]"]),
-                    row["within seed spread"],
-                    _number(row["best median [m]"]),
+                    runner["best"] if runner else "",
+                    _number(runner["behind the best [%]"]) if runner else None,
+                    runner["separated from the best"] if runner else "",
+                    _number(row["median [m]"]),
                     _number(row["dead reckoning median [m]"]),
                 )
-        except KeyError as exc:
-            raise SuiteTableError(f"{report / VERDICT_TABLE}: no column {exc}") from None
+            )
+    except KeyError as exc:
+        raise SuiteTableError(f"{report / VERDICT_TABLE}: no column {exc}") from None
     return out
+
+
+def _verdict_text(verdict: Verdict) -> str:
+    """``graphslam 0.0105 (fastslam2 +82 % behind)`` for one input."""
+    text = f"{verdict.best}"
+    if verdict.best_median is not None:
+        text += f" {verdict.best_median:.3g}"
+    if not verdict.runner_up:  # one family only
+        text += " (one family ranked"
+    else:
+        behind = f"{verdict.behind_percent:.0f} %" if verdict.behind_percent is not None else "?"
+        text += f" ({verdict.runner_up} {behind} behind"
+        text += "; not separated by the seed spread" if verdict.separated == "no" else ""
+    if verdict.behind_baseline:
+        text += f"; dead reckoning's {verdict.baseline_median:.3g} is lower"
+    return text + ")"
 
 
 def suite_table(report: str | Path) -> str:
@@ -111,37 +150,25 @@ def suite_table(report: str | Path) -> str:
     header, rows = _read_csv(report / ATE_TABLE)
     if tuple(header[:2]) != LEADING:
         raise SuiteTableError(f"{report / ATE_TABLE}: expected columns {LEADING} first")
-    estimators = [h for h in header[2:] if not h.endswith(" std")]
+    estimators = [h for h in header[2:] if not h.endswith((" min", " max"))]
     verdicts = read_verdicts(report)
     lines = [
         "| dataset | ground truth | "
         + " | ".join(estimators)
-        + " | best: median over seeds (margin over next) |",
+        + " | best per input: median over seeds (the next family behind) |",
         "|---|---|" + "---|" * len(estimators) + "---|",
     ]
     for row in rows:
-        verdict = verdicts.get(row["dataset"])
+        found = verdicts.get(row["dataset"], [])
+        winners = {v.best for v in found}
         cells = []
         for name in estimators:
-            text = _format(row.get(name, ""), row.get(f"{name} std", ""))
-            cells.append(f"**{text}**" if verdict is not None and verdict.best == name else text)
-        if verdict is None:
-            best = "–"
-        else:
-            best = verdict.best
-            if verdict.best_median is not None:
-                best += f" {verdict.best_median:.3g}"
-            if not verdict.runner_up:  # the only estimator besides dead reckoning
-                best += " (only one ranked"
-            else:
-                margin = (
-                    f"{verdict.margin_percent:.0f} %" if verdict.margin_percent is not None else "?"
-                )
-                best += f" ({margin} over {verdict.runner_up}"
-                best += "; within seed spread" if verdict.within_spread == "yes" else ""
-            if verdict.behind_baseline:
-                best += f"; dead reckoning's {verdict.baseline_median:.3g} is lower"
-            best += ")"
+            text = _format(row.get(name, ""), row.get(f"{name} min", ""),
+                           row.get(f"{name} max", ""))
+            cells.append(f"**{text}**" if name in winners else text)
+        best = "; ".join(
+            (f"{v.input}: " if len(found) > 1 else "") + _verdict_text(v) for v in found
+        ) or "–"
         lines.append(
             f"| {row['dataset']} | {row['ground truth']} | " + " | ".join(cells) + f" | {best} |"
         )

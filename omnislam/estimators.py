@@ -29,6 +29,7 @@ module attribute computed on first use) is the registry of this process.
 
 from __future__ import annotations
 
+import enum
 import importlib
 import os
 import re
@@ -47,6 +48,17 @@ from omnislam.errors import ConfigError, OmnislamError
 
 #: factory(info, options, rng) -> Estimator
 EstimatorFactory = Callable[[SequenceInfo, Mapping[str, str], np.random.Generator], Estimator]
+
+
+class Family(enum.Enum):
+    """The method family of an estimator: a verdict names the best of each family and the margin
+    between families rather than ranking every variant of one method against the others."""
+
+    FACTOR_GRAPH = "factor graph"
+    PARTICLE_FILTER = "particle filter"
+    KALMAN_FILTER = "Kalman filter"
+    LOCALISER = "localiser in a known map"
+    DEAD_RECKONING = "dead reckoning"
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,6 +85,12 @@ class EstimatorEntry:
         wheel_odometry: it always steps on the dataset's own odometry, even where the front
             end's log carries laser odometry that replaces it for the others (dead reckoning:
             the baseline the SLAM estimators are compared with).
+        stochastic: it draws from the run's random generator (particle filters), so its result
+            depends on the seed; a deterministic one (default False) gives the same trajectory
+            for every seed on the same input, and a grid runs it once per dataset on data on
+            disk (``harness.grid``).
+        family: its method family (``Family``), by which a verdict groups the estimators
+            (default ``Family.KALMAN_FILTER``).
     """
 
     target: str
@@ -83,6 +101,8 @@ class EstimatorEntry:
     preset: str = ""
     floor_tracks: bool = False
     wheel_odometry: bool = False
+    stochastic: bool = False
+    family: Family = Family.KALMAN_FILTER
 
 
 _SLAM_2D_3D = frozenset({Modality.RANGE_BEARING_2D, Modality.BEARINGS_3D})
@@ -107,6 +127,7 @@ BUILTIN_ESTIMATORS: dict[str, EstimatorEntry] = {
         summary="the odometry composed, sightings ignored: the baseline every SLAM back end "
         "must beat",
         wheel_odometry=True,
+        family=Family.DEAD_RECKONING,
     ),
     "graphslam": EstimatorEntry(
         "omnislam.graphslam:make_estimator",
@@ -116,6 +137,7 @@ BUILTIN_ESTIMATORS: dict[str, EstimatorEntry] = {
         config="omnislam.graphslam.config:PRESETS",
         preset="default",
         floor_tracks=True,
+        family=Family.FACTOR_GRAPH,
     ),
     "graphslam-batch": EstimatorEntry(
         "omnislam.graphslam:make_batch_estimator",
@@ -125,6 +147,7 @@ BUILTIN_ESTIMATORS: dict[str, EstimatorEntry] = {
         config="omnislam.graphslam.config:PRESETS",
         preset="default",
         floor_tracks=True,
+        family=Family.FACTOR_GRAPH,
     ),
     "fastslam1": EstimatorEntry(
         "omnislam.fastslam:make_fastslam1",
@@ -134,6 +157,8 @@ BUILTIN_ESTIMATORS: dict[str, EstimatorEntry] = {
         "(thesis sec. 4.4)",
         config="omnislam.fastslam.config:PRESETS",
         preset="fastslam1",
+        stochastic=True,
+        family=Family.PARTICLE_FILTER,
     ),
     "fastslam2": EstimatorEntry(
         "omnislam.fastslam:make_fastslam2",
@@ -142,6 +167,8 @@ BUILTIN_ESTIMATORS: dict[str, EstimatorEntry] = {
         summary="FastSLAM 2.0: the proposal refined by the matched sightings (Montemerlo 2003)",
         config="omnislam.fastslam.config:PRESETS",
         preset="fastslam2",
+        stochastic=True,
+        family=Family.PARTICLE_FILTER,
     ),
     "ukf": EstimatorEntry(
         "omnislam.ukf:make_estimator",
@@ -149,6 +176,7 @@ BUILTIN_ESTIMATORS: dict[str, EstimatorEntry] = {
         "omnislam.ukf.factory:check_options",
         summary="UKF localiser on vertical-line bearings in a known map (Barra & Costa)",
         config="omnislam.ukf.config:UKFConfig",
+        family=Family.LOCALISER,
     ),
     "ekfslam": EstimatorEntry(
         "omnislam.ekfslam:make_estimator",
@@ -157,6 +185,7 @@ BUILTIN_ESTIMATORS: dict[str, EstimatorEntry] = {
         summary="EKF-SLAM on range-bearing sightings or omni bearings (delayed triangulation), "
         "one joint Gaussian (SLAM for Dummies)",
         config="omnislam.ekfslam.config:EKFSLAMConfig",
+        family=Family.KALMAN_FILTER,
     ),
 }
 

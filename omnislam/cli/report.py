@@ -5,7 +5,7 @@ Writes ``report.md`` with its SVGs and a self-contained ``index.html`` (figures 
 verdict per dataset first, the tables and figures, a provenance block last (this command line
 included). Every table is also written as ``tables/NAME.csv`` and ``tables/NAME.tex`` (LaTeX
 booktabs), plus ``exports/`` (TUM, KITTI, PLY, g2o) unless ``--no-exports``; ``--no-figures``
-leaves out the figures (a report of many datasets small enough to commit). An existing
+leaves out each dataset's figures (a report of many datasets small enough to commit). An existing
 report folder is replaced only with ``--overwrite``. Progress goes to stderr; the last line
 names the report.
 """
@@ -30,7 +30,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--title", default=None, help="report title (default: the grid's name)")
     p.add_argument("--no-exports", action="store_true", help="skip exports/ (TUM, KITTI, PLY, g2o)")
     p.add_argument(
-        "--no-figures", action="store_true", help="verdicts and tables only (a small report)"
+        "--no-figures",
+        action="store_true",
+        help="verdicts, tables and the summary figures only (a small report)",
     )
     p.add_argument("--no-occupancy", action="store_true", help="skip occupancy grids")
     p.add_argument(

@@ -188,6 +188,7 @@ def evaluate_run(record: RunRecord, options: EvaluationOptions | None = None) ->
         nees=ConsistencyMetrics(
             has_pose_covariances=estimate.pose_covariances is not None,
             pose_mean=None if pose_result is None else _finite(pose_result.mean),
+            pose_median=None if pose_result is None else _finite(pose_result.median),
             pose_anees=None if pose_result is None else _finite(pose_result.anees),
             pose_dof=None if pose_result is None else pose_result.dof,
             pose_within_bounds=None if pose_result is None else _finite(pose_result.within_bounds),
@@ -206,6 +207,8 @@ def evaluate_run(record: RunRecord, options: EvaluationOptions | None = None) ->
             step_max_ms=_finite(timing.max_ms),
             total_s=config.total_s if config.external is None else None,
             peak_rss_mb=config.peak_rss_mb if config.external is None else None,
+            warmup_s=timing.warmup_s if len(record.step_s) else None,
+            warmup_steps=timing.warmup_steps if len(record.step_s) else None,
         ),
         ground_truth=GroundTruthInfo(
             alignment=Alignment.SE2 if se2 is not None else None,

@@ -28,12 +28,15 @@ estimator, the latter against the estimator's configuration dataclass without bu
 bad grid writes nothing.
 
 Seeds: a cell's seed seeds its estimator. An estimator runs on the grid's ``seeds`` unless its
-entry has its own (deterministic estimators need one seed, particle filters several). A
-synthetic dataset (``synthetic: PRESET``, optional ``images: N`` to stop after N images) is a
-different world and noise draw per seed: it is rendered once per seed of its ``seeds`` (default
-the grid's) into the cache (``harness.renders``), and *every* estimator runs on it once per
-seed, that seed seeding both the render and the estimator -- so the spread over seeds of a
-synthetic row is over worlds too.
+entry has its own. On data on disk a deterministic estimator (``EstimatorEntry.stochastic``
+False: the graph, the Kalman filters, dead reckoning) runs once, with the first of its seeds,
+since every seed would repeat the same run; it runs per seed when the harness draws with the
+seed (``wrong_id_fraction``, ``clutter_per_frame``) or its prior map comes from a cell that
+runs per seed. A synthetic dataset (``synthetic: PRESET``, optional ``images: N`` to stop after
+N images) is a different world and noise draw per seed: it is rendered once per seed of its
+``seeds`` (default the grid's) into the cache (``harness.renders``), and *every* estimator runs
+on it once per seed, that seed seeding both the render and the estimator -- so the spread over
+seeds of a synthetic row is over worlds too.
 
 ``estimator: external`` is another system's results, read from files instead of run
 (``harness.external``): ``files`` names its trajectory for each cell, ``{dataset}`` (the
@@ -69,6 +72,7 @@ from omnislam.harness.external import (
     fill_pattern,
     pattern_fields,
 )
+from omnislam.harness.perturb import CLUTTER_OPTION, WRONG_ID_OPTION
 from omnislam.harness.prior import PRIOR_MAP_OPTION
 from omnislam.harness.renders import RenderSpec, render_spec
 
@@ -505,14 +509,17 @@ def _cells(
             ] or [{}]
             if estimator["external"] is not None:
                 applicable = [{}]  # results read from files: no option changes them
-            if dataset.renders is not None:
-                runs = list(dataset.renders.items())
-            else:
-                runs = [(seed, (dataset.argument, None)) for seed in estimator["seeds"] or seeds]
             for override in applicable:
                 o_label = ",".join(f"{k}={v}" for k, v in sorted(override.items()))
+                options = {**dataset.options, **estimator["options"], **override}
+                if dataset.renders is not None:
+                    runs = list(dataset.renders.items())
+                else:
+                    own = estimator["seeds"] or seeds
+                    if not _seed_dependent(estimator, options, estimators):
+                        own = own[:1]
+                    runs = [(seed, (dataset.argument, None)) for seed in own]
                 for seed, (argument, render) in runs:
-                    options = {**dataset.options, **estimator["options"], **override}
                     cell_id = _cell_id(dataset.label, e_label, seed, o_label)
                     external = (
                         None
@@ -536,6 +543,40 @@ def _cells(
     if duplicates:
         raise ConfigError(f"{path}: cells with the same id {duplicates} (give them labels)")
     return cells
+
+
+def _seed_dependent(
+    estimator: Mapping[str, object],
+    options: Mapping[str, str],
+    estimators: list[dict[str, object]],
+) -> bool:
+    """Whether a run of ``estimator`` on data on disk changes with the seed.
+
+    It does when the estimator draws from its generator (``EstimatorEntry.stochastic``), when
+    the harness draws with it (``wrong_id_fraction`` or ``clutter_per_frame`` set), or when its
+    prior map comes from a cell that does; otherwise every seed would repeat the same run.
+    """
+    from omnislam.estimators import ESTIMATORS
+
+    entry = ESTIMATORS.get(str(estimator["estimator"]))
+    if entry is None or entry.stochastic:
+        return True
+    if any(_nonzero(options.get(key)) for key in (WRONG_ID_OPTION, CLUTTER_OPTION)):
+        return True
+    source = next((e for e in estimators if e["label"] == estimator["prior_from"]), None)
+    return source is not None and source is not estimator and _seed_dependent(
+        source, {**options, **source["options"]}, estimators
+    )
+
+
+def _nonzero(text: str | None) -> bool:
+    """An option value that is set and not zero (an unparsable one counts as set)."""
+    if text is None:
+        return False
+    try:
+        return float(text) != 0.0
+    except ValueError:
+        return True
 
 
 def _check_specs(cells: list[Cell], path: Path) -> None:
@@ -656,6 +697,7 @@ estimators:                     # names from `omnislam estimators`, with their -
                                 #   id,x,y,z CSV), scored and ranked beside the others
 
 seeds: [0, 1, 2]                # one run per seed (default [0]); the verdict uses their spread
+                                #   (a deterministic estimator runs once on data on disk)
 
 overrides:                      # option sets: an estimator they apply to runs once per
   - {{particles.n_particles: 30, estimators: [fs1]}}    #   override (on top of its own options)

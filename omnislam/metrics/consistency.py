@@ -18,6 +18,10 @@ from omnislam.metrics.trajectory import DEFAULT_MAX_DT_S, Alignment, associate, 
 
 #: probability of the chi-square acceptance interval reported with NEES
 NEES_CONFIDENCE = 0.95
+#: a median NEES above this many times its degrees of freedom is shown as "inconsistent", not as
+#: a number: the covariance understates the error by more than an order of magnitude in standard
+#: deviation, and values like 1e44 (a collapsed covariance) carry no further meaning
+INCONSISTENT_FACTOR = 100.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -32,6 +36,8 @@ class NeesResult:
         dof: dimension of the error (3 for [x, y, yaw], 2 for x-y).
         values: (K,) NEES of every state with a usable (positive definite) covariance.
         mean: mean NEES (NaN when K = 0).
+        median: median NEES (NaN when K = 0): robust to the few steps where a covariance
+            collapses, which dominate the mean.
         anees: mean / dof.
         within_bounds: fraction of ``values`` inside the two-sided NEES_CONFIDENCE chi-square
             interval of ``dof`` degrees of freedom.
@@ -41,6 +47,7 @@ class NeesResult:
     dof: int
     values: np.ndarray
     mean: float
+    median: float
     anees: float
     within_bounds: float
     skipped: int
@@ -70,6 +77,7 @@ def nees(errors: np.ndarray, covariances: np.ndarray) -> NeesResult:
         dof=int(dof),
         values=values,
         mean=mean,
+        median=float(np.median(values)) if has else math.nan,
         anees=mean / dof if has else math.nan,
         within_bounds=float(np.mean((values >= lo) & (values <= hi))) if has else math.nan,
         skipped=skipped,

@@ -11,8 +11,10 @@ metrics.json is one flat JSON object: ``schema_version`` first, then every field
 order declared here (parts in the order of RunMetrics). A metric that cannot be computed (no
 ground truth, no covariances, no landmarks) is null; every number is finite and >= 0. Version 1
 is the first to write ``schema_version``; files written before carry exactly its keys without
-it and are read as version 1. ``read_run_metrics`` checks every key once, so a malformed file
-fails there with a DataError naming the file and the key, never later in a report.
+it and are read as version 1. Version 2 adds the median pose NEES and the warm-up
+(``ADDED_IN_2``); a version 1 file is read with those null. ``read_run_metrics`` checks every
+key once, so a malformed file fails there with a DataError naming the file and the key, never
+later in a report.
 """
 
 from __future__ import annotations
@@ -37,7 +39,11 @@ from omnislam.metrics.landmarks import LandmarkAssociation
 from omnislam.metrics.trajectory import Alignment
 
 #: version of the metrics.json layout this module writes (and the only one it reads)
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: the versions this module reads
+READABLE_VERSIONS = (1, 2)
+#: keys version 2 added: null when a version 1 file is read
+ADDED_IN_2 = frozenset({"nees_median", "warmup_s", "warmup_steps"})
 #: the key of the version in metrics.json
 SCHEMA_KEY = "schema_version"
 
@@ -205,6 +211,8 @@ class ConsistencyMetrics:
     Attributes:
         has_pose_covariances: the estimate carries a covariance per pose.
         pose_mean: mean pose NEES (its dof when consistent).
+        pose_median: median pose NEES over the poses (robust to the few poses whose covariance
+            collapses, which dominate the mean).
         pose_anees: average NEES per degree of freedom.
         pose_dof: degrees of freedom of the pose error.
         pose_within_bounds: fraction of the poses' NEES inside the two-sided chi-square
@@ -217,6 +225,7 @@ class ConsistencyMetrics:
 
     has_pose_covariances: bool
     pose_mean: float | None = field(default=None, metadata=metric("nees_mean", csv=True))
+    pose_median: float | None = field(default=None, metadata=metric("nees_median", csv=True))
     pose_anees: float | None = field(default=None, metadata=metric("anees"))
     pose_dof: int | None = field(default=None, metadata=metric("nees_dof"))
     pose_within_bounds: float | None = field(default=None, metadata=metric("nees_within_bounds"))
@@ -237,10 +246,13 @@ class TimingMetrics:
 
     Attributes:
         frames: frames processed (one estimator step each).
-        step_median_ms, step_p95_ms, step_mean_ms, step_max_ms: wall time per step [ms].
-        total_s: wall time of all estimator steps [s]; None for results read from another
-            system's files (not run here).
-        peak_rss_mb: peak resident memory of the process [MB]; None likewise.
+        step_median_ms, step_p95_ms, step_mean_ms, step_max_ms: wall time per step after the
+            warm-up [ms] (``metrics.timing``).
+        total_s: wall time of all estimator steps, the warm-up included [s]; None for results
+            read from another system's files (not run here).
+        warmup_s: wall time of the warm-up steps (compilation, first frame) [s].
+        warmup_steps: how many leading steps the warm-up is.
+        peak_rss_mb: peak resident memory of the process [MB]; None for results not run here.
     """
 
     frames: int = field(metadata=metric(csv=True))
@@ -250,6 +262,8 @@ class TimingMetrics:
     step_max_ms: float | None = field(metadata=metric("step_ms_max", measured=True))
     total_s: float | None = field(metadata=metric(csv=True, measured=True))
     peak_rss_mb: float | None = field(metadata=metric(csv=True, measured=True))
+    warmup_s: float | None = field(default=None, metadata=metric(csv=True, measured=True))
+    warmup_steps: int | None = field(default=None, metadata=metric(measured=True))
 
     def __post_init__(self) -> None:
         _validate(self)
@@ -320,12 +334,14 @@ class RunMetrics:
         """
         if not isinstance(raw, Mapping):
             raise DataError(f"expected a JSON object, got {_show(raw)}")
-        version = raw.get(SCHEMA_KEY, SCHEMA_VERSION)  # absent: written before version 1
-        if type(version) is not int or version != SCHEMA_VERSION:
+        version = raw.get(SCHEMA_KEY, 1)  # absent: written before version 1
+        if type(version) is not int or version not in READABLE_VERSIONS:
             raise DataError(
-                f"key {SCHEMA_KEY!r}: this omnislam reads version {SCHEMA_VERSION}, "
-                f"got {_show(version)}"
+                f"key {SCHEMA_KEY!r}: this omnislam reads versions "
+                f"{', '.join(map(str, READABLE_VERSIONS))}, got {_show(version)}"
             )
+        if version == 1:
+            raw = {**raw, **{key: None for key in ADDED_IN_2 if key not in raw}}
         return _from_json_object(cls, raw, frozenset({SCHEMA_KEY}))
 
 

@@ -1,19 +1,27 @@
-"""The report's verdict: per dataset, the best estimator by ATE RMSE and its margin over the next.
+"""The report's verdict: per dataset and input, the best estimator of each method family and the
+margins between families.
 
-Each estimator column is summarised over its seeds by the median ATE RMSE and the min-max
-range. Dead reckoning is the baseline and is never the verdict's best. The difference between
-the best and the runner-up is *within the seed spread* when their min-max ranges overlap;
-with a single seed no spread is known and the verdict says so. Two medians closer than
-``TIE_M`` are a tie (the same estimate reached two ways, e.g. graphslam's final batch pass and
-graphslam-batch), and the verdict names both instead of a margin of nanometres.
+A verdict compares like with like. It ranks only estimators that consumed the same input (the
+run's modality and source: the omni front end's tracks, range-bearing pole sightings, vertical
+lines in a known map ...), so one verdict is made per (dataset, input). Within it, estimators
+are grouped by method family (``estimators.Family``): each family is represented by its best
+column, the families are ranked by that column's median ATE RMSE over seeds
+(``metrics.seeds``), and the margin is that between families. Columns of one method (variants:
+the same registered method, e.g. ``graphslam`` and ``graphslam-batch``, or one estimator with
+other options) are shown beside the family's best as variants, never as rivals.
+
+Dead reckoning is the baseline and is never ranked. A margin is *within the seed spread* when
+the two min-max ranges over seeds overlap (a deterministic estimator's range is its one value);
+it is unknown when either side is one seed of a seed-dependent estimator. Two medians closer
+than ``TIE_M`` are a tie.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
-import numpy as np
+from omnislam.metrics.seeds import SeedSummary
 
 #: medians of ATE RMSE closer than this are a tie [m] (1 um: far below what any trajectory in a
 #: comparison resolves)
@@ -26,172 +34,157 @@ class ColumnSummary:
 
     Attributes:
         column: the column label.
-        values: ATE RMSE of each successful seed [m], ascending.
+        family: its method family (``estimators.Family`` value).
+        method: the method it is a variant of (columns with one method are variants).
+        ate: its ATE RMSE over seeds [m].
     """
 
     column: str
-    values: tuple[float, ...]
-
-    @property
-    def seeds(self) -> int:
-        return len(self.values)
+    family: str
+    method: str
+    ate: SeedSummary
 
     @property
     def median(self) -> float:
-        return float(np.median(self.values))
+        return self.ate.median
 
     @property
-    def low(self) -> float:
-        return self.values[0]
+    def spread_known(self) -> bool:
+        """Its range over seeds is known: several seeds, or deterministic."""
+        return self.ate.has_spread or self.ate.deterministic
+
+
+@dataclass(frozen=True, slots=True)
+class FamilyResult:
+    """One method family in a verdict.
+
+    Attributes:
+        best: its column with the lowest median ATE RMSE.
+        variants: the other columns of the best column's method, best first.
+    """
+
+    best: ColumnSummary
+    variants: tuple[ColumnSummary, ...] = ()
 
     @property
-    def high(self) -> float:
-        return self.values[-1]
+    def family(self) -> str:
+        return self.best.family
 
-    def describe(self) -> str:
-        text = f"median {self.median:.3g} m over {self.seeds} seed{'s' * (self.seeds != 1)}"
-        if self.seeds > 1:
-            text += f", range {self.low:.3g}–{self.high:.3g} m"
-        return text
+
+def separated(a: ColumnSummary, b: ColumnSummary) -> bool | None:
+    """The min-max ranges over seeds of ``a`` and ``b`` do not overlap (None: a range is not
+    known, one seed of a seed-dependent estimator)."""
+    if not (a.spread_known and b.spread_known):
+        return None
+    lower, upper = (a, b) if a.median <= b.median else (b, a)
+    return lower.ate.high < upper.ate.low
 
 
 @dataclass(frozen=True, slots=True)
 class Verdict:
-    """The verdict of one dataset.
+    """The verdict of one dataset on one input.
 
     Attributes:
         dataset: dataset label.
+        input: what the ranked estimators consumed (``report.results.input_label``).
         ground_truth: what the ATE is measured against.
-        ranked: the estimator columns (baseline excluded) with an ATE, best (lowest median) first.
+        families: the families, best (lowest median of its best column) first.
         baseline: dead reckoning's summary, None when it was not run (or has no ATE).
     """
 
     dataset: str
+    input: str
     ground_truth: str
-    ranked: tuple[ColumnSummary, ...]
-    baseline: ColumnSummary | None = None
+    families: tuple[FamilyResult, ...]
+    baseline: SeedSummary | None = None
 
     @property
     def best(self) -> ColumnSummary | None:
-        return self.ranked[0] if self.ranked else None
+        return self.families[0].best if self.families else None
 
     @property
     def runner_up(self) -> ColumnSummary | None:
-        return self.ranked[1] if len(self.ranked) > 1 else None
+        """The best column of the second family."""
+        return self.families[1].best if len(self.families) > 1 else None
+
+    def behind_m(self, family: FamilyResult) -> float | None:
+        """How far ``family``'s best median is above the best family's [m]."""
+        return None if self.best is None else family.best.median - self.best.median
+
+    def behind_fraction(self, family: FamilyResult) -> float | None:
+        """``behind_m`` as a fraction of ``family``'s median (None: a zero median)."""
+        behind = self.behind_m(family)
+        if behind is None or family.best.median <= 0:
+            return None
+        return behind / family.best.median
 
     @property
     def margin_m(self) -> float | None:
-        """Runner-up median minus best median [m]."""
-        if self.best is None or self.runner_up is None:
-            return None
-        return self.runner_up.median - self.best.median
-
-    @property
-    def margin_fraction(self) -> float | None:
-        """The margin as a fraction of the runner-up's median."""
-        if self.margin_m is None or self.runner_up is None or self.runner_up.median <= 0:
-            return None
-        return self.margin_m / self.runner_up.median
+        """The runner-up family's best median minus the best family's [m]."""
+        return None if len(self.families) < 2 else self.behind_m(self.families[1])
 
     @property
     def tied(self) -> bool:
-        """The best and the runner-up medians differ by less than ``TIE_M``."""
+        """The two best families' medians differ by less than ``TIE_M``."""
         return self.margin_m is not None and self.margin_m < TIE_M
 
     @property
-    def spread_known(self) -> bool:
-        """Both the best and the runner-up have at least two seeds."""
-        return (
-            self.best is not None
-            and self.runner_up is not None
-            and min(self.best.seeds, self.runner_up.seeds) > 1
-        )
-
-    @property
-    def within_spread(self) -> bool | None:
-        """The min-max ranges over seeds of the best and the runner-up overlap (None: unknown)."""
-        if not self.spread_known:
+    def beats_baseline(self) -> bool | None:
+        """The best median is below dead reckoning's (None: no baseline or no best)."""
+        if self.best is None or self.baseline is None:
             return None
-        assert self.best is not None and self.runner_up is not None
-        return self.best.high >= self.runner_up.low
+        return self.best.median < self.baseline.median
 
-    def sentence(self) -> str:
-        """The verdict in one sentence."""
+    def notes(self) -> list[str]:
+        """Short notes on what a reader of the verdict's rows must know (empty: none)."""
+        out = []
         best, runner = self.best, self.runner_up
+        where = f"{self.dataset} ({self.input})"
         if best is None:
-            return (
-                f"{self.dataset}: no verdict, no estimator besides dead reckoning has an ATE "
-                f"RMSE against the {self.ground_truth}."
-            )
-        text = f"{self.dataset}: {best.column} has the lowest ATE RMSE, {best.describe()}"
-        if runner is not None and self.tied:
-            assert self.margin_m is not None
-            text = (
-                f"{self.dataset}: {best.column} and {runner.column} tie for the lowest ATE RMSE, "
-                f"{best.describe()} (their medians differ by {self.margin_m:.1g} m, less than "
-                f"{TIE_M * 1e6:.0f} µm)"
-            )
-        elif runner is None:
-            text += ", and is the only estimator besides dead reckoning"
-        else:
-            assert self.margin_m is not None
-            margin = f"{self.margin_m:.3g} m"
-            if self.margin_fraction is not None:
-                margin += f" ({100 * self.margin_fraction:.0f}%)"
-            text += f"; {margin} below {runner.column} ({runner.describe()})"
-            if self.within_spread is None:
-                text += (
-                    "; with only one seed no seed spread is known, so whether the difference "
-                    "exceeds it cannot be said"
+            return [f"{where}: no estimator besides dead reckoning has an ATE RMSE."]
+        if runner is not None:
+            split = separated(best, runner)
+            if self.tied:
+                out.append(
+                    f"{where}: {best.column} and {runner.column} tie (medians < 1 µm apart)."
                 )
-            elif self.within_spread:
-                text += (
-                    "; the difference is within the seed spread (their ranges over seeds "
-                    "overlap), so these runs do not separate the two"
+            elif split is None:
+                out.append(
+                    f"{where}: one seed of a seed-dependent estimator; whether {best.column} "
+                    f"and {runner.column} differ by more than the seed spread is unknown."
                 )
-            else:
-                text += (
-                    "; the difference is larger than the seed spread (the ranges do not overlap)"
+            elif not split:
+                out.append(
+                    f"{where}: {best.column}'s and {runner.column}'s ranges over seeds overlap; "
+                    "these runs do not separate the two families."
                 )
-        if self.baseline is not None and self.baseline.median > 0:
-            text += (
-                f". Dead reckoning: median {self.baseline.median:.3g} m "
-                f"({best.median / self.baseline.median:.2f}× for {best.column})"
-            )
-            if best.median > self.baseline.median:
-                text += "; no estimator beats dead reckoning here"
-        return text + f" [{self.ground_truth}]."
+        for family in self.families:
+            for variant in family.variants:
+                if abs(variant.median - family.best.median) < TIE_M:
+                    out.append(
+                        f"{where}: {variant.column} gives {family.best.column}'s result "
+                        "(the same method reaching the same optimum)."
+                    )
+        if self.beats_baseline is False:
+            out.append(f"{where}: no estimator beats dead reckoning.")
+        return out
 
 
-def summarise(column: str, values: Sequence[float]) -> ColumnSummary | None:
-    finite = sorted(float(v) for v in values if v is not None and np.isfinite(v))
-    return ColumnSummary(column, tuple(finite)) if finite else None
-
-
-def verdict(
-    dataset: str,
-    ground_truth: str,
-    columns: Sequence[str],
-    values_of: Callable[[str], Sequence[float]],
-    is_baseline: Callable[[str], bool],
-) -> Verdict:
-    """The verdict of one dataset.
+def rank_families(
+    columns: Sequence[ColumnSummary],
+) -> tuple[FamilyResult, ...]:
+    """The families of ``columns`` ranked by their best column; each best's method's other
+    columns as its variants.
 
     Args:
-        dataset: its label.
-        ground_truth: label of its ground truth.
-        columns: the estimator columns.
-        values_of: column -> ATE RMSE of each successful seed.
-        is_baseline: the column is dead reckoning.
+        columns: the summaries of the columns of one dataset and input (baseline excluded).
     """
-    ranked, baseline = [], None
-    for column in columns:
-        summary = summarise(column, values_of(column))
-        if summary is None:
-            continue
-        if is_baseline(column):
-            baseline = baseline or summary
-        else:
-            ranked.append(summary)
-    ranked.sort(key=lambda s: (s.median, s.high, s.column))
-    return Verdict(dataset, ground_truth, tuple(ranked), baseline)
+    ordered = sorted(columns, key=lambda c: (c.median, c.ate.high, c.column))
+    families: dict[str, FamilyResult] = {}
+    for column in ordered:
+        if column.family not in families:
+            variants = tuple(
+                c for c in ordered if c.method == column.method and c is not column
+            )
+            families[column.family] = FamilyResult(column, variants)
+    return tuple(families.values())

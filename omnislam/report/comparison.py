@@ -52,8 +52,9 @@ from omnislam.report.sections import (
     left_out_section,
     notes_sections,
     provenance_section,
+    summary_section,
     title_section,
-    verdict_section,
+    verdict_sections,
 )
 from omnislam.report.tables import to_csv, to_latex
 
@@ -151,8 +152,9 @@ def _write_into(
     colours = palette.colours(columns(cells))
     body = [
         title_section(title),
-        verdict_section(cells, dict(made)),
+        *verdict_sections(cells, dict(made)),
         headline_section(cells),
+        *summary_section(cells, colours, options),
         *dataset_sections(cells, colours, options, notes),
     ]
     if options.exports:

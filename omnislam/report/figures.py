@@ -1,7 +1,9 @@
 """The figures of one dataset (``FIGURES``), each answering one question, drawn by ``plots``.
 
-``dataset_figures`` draws them from the lowest-seed successful run of every estimator column
-(and from every run for the figures over seeds): ATE over seeds, accuracy against run time,
+``dataset_figures`` draws them from the median seed of every estimator column -- the run whose
+ATE RMSE is the median over seeds (``metrics.seeds``: with an even count, the lower of the two
+middle ones), so a panel's ATE is the number the tables print -- and from every run for the
+figures over seeds: ATE over seeds, accuracy against run time,
 each trajectory coloured by its position error over the ground truth, error over distance,
 landmark maps, step-time percentiles and -- where the data has laser scans (CARMEN, synthetic)
 -- occupancy grids built from the scans on every estimated trajectory (``occupancy``). Every
@@ -19,6 +21,7 @@ from omnislam.datasets.registry import DatasetFormat
 from omnislam.datasets.sequence import GroundTruthKind
 from omnislam.errors import DataError, OmnislamError
 from omnislam.harness.rundir import RunRecord, read_run_dir
+from omnislam.metrics.seeds import median_index
 from omnislam.metrics.trajectory import Alignment, AteResult, ate
 from omnislam.report.model import Figure
 from omnislam.report.options import ReportOptions
@@ -32,13 +35,16 @@ FIGURES: tuple[tuple[str, str], ...] = (
     (
         "trajectories",
         "Where along the path does each estimator go wrong? Each estimator's "
-        "path (its lowest seed), SE(2)-aligned to the {gt} (dashed) and coloured by its position "
+        "path (its median seed: the run whose ATE RMSE is the median over seeds, the lower of "
+        "the two middle ones for an even count), SE(2)-aligned to the {gt} (dashed) and "
+        "coloured by its position "
         "error on one logarithmic scale for all panels; the dot marks the start.",
     ),
     (
         "ate-seeds",
         "How accurate is each estimator over seeds? ATE RMSE of every seed (dots) "
-        "and its median (bar) against the {gt}.",
+        "and its median over seeds (bar; the lower middle value for an even count) against "
+        "the {gt}.",
     ),
     (
         "accuracy-vs-time",
@@ -50,11 +56,11 @@ FIGURES: tuple[tuple[str, str], ...] = (
         "error-over-distance",
         "How does the error grow with the distance travelled? RPE RMSE "
         "against segment length of ground-truth travel, translation and rotation (log-log; "
-        "lowest seed).",
+        "median seed).",
     ),
     (
         "landmarks",
-        "Where does each estimator put the landmarks? Each map (lowest seed) "
+        "Where does each estimator put the landmarks? Each map (median seed) "
         "aligned with its trajectory, over the true landmarks where the data has them; "
         "{sigma:g}-sigma covariance ellipses on maps of at most {most} landmarks (more overlap "
         "into a solid mass).",
@@ -62,7 +68,7 @@ FIGURES: tuple[tuple[str, str], ...] = (
     (
         "step-time",
         "How long does one step take, typically and at worst? Percentiles of the "
-        "wall time of each estimator step (lowest seed; the line spans the 5th percentile to the "
+        "wall time of each estimator step (median seed; the line spans the 5th percentile to the "
         "maximum).",
     ),
     (
@@ -96,7 +102,7 @@ def dataset_figures(
         options: the report's options (occupancy grids and their resolution).
         notes: what could not be drawn is appended here (the report's Notes).
     """
-    runs = _first_runs(cells)
+    runs = _median_runs(cells)
     if not runs:
         return []
     label = gt_label(cells)
@@ -136,16 +142,23 @@ def caption(kind: str, gt_label: str, options: ReportOptions) -> str:
     )
 
 
-def _first_runs(cells: Sequence[ReportCell]) -> list[tuple[ReportCell, RunRecord]]:
-    """The lowest-seed successful run of each column, read from disk."""
+def _median_runs(cells: Sequence[ReportCell]) -> list[tuple[ReportCell, RunRecord]]:
+    """The median seed of each column (``metrics.seeds.median_index`` of its ATE RMSE; the
+    lowest seed when no run has an ATE), read from disk."""
     out = []
     for column in columns(cells):
         group = sorted(
             (c for c in cells if c.column == column and c.ok),
             key=lambda c: (c.seed is None, c.seed or 0),
         )
-        if group:
-            out.append((group[0], read_run_dir(group[0].run_dir)))  # type: ignore[arg-type]
+        if not group:
+            continue
+        scored = [c for c in group if c.metrics is not None and c.metrics.ate.rmse_m is not None]
+        if scored:
+            chosen = scored[median_index([c.metrics.ate.rmse_m for c in scored])]  # type: ignore[union-attr,misc]
+        else:
+            chosen = group[0]
+        out.append((chosen, read_run_dir(chosen.run_dir)))  # type: ignore[arg-type]
     return out
 
 

@@ -301,6 +301,12 @@ def _thin(n: int) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 
 
+def _low_median(values: np.ndarray) -> float:
+    """The report's median over seeds (``metrics.seeds``: the lower middle value)."""
+    ordered = np.sort(np.asarray(values, dtype=float))
+    return float(ordered[(len(ordered) - 1) // 2])
+
+
 def ate_over_seeds(
     name: str, title: str, columns: Sequence[RunPoints], colours: Mapping[str, str]
 ) -> str:
@@ -332,7 +338,7 @@ def ate_over_seeds(
             if ate.size:
                 ax.plot(
                     [k - 0.3, k + 0.3],
-                    [np.median(ate)] * 2,
+                    [_low_median(ate)] * 2,
                     color=colour,
                     linewidth=2.2,
                     gid=ids(c.label),
@@ -386,8 +392,8 @@ def accuracy_vs_time(
                 gid=ids(c.label),
             )
             ax.scatter(
-                [np.median(c.total_s[ok])],
-                [np.median(c.ate_rmse_m[ok])],
+                [_low_median(c.total_s[ok])],
+                [_low_median(c.ate_rmse_m[ok])],
                 s=70,
                 facecolors=colour,
                 edgecolors=TRUTH,
@@ -463,7 +469,11 @@ def trajectories(
             else:
                 ax.plot(xy[:, 0], xy[:, 1], color=colour, linewidth=1.2, gid=ids(s.label))
             ax.plot(xy[:1, 0], xy[:1, 1], marker="o", markersize=3, color=TRUTH, linestyle="")
-            head = s.label if s.ate_rmse_m is None else f"{s.label}\nATE {s.ate_rmse_m:.3g} m"
+            head = (
+                s.label
+                if s.ate_rmse_m is None
+                else f"{s.label}\nATE {s.ate_rmse_m:.3g} m (median seed)"
+            )
             ax.set_title(head, color=colour, fontsize=9, gid=ids(s.label))
             _map_panel(ax, colour, ids, s.label)
         _map_axes(axes, (x0, x1), (y0, y1))
@@ -728,4 +738,134 @@ def occupancy(
             if ax.get_subplotspec().is_first_col():
                 ax.set_ylabel("y [m]")
         figure.suptitle(f"{title}: occupancy from the laser scans on each trajectory", fontsize=10)
+        return _svg(figure, name)
+
+
+@dataclass(frozen=True, slots=True)
+class FamilyPoint:
+    """The best estimator of one method family on one dataset and input (a verdict's row).
+
+    Attributes:
+        row: the row's label (``dataset · input``).
+        family: the method family.
+        column: its best estimator column.
+        ate_m: that column's median ATE RMSE [m]; low_m, high_m: its min-max over seeds.
+    """
+
+    row: str
+    family: str
+    column: str
+    ate_m: float
+    low_m: float
+    high_m: float
+
+
+#: a fixed colour per method family (Okabe-Ito, as the estimators')
+FAMILY_COLOURS = {
+    "factor graph": "#0072B2",
+    "particle filter": "#D55E00",
+    "Kalman filter": "#009E73",
+    "localiser in a known map": "#CC79A7",
+    "dead reckoning": "#7f7f7f",
+}
+
+
+def family_summary(name: str, points: Sequence[FamilyPoint]) -> str:
+    """Which family wins where? The best of each method family per dataset and input: its
+    median ATE RMSE (dot) and min-max over seeds (line), one row per dataset and input (log)."""
+    rows = list(dict.fromkeys(p.row for p in points))
+    with matplotlib.rc_context(_RC):
+        figure = _figure(WIDTH_IN * 0.8, 1.0 + 0.28 * len(rows))
+        ax = figure.add_subplot()
+        families = list(dict.fromkeys(p.family for p in points))
+        shift = {f: (k - (len(families) - 1) / 2) * 0.14 for k, f in enumerate(families)}
+        for p in points:
+            y = rows.index(p.row) + shift[p.family]
+            colour = FAMILY_COLOURS.get(p.family, TRUTH)
+            ax.plot([p.low_m, p.high_m], [y, y], color=colour, linewidth=1.2, alpha=0.8)
+            ax.scatter([p.ate_m], [y], s=20, color=colour, zorder=3)
+        ax.set_yticks(range(len(rows)), rows)
+        ax.set_ylim(len(rows) - 0.5, -0.5)  # the first row on top
+        ax.set_xscale("log")
+        values = np.array([v for p in points for v in (p.low_m, p.high_m)], dtype=float)
+        if values.size:
+            _log_axis(ax.xaxis, *_positive_span(values))
+        handles = [
+            Line2D([], [], marker="o", linestyle="", color=FAMILY_COLOURS.get(f, TRUTH), label=f)
+            for f in families
+        ]
+        ax.set(
+            title="best of each method family: median ATE RMSE over seeds (dot), min–max (line)",
+            xlabel="ATE RMSE [m]",
+        )
+        ax.grid(axis="x", alpha=0.3, which="both")
+        if handles:
+            figure.legend(handles=handles, loc="outside right upper", frameon=False)
+        return _svg(figure, name)
+
+
+@dataclass(frozen=True, slots=True)
+class CostPoint:
+    """One estimator column on one dataset: its median ATE over dead reckoning's and its median
+    run time.
+
+    Attributes:
+        column: the estimator column.
+        relative_ate: median ATE RMSE / dead reckoning's median ATE RMSE.
+        total_s: median total run time [s].
+    """
+
+    column: str
+    relative_ate: float
+    total_s: float
+
+
+def accuracy_vs_time_summary(
+    name: str, points: Sequence[CostPoint], colours: Mapping[str, str]
+) -> str:
+    """What does accuracy cost, over every dataset? Each estimator's median ATE relative to
+    dead reckoning against its median run time, one dot per dataset (log-log)."""
+    ids = _Ids()
+    with matplotlib.rc_context(_RC):
+        figure = _figure(7.2, 3.8)
+        ax = figure.add_subplot()
+        handles = []
+        for column in dict.fromkeys(p.column for p in points):
+            mine = [
+                p for p in points if p.column == column and p.total_s > 0 and p.relative_ate > 0
+            ]
+            if not mine:
+                continue
+            colour = colours[column]
+            ax.scatter(
+                [p.total_s for p in mine],
+                [p.relative_ate for p in mine],
+                s=18,
+                color=colour,
+                alpha=0.75,
+                linewidths=0,
+                gid=ids(column),
+            )
+            handles.append(
+                Line2D(
+                    [], [], marker="o", linestyle="", color=colour, label=column, gid=ids(column)
+                )
+            )
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.axhline(1.0, **_TRUTH_LINE)
+        times = np.array([p.total_s for p in points], dtype=float)
+        ratios = np.array([p.relative_ate for p in points], dtype=float)
+        _log_axis(ax.xaxis, *_positive_span(times))
+        _log_axis(ax.yaxis, *_positive_span(ratios, np.ones(1)))
+        ax.set(
+            title="every dataset: ATE relative to dead reckoning (dashed: 1) against run time",
+            xlabel="median total run time [s] (wall clock)",
+            ylabel="median ATE / dead reckoning's",
+        )
+        ax.grid(alpha=0.3, which="both")
+        if handles:
+            legend = figure.legend(handles=handles, loc="outside right upper", frameon=False)
+            for text, handle in zip(legend.get_texts(), handles, strict=True):
+                text.set_color(handle.get_color())
         return _svg(figure, name)

@@ -19,8 +19,9 @@ TABLES = "tables"
 
 _CSS = """
 body{font-family:system-ui,sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}
-table{border-collapse:collapse;margin:1em 0;font-size:.9em}
-th,td{border:1px solid #ccc;padding:.3em .6em;text-align:right}
+table{border-collapse:collapse;margin:1em 0;font-size:.9em;max-width:100%}
+th,td{border:1px solid #ccc;padding:.3em .5em;text-align:right;overflow-wrap:break-word}
+th{font-size:.9em;vertical-align:bottom}
 th:first-child,td:first-child{text-align:left}
 thead{background:#f0f0f0} img{max-width:100%} figure{margin:1.5em 0}
 figure svg{display:block;max-width:100%;height:auto}

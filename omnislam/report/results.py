@@ -17,7 +17,7 @@ from pathlib import Path
 from omnislam.errors import DataError
 from omnislam.harness.evaluation import GROUND_TRUTH_LABELS, evaluate_run
 from omnislam.harness.layout import CELLS, CONFIG, METRICS, RESULTS_JSON
-from omnislam.harness.rundir import read_run_dir
+from omnislam.harness.rundir import RunConfig, read_run_config, read_run_dir
 from omnislam.metrics.run_metrics import RunMetrics, read_run_metrics
 
 #: estimator name of the baseline column
@@ -37,6 +37,7 @@ class ReportCell:
         error: why it failed.
         metrics: its metrics (None when failed).
         run_dir: where the RUN_DIR is (None when failed).
+        config: its ``config.yaml`` (None when failed): what the run consumed.
     """
 
     cell_id: str
@@ -48,11 +49,11 @@ class ReportCell:
     error: str | None = None
     metrics: RunMetrics | None = None
     run_dir: Path | None = None
+    config: RunConfig | None = None
 
     @property
     def ok(self) -> bool:
         return self.metrics is not None and self.run_dir is not None
-
 
 
 def _cell_from_run_dir(path: Path, status: str = "run") -> ReportCell:
@@ -75,6 +76,7 @@ def _cell_from_run_dir(path: Path, status: str = "run") -> ReportCell:
         status=status,
         metrics=metrics,
         run_dir=path,
+        config=config,
     )
 
 
@@ -170,6 +172,7 @@ def collect_cells(results_dir: str | Path) -> tuple[str, list[ReportCell]]:
                         error=row.get("error"),
                         metrics=metrics,
                         run_dir=run_dir if ok else None,
+                        config=read_run_config(run_dir) if ok else None,
                     )
                 )
             except (KeyError, TypeError) as exc:
@@ -214,3 +217,55 @@ def gt_label(cells: Sequence[ReportCell]) -> str:
 def ate_rmse(m: RunMetrics) -> float | None:
     """The metric the report ranks by: SE(2)-aligned ATE RMSE [m]."""
     return m.ate.rmse_m
+
+
+def input_label(cell: ReportCell) -> str:
+    """What a run consumed: its modality and where the sightings came from (the front end's
+    log or the dataset's own), and whether it localised in a prior map; "odometry" for one
+    that uses no sightings (dead reckoning). Only runs with one label are ranked together."""
+    config = cell.config
+    if config is None or config.modality is None:
+        return "odometry"
+    text = config.modality
+    if config.frontend_log:
+        text += " (front end)"
+    if config.prior_map:
+        text += " in a prior map"
+    return text
+
+
+def family_of(cell: ReportCell) -> str:
+    """The method family of a run's estimator (``estimators.Family`` value)."""
+    from omnislam.estimators import ESTIMATORS, Family
+
+    entry = ESTIMATORS.get(cell.estimator)
+    return (entry.family if entry is not None else Family.KALMAN_FILTER).value
+
+
+def method_of(cell: ReportCell) -> str:
+    """The method a run's estimator is a variant of: registry names that share a factory
+    module, configuration and preset (``graphslam`` and ``graphslam-batch``) are one method."""
+    from omnislam.estimators import ESTIMATORS
+
+    entry = ESTIMATORS.get(cell.estimator)
+    if entry is None:
+        return cell.estimator
+    return "|".join((entry.target.split(":")[0], entry.config, entry.preset, entry.check))
+
+
+def deterministic(cells: Sequence[ReportCell]) -> bool:
+    """The successful runs of one column are a deterministic estimator on one input: its
+    registry entry draws no random numbers, the harness perturbed nothing and every run read
+    the same data, so every seed gives the same run."""
+    from omnislam.estimators import ESTIMATORS
+
+    ok = [c for c in cells if c.ok and c.config is not None]
+    if not ok:
+        return False
+    entry = ESTIMATORS.get(ok[0].estimator)
+    if entry is None or entry.stochastic:
+        return False
+    configs = [c.config for c in ok if c.config is not None]
+    return len({c.dataset_path for c in configs}) == 1 and not any(
+        c.wrong_id_fraction or c.clutter_per_frame for c in configs
+    )

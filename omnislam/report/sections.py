@@ -1,12 +1,14 @@
 """The report's sections, built once from its runs (``model.Section``), in report order.
 
 1. the title;
-2. the verdict: per dataset the best estimator by median ATE RMSE over seeds, dead reckoning
-   excluded, its margin over the runner-up and whether that is within the seed spread
-   (``metrics.verdict``), then how to read every number;
+2. the verdict: per dataset and input the best estimator of each method family by median ATE
+   RMSE over seeds, dead reckoning excluded, how far each family is behind the best and whether
+   the seed spread separates them (``metrics.verdict``), short notes on the rows that need one,
+   then how to read every number;
 3. the headline: ATE RMSE per dataset and estimator;
 4. per dataset: its ground truth, its metrics per estimator beside the dead-reckoning baseline,
-   the association decisions each run counted, the runs that failed, its figures (``figures``);
+   every run's values, the association decisions each run counted, the runs that failed, its
+   figures (``figures``);
 5. what the report left out (figures, exports) and the notes of what could not be made;
 6. the estimators of this installation and which are in the report;
 7. the provenance block (``provenance``).
@@ -20,9 +22,11 @@ from omnislam.errors import ConfigError
 from omnislam.report.figures import dataset_figures
 from omnislam.report.metric_tables import (
     association_table,
+    cost_table,
     dataset_verdicts,
     headline_table,
     metrics_table,
+    seeds_table,
     verdict_table,
 )
 from omnislam.report.model import Section
@@ -33,22 +37,35 @@ from omnislam.report.tables import make_table
 
 #: how the verdict ranks, under its table
 VERDICT_RULE = (
-    "Best: the lowest median ATE RMSE over seeds; dead reckoning is the baseline and is "
-    "not ranked. The margin is the runner-up's median minus the best's (in % of the "
-    "runner-up's). A margin is within the seed spread when the two estimators' min–max "
-    "ranges over seeds overlap; medians less than 1 µm apart are a tie."
+    "The verdict ranks only estimators that consumed the same input (the modality of their "
+    "sightings and where they came from: the front end's tracks, the dataset's own sightings, "
+    "a prior map), one method family per row: the family's best estimator by median ATE RMSE "
+    "over seeds (with an even count of seeds, the lower of the two middle values, so the "
+    "median is one run's), its min–max over seeds in brackets, how far it is behind the best "
+    "family (in % of its own median) and whether the seed spread separates the two (their "
+    "min–max ranges do not overlap). Variants of one method (graphslam and graphslam-batch, "
+    "or one estimator with other options) are listed beside their family's best, not ranked "
+    "against it. A deterministic estimator runs once per dataset on recorded data (every "
+    "seed would repeat that run), so its range is its one value. Dead reckoning is the "
+    "baseline and is not ranked."
 )
 #: what every metric of the tables means, under the verdict
 METRICS_MEANING = (
+    "Every number summarising an estimator over seeds is the median over seeds with its "
+    "min–max range in brackets; 'deterministic' marks an estimator run once because every "
+    "seed would repeat its run; each dataset's table of runs gives every seed's values. "
     "ATE: position RMSE after SE(2) alignment to the ground truth (Sturm et al. 2012); "
     "drift: the same with only the first pose anchored. RPE: segments of the stated length "
     "of ground-truth travel, SE(2) errors for planar runs. Landmark error: after the "
     "trajectory's alignment, matched by id where the data has ids, else by optimal "
-    "assignment within a gate. NEES: pose error against the estimator's own covariance "
-    "(3 when consistent; '–' when the estimator has no covariance). Values are mean ± "
-    "standard deviation over seeds. Every row names the kind of ground truth it is "
-    "measured against; pseudo ground truth (CARMEN) comes from another SLAM system and "
-    "is not independent."
+    "assignment within a gate. NEES: pose error against the estimator's own covariance, "
+    "median over the poses (3 when consistent) and the fraction of poses inside the 95 % "
+    "chi-square band; 'inconsistent' where the median exceeds 100 times the degrees of "
+    "freedom; '–' when the estimator has no covariance. Step times exclude the warm-up "
+    "(the first step, and any step of the first 10 % slower than 10 median steps: "
+    "compilation, the first frame), reported apart. Every row names the kind of ground "
+    "truth it is measured against; pseudo ground truth (CARMEN) comes from another SLAM "
+    "system and is not independent."
 )
 #: what the association table counts, under it
 ASSOCIATION_MEANING = (
@@ -60,8 +77,9 @@ ASSOCIATION_MEANING = (
 )
 #: what a report without figures says instead
 NO_FIGURES = (
-    "Figures: not drawn for this report (omnislam report --no-figures); "
-    "omnislam report RESULTS_DIR --out DIR draws them from the same results."
+    "Figures: not drawn for this report but the summary figures (omnislam report "
+    "--no-figures); omnislam report RESULTS_DIR --out DIR draws each dataset's from the same "
+    "results."
 )
 #: what the exports are
 EXPORTS = (
@@ -82,8 +100,9 @@ def title_section(title: str) -> Section:
     return Section(title, level=1)
 
 
-def verdict_section(cells: Sequence[ReportCell], made: Mapping[str, str]) -> Section:
-    """The verdict of every dataset, how it ranks, what made the report, what the numbers mean.
+def verdict_sections(cells: Sequence[ReportCell], made: Mapping[str, str]) -> list[Section]:
+    """The verdict of every dataset and input as one table, notes on the rows that need one,
+    how it ranks, what made the report, what the numbers mean.
 
     Args:
         cells: every run of the report.
@@ -96,11 +115,26 @@ def verdict_section(cells: Sequence[ReportCell], made: Mapping[str, str]) -> Sec
         f"{commit[:12] if commit != UNKNOWN else commit}) on {made['date (UTC)']}; "
         "see Provenance at the end."
     )
-    return Section(
-        "Verdict",
-        tables=(verdict_table(verdicts),),
-        paragraphs=(*(v.sentence() for v in verdicts), VERDICT_RULE, made_with, METRICS_MEANING),
-    )
+    return [
+        Section(
+            "Verdict",
+            tables=(verdict_table(verdicts),),
+            notes=tuple(note for v in verdicts for note in v.notes()),
+        ),
+        Section(None, paragraphs=(VERDICT_RULE, made_with, METRICS_MEANING)),
+    ]
+
+
+def summary_section(
+    cells: Sequence[ReportCell], colours: Mapping[str, str], options: ReportOptions
+) -> list[Section]:
+    """The summary figures (``report.summary``); none when not asked for or nothing to draw."""
+    from omnislam.report.summary import summary_figures
+
+    if not options.summary_figures:
+        return []
+    figures = summary_figures(cells, dataset_verdicts(cells), colours)
+    return [Section("Summary figures", figures=tuple(figures))] if figures else []
 
 
 def headline_section(cells: Sequence[ReportCell]) -> Section:
@@ -143,7 +177,12 @@ def dataset_section(
     return Section(
         f"{dataset} — {gt_label(cells)}",
         lead=(f"Ground truth: {note}",) if note else (),
-        tables=(metrics_table(dataset, cells), *([association] if association else [])),
+        tables=(
+            metrics_table(dataset, cells),
+            cost_table(dataset, cells),
+            seeds_table(dataset, cells),
+            *([association] if association else []),
+        ),
         paragraphs=((ASSOCIATION_MEANING,) if association else ()) + failed,
         figures=tuple(figures),
     )

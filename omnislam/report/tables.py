@@ -1,9 +1,10 @@
 """The report's tables, written three ways: Markdown/HTML (in the report), CSV and LaTeX.
 
 A ``Table`` holds the text shown in the report and, for each cell, the exact numbers behind
-it (``Num``). ``to_csv`` writes the numbers at full precision (a mean ± std cell becomes a
-column and a ``std`` column next to it); ``to_latex`` writes a ``booktabs`` table of the text
-shown, with LaTeX's special characters escaped.
+it (``Num``). ``to_csv`` writes the numbers at full precision (a cell summarising seeds -- the
+median with its min-max range -- becomes a column and ``min`` and ``max`` columns next to it);
+``to_latex`` writes a ``booktabs`` table of the text shown, with LaTeX's special characters
+escaped.
 """
 
 from __future__ import annotations
@@ -20,17 +21,23 @@ class Num:
     """A number as the report shows it (``text``) and as the CSV writes it.
 
     Attributes:
-        text: what the tables show, e.g. ``"0.052 ± 0.003"`` or ``"–"``.
-        value: the number (a mean over seeds), None when there is none.
-        std: its standard deviation over seeds, None when not known (one seed or no value).
+        text: what the tables show, e.g. ``"0.052 [0.049–0.060]"`` or ``"–"``.
+        value: the number (the median over seeds), None when there is none.
+        low, high: the smallest and largest value over seeds, None when no spread is known
+            (one run, a deterministic estimator, or no value).
     """
 
     text: str
     value: float | None = None
-    std: float | None = None
+    low: float | None = None
+    high: float | None = None
 
     def __str__(self) -> str:
         return self.text
+
+    @property
+    def has_range(self) -> bool:
+        return self.low is not None and self.high is not None
 
 
 #: one cell of a table
@@ -106,25 +113,25 @@ def csv_grid(table: Table) -> tuple[list[str], list[list[str]]]:
     """(header, rows) of the table's CSV."""
     if table.csv_header is not None and table.csv_rows is not None:
         return list(table.csv_header), [[_csv_value(v) for v in r] for r in table.csv_rows]
-    with_std = [
-        any(isinstance(row[j], Num) and row[j].std is not None for row in table.rows)  # type: ignore[union-attr]
+    with_range = [
+        any(isinstance(row[j], Num) and row[j].has_range for row in table.rows)  # type: ignore[union-attr]
         for j in range(len(table.header))
     ]
     header: list[str] = []
-    for name, std in zip(table.header, with_std, strict=True):
-        header += [name, f"{name} std"] if std else [name]
+    for name, ranged in zip(table.header, with_range, strict=True):
+        header += [name, f"{name} min", f"{name} max"] if ranged else [name]
     rows = []
     for row in table.rows:
         out: list[str] = []
-        for cell, std in zip(row, with_std, strict=True):
+        for cell, ranged in zip(row, with_range, strict=True):
             if isinstance(cell, Num):
                 out.append(_csv_value(cell.value) if cell.value is not None else _cell_text(cell))
-                if std:
-                    out.append(_csv_value(cell.std))
+                if ranged:
+                    out += [_csv_value(cell.low), _csv_value(cell.high)]
             else:
                 out.append(_cell_text(cell))
-                if std:
-                    out.append("")
+                if ranged:
+                    out += ["", ""]
         rows.append(out)
     return header, rows
 

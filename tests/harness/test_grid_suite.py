@@ -214,3 +214,38 @@ def test_a_subset_of_the_suite_is_the_suites_cells_that_match_and_the_maps_they_
     names = {f"{k[0]}__{k[1]}__s{k[2]}" for k in chosen}
     assert sources <= names  # the cells their prior maps come from
     assert chosen - matching == {k for k in chosen if f"{k[0]}__{k[1]}__s{k[2]}" in sources}
+
+
+DETERMINISTIC_GRID = """
+datasets:
+  - {synthetic: demo, images: 3, seeds: [4, 5]}
+  - data/room.log
+estimators:
+  - deadreckoning
+  - graphslam
+  - ekfslam
+  - fastslam1
+  - {estimator: ukf, label: on-graph, options: {prior_map: {from: graphslam}}}
+  - {estimator: ukf, label: on-particles, options: {prior_map: {from: fastslam1}}}
+  - {estimator: graphslam, label: mislabelled, options: {wrong_id_fraction: 0.1}}
+seeds: [0, 1, 2]
+"""
+
+
+def test_deterministic_estimators_run_once_on_data_on_disk_and_per_seed_on_renders(tmp_path):
+    from omnislam.estimators import ESTIMATORS
+
+    assert [n for n, e in ESTIMATORS.items() if e.stochastic] == ["fastslam1", "fastslam2"]
+    cells = grid(tmp_path, text=DETERMINISTIC_GRID.replace("{", "{{").replace("}", "}}")).cells
+    seeds = defaultdict(list)
+    for cell in cells:
+        seeds[(cell.dataset_label, cell.estimator_label)].append(cell.spec.seed)
+    for label in ("deadreckoning", "graphslam", "ekfslam", "on-graph"):
+        assert seeds[("room", label)] == [0]  # every seed would repeat the same run
+        assert seeds[("demo", label)] == [4, 5]  # the seed is the world's
+    assert seeds[("room", "fastslam1")] == [0, 1, 2]  # draws from its generator
+    assert seeds[("room", "on-particles")] == [0, 1, 2]  # its map differs per seed
+    assert seeds[("room", "mislabelled")] == [0, 1, 2]  # the harness draws with the seed
+    by_id = {c.cell_id: c for c in cells}
+    assert by_id["room__on-graph__s0"].prior_from == "room__graphslam__s0"
+    assert by_id["room__on-particles__s2"].prior_from == "room__fastslam1__s2"

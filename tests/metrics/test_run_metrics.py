@@ -20,6 +20,7 @@ from omnislam.harness.rundir import read_run_dir, write_run_dir
 from omnislam.harness.runner import CSV_LABELS, SerialExecutor, run_grid
 from omnislam.metrics.landmarks import LandmarkAssociation
 from omnislam.metrics.run_metrics import (
+    ADDED_IN_2,
     CSV_FIELDS,
     MEASURED_KEYS,
     METRIC_FIELDS,
@@ -59,7 +60,8 @@ DESIGN_CONTRACT_KEYS = (
 RESULTS_CSV_HEADER = (
     "cell,dataset,estimator,override,seed,status,ate_rmse_m,ate_max_m,ate_origin_rmse_m,"
     "rpe_trans_rmse_m,rpe_rot_rmse_deg,landmark_rmse_m,landmarks_estimated,landmarks_matched,"
-    "nees_mean,frames,step_ms_median,step_ms_p95,total_s,peak_rss_mb,alignment,ground_truth"
+    "nees_mean,nees_median,frames,step_ms_median,step_ms_p95,total_s,peak_rss_mb,warmup_s,"
+    "alignment,ground_truth"
 )
 
 
@@ -113,6 +115,7 @@ def full_metrics() -> RunMetrics:
         nees=ConsistencyMetrics(
             has_pose_covariances=True,
             pose_mean=3.2,
+            pose_median=2.4,
             pose_anees=1.07,
             pose_dof=3,
             pose_within_bounds=0.93,
@@ -131,6 +134,8 @@ def full_metrics() -> RunMetrics:
             step_max_ms=2.5,
             total_s=0.31,
             peak_rss_mb=116.8,
+            warmup_s=0.02,
+            warmup_steps=1,
         ),
         ground_truth=GroundTruthInfo(
             alignment=Alignment.SE2,
@@ -208,7 +213,7 @@ def test_the_file_is_flat_json_with_the_schema_version_first_and_nulls(tmp_path)
     write_run_metrics(tmp_path / METRICS, no_truth_metrics())
     raw = json.loads((tmp_path / METRICS).read_text())
     assert list(raw) == [SCHEMA_KEY, *(spec.key for spec in METRIC_FIELDS)]
-    assert raw[SCHEMA_KEY] == SCHEMA_VERSION == 1
+    assert raw[SCHEMA_KEY] == SCHEMA_VERSION == 2
     assert raw["nees_mean"] is None and raw["ate_rmse_m"] is None  # no covariance, no truth
     assert raw["rpe_by_distance"] is None and raw["estimator_options"] == {}
     assert raw["ground_truth"] == "none" and raw["landmarks_estimated"] == 0
@@ -228,9 +233,18 @@ def test_enums_and_curves_are_written_as_json_values():
 
 def test_a_file_without_schema_version_is_read_as_version_1(tmp_path):
     metrics = full_metrics()
-    legacy = metrics.to_json()
+    legacy = {k: v for k, v in metrics.to_json().items() if k not in ADDED_IN_2}
     del legacy[SCHEMA_KEY]
-    assert read_run_metrics(written(tmp_path, legacy)) == metrics
+    read = read_run_metrics(written(tmp_path, legacy))
+    assert read.nees.pose_median is None and read.timing.warmup_s is None
+    assert read.ate == metrics.ate and read.nees.pose_mean == metrics.nees.pose_mean
+
+
+def test_a_version_2_file_needs_the_keys_version_2_added(tmp_path):
+    raw = full_metrics().to_json()
+    del raw["warmup_s"]
+    with pytest.raises(DataError, match="missing key 'warmup_s'"):
+        read_run_metrics(written(tmp_path, raw))
 
 
 # --------------------------------------------------------------------------------------------
@@ -370,11 +384,11 @@ def test_non_finite_numbers_are_refused_naming_the_key(tmp_path, literal):
         read_run_metrics(path)
 
 
-@pytest.mark.parametrize("version", [2, 0, "1", True, None])
+@pytest.mark.parametrize("version", [3, 0, "1", True, None])
 def test_an_unsupported_schema_version_is_refused(tmp_path, version):
     raw = {**full_metrics().to_json(), SCHEMA_KEY: version}
     path = written(tmp_path, raw)
-    with pytest.raises(DataError, match=f"key '{SCHEMA_KEY}': this omnislam reads version 1"):
+    with pytest.raises(DataError, match=f"key '{SCHEMA_KEY}': this omnislam reads versions 1, 2"):
         read_run_metrics(path)
 
 

@@ -41,7 +41,14 @@ def fakes(monkeypatch):
         monkeypatch.setitem(
             registry.ESTIMATORS,
             name,
-            registry.EstimatorEntry("report_fakes:make_wobbly", frozenset()),
+            registry.EstimatorEntry(
+                "report_fakes:make_wobbly",
+                frozenset(),
+                stochastic=True,
+                family=registry.Family.PARTICLE_FILTER
+                if name == "tidy_odo"
+                else registry.Family.FACTOR_GRAPH,
+            ),
         )
 
 
@@ -95,42 +102,40 @@ def tolerance(token: str) -> float:
     return 0.5 * 10.0 ** (int(exponent or 0) - decimals) * (1 + 1e-9)
 
 
-def verdict_row(report: Path) -> dict[str, str]:
-    rows = list(csv.DictReader(io.StringIO((report / "tables" / "verdict.csv").read_text())))
-    assert len(rows) == 1
-    return rows[0]
+def verdict_rows(report: Path) -> list[dict[str, str]]:
+    return list(csv.DictReader(io.StringIO((report / "tables" / "verdict.csv").read_text())))
 
 
-def test_verdict_names_the_best_and_its_margin(fakes, tmp_path):
+def low_median(values: list[float]) -> float:
+    return sorted(values)[(len(values) - 1) // 2]
+
+
+def test_verdict_names_the_best_family_and_the_margin_behind_it(fakes, tmp_path):
     results = run_room_grid(
         tmp_path, {"amplitude": 0.02}, {"amplitude": 0.5, "seed_gain": 0.2}, "clear"
     )
     ate = ate_by_column(results)
-    medians = {col: float(np.median(v)) for col, v in ate.items() if col != "deadreckoning"}
+    medians = {col: low_median(v) for col, v in ate.items() if col != "deadreckoning"}
     best, runner = sorted(medians, key=medians.get)
     assert best == "tidy_odo"  # by construction; the verdict must follow the numbers
     margin = medians[runner] - medians[best]
     assert max(ate[best]) < min(ate[runner])  # constructed: the ranges do not overlap
     write_report(results, tmp_path / "report", FAST)
     md = (tmp_path / "report" / "report.md").read_text()
-    html = (tmp_path / "report" / "index.html").read_text()
     assert md.index("## Verdict") < md.index("## ATE RMSE")
-    sentence = next(line for line in md.splitlines() if line.startswith("room: "))
-    assert sentence.startswith(f"room: {best} has the lowest ATE RMSE")
-    assert f"{margin:.3g} m" in sentence and f"below {runner}" in sentence
-    assert "larger than the seed spread" in sentence and "within the seed spread" not in sentence
-    assert f"median {medians[best]:.3g} m over 2 seeds" in sentence
-    assert sentence.replace("'", "&#x27;") in html
-    row = verdict_row(tmp_path / "report")
-    assert row["best"] == best and row["runner-up"] == runner
-    assert float(row["margin [m]"]) == pytest.approx(margin, rel=1e-12)
-    assert float(row["best min [m]"]) == pytest.approx(min(ate[best]))
-    assert float(row["runner-up max [m]"]) == pytest.approx(max(ate[runner]))
-    assert float(row["dead reckoning median [m]"]) == pytest.approx(np.median(ate["deadreckoning"]))
-    assert row["within seed spread"] == "no"
+    first, second = verdict_rows(tmp_path / "report")
+    assert (first["best"], second["best"]) == (best, runner)
+    assert (first["family"], second["family"]) == ("particle filter", "factor graph")
+    assert float(second["behind the best [m]"]) == pytest.approx(margin, rel=1e-12)
+    assert float(first["min [m]"]) == pytest.approx(min(ate[best]))
+    assert float(second["max [m]"]) == pytest.approx(max(ate[runner]))
+    assert float(first["dead reckoning median [m]"]) == pytest.approx(ate["deadreckoning"][0])
+    assert second["separated from the best"] == "yes"
+    shown = md_tables(md)["verdict"][1]
+    assert shown[1][5] == f"+{margin:.3g} m ({100 * margin / medians[runner]:.0f} %)"
 
 
-def test_verdict_says_within_the_seed_spread_and_no_spread_with_one_seed(fakes, tmp_path):
+def test_overlapping_seed_ranges_and_one_seed_are_told_in_the_notes(fakes, tmp_path):
     results = run_room_grid(
         tmp_path,
         {"amplitude": 0.3, "seed_gain": 1.0},
@@ -141,17 +146,14 @@ def test_verdict_says_within_the_seed_spread_and_no_spread_with_one_seed(fakes, 
     tidy, rough = ate["tidy_odo"], ate["rough_odo"]
     best, runner = (
         ("tidy_odo", "rough_odo")
-        if np.median(tidy) <= np.median(rough)
+        if low_median(tidy) <= low_median(rough)
         else ("rough_odo", "tidy_odo")
     )
     assert max(ate[best]) >= min(ate[runner])  # constructed: the seed ranges overlap
     write_report(results, tmp_path / "report", FAST)
     md = (tmp_path / "report" / "report.md").read_text()
-    sentence = next(line for line in md.splitlines() if line.startswith("room: "))
-    assert sentence.startswith(f"room: {best} has")
-    assert "the difference is within the seed spread" in sentence
-    assert verdict_row(tmp_path / "report")["within seed spread"] == "yes"
-    assert "within the seed spread" in (tmp_path / "report" / "index.html").read_text()
+    assert f"- room (odometry): {best}'s and {runner}'s ranges over seeds overlap" in md
+    assert verdict_rows(tmp_path / "report")[1]["separated from the best"] == "no"
 
     single = tmp_path / "one-seed"
     single.mkdir()
@@ -159,9 +161,66 @@ def test_verdict_says_within_the_seed_spread_and_no_spread_with_one_seed(fakes, 
         shutil.copytree(results / "cells" / f"room__{column}__s0", single / column)
     write_report(single, tmp_path / "report1", FAST)
     md = (tmp_path / "report1" / "report.md").read_text()
-    sentence = next(line for line in md.splitlines() if "has the lowest ATE RMSE" in line)
-    assert "over 1 seed;" in sentence and "no seed spread is known" in sentence
-    assert verdict_row(tmp_path / "report1")["within seed spread"] == "unknown (1 seed)"
+    assert "one seed of a seed-dependent estimator" in md
+    assert verdict_rows(tmp_path / "report1")[1]["separated from the best"] == "unknown (1 seed)"
+
+
+def test_every_place_a_cell_appears_gives_the_same_median_and_range(fakes, tmp_path):
+    data = tmp_path / "data" / "room.log"
+    write_room_log(data, frames=60)
+    grid = {
+        "name": "three",
+        "datasets": ["data/room.log"],
+        "estimators": [
+            "deadreckoning",
+            {"estimator": "tidy_odo", "options": {"amplitude": 0.05, "seed_gain": 1.0}},
+            {"estimator": "rough_odo", "options": {"amplitude": 0.3, "seed_gain": 1.0}},
+        ],
+        "seeds": [0, 1, 2],
+    }
+    results = tmp_path / "results"
+    run_grid(parse_grid(json.dumps(grid), tmp_path / "grid.yaml"), results, SerialExecutor)
+    write_report(results, tmp_path / "report", FAST)
+    report = tmp_path / "report"
+    ate = ate_by_column(results)
+    assert len(ate["deadreckoning"]) == 1 and len(ate["tidy_odo"]) == 3  # run once vs per seed
+    md_shown = md_tables((report / "report.md").read_text())
+    html = (report / "index.html").read_text()
+
+    def csv_rows(name: str) -> list[dict[str, str]]:
+        return list(csv.DictReader(io.StringIO((report / "tables" / f"{name}.csv").read_text())))
+
+    for column in ("tidy_odo", "rough_odo"):
+        values = sorted(ate[column])
+        median, low, high = values[1], values[0], values[2]
+        text = f"{median:.3g} [{low:.3g}–{high:.3g}]"
+        # Markdown: the headline, the dataset's table and the verdict show the same text
+        header, rows = md_shown["ate-rmse"]
+        assert rows[0][header.index(column)] == text
+        header, rows = md_shown["room-metrics"]
+        assert next(r for r in rows if r[0] == column)[1] == text
+        assert any(r[3] == column and r[4] == text for r in md_shown["verdict"][1])
+        # HTML: the same cells
+        assert html.count(f">{text}</td>") >= 3
+        # CSV: the same numbers at full precision
+        headline = csv_rows("ate-rmse")[0]
+        assert [float(headline[f"{column}{s}"]) for s in ("", " min", " max")] == [
+            pytest.approx(v, rel=1e-12) for v in (median, low, high)
+        ]
+        metrics = next(r for r in csv_rows("room-metrics") if r["estimator"] == column)
+        assert float(metrics["ATE RMSE [m]"]) == pytest.approx(median, rel=1e-12)
+        assert float(metrics["ATE RMSE [m] max"]) == pytest.approx(high, rel=1e-12)
+        verdict = next(r for r in csv_rows("verdict") if r["best"] == column)
+        assert float(verdict["median [m]"]) == pytest.approx(median, rel=1e-12)
+        assert float(verdict["min [m]"]) == pytest.approx(low, rel=1e-12)
+        # the table of runs holds every seed's value
+        seeds = [r for r in csv_rows("room-seeds") if r["estimator"] == column]
+        assert sorted(float(r["ATE RMSE [m]"]) for r in seeds) == pytest.approx(values)
+    # dead reckoning ran once: its row says so instead of a spread
+    header, rows = md_shown["room-metrics"]
+    assert next(r for r in rows if r[0] == "deadreckoning")[header.index("seeds")] == (
+        "deterministic"
+    )
 
 
 def test_provenance_block_and_publication_tables(fakes, tmp_path):
@@ -217,12 +276,11 @@ def test_provenance_block_and_publication_tables(fakes, tmp_path):
         assert 'href="data:text/csv;charset=utf-8;base64,' in html
         assert f"tables/{name}.tex" in md
     assert r"tidy\_odo" in (report / "tables" / "verdict.tex").read_text()
-    assert r"$\pm$" in (report / "tables" / "room-metrics.tex").read_text()
     # the CSV keeps full precision where the table rounds
     row = next(csv.DictReader(io.StringIO((report / "tables" / "ate-rmse.csv").read_text())))
-    rough = ate_by_column(results)["rough_odo"]
-    assert float(row["rough_odo"]) == pytest.approx(np.mean(rough), rel=1e-12)
-    assert float(row["rough_odo std"]) == pytest.approx(np.std(rough, ddof=1), rel=1e-12)
+    rough = sorted(ate_by_column(results)["rough_odo"])
+    assert float(row["rough_odo"]) == pytest.approx(rough[0], rel=1e-12)  # low median of two
+    assert float(row["rough_odo max"]) == pytest.approx(rough[1], rel=1e-12)
 
 
 def test_latex_escape_and_provenance_never_fail(tmp_path, monkeypatch):
