@@ -59,6 +59,8 @@ class Family(enum.Enum):
     KALMAN_FILTER = "Kalman filter"
     LOCALISER = "localiser in a known map"
     DEAD_RECKONING = "dead reckoning"
+    #: results read from another system's files (a grid's ``estimator: external``)
+    EXTERNAL = "another system"
 
 
 @dataclass(frozen=True, slots=True)

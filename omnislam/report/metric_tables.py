@@ -220,7 +220,9 @@ def _is_baseline(cells: Sequence[ReportCell], column: str) -> bool:
 
 def dataset_verdicts(cells: Sequence[ReportCell]) -> list[Verdict]:
     """The verdict of each dataset and input (``metrics.verdict``), in the order of the cells:
-    only runs that consumed the same input are ranked together."""
+    only runs that consumed the same input are ranked together. Results read from another
+    system's files (``estimator: external``), whose input omnislam cannot know, are set beside
+    each input's runs as a family of their own."""
     out = []
     for dataset in dict.fromkeys(c.dataset for c in cells):
         group = [c for c in cells if c.dataset == dataset]
@@ -231,6 +233,7 @@ def dataset_verdicts(cells: Sequence[ReportCell]) -> list[Verdict]:
             None,
         )
         by_input: dict[str, list[ColumnSummary]] = {}
+        elsewhere: list[ColumnSummary] = []  # another system's results: what it read is unknown
         for column in columns(group):
             if _is_baseline(group, column):
                 continue
@@ -239,9 +242,15 @@ def dataset_verdicts(cells: Sequence[ReportCell]) -> list[Verdict]:
             if summary is None:
                 continue
             first = runs[0]
-            by_input.setdefault(input_label(first), []).append(
-                ColumnSummary(column, family_of(first), method_of(first), summary)
-            )
+            ranked = ColumnSummary(column, family_of(first), method_of(first), summary)
+            if first.config is not None and first.config.external is not None:
+                elsewhere.append(ranked)
+            else:
+                by_input.setdefault(input_label(first), []).append(ranked)
+        if elsewhere and not by_input:
+            by_input["another system's input"] = []
+        for summaries in by_input.values():
+            summaries.extend(elsewhere)  # set beside every input's runs of the dataset
         label = gt_label(group)
         for kind, summaries in by_input.items():
             out.append(Verdict(dataset, kind, label, rank_families(summaries), baseline))

@@ -235,11 +235,12 @@ def input_label(cell: ReportCell) -> str:
 
 
 def family_of(cell: ReportCell) -> str:
-    """The method family of a run's estimator (``estimators.Family`` value)."""
+    """The method family of a run's estimator (``estimators.Family`` value); EXTERNAL for
+    results read from another system's files, which no registry entry describes."""
     from omnislam.estimators import ESTIMATORS, Family
 
     entry = ESTIMATORS.get(cell.estimator)
-    return (entry.family if entry is not None else Family.KALMAN_FILTER).value
+    return (entry.family if entry is not None else Family.EXTERNAL).value
 
 
 def method_of(cell: ReportCell) -> str:
