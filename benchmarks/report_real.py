@@ -1,4 +1,4 @@
-"""The committed benchmark report on the real datasets (``reports/real/``), in one command::
+"""A report on the real datasets alone (every available estimator), in one command::
 
     .venv/bin/python benchmarks/report_real.py            # [--workers N | --scheduler ADDR]
 
@@ -7,7 +7,8 @@ datasets that are found (the others are listed in the report), writes the filter
 the results, runs it with the grid runner (``omnislam compare``; finished cells are reused, so
 re-running after new back ends land computes only their cells) into ``--results``
 (default ``runs/real``, not committed), and writes the report with ``omnislam report`` into
-``reports/real`` without the per-run exports (to keep the committed folder small).
+``runs/real-report`` (not committed; the committed comparison is the suite's, ``reports/suite``)
+without the per-run exports.
 
 Dead reckoning is deterministic: its seeds give identical numbers.
 """
@@ -27,7 +28,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--grid", default=str(REPO / "benchmarks" / "grids" / "real.yaml"))
     parser.add_argument("--results", default=str(REPO / "runs" / "real"))
-    parser.add_argument("--out", default=str(REPO / "reports" / "real"))
+    parser.add_argument("--out", default=str(REPO / "runs" / "real-report"))
     parser.add_argument("--workers", type=int, default=None)
     parser.add_argument("--scheduler", default=None)
     parser.add_argument(
