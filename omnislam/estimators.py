@@ -19,7 +19,7 @@ import numpy as np
 from omnislam.core.modality import MODALITY_OPTION, Modality, resolve_modality
 from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Estimator
-from omnislam.errors import ConfigError
+from omnislam.errors import ConfigError, did_you_mean
 
 #: factory(info, options, rng) -> Estimator
 EstimatorFactory = Callable[[SequenceInfo, Mapping[str, str], np.random.Generator], Estimator]
@@ -129,10 +129,7 @@ ESTIMATORS: dict[str, EstimatorEntry] = {
 
 def unknown_estimator_message(name: str) -> str:
     """The one line for an estimator name the registry does not hold, with the nearest names."""
-    import difflib
-
-    near = difflib.get_close_matches(name, list(ESTIMATORS), n=2, cutoff=0.6)
-    hint = f" (did you mean {' or '.join(repr(n) for n in near)}?)" if near else ""
+    hint = did_you_mean(name, ESTIMATORS, count=2)
     return f"unknown estimator {name!r}{hint}; known: {', '.join(ESTIMATORS)}"
 
 

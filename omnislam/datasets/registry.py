@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 from omnislam.datasets._common import DATA_ENV, Association, data_root
 from omnislam.datasets.sequence import GroundTruthKind, Sequence
-from omnislam.errors import ConfigError, DataError
+from omnislam.errors import ConfigError, DataError, did_you_mean
 
 if TYPE_CHECKING:
     from omnislam.datasets.synthetic.presets import Preset
@@ -304,10 +304,7 @@ def resolve(dataset: str) -> ResolvedDataset:
         return ResolvedDataset(entry.name, entry.format, where, entry.options)
     path = Path(dataset).expanduser()
     if not path.exists():
-        raise ConfigError(
-            f"unknown dataset {dataset!r}: not a registered name ({', '.join(REGISTRY)}) "
-            "nor an existing file or folder"
-        )
+        raise ConfigError(_unknown_dataset_message(dataset))
     fmt = detect_format(path)
     if fmt is None:
         raise DataError(
@@ -319,6 +316,25 @@ def resolve(dataset: str) -> ResolvedDataset:
         path = next(p for p in path.iterdir() if p.name.endswith((".log", ".log.gz")))
     name = path.name.removesuffix(".gz").removesuffix(".log") if path.is_file() else path.name
     return ResolvedDataset(name, fmt, path)
+
+
+def preset_names() -> tuple[str, ...]:
+    """The synthetic presets' names (none when the synthetic package cannot be imported)."""
+    try:
+        from omnislam.datasets.synthetic import PRESETS
+    except (ImportError, AttributeError):
+        return ()
+    return tuple(str(name) for name in PRESETS)
+
+
+def _unknown_dataset_message(dataset: str) -> str:
+    """The one line for a dataset argument that names nothing, with the nearest names."""
+    presets = preset_names()
+    hint = did_you_mean(dataset, [*REGISTRY, *presets])
+    where = f"a registered name ({', '.join(REGISTRY)})"
+    if presets:
+        where += f", a synthetic preset ({', '.join(presets)})"
+    return f"unknown dataset {dataset!r}{hint}: not {where} nor an existing file or folder"
 
 
 def parse_options(fmt: DatasetFormat, options: Mapping[str, str]) -> dict[str, object]:
