@@ -116,6 +116,8 @@ def run(args: argparse.Namespace) -> int:
             on_progress=bar.on_progress,
             reuse=args.resume,
         )
+    for warning in result.warnings:  # each once, after the progress lines
+        warning.log()
     return _print_outcomes(result, args.out)
 
 
