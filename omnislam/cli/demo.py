@@ -1,10 +1,10 @@
-"""``omnislam demo [--out DIR]``: the embedded default, end to end (see omnislam/demo.py).
+"""Run the embedded demo end to end.
 
 Renders the demo world, runs the shared front end, every available estimator and the report,
 each step with its progress on stderr (images rendered and processed, frames stepped by each
-estimator, the report's datasets); the work folder (``--work``) is a cache that later runs
-reuse when its inputs are unchanged. The last line names the report. An existing report
-folder is replaced only with ``--overwrite`` (``make demo`` passes it).
+estimator, the report's datasets); the work folder (--work) is a cache that later runs reuse
+when its inputs are unchanged. The last line names the report. An existing report folder is
+replaced only with --overwrite (make demo passes it).
 """
 
 from __future__ import annotations
