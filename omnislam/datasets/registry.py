@@ -15,7 +15,7 @@ import enum
 import importlib
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -245,14 +245,30 @@ REGISTRY: dict[str, DatasetEntry] = {
 }
 
 
+#: how the provenance of a run names a format (``path_source``)
+FORMAT_TITLES = {
+    DatasetFormat.MRCLAM: "MR.CLAM",
+    DatasetFormat.VICTORIA_PARK: "Victoria Park",
+    DatasetFormat.GTSAM_GRAPH: "gtsam graph",
+    DatasetFormat.CARMEN: "CARMEN log",
+    DatasetFormat.SYNTHETIC: "omnislam synthetic",
+}
+
+
 @dataclass(frozen=True, slots=True)
 class ResolvedDataset:
-    """A dataset argument turned into a format, a path, a name and fixed options."""
+    """A dataset argument turned into a format, a path, a name and fixed options.
+
+    Attributes:
+        registered: the argument was a registered name (the published dataset, credited to
+            its authors); False for a path, whatever data it holds.
+    """
 
     name: str
     format: DatasetFormat
     path: Path
     options: Mapping[str, str] = field(default_factory=dict)
+    registered: bool = False
 
     def option_names(self) -> frozenset[str]:
         """The ``--set`` keys the loader of this format accepts."""
@@ -301,7 +317,7 @@ def resolve(dataset: str) -> ResolvedDataset:
                 f"dataset {dataset!r} not found: looked in {where} "
                 f"(set {DATA_ENV} to the folder holding the real data)"
             )
-        return ResolvedDataset(entry.name, entry.format, where, entry.options)
+        return ResolvedDataset(entry.name, entry.format, where, entry.options, registered=True)
     path = Path(dataset).expanduser()
     if not path.exists():
         raise ConfigError(_unknown_dataset_message(dataset))
@@ -316,6 +332,13 @@ def resolve(dataset: str) -> ResolvedDataset:
         path = next(p for p in path.iterdir() if p.name.endswith((".log", ".log.gz")))
     name = path.name.removesuffix(".gz").removesuffix(".log") if path.is_file() else path.name
     return ResolvedDataset(name, fmt, path)
+
+
+def path_source(fmt: DatasetFormat, path: Path) -> str:
+    """The provenance of data read from a path: what it is and where, crediting no one (a folder
+    in MR.CLAM format need not be the published MR.CLAM dataset)."""
+    kind = "folder" if path.is_dir() else "file"
+    return f"a {kind} in {FORMAT_TITLES[fmt]} format at {path}"
 
 
 def preset_names() -> tuple[str, ...]:
@@ -366,7 +389,8 @@ def load_dataset(
         options: loader options (``--set`` strings); they override the entry's fixed ones.
 
     Returns:
-        The Sequence.
+        The Sequence; its ``source`` credits a registered dataset's authors, and names what
+        and where the data is for a path (``path_source``).
     """
     resolved = resolve(dataset) if isinstance(dataset, str) else dataset
     merged = {**resolved.options, **(options or {})}
@@ -382,6 +406,9 @@ def load_dataset(
     sequence = load(resolved.path, **kwargs)
     if not isinstance(sequence, Sequence):  # pragma: no cover - defensive
         raise DataError("loader did not return a Sequence", resolved.path)
+    if not resolved.registered and resolved.format is not DatasetFormat.SYNTHETIC:
+        # a render names its own preset and seed; other data from a path is the user's
+        sequence = replace(sequence, source=path_source(resolved.format, resolved.path))
     return sequence
 
 

@@ -1387,6 +1387,12 @@ def _(tmp, fx):
     return run_args("mrclam6-r9", tmp), "unknown dataset 'mrclam6-r9' (did you mean 'mrclam6-r"
 
 
+@case("run-misspelt-option-of-a-section")
+def _(tmp, fx):
+    argv = run_args(mrclam(tmp), tmp, "fastslam1", "--set", "n_particle=30")
+    return argv, "unknown option 'n_particle' (did you mean 'particles.n_particles'?)"
+
+
 @case("run-negative-seed")
 def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "deadreckoning", "--seed", "-1"), "--seed"
