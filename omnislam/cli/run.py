@@ -21,7 +21,9 @@ DEFAULT_SEED = 0
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run one estimator on one dataset", description=__doc__)
-    p.add_argument("dataset", metavar="DATASET", help="registered name or a file/folder")
+    p.add_argument(
+        "dataset", metavar="DATASET", help="registered name, synthetic preset or a file/folder"
+    )
     p.add_argument(
         "--estimator",
         required=True,
@@ -50,7 +52,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--log",
         default=None,
         metavar="LOG",
-        help="front-end ObservationLog to replay, written by `omnislam frontend` (default for "
+        help="front-end observation log to replay, written by `omnislam frontend` (default for "
         "a dataset with images or laser scans: the shared front end's log, computed once and "
         "cached)",
     )

@@ -454,7 +454,7 @@ def list_datasets() -> list[ListedDataset]:
                 _synthetic_sensors(preset),
                 GroundTruthKind.EXACT.value,
                 True,
-                "render with: omnislam dataset synth " + str(name) + " --out DIR",
+                f"rendered by: omnislam run {name} (cached) or dataset synth {name} --out DIR",
             )
         )
     return rows
