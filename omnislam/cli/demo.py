@@ -108,6 +108,8 @@ def run(args: argparse.Namespace) -> int:
             on_grid=progress.on_grid,
             report_step=progress.report_step,
         )
+    for warning in result.results.warnings:  # each once, after the progress lines
+        warning.log()
     print(f"{'estimator':16s} {'ATE RMSE [m]':>12s} {'landmark RMSE [m]':>18s} {'status':>9s}")
     for outcome in result.results.outcomes:
         metrics = outcome.metrics
