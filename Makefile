@@ -1,7 +1,8 @@
 # Two commands do everything on a fresh machine:
 #   make demo   renders the embedded `demo` world and runs the pipeline end to end
-#   make test   runs ruff and the unit tests
+#   make test   runs ruff, the unit tests and the documentation site's strict build
 # Both create .venv and install what is needed first (system libraries too, when root on Debian).
+#   make docs   the documentation site (mkdocs.yml) into site/, with `mkdocs build --strict`
 #   make suite  every estimator on every dataset (benchmarks/grids/suite.yaml): results in
 #               runs/suite (not committed), the report in reports/suite, the results table of
 #               the README and of docs/results/index.md
@@ -12,7 +13,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 SYSLIBS := libusb-1.0-0 libgl1 libegl1 libx11-6 libudev1 libgomp1
 
-.PHONY: test demo suite venv kernels syslibs lint clean
+.PHONY: test demo docs suite venv kernels syslibs lint clean
 
 venv: $(STAMP)
 
@@ -53,6 +54,11 @@ lint: venv
 test: kernels
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -q
+	@$(MAKE) --no-print-directory docs
+
+# the site reads the package's docstrings from this checkout (mkdocs.yml: paths [.])
+docs: venv
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
 
 demo: kernels
 	$(BIN)/omnislam demo --overwrite
@@ -84,4 +90,4 @@ suite: kernels
 	exit $$status
 
 clean:
-	rm -rf $(VENV) .pytest_cache .ruff_cache .hypothesis
+	rm -rf $(VENV) .pytest_cache .ruff_cache .hypothesis site

@@ -187,8 +187,8 @@ def sift_alone(sequence, frames: np.ndarray, config: FrontendConfig) -> dict[str
     finally:
         use_kernels(previous)
     # bare OpenCV SIFT (its defaults, doubled first octave, OpenCV's threads) on the same
-    # images: a reference of the host's speed that does not change with omnislam's code (the
-    # issue's "~68 ms per lab40 image with 2 threads")
+    # images: a reference of the host's speed that does not change with omnislam's code (~68 ms
+    # per lab40 image with 2 threads on the reference host)
     cv2 = require("cv2")
     sift = cv2.SIFT_create()
     greys = [cv2.cvtColor(image, cv2.COLOR_RGB2GRAY) for image in images]

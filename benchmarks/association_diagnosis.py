@@ -1,4 +1,4 @@
-"""Where graphslam's association of unlabelled range-bearing sightings goes wrong (issue 16).
+"""Where graphslam's association of unlabelled range-bearing sightings goes wrong.
 
 Runs ``graphslam`` on a dataset with its landmark ids hidden (``association=unknown``, as
 ``omnislam run DATASET --estimator graphslam --set association=unknown``) and scores every

@@ -1,6 +1,6 @@
 """MR.CLAM dataset 6, robots 1-5: ATE with the sightings' ids and with them ignored.
 
-Issue 16's MR.CLAM goals, measured through the harness of ``omnislam run`` / ``omnislam
+The association's targets on MR.CLAM, measured through the harness of ``omnislam run`` / ``omnislam
 evaluate`` (``execute_run`` and ``evaluate_run``): a cell is what
 
     omnislam run mrclam6-rK --estimator E --seed S --out R [--set association=unknown]

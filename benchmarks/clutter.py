@@ -1,6 +1,6 @@
 """Clutter: false detections without ids added to the sightings, every back end with its defaults.
 
-Issue 16's clutter goal: with 0.5 false detections per frame added, the map stays within 10 %
+The clutter target: with 0.5 false detections per frame added, the map stays within 10 %
 of the true landmark count and the ATE within 1.5x of the clean run. A cell is what
 
     omnislam run DATASET --estimator E --seed S --out R --set association=unknown \\

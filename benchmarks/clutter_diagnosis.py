@@ -1,6 +1,6 @@
 """What graphslam's association does with false detections, scored against the hidden ids.
 
-Two diagnoses of issue 16's clutter goal (``benchmarks/clutter.py`` measures the goal itself):
+Two diagnoses of the clutter target (``benchmarks/clutter.py`` measures the target itself):
 
 ``decisions DATASET`` runs ``graphslam`` on a dataset with ids (MR.CLAM) with the ids hidden
 (``association=unknown``) and ``--rate`` false detections per frame added exactly as

@@ -1,4 +1,4 @@
-"""The accuracy table of issue 14: ATE and landmark RMSE of every estimator on every dataset.
+"""The accuracy table: ATE and landmark RMSE of every estimator on every dataset.
 
 Every cell goes through the harness of ``omnislam run`` / ``omnislam evaluate`` (``execute_run``
 and ``evaluate_run``), so it is what ``omnislam run DATASET --estimator E --seed S --out R

@@ -1,4 +1,4 @@
-"""EKF-SLAM step time against map size (issue #14).
+"""EKF-SLAM step time against map size.
 
 n landmarks uniformly in a disc of radius 10 m around a robot that turns on the spot and sees
 every landmark in its front half-plane (range-bearing with ids): about n/2 sightings per step,

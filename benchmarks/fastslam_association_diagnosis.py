@@ -1,5 +1,4 @@
-"""Where FastSLAM's per-particle association of unlabelled range-bearing sightings goes wrong
-(issue 16).
+"""Where FastSLAM's per-particle association of unlabelled range-bearing sightings goes wrong.
 
 The FastSLAM analogue of ``association_diagnosis.py`` (graphslam) and
 ``ekfslam_association_diagnosis.py``: runs ``fastslam2`` (or ``--estimator fastslam1``) on a

@@ -26,7 +26,7 @@ final smoothed trajectory. It bounds what any filter's per-step estimate can rea
 weighted-mean trajectory is such an estimate, and even its ancestral paths only choose among
 poses that were sampled from the data up to their own step.
 
-Then the medians over seeds and the issue's goals: fastslam2@10 and fastslam1@50 median ATE
+Then the medians over seeds and the targets: fastslam2@10 and fastslam1@50 median ATE
 <= 3x graphslam's and <= 0.1x dead reckoning's; more particles never worse beyond the seed
 spread; no collapse (no run of more than ``--collapse-steps`` single-ancestor steps) and pose
 NEES mean <= 10x dof::

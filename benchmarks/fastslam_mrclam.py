@@ -5,7 +5,7 @@ Every run goes through the harness of ``omnislam run`` / ``omnislam evaluate`` (
 omnislam evaluate R --json`` reports: ATE RMSE after SE(2) alignment, pose NEES mean (dof 3), the
 landmark RMSE and landmark NEES mean (dof 2) of the final map, and from ``estimator_info.json``
 FastSLAM's particle diversity (fewest distinct ancestors, longest run of single-ancestor steps).
-Then the medians over robots and seeds and the issue's goal (fastslam2 median ATE <= 2x
+Then the medians over robots and seeds and the target (fastslam2 median ATE <= 2x
 graphslam's), and the medians per robot. ``graphslam-online`` is the same iSAM2 run read out
 causally, its newest pose after every step (the estimate a filter reports; see
 ``fastslam_loop150.py``), where ``graphslam`` reports the final smoothed trajectory. With
@@ -17,7 +17,7 @@ the largest trajectory difference and the ATE difference between the two paths a
         [--compare-kernels] [--set KEY=VALUE ...] [--loader-set KEY=VALUE ...]
 
 ``--set`` options go to the FastSLAM runs only; ``--loader-set`` options are the dataset
-loader's (``max_step_s=inf``: frames at sighting times only, as before the gaps were filled)
+loader's (``max_step_s=inf``: frames at sighting times only, the gaps not filled)
 and reach every run, graphslam's included.
 """
 

@@ -5,7 +5,7 @@ For each run (MR.CLAM dataset 6 robots 1-5 with ids through the ``omnislam run``
 ``loop150`` simulated as in ``fastslam_loop150.py``), with the pose error taken as ``omnislam
 evaluate``'s NEES takes it (first pose anchored, ``metrics.consistency.pose_nees``):
 
-* the NEES mean (the issue's number), median and the share of frames with NEES <= 30;
+* the NEES mean (the figure the target is set on), median and the share of frames with NEES <= 30;
 * per component (x, y, heading) the median of |error| / std, where std is the particle set's
   weighted std (the covariance FastSLAM reports, ``Estimate.pose_covariances``);
 * the median position error and the median position std (sqrt of the mean of the x and y

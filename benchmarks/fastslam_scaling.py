@@ -1,4 +1,4 @@
-"""FastSLAM speed and memory scaling (issue #7).
+"""FastSLAM speed and memory scaling.
 
 1. Cost per particle-observation on a small 2-D world (8 landmarks, ~6 sightings per step) at
    100 and 1000 particles, FastSLAM 1.0 and 2.0 (sequential and joint proposal), tree store,

@@ -4,7 +4,7 @@ Replays the log's bearings and the dataset's raw odometry through ``FloorScale``
 ``GraphSLAM`` does) and prints the final scale, its supporting pairs, and every local maximum of
 the weighted density of the pairs' log scales that it chooses the floor's from (the lowest
 substantial one). Used to tell whether a front-end configuration keeps enough floor points
-(issue 15: the keypoint budget left lab40's floor no mode of its own)::
+(a keypoint budget that leaves the floor too few keypoints gives it no mode of its own)::
 
     .venv/bin/python benchmarks/floor_scale.py runs/lab40 LOG [LOG ...]
 

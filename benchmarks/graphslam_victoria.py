@@ -9,7 +9,7 @@ bare loop is ``harness.reference.isam2_pass`` -- the warm start of the victoria-
 reference -- with the file's sigmas as one shared model, as omnislam's preset has them. Runs
 alternate (omnislam, bare, omnislam, ...) so that drift of the machine hits both alike.
 
-Goals (issue #6): omnislam's total time <= 1.25x the bare loop's; omnislam's final estimate
+Targets: omnislam's total time <= 1.25x the bare loop's; omnislam's final estimate
 within 2 cm RMS of Levenberg-Marquardt warm-started from it (``graphslam.batch.warm_started_lm``,
 what ``BatchGraphSLAM`` does in ``estimate()``).
 

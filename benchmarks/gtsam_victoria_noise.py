@@ -1,4 +1,4 @@
-"""The stated noise of gtsam's victoria_park.txt against its residuals at the LM optimum (issue 16).
+"""The stated noise of gtsam's victoria_park.txt against its residuals at the LM optimum.
 
 Why does association without ids fail on ``victoria-park-gtsam`` when it works on the raw
 Victoria Park log? This prints the measurements behind the answer in docs/results/association.md:

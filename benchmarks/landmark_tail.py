@@ -1,4 +1,4 @@
-"""Where a bearing-only map's landmark RMSE comes from: data or estimator? (issue #6)
+"""Where a bearing-only map's landmark RMSE comes from: data or estimator?
 
 For a finished run on a synthetic world (RUN_DIR with per-track ground truth, ``omnislam run
 ... --log LOG``) and its front-end log, take the ``--worst`` landmarks by error (after the

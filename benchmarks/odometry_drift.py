@@ -1,4 +1,4 @@
-"""Dead-reckoning drift of every synthetic preset's odometry (issue #15, realistic odometry).
+"""Dead-reckoning drift of every synthetic preset's odometry (the realistic odometry).
 
 For each preset and seed, the measured odometry (``datasets.synthetic.simulate.drive``: the
 robot's systematic bias, then the thesis's alpha noise) is integrated from the true start pose
@@ -63,7 +63,7 @@ def dead_reckoning_drift(preset: Preset, seed: int) -> Drift:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--no-bias", action="store_true", help="alpha noise only (the old model)")
+    parser.add_argument("--no-bias", action="store_true", help="alpha noise only, no bias")
     args = parser.parse_args()
     print(f"| preset | route [m] | drift per {SEGMENT_M:g} m (half the route if shorter) [%] "
           "| end error [% of route] "

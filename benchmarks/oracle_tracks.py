@@ -1,4 +1,4 @@
-"""How well could the graph do on a synthetic omni route if its tracks were perfect? (issue 15)
+"""How well could the graph do on a synthetic omni route if its tracks were perfect?
 
 The renderer knows the world point behind every pixel, so every sighting of a front-end log
 has a true 3-D point (``frontend.evaluation``). This benchmark replays one log five ways and

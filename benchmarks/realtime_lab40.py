@@ -28,16 +28,16 @@ prefix)::
 
 Variants (``--variants``, comma-separated, or ``all``): ``default`` (the estimator's defaults),
 ``images`` (a pose per image, every track), ``images-budget`` (a pose per image, 40 landmarks
-per image), ``spacing`` (key frames 0.2 m apart, every track), ``frames`` (the former graph:
-a pose per odometry step, every track), ``batch`` (``graphslam-batch`` with the defaults),
+per image), ``spacing`` (key frames 0.2 m apart, every track), ``frames`` (a pose per
+odometry step, every track), ``batch`` (``graphslam-batch`` with the defaults),
 ``whole`` (iSAM2 over the whole graph at every key frame instead of the default fixed-lag
 smoother), ``wheel-scale`` (the odometry's scale, without the floor points'), ``online-scale``
 (each odometry factor at the floor scale known when it was added, also in the final estimate),
 ``raw-pairs-scale`` (the final floor scale from the floor pairs over the raw odometry, not
-re-estimated over the graph's trajectory: session 7's default),
+re-estimated over the graph's trajectory),
 ``true-scale`` (the odometry at its true scale from the first frame, computed from the ground
 truth: a diagnostic of how much of the error is the floor scale's), ``lm-tight`` (the final LM
-run to a relative error decrease of 1e-10, the former default, instead of 1e-6).
+run to a relative error decrease of 1e-10 instead of the default 1e-6).
 """
 
 from __future__ import annotations
@@ -99,7 +99,7 @@ VARIANTS: dict[str, tuple[str, dict[str, str]]] = {
     # the odometry's true translation scale from the first frame (a diagnostic: the graph's
     # error without the floor scale's; ``true_odometry_scale``)
     "true-scale": ("graphslam", {"floor.known_odometry_scale": "truth"}),
-    # the final LM solved to a relative error decrease of 1e-10 (the default before session 14)
+    # the final LM solved to a relative error decrease of 1e-10 (the default: 1e-6)
     "lm-tight": ("graphslam", {"batch.relative_error_tol": "1e-10"}),
 }
 #: the other estimators timed on the same log (omni options as in benchmarks/fastslam_lab40.py)

@@ -6,7 +6,7 @@
 Reports the median time per frame (after one warm-up frame) for the numpy and open3d ray
 casters side by side, and with --full the wall time of ``omnislam dataset synth``. The load
 average is printed with the numbers: the machine is shared, so compare runs at similar load.
-Goals (GitHub issue #3): >= 10 fps with open3d, ``--full lab40`` in <= 2 minutes on 2 cores.
+Targets: >= 10 fps with open3d, ``--full lab40`` in <= 2 minutes on 2 cores.
 """
 
 from __future__ import annotations

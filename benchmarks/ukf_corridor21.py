@@ -363,7 +363,7 @@ def _steps_1_to_5_cpu_s(setup: Setup, r: dict) -> np.ndarray:
 
 
 def _print_wrong(setup: Setup, r: dict) -> None:
-    """Every wrong validated pair of a run, and what let it through (issue 13).
+    """Every wrong validated pair of a run, and what let it through.
 
     Per pair: the frame, the line, its true landmark (-1: an unmapped line) and the chosen one;
     the pair's innovation and predicted sigma (line and pose) [px at the image centre], its

@@ -1,6 +1,6 @@
-"""Victoria Park against GPS (issue 16): ATE and landmark counts of the SLAM back ends.
+"""Victoria Park against GPS: ATE and landmark counts of the SLAM back ends.
 
-Issue 16's must-show: graphslam and fastslam2 each <= 3 m ATE against GPS (SE(2)-aligned RMSE
+The target: graphslam and fastslam2 each <= 3 m ATE against GPS (SE(2)-aligned RMSE
 over the frames with a GPS fix), the landmark counts reported, and explained where they differ by
 more than 30 % between the back ends. A cell is what
 
@@ -36,9 +36,9 @@ from harness_cells import run_cell, set_options
 
 DATASET = "victoria-park"
 PARTICLE_FILTERS = ("fastslam1", "fastslam2")
-#: issue 16's bound on graphslam's and fastslam2's ATE against GPS [m]
+#: the bound on graphslam's and fastslam2's ATE against GPS [m]
 GOAL_ATE_M = 3.0
-#: landmark counts further apart than this fraction are to be explained (issue 16)
+#: landmark counts further apart than this fraction are to be explained
 COUNT_DIFFERENCE = 0.30
 #: ``estimator_info.json`` counters shown when present (graphslam's, ekfslam's, FastSLAM's)
 COUNT_KEYS = (

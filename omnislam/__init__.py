@@ -5,4 +5,4 @@ Subpackages (imports flow one way): ``core`` <- ``camera`` <- ``datasets``, ``fr
 <- ``report`` <- ``demo`` <- ``cli``.
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"

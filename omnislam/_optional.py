@@ -19,6 +19,7 @@ EXTRAS: dict[str, str] = {
     "filterpy": "ukf",
     "rerun": "view",
     "numba": "fast",
+    "rosbags": "rosbag",
 }
 
 

@@ -38,7 +38,8 @@ class MissingExtraError(OmnislamError, ImportError):
         self.module = module
         self.extra = extra
         super().__init__(
-            f"{module} is not installed; install it with: pip install 'omnislam[{extra}]'"
+            f"{module} is not installed; install the '{extra}' extra: "
+            f"pip install '.[{extra}]' in an omnislam clone"
         )
 
 

@@ -10,8 +10,8 @@ that lives in a section now names its dotted key, another one the nearest known 
 
 A configuration names the few options most users set in a class attribute ``MAIN_OPTIONS``
 (dotted keys); ``omnislam estimators`` lists those first and the rest by section (``--all``).
-``RENAMED_OPTIONS`` maps the earlier flat keys of options renamed on the way into a section to
-their dotted keys, for the message of an unknown key.
+``RENAMED_OPTIONS`` maps flat keys that name an option of a section to its dotted key, for the
+one-line hint of an unknown key.
 """
 
 from __future__ import annotations

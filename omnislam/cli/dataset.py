@@ -1,4 +1,4 @@
-"""``omnislam dataset list`` and ``omnislam dataset synth``.
+"""``omnislam dataset list``, ``synth``, ``check``, ``export`` and ``import``.
 
 ``list`` prints every registered real dataset (source, sensors, ground truth, found or not and
 where it was looked for) and the synthetic presets. ``synth`` renders a synthetic world; it is
@@ -6,6 +6,12 @@ implemented by the synthetic-world work as ``omnislam.datasets.synthetic.cli_syn
 (args: preset, out, seed, frames, image_every, backend, overwrite), with its progress on stderr;
 an existing
 dataset folder is replaced only with ``--overwrite``.
+
+``check DIR`` validates an omnislam folder (docs/datasets/folder-format.md): one line per
+problem (file, line, what) on stdout, exit code 2 when there is any. ``export NAME --out DIR``
+writes any dataset omnislam reads (a registered name or a path, with its loader options) as an
+omnislam folder. ``import BAG --out DIR --topic ROLE=/topic ...`` converts a ROS 1 or ROS 2 bag
+(the ``rosbag`` extra).
 """
 
 from __future__ import annotations
@@ -15,7 +21,10 @@ import json
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("dataset", help="list known datasets, render synthetic ones")
+    p = sub.add_parser(
+        "dataset",
+        help="list known datasets, render synthetic ones, check, export and import folders",
+    )
     p.set_defaults(handler=lambda args: p.print_help() or 2)
     actions = p.add_subparsers(dest="action", metavar="ACTION")
 
@@ -55,6 +64,45 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     synth.set_defaults(handler=run_synth)
     # ---- end of synth ----
+    _add_folder_actions(actions)
+
+
+def _add_folder_actions(actions: argparse._SubParsersAction) -> None:
+    """``check``, ``export`` and ``import``: the omnislam folder format."""
+    check = actions.add_parser("check", help="validate an omnislam folder, one line per problem")
+    check.add_argument("folder", metavar="DIR", help="the folder (with its dataset.json)")
+    check.set_defaults(handler=run_check)
+
+    export = actions.add_parser(
+        "export", help="write any dataset omnislam reads as an omnislam folder"
+    )
+    export.add_argument("dataset", metavar="NAME", help="registered dataset name or path")
+    export.add_argument("--out", required=True, metavar="DIR", help="folder to write")
+    export.add_argument(
+        "--set", dest="options", action="append", default=[], metavar="KEY=VALUE",
+        help="loader option (repeatable, e.g. robot=2)",
+    )
+    export.add_argument("--overwrite", action="store_true", help="replace an existing folder")
+    export.set_defaults(handler=run_export)
+
+    bag = actions.add_parser(
+        "import", help="convert a ROS 1 or ROS 2 bag into an omnislam folder (extra: rosbag)"
+    )
+    bag.add_argument("bag", metavar="BAG", help="a ROS 1 .bag file or a ROS 2 bag folder")
+    bag.add_argument("--out", required=True, metavar="DIR", help="folder to write")
+    bag.add_argument(
+        "--topic", dest="topics", action="append", default=[], metavar="ROLE=/topic",
+        help="what a topic is: odometry, images, scan, groundtruth (repeatable); "
+        "groundtruth=/tf takes the transforms of --gt-frame in --world-frame",
+    )
+    bag.add_argument("--calibration", metavar="YAML",
+                     help="camera calibration (omnislam rig YAML) of the images")
+    bag.add_argument("--world-frame", default="world", help="parent frame of ground truth on /tf")
+    bag.add_argument("--gt-frame", default="base_link", help="child frame of ground truth on /tf")
+    bag.add_argument("--source", default=None, help="one line saying where the data come from")
+    bag.add_argument("--licence", default="unstated", help="the data's licence")
+    bag.add_argument("--overwrite", action="store_true", help="replace an existing folder")
+    bag.set_defaults(handler=run_import)
 
 
 def run_list(args: argparse.Namespace) -> int:
@@ -97,3 +145,56 @@ def run_synth(args: argparse.Namespace) -> int:
         raise ConfigError(f"dataset synth cannot run in this installation ({exc})") from None
     check_overwrite(args.out, args.overwrite, "synthetic dataset folder", is_synthetic_folder)
     return int(cli_synth(args) or 0)
+
+
+def run_check(args: argparse.Namespace) -> int:
+    from omnislam.datasets.folder import check_folder
+
+    problems = check_folder(args.folder)
+    for problem in problems:
+        print(problem)
+    if problems:
+        return 2
+    print(f"{args.folder}: a valid omnislam folder")
+    return 0
+
+
+def _is_folder_output(path: object) -> bool:
+    from omnislam.datasets.folder import is_folder
+
+    return is_folder(path)  # type: ignore[arg-type]
+
+
+def run_export(args: argparse.Namespace) -> int:
+    from omnislam._files import check_output_location, check_overwrite
+    from omnislam.cli.run import parse_set
+    from omnislam.datasets.folder import export_folder
+    from omnislam.datasets.registry import load_dataset
+
+    check_overwrite(args.out, args.overwrite, "omnislam folder", _is_folder_output)
+    check_output_location(args.out, "omnislam folder")
+    sequence = load_dataset(args.dataset, parse_set(args.options))
+    out = export_folder(sequence, args.out)
+    print(f"wrote {out}: {len(sequence)} frames of {args.dataset} as an omnislam folder")
+    return 0
+
+
+def run_import(args: argparse.Namespace) -> int:
+    from omnislam._files import check_output_location, check_overwrite
+    from omnislam.datasets.rosbag import import_bag, parse_topics
+
+    topics = parse_topics(args.topics)
+    check_overwrite(args.out, args.overwrite, "omnislam folder", _is_folder_output)
+    check_output_location(args.out, "omnislam folder")
+    out = import_bag(
+        args.bag,
+        args.out,
+        topics,
+        calibration=args.calibration,
+        world_frame=args.world_frame,
+        gt_frame=args.gt_frame,
+        source=args.source,
+        licence=args.licence,
+    )
+    print(f"wrote {out}: an omnislam folder from {args.bag}")
+    return 0

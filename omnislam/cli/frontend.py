@@ -3,7 +3,8 @@
 The log (a compressed .npz) is replayed with omnislam run DATASET --log LOG. Progress (images
 done, rate, ETA) goes to stderr. An existing LOG is refused unless --overwrite (rebuild it) or
 --resume (keep it when it was built from the same dataset, configuration, --frames and --seed,
-else rebuild it).
+else rebuild it). --export DIR also writes the log as CSV files with a JSON description
+(docs/tutorials/observation-log.md), for back ends outside omnislam.
 """
 
 from __future__ import annotations
@@ -25,6 +26,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--frames", type=int, default=None, help="process at most N images")
     p.add_argument("--seed", type=int, default=0, help="seed of the RANSAC generator")
+    p.add_argument(
+        "--export",
+        metavar="DIR",
+        default=None,
+        help="also write the log as CSV tables and log.json (an open form for other back ends)",
+    )
     p.add_argument("--overwrite", action="store_true", help="rebuild an existing LOG")
     p.add_argument(
         "--resume",
@@ -73,14 +80,23 @@ def run(args: argparse.Namespace) -> int:
         hint="pass --resume to keep it when it is up to date or --overwrite to rebuild it",
     )
     check_output_location(out, "observation log")
+    if args.export is not None:
+        check_overwrite(
+            args.export,
+            args.overwrite or args.resume,
+            "observation log export",
+            lambda p: (p / "log.json").is_file(),
+        )
+        check_output_location(args.export, "observation log export")
     sequence = load_dataset(args.dataset)
     key_hash = log_key(config, args.frames, args.seed)
     if out.exists() and args.resume:
         try:
-            load_observation_log(
+            log = load_observation_log(
                 out, dataset_id=dataset_fingerprint(sequence), config_hash=key_hash
             )
             print(f"{out}: up to date (dataset and configuration unchanged)", file=sys.stderr)
+            _export(log, args.export)
             return 0
         except StaleLogError as exc:
             print(f"{out}: rebuilding ({exc})", file=sys.stderr)
@@ -102,4 +118,15 @@ def run(args: argparse.Namespace) -> int:
         f"{stats.get('sightings_per_image_median', 0):.0f} bearings per image",
         file=sys.stderr,
     )
+    _export(log, args.export)
     return 0
+
+
+def _export(log: object, folder: str | None) -> None:
+    """Write the log's CSV form into ``folder`` (nothing when None)."""
+    if folder is None:
+        return
+    from omnislam.frontend.log_export import export_observation_log
+
+    export_observation_log(log, folder)  # type: ignore[arg-type]
+    print(f"wrote {folder}: the observation log as CSV (log.json describes it)", file=sys.stderr)

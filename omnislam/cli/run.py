@@ -76,7 +76,7 @@ def parse_set(items: list[str]) -> dict[str, str]:
 
 
 def peak_rss_mb() -> float:
-    """Peak resident set size of this process [MB] (kept for callers of the old name)."""
+    """Peak resident set size of this process [MB] (``harness.execute.peak_rss_mb``)."""
     from omnislam.harness.execute import peak_rss_mb as measure
 
     return measure()

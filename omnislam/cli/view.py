@@ -3,7 +3,7 @@
 Writes FILE.rrd (default RUN_DIR/run.rrd) with the trajectory against the ground truth, the
 landmarks with their covariance ellipsoids, the sightings over time and, for image datasets,
 every image with its keypoints. --spawn then opens it in the Rerun viewer; open it later with
-rerun FILE.rrd. Needs the view extra: pip install 'omnislam[view]'.
+rerun FILE.rrd. Needs the view extra: pip install '.[view]' in a clone.
 """
 
 from __future__ import annotations

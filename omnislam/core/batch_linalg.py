@@ -27,7 +27,8 @@ def rows_dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     triangulations.
 
     Args:
-        a, b: [..., 3] (broadcasting).
+        a: [..., 3] vectors (broadcasting with ``b``).
+        b: [..., 3] vectors (broadcasting with ``a``).
 
     Returns:
         [...] the dot products.

@@ -462,7 +462,9 @@ def decide_on_kept_support(
     Args:
         pairings: the frame's linearised predictions.
         probability: the joint gate's chi-square probability (``jcbb``).
-        match_gate, new_gate, ambiguity_margin: as ``decide``.
+        match_gate: as ``decide``.
+        new_gate: as ``decide``.
+        ambiguity_margin: as ``decide``.
         sigma_ratio: pairings at most this much wider than their noise are not tested again
             (1: every pairing is; inf: none, plain ``decide``).
 

@@ -125,7 +125,8 @@ def resolve_modality(
         available: the streams the dataset (and its front-end log) carry.
         accepted: the streams the estimator can consume.
         override: ``--set modality=NAME``, or None.
-        estimator, dataset: names for the error message.
+        estimator: the estimator's name, for the error message.
+        dataset: the dataset's name, for the error message.
 
     Returns:
         The resolved modality.

@@ -80,7 +80,8 @@ def syr2k_upper(P: np.ndarray, A: np.ndarray, B: np.ndarray) -> None:
     Args:
         P: (d, d) float64 view with unit column stride (e.g. the top-left block of a larger
             C-ordered array); only its upper triangle (j >= i) is read and written.
-        A, B: (d, k).
+        A: (d, k).
+        B: (d, k).
     """
     _check(P, A, B)
     d, k = A.shape

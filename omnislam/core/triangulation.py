@@ -28,8 +28,10 @@ def triangulate_ground_plane(
     """Thesis eq. 4.21 (z read as the mean of the two rays' heights, see SEEDS.md errata).
 
     Args:
-        origins1_w, origins2_w: [..., 3] ray origins (sensor viewpoints) in the world [m].
-        rays1_w, rays2_w: [..., 3] ray directions in the world (any positive norm).
+        origins1_w: [..., 3] origins of the first rays (sensor viewpoints) in the world [m].
+        origins2_w: [..., 3] origins of the second rays in the world [m].
+        rays1_w: [..., 3] directions of the first rays in the world (any positive norm).
+        rays2_w: [..., 3] directions of the second rays in the world (any positive norm).
 
     Returns:
         points_w [..., 3] and valid [...] (False where the ground projections are parallel or

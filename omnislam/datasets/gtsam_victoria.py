@@ -212,10 +212,12 @@ def load_gtsam_victoria(
         path: the file; None finds gtsam's copy.
         association: KNOWN keeps the file's landmark ids, UNKNOWN hides them.
         name: sequence name (default: the file's stem).
-        sigma_range_m, sigma_bearing_rad: sighting noise given to the estimators instead of the
-            file's (``--set sigma_range_m=... --set sigma_bearing_rad=...``, as for the raw
-            ``victoria-park``); None keeps the file's, gtsam's ``load2D`` conversion. The
-            reference (``harness.reference``) is always the optimum with the file's noise.
+        sigma_range_m: range noise of the sightings given to the estimators instead of the
+            file's [m] (``--set sigma_range_m=...``, as for the raw ``victoria-park``); None
+            keeps the file's, gtsam's ``load2D`` conversion. The reference
+            (``harness.reference``) is always the optimum with the file's noise.
+        sigma_bearing_rad: bearing noise of the sightings given to the estimators instead of
+            the file's [rad] (``--set sigma_bearing_rad=...``); None keeps the file's.
         odometry_sigma_theta_rad: heading std of every odometry step given to the estimators
             instead of the file's [rad] (the translation sigmas stay the file's); None keeps it.
 

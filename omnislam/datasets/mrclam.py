@@ -459,8 +459,8 @@ def _ground_truth(
     initial_pose = None
     if vicon is not None:
         # the truth at the frames with sightings (and frame 0) only: the frames that fill the
-        # gaps carry nothing to estimate from, and the trajectory metrics keep the stamps they
-        # had before the gaps were filled
+        # gaps carry nothing to estimate from, and the trajectory metrics stay at the sighting
+        # stamps whatever max_step_s is
         valid, poses_true = interpolate_se2(
             vicon.stamps_s, vicon.se2, sighting_frames, VICON_MAX_GAP_S
         )
@@ -503,7 +503,8 @@ def load_mrclam(
         robot: robot number (1-5).
         association: KNOWN keeps the landmark ids in the sightings (ground truth keeps them
             always), UNKNOWN hides them from the estimators.
-        sigma_range_m, sigma_bearing_rad: sighting noise given to the estimators.
+        sigma_range_m: range noise of the sightings given to the estimators [m].
+        sigma_bearing_rad: bearing noise of the sightings given to the estimators [rad].
         depth_ranges: convert the file's optical-axis depths into ranges (``DEPTH_BIAS_M``);
             False keeps the column as it is.
         command_delay_s: delay of the commanded velocities (``COMMAND_DELAY_S``) [s].

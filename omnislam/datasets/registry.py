@@ -87,6 +87,7 @@ class DatasetFormat(enum.Enum):
     GTSAM_GRAPH = "gtsam-graph"
     CARMEN = "carmen"
     SYNTHETIC = "synthetic"
+    FOLDER = "omnislam-folder"
 
 
 @dataclass(frozen=True, slots=True)
@@ -145,10 +146,16 @@ FORMATS: dict[DatasetFormat, FormatSpec] = {
         "omnislam.datasets.synthetic:load_synthetic",
         {"association": Association.parse},
     ),
+    DatasetFormat.FOLDER: FormatSpec(
+        "omnislam.datasets.folder:is_folder",
+        "omnislam.datasets.folder:load_folder",
+        {"association": Association.parse},
+    ),
 }
 
 #: detection order (most specific first)
 DETECTION_ORDER = (
+    DatasetFormat.FOLDER,
     DatasetFormat.SYNTHETIC,
     DatasetFormat.MRCLAM,
     DatasetFormat.VICTORIA_PARK,
@@ -324,8 +331,9 @@ def resolve(dataset: str) -> ResolvedDataset:
     fmt = detect_format(path)
     if fmt is None:
         raise DataError(
-            "no loader recognises this file or folder (expected an MR.CLAM folder, a Victoria "
-            "Park folder, a CARMEN .log[.gz], a gtsam graph file or a synthetic folder)",
+            "no loader recognises this file or folder (expected an omnislam folder with a "
+            "dataset.json, an MR.CLAM folder, a Victoria Park folder, a CARMEN .log[.gz], a "
+            "gtsam graph file or a synthetic folder)",
             path,
         )
     if fmt is DatasetFormat.CARMEN and path.is_dir():

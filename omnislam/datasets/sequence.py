@@ -108,6 +108,12 @@ class LaserScans:
         object.__setattr__(self, "ranges_m", ranges)
         object.__setattr__(self, "max_range_m", float(self.max_range_m))
 
+    @property
+    def senses(self) -> bool:
+        """The front end may register these scans and extract landmarks from them (role
+        SENSOR); False for scans kept for the occupancy grid only."""
+        return self.role is LaserRole.SENSOR
+
 
 class _Default:
     """Marker type of "the loader's own sightings" in ``Sequence.frame_input``."""

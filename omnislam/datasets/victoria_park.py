@@ -156,7 +156,8 @@ def load_victoria_park(
     Args:
         folder: folder with ``inputs.dat``, ``measurements.dat`` and (optionally) ``gps.dat``.
         geometry: vehicle geometry (default: L = 2.83, H = 0.76, a = 3.78, b = 0.50 m).
-        sigma_range_m, sigma_bearing_rad: sighting noise given to the estimators.
+        sigma_range_m: range noise of the sightings given to the estimators [m].
+        sigma_bearing_rad: bearing noise of the sightings given to the estimators [rad].
         name: sequence name (default: the folder's name).
 
     Returns:

@@ -111,7 +111,7 @@ class SlamGaussian:
         self._P[:d, :d] = np.triu(P)
 
     def block(self, idx: np.ndarray) -> np.ndarray:
-        """(m, m) the symmetric sub-block P[idx][:, idx] for state indices ``idx`` (any order),
+        """(m, m) the symmetric sub-block ``P[idx][:, idx]`` for state indices ``idx`` (any order),
         each entry read from the stored triangle: P_ij = P[min(i, j), max(i, j)]."""
         idx = np.asarray(idx, dtype=int)
         return self._P[np.minimum.outer(idx, idx), np.maximum.outer(idx, idx)]

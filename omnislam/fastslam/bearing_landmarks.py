@@ -53,7 +53,8 @@ def triangulate(
 
     Args:
         method: thesis eq. 4.21 (ground plane) or the least-squares midpoint.
-        rays_a, rays_b: (N, 6) rays [origin, direction].
+        rays_a: (N, 6) first rays [origin, direction].
+        rays_b: (N, 6) second rays [origin, direction].
 
     Returns:
         points_w (N, 3), valid (N,) and parallax (N,) [rad], the angle between the rays.

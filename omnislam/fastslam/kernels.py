@@ -93,7 +93,7 @@ def compiled() -> SimpleNamespace:
     """The kernels compiled with ``numba.njit`` (compiled once per process, cached on disk).
 
     Raises:
-        MissingExtraError: numba is not installed (``pip install omnislam[fast]``).
+        MissingExtraError: numba is not installed (the ``fast`` extra).
     """
     global _COMPILED
     if _COMPILED is None:
@@ -208,7 +208,8 @@ def tree_rows(
     Args:
         links: (R, 4) node table [left, right, token, payload]; row 0 the null node.
         roots: (P,) root node of each particle.
-        particles, slots: (N,) the pairs.
+        particles: (N,) the pairs' particles.
+        slots: (N,) the pairs' landmark slots.
         leaf_height: the leaf-only tree's height, or -1 for the all-nodes tree.
 
     Returns:
@@ -339,8 +340,10 @@ def ekf_range_bearing(
 
     Args:
         wTr: (N, 3) poses; mean: (N, 2); cov: (N, 2, 2); z: (N, 2); R: (N, 2, 2).
-        out_mean, out_cov, out_mahalanobis, out_det: outputs of shapes (N, 2), (N, 2, 2),
-            (N,), (N,) (may alias ``mean`` / ``cov``).
+        out_mean: (N, 2) output: the updated means (may alias ``mean``).
+        out_cov: (N, 2, 2) output: the updated covariances (may alias ``cov``).
+        out_mahalanobis: (N,) output: y^T S^-1 y.
+        out_det: (N,) output: det S.
         gate: the validation gate on y^T S^-1 y (infinite: every pair updates).
     """
     for i in range(wTr.shape[0]):
@@ -456,7 +459,8 @@ def association_scores(
         group: (K,) the noise group g of each sighting; z: (K, 2) the sightings.
         valid: (P, C) False where the particle has no estimate of the candidate.
         log_normaliser: k log 2 pi.
-        out_log_likelihood, out_mahalanobis: (P, K, C) outputs.
+        out_log_likelihood: (P, K, C) output: log-likelihoods.
+        out_mahalanobis: (P, K, C) output: squared Mahalanobis distances.
     """
     for p in range(z_hat.shape[0]):
         for k in range(z.shape[0]):
@@ -504,8 +508,10 @@ def refine_range_bearing(
         who: (N,) particle of each pair, in processing order.
         z: (N, 2), R: (N, 2, 2): the pairs' sightings; landmark_mean: (N, 2), landmark_cov:
             (N, 2, 2): the observed landmarks in that particle's map.
-        out_mahalanobis, out_det: (N,) y^T L^-1 y and det L of each pair's innovation (the
-            predictive likelihood's terms; the caller takes the log and truncates at the gate).
+        out_mahalanobis: (N,) y^T L^-1 y of each pair's innovation (a term of the predictive
+            likelihood; the caller truncates at the gate).
+        out_det: (N,) det L of each pair's innovation (the other term; the caller takes the
+            log).
         gate: validation gate on y^T L^-1 y: a pair outside it leaves the proposal as it was
             (infinite: every pair refines).
     """
@@ -742,7 +748,8 @@ def midpoint_triangulation(
     products are summed as ``batch_linalg.rows_dot``, (p0 + p1) + p2.
 
     Args:
-        rays_a, rays_b: (B, 6) rays [origin_w (3), direction_w (3)].
+        rays_a: (B, 6) first rays [origin_w (3), direction_w (3)].
+        rays_b: (B, 6) second rays [origin_w (3), direction_w (3)].
         rows: (N,) the rows to triangulate.
         out_points: (N, 3) the midpoints; out_cosine: (N,) clipped cosines; out_valid: (N,).
     """
@@ -896,10 +903,13 @@ def bearing_landmark_updates(
         obs: (B,) the sighting of each block row; z: (K, 2) and R: (K, 2, 2) the sightings.
         mean_angles: (2, N) atan2(dy, dx) and atan2(dz, rho) of each landmark mean.
         sensor_height_m: the viewpoint's height.
-        gate_triangulated, gate_direct: the validation gates of 3-D and 2-D innovations.
+        gate_triangulated: the validation gate of 3-D innovations.
+        gate_direct: the validation gate of 2-D innovations.
         rays: (B, 6) the new sightings' rays; block_ray: (B, 6) the stored ones: an accepted
             triangulated update stores the new ray (eq. 4.28).
-        out_mahalanobis, out_det: (N,) y^T S^-1 y and det S; out_accepted: (N,) bool.
+        out_mahalanobis: (N,) y^T S^-1 y.
+        out_det: (N,) det S.
+        out_accepted: (N,) bool.
     """
     H = np.zeros((3, 3))
     hb = np.zeros((2, 3))
@@ -1074,7 +1084,8 @@ def refine_bearing_elevation(
             elevation) and its noise; landmark_mean: (N, 3), landmark_cov: (N, 3, 3): the
             sighted landmark in each particle's map; angles: (2, N) atan2(dy, dx) and
             atan2(dz, rho) of the landmark from each particle's refined mean.
-        out_mahalanobis, out_det: (N,) y^T L^-1 y and det L.
+        out_mahalanobis: (N,) y^T L^-1 y.
+        out_det: (N,) det L.
     """
     hm = np.zeros((2, 3))
     hx = np.zeros((2, 3))

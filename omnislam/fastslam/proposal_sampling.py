@@ -135,7 +135,8 @@ class ProposalSampler:
         Args:
             previous: (P, 3) the particles' previous poses.
             delta_r: (3,) the odometry delta.
-            mean, cov: (P, 3) and (P, 3, 3) the motion prediction from ``previous``.
+            mean: (P, 3) the motion prediction's mean from ``previous``.
+            cov: (P, 3, 3) the motion prediction's covariance.
             sightings: the frame's sightings; pairs: what they address (``association``).
             store: the landmark store (the addressed landmarks before this frame's update).
             motion: this step's motion model for the particles without usable sightings

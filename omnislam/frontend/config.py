@@ -35,9 +35,8 @@ class FirstOctave(enum.Enum):
     and COLMAP's ``first_octave = 0``). ``HALVED`` samples octave -1 as ``NATIVE`` does and
     every next octave at half the previous one's pixels (octave 0 at every second pixel: the
     pyramid of a SIFT of sigma / 2, which OpenCV's descriptor already uses for ``NATIVE``):
-    on lab40 a quarter less SIFT CPU than ``NATIVE`` but fewer verified sightings and a
-    less accurate graph (landmark RMSE 5.6 instead of 4.8 cm, ATE 2.3 instead of 1.0 cm;
-    docs/results/frontend.md, "What was tried and did not work"), so not the default.
+    cheaper, but not the default because it loses verified sightings and the graph's accuracy
+    (docs/results/frontend.md, "What was tried and did not work").
     """
 
     DOUBLED = "doubled"  # Lowe 2004, OpenCV's detector
@@ -78,7 +77,7 @@ class SiftConfig:
             ``HALVED``, octave 0 at every second pixel).
         precise_upscale: with ``first_octave`` DOUBLED, OpenCV doubles the image by mapping
             pixel x to 2x exactly (``enable_precise_upscale``) instead of its default resize,
-            which shifts keypoints (measured in the README's front-end section).
+            which shifts keypoints (docs/results/frontend.md, what was tried).
         backend: OpenCV or pycolmap (pycolmap: DOUBLED or NONE only).
     """
 
@@ -114,14 +113,11 @@ LOWE = SiftConfig()
 #: threshold is lowered to 0.02 so that the ring (a third of the pixels of a perspective image
 #: of the same size, blurred by the mirror) still yields several hundred features. The finest
 #: octave is sampled at the image's pixels (the thesis leaves doubling optional, 4.1.1). A
-#: keypoint budget of 1.2 per 1000 px of the ring (318 of ~490 keypoints on a lab40 image,
-#: chosen before their orientations and descriptors are computed), shared out over 4 rings x 8
-#: sectors: on lab40 track precision 99.48 % instead of 98.91 %, 87.5 instead of 112 ms of CPU per
-#: image (22.2 instead of 17.2 images/s on 2 quiet cores). Shared out,
-#: not the strongest of the whole ring, because the graph takes the odometry's scale from floor
-#: points, which are low-contrast: the whole ring's strongest kept 383 of 1102 floor keypoints
-#: on 12 lab40 images (1-5 on some), the buckets 668 (docs/results/frontend.md, "The
-#: keypoint budget").
+#: keypoint budget of 1.2 per 1000 px of the ring (chosen before their orientations and
+#: descriptors are computed) drops the weakest keypoints, which make the wrong tracks; it is
+#: shared out over 4 rings x 8 sectors, not the strongest of the whole ring, because the graph
+#: takes the odometry's scale from floor points, which are low-contrast (docs/results/frontend.md,
+#: "The keypoint budget").
 OMNI_THESIS = SiftConfig(contrast_threshold=0.02, edge_threshold=2.0,
                          first_octave=FirstOctave.NATIVE, features_per_kpx=1.2)
 SIFT_PRESETS: dict[str, SiftConfig] = {"lowe": LOWE, "omni-thesis": OMNI_THESIS}
@@ -205,9 +201,8 @@ class VerificationConfig:
             only meet below the floor (``verification.beyond_the_floor``): the epipolar
             constraint cannot see a floor texture that repeats along the direction of travel
             (a tile matched one period on moves within its epipolar plane), the floor's height
-            can. On ``loop150``'s tiled corridors 45-60 % of the tracks' sighting pairs were
-            such mismatches, 9-10 % are mismatched with the check (docs/results/frontend.md, "The
-            below-floor check").
+            can; on tiled floors most wrong pairs are such mismatches (docs/results/frontend.md,
+            "The below-floor check").
     """
 
     threshold_rad: float = 0.004
@@ -307,7 +302,7 @@ class VerticalEdgeConfig:
 
     Attributes:
         enabled: extract vertical lines on processed images (on by default: the UKF consumes
-            them; 23 ms per corridor21 image against SIFT's 112 ms, on a loaded 2-core machine).
+            them, and they cost a fraction of SIFT; docs/results/real-time.md).
         azimuth_bins: angular resolution of the omni radial-edge histogram (bins over 360 deg).
         min_gradient: minimum gradient magnitude of an edge pixel (0-255 grey levels per px).
         max_direction_error_rad: an edge pixel's gradient must be within this of tangential
@@ -364,19 +359,10 @@ class LaserLandmarkConfig:
             in quadrature to the range std and, divided by the range, to the bearing std: a
             spike is the nearest beam of an object a few cm wide (which beam depends on the
             viewpoint), a corner the intersection of two fitted lines, and the beams are 1 deg
-            apart. Measured on the CARMEN logs (consecutive sightings of one landmark placed
-            with the corrected poses, ``benchmarks/laser_sighting_noise.py``): they lie a
-            median 3.1-3.7 cm apart below 2 m and 4.5-6.7 cm at 2-9 m, nearly independent of
-            the range, where 1 % and 1 deg give 1-2 cm at 1-2 m: under the range-proportional
-            model alone the squared Mahalanobis distance of intel's pairs within 1 m has a
-            median of 3.6 (chi-square(2): 1.39), 0.46 with the floor of 3 cm. The spacing
-            itself says ~2 cm per sighting (two independent 2-D sightings lie a median 1.67
-            stds apart); 3 cm is the conservative side (d2 medians 0.2-0.8 on every range band),
-            and gained more on aces than 2 cm did. On carmen-aces
-            (seeds 0-9, two front-end logs) FastSLAM 2.0's median ATE goes from 2.16 / 2.52 m
-            to 1.62 / 1.95 m, FastSLAM 1.0's from 2.45 / 1.82 m to 1.81 / 2.11 m, the graph's
-            from 0.81 / 1.04 to 0.80 / 0.80 m; intel is unchanged within the seeds' spread
-            (docs/results/frontend.md). 0: the tutorial's range-proportional noise only.
+            apart. Default 0.03: consecutive CARMEN sightings of one landmark lie a few cm
+            apart at every range, which the range-proportional model alone states as 1-2 cm
+            near the robot (docs/results/frontend.md, "A noise floor for the laser landmarks").
+            0: the tutorial's range-proportional noise only.
         line_landmarks: ``corners`` (default: intersections of two lines that both reach
             them, points fixed in the world) or ``feet`` (the tutorial's feet of the
             perpendicular from the odometry origin, which slide along the walls as the odometry
@@ -385,10 +371,9 @@ class LaserLandmarkConfig:
         corner_max_gap_m: a corner needs a supporting reading of each line within this.
         persistence_radius_m: keep only the sightings the previous scan saw within this
             distance (placed through the estimators' odometry;
-            ``laser_landmarks.persistent_sightings``); None: every sighting. On carmen-aces
-            271 of 680 spikes have no spike of the scan before or after within 0.2 m (placed
-            with the corrected poses); the 280 this check keeps (with the laser odometry)
-            include 2 of them.
+            ``laser_landmarks.persistent_sightings``); None: every sighting. Default 0.2: a
+            spike seen in one scan only is clutter, not a landmark (docs/results/frontend.md,
+            "The laser front end").
     """
 
     enabled: bool = True
@@ -437,8 +422,8 @@ class LaserOdometryConfig:
         max_valid_range_m: ranges beyond are not used (None: below the sensor's maximum).
         min_range_m: ranges at or below are not used.
         submap_scans: register to the union of this many previous scans (1: the previous scan),
-            placed with the laser odometry (3: intel's laser odometry alone 0.70 m against 2.1
-            m with 1; docs/results/frontend.md).
+            placed with the laser odometry (default 3: a single scan holds too few constraints;
+            docs/results/frontend.md, "The laser front end").
         submap_radius_m: keep the submap's points within this distance of the previous scan
             (None: all).
         submap_voxel_m: thin the submap to one point per cell of this size (0: not thinned).
@@ -448,9 +433,7 @@ class LaserOdometryConfig:
         normal_neighbours: neighbours of the 2-D PCA normals of the target.
         min_points: fewer valid points in a scan (or correspondences) rejects the match.
         min_fitness: smallest share of the new scan's points with a correspondence (0.4: a
-            turn of ~80 deg in one step leaves half of a 180-deg scan overlapping; at 0.5
-            carmen-aces' frame 169 fell back to wheels 4.4 deg off, laser odometry alone 2.48 m
-            against 1.47 m; intel unchanged).
+            turn of ~80 deg in one step leaves half of a 180-deg scan overlapping).
         max_rmse_m: largest inlier RMSE.
         min_translation_information: smallest eigenvalue of the translational block of the
             point-to-line Hessian per correspondence (0.5 for two perpendicular walls equally
@@ -464,10 +447,9 @@ class LaserOdometryConfig:
         covariance_inflation: the Gauss-Newton covariance multiplied by this, plus independent
         min_sigma: (x, y, theta) stds [m, m, rad] +
         sigma_per_m: these per metre travelled +
-        sigma_per_rad: these per radian turned. Together they bring the median NEES of the
-            increments against the corrected CARMEN poses to 1.9 (aces) and 2.3 (intel), for
-            the chi-square(3) median 2.37, where the plain Hessian gives 28; on the synthetic
-            loop150 laser (0.05 m steps) 0.49: conservative there.
+        sigma_per_rad: these per radian turned. Together they calibrate the stated covariance
+            against the corrected CARMEN poses, which the plain Hessian states far too narrow
+            (docs/results/frontend.md, "The laser front end").
     """
 
     enabled: bool = True
@@ -522,11 +504,11 @@ class FloorTrackConfig:
     the odometry tell the tiles apart (they are tens of cm apart; the odometry errs by mm
     between images).
     Keypoints fixed to the robot (its body in the mirror) move with the robot and start a new
-    track in every image, which ``tracks.min_track_length`` drops. On by default since
-    session 24: the floor tracks are a stream of their own (``ObservationLog.floor_ids_from``),
-    fed only to the estimators that model the floor (the graphs, which place them on the floor
-    plane and take the map's metric scale from them); on the demo the graph's ATE went from
-    1.87 to 0.21 cm with them (docs/results/frontend.md, "Floor tracks").
+    track in every image, which ``tracks.min_track_length`` drops. On by default: the floor
+    tracks are a stream of their own (``ObservationLog.floor_ids_from``), fed only to the
+    estimators that model the floor (the graphs, which place them on the floor plane and take
+    the map's metric scale from them; docs/results/graph.md, "The odometry's scale from the
+    floor").
 
     Attributes:
         enabled: track floor keypoints (on top of the landmark tracks).

@@ -197,9 +197,12 @@ def refine(
         dog: (S + 2, H, W) float32 DoG stack.
         span: S.
         border: candidates may not step closer than this to the octave's border.
-        s, r, c: (M,) int64 candidate layers, rows and columns (moved in place by the Newton
-            steps, as the reference does).
-        contrast_threshold, edge_threshold: C (eq. 4.9) and R (eq. 4.15).
+        s: (M,) int64 candidate layers (moved in place by the Newton steps, as the reference
+            does).
+        r: (M,) int64 candidate rows (moved in place likewise).
+        c: (M,) int64 candidate columns (moved in place likewise).
+        contrast_threshold: C (eq. 4.9).
+        edge_threshold: R (eq. 4.15).
 
     Returns:
         ``(index, values)``: the (K,) indices of the candidates kept, and (K, 4) their
@@ -261,7 +264,9 @@ def window_gradients(
 
     Args:
         gaussian: (N + 3, H, W) float32 Gaussian images of the octave.
-        layer, rows, cols: (M,) int64 keypoint layers and positions.
+        layer: (M,) int64 keypoint layers.
+        rows: (M,) int64 keypoint rows.
+        cols: (M,) int64 keypoint columns.
         radius: (M,) int64 window radius of each keypoint.
         reach: the largest radius: every window is (2 reach + 1)^2 samples, as the
             reference's.

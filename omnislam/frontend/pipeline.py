@@ -44,7 +44,6 @@ import numpy as np
 
 from omnislam.core.se import se2_integrate
 from omnislam.core.types import FrameInput, Odometry, OdometrySource, RangeBearing
-from omnislam.datasets.sequence import LaserRole, Sequence
 from omnislam.errors import DataError
 from omnislam.frontend import kernels_aot
 from omnislam.frontend.config import FrontendConfig, ScheduleConfig, ScheduleMode, config_hash
@@ -69,6 +68,7 @@ from omnislam.frontend.scale_space import use_kernels
 from omnislam.frontend.timing import StageClock, children_cpu_s
 
 if TYPE_CHECKING:
+    from omnislam.datasets.sequence import Sequence
     from omnislam.frontend.scan_matching import LaserOdometry
 
 #: default seed of the RANSAC generator when none is injected
@@ -115,7 +115,7 @@ def log_key(config: FrontendConfig, max_images: int | None = None, seed: int = D
 def _sensing_laser(sequence: Sequence) -> bool:
     """The sequence has a laser the front end registers and extracts landmarks from (not one
     kept for the occupancy grid only, ``LaserRole.OCCUPANCY``)."""
-    return sequence.laser is not None and sequence.laser.role is LaserRole.SENSOR
+    return sequence.laser is not None and sequence.laser.senses
 
 
 def _has_own_sightings(sequence: Any) -> bool:
@@ -298,7 +298,7 @@ def _prepared(sequence: Any, config: FrontendConfig, frames: list[int], pipeline
 
     Pipelined, up to ``LOOKAHEAD`` images are prepared ahead in ``WORKERS`` processes while
     this one tracks (threads would not overlap: the preparation is mostly numpy calls that
-    hold the GIL; measured in the README). Until the workers have started, this process
+    hold the GIL; docs/results/real-time.md). Until the workers have started, this process
     prepares the images itself (``_WorkerPool``). A sequence whose image loader cannot be sent
     to another process is prepared here, one image at a time.
     """

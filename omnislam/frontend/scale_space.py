@@ -7,7 +7,7 @@ OpenCV always doubles, which puts ~3/4 of its work into the doubled octave: 70-8
 640 x 640 omni image here, ~90 % of it detection. Sampling the *same* scales (sigma / 2 ..
 sigma, i.e. 0.8 .. 1.6 px) at the image's own pixels keeps the fine keypoints, which make the
 best-localised landmarks, on a quarter of the pixels; dropping them (Lowe's octave 0 first)
-loses most tracks (measured in the README's front-end section).
+loses most tracks (docs/results/frontend.md, what was tried).
 
 The detector follows Lowe and OpenCV's ``SIFT`` step for step, vectorised over candidates:
 

@@ -233,7 +233,8 @@ def decompose_planar_essential(E: np.ndarray, f1: np.ndarray, f2: np.ndarray) ->
 
     Args:
         E: (3, 3) from ``planar_essential_from_bearings``.
-        f1, f2: (N, 3) inlier bearings used for the cheirality test.
+        f1: (N, 3) inlier bearings in viewpoint 1, for the cheirality test.
+        f2: (N, 3) inlier bearings in viewpoint 2, for the cheirality test.
 
     Returns:
         The relative pose with unit ``t`` (horizontal) and ``R = Rz(theta)``.
@@ -268,7 +269,8 @@ def decompose_essential(E: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> Relati
 
     Args:
         E: (3, 3) essential matrix.
-        f1, f2: (N, 3) inlier bearings used for the cheirality test.
+        f1: (N, 3) inlier bearings in viewpoint 1, for the cheirality test.
+        f2: (N, 3) inlier bearings in viewpoint 2, for the cheirality test.
 
     Returns:
         The relative pose with unit ``t``.

@@ -28,7 +28,8 @@ A landmark started here can wait as a *tentative* landmark until re-observed
 (``tentative.py``, ``AssociationConfig.tentative_min_sightings``): tentative landmarks are
 candidates like mapped ones, with the fused covariance of their sightings.
 
-What it cannot do (measured on gtsam's victoria_park.txt with the ids hidden, see the README):
+What it cannot do (measured on gtsam's victoria_park.txt with the ids hidden;
+docs/results/association.md):
 close loops after long stretches of odometry. There the online pose is metres off while its
 iSAM2 covariance is overconfident (pose NEES 10-90 against the final solution, for 2 degrees of
 freedom, even with the true association), trees are a median 6.7 m apart and a frame holds ~1
@@ -82,7 +83,10 @@ def sighting_points(
 
     Args:
         wTr: (3,) robot pose [x, y, theta] in the world.
-        ranges_m, bearings_rad, sigma_range_m, sigma_bearing_rad: (K,) each.
+        ranges_m: (K,) ranges [m].
+        bearings_rad: (K,) bearings [rad].
+        sigma_range_m: (K,) range stds [m].
+        sigma_bearing_rad: (K,) bearing stds [rad].
         pose_covariance: (3, 3) covariance of ``wTr`` in world [x, y, theta], or None.
 
     Returns:

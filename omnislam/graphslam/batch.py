@@ -37,7 +37,8 @@ def warm_started_lm(
 
     Args:
         estimator: a started ``GraphSLAM`` (any subclass; its *iSAM2* estimate is the start).
-        max_iterations, relative_error_tol: LM stopping rules.
+        max_iterations: LM stopping rule: most iterations.
+        relative_error_tol: LM stopping rule: relative error decrease.
 
     Returns:
         The BatchResult of ``optimize_batch``.

@@ -77,7 +77,8 @@ class GraphBuilder(Protocol):
             k: the frame's pose index.
             sightings: ``Bearings``, ``RangeBearing`` or ``VerticalLines`` of the frame.
             guess_w: (3,) the frame's pose guess [x, y, theta] in the world.
-            graph, values: the frame's new factors and variables (gtsam containers).
+            graph: the frame's new factors (a gtsam container).
+            values: the frame's new variables (a gtsam container).
         """
         ...
 

@@ -15,8 +15,8 @@ trade, each handed only to the collaborators of that trade:
 * ``batch`` (``BatchConfig``): the final Levenberg-Marquardt solve (``levenberg_marquardt.py``);
 * ``experimental`` (``ExperimentalConfig``): switches that were measured and left off.
 
-The measured facts behind the iSAM2 and insertion defaults are in docs/design.md ("Facts measured
-when the design was fixed") and docs/results/graph.md. Which observation stream the graph is built
+The measured facts behind the iSAM2 and insertion defaults are in docs/design.md and
+docs/results/graph.md. Which observation stream the graph is built
 from is not configured here: it is the ``core.modality.Modality`` the registry resolves once
 and hands to ``GraphSLAM`` (``--set modality=NAME`` overrides the shared rule).
 """

@@ -51,7 +51,7 @@ def landmark_key(landmark_id: int) -> int:
 
 
 def pose2(wTr: np.ndarray) -> Any:
-    """gtsam.Pose2 from [x, y, theta] [m, m, rad]."""
+    """gtsam.Pose2 from ``[x, y, theta]`` [m, m, rad]."""
     return gtsam.Pose2(float(wTr[0]), float(wTr[1]), float(wTr[2]))
 
 
@@ -155,7 +155,7 @@ def condition_odometry_covariance(cov_r: np.ndarray, min_sigma_m: float) -> np.n
     it untouched. Why the graph needs it: ``PoseConfig.odometry_min_sigma_m``.
 
     Args:
-        cov_r: (3, 3) covariance of the robot-frame delta [dx, dy, dtheta] [m^2, m^2, rad^2].
+        cov_r: (3, 3) covariance of the robot-frame delta ``[dx, dy, dtheta]`` [m^2, m^2, rad^2].
         min_sigma_m: the floor [m].
 
     Returns:

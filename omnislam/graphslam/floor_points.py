@@ -14,8 +14,8 @@ odometry, now inside the bundle adjustment rather than beside it):
   bearing factor per sighting and a prior on its height alone, z = 0 with std
   ``FLOOR_HEIGHT_SIGMA_M`` (x and y free): seen from viewpoints held at the camera height h,
   its bearings then fix its range metrically, ``h / tan(depression)``;
-* with ``new_viewpoints`` (``FloorConfig.viewpoints``; not the default since the
-  front end's floor tracks, whose sightings are in every image) an image with floor sightings
+* with ``new_viewpoints`` (``FloorConfig.viewpoints``; not the default: the front
+  end's floor tracks have sightings in every image) an image with floor sightings
   that is no key frame gets a ``Pose3`` of its own, with the
   planar prior, a between-factor of the odometry from its key frame and its bearings of the
   landmarks already in the graph (outliers gated), so the floor points hang on a viewpoint

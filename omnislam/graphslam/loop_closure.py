@@ -72,8 +72,10 @@ class LandmarkMerger:
         registry: the landmarks in the graph (merged ones are retired there).
         is_created: ``is_created(id)`` True for landmarks the association created (only those
             take part).
-        gate_probability, new_landmark_probability: the association's chi-square gates
-            (``AssociationConfig``): a merge is decided as a sighting's association is.
+        gate_probability: the association's chi-square gate (``AssociationConfig``): a merge
+            is decided as a sighting's association is.
+        new_landmark_probability: the association's chi-square gate for a new landmark
+            (``AssociationConfig``).
         ambiguity_margin: the association's ambiguity margin (``AssociationConfig``).
         landmark_sigma_m: the association's fixed landmark sigma [m], widening the reach
             within which an old landmark is a candidate (``AssociationConfig``).

@@ -64,8 +64,9 @@ class OdometryScaling:
             session's.
         landmark_ids: ``landmark_ids()`` the ids of the landmarks in the graph (the graph
             builder's).
-        planar_sigma_m, planar_sigma_rad: the planar prior's stds (``PoseConfig``), for the
+        planar_sigma_m: the planar prior's std of z [m] (``PoseConfig``), for the
             rebuilt odometry factors and the new viewpoints of the floor tracks.
+        planar_sigma_rad: the planar prior's std of roll and pitch [rad] (``PoseConfig``), likewise.
     """
 
     def __init__(

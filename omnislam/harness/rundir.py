@@ -1,7 +1,6 @@
 """RUN_DIR: what one ``omnislam run`` leaves on disk, as ``read_run_dir`` / ``write_run_dir``.
 
-Files (the README's RUN_DIR paragraph; docs/design.md, "Data flow and contracts"; their names:
-``harness.layout``):
+Files (docs/concepts.md and docs/design.md describe them; their names: ``harness.layout``):
 
 * ``trajectory.tum``: one estimated pose per frame (TUM format; z = 0 for planar runs).
 * ``landmarks.csv``: ``id,x,y,z`` of the estimated map (header only when there is none).
@@ -70,8 +69,8 @@ class RunConfig:
         seed: the ``--seed`` (None when not given).
         omnislam_version: package version that produced the run.
         frames: number of frames processed.
-        images: how many of those frames carry a camera image (0: none; None: a run written
-            before this was recorded).
+        images: how many of those frames carry a camera image (0: none; None: not recorded,
+            as in a ``config.yaml`` without the field).
         total_s: wall time of all estimator steps [s].
         peak_rss_mb: peak resident memory of the process [MB].
         ground_truth_kind: ``GroundTruthKind`` value.

@@ -22,7 +22,7 @@
 
 Images and sightings need the dataset (``config.yaml``'s ``dataset_path``) and the log to be
 where the run found them; when they are not, the recording says so and holds the rest. Rerun is
-the optional ``view`` extra (``pip install 'omnislam[view]'``).
+the optional ``view`` extra (``pip install '.[view]'`` in a clone).
 """
 
 from __future__ import annotations

@@ -32,8 +32,8 @@ What the paper does not do and we add (``AssociationConfig.gate_probability``, d
 ``largest_set_first``, default on). The paper's step 4 uses the predicted pose only for the
 expected projections, never its uncertainty: the windows allow any common shift and up to
 24 px of spread. A line near a candidate's projection in the same frame twice (a poster edge
-at the end of a corridor, the next door frame after a turn) then passes step 5, which is why
-many validated pairs on corridor21 were wrong (README). With the UKF's predicted covariance P:
+at the end of a corridor, the next door frame after a turn) then passes step 5, and wrong pairs
+reach the update on corridor21 (docs/results/ukf.md). With the UKF's predicted covariance P:
 
 * the pre-gate: the sigma points of (x, P) give each candidate's predicted bearing and the
   (C, C) covariance of all of them (``filter.PoseUKF.predict_bearings``, the Pzz of the
@@ -69,7 +69,7 @@ many validated pairs on corridor21 were wrong (README). With the UKF's predicted
   landmark's own line (or another one) lay nearer to that prediction; of the 1340 right
   validated pairs of the same runs, 10 did not (measured offline on that render).
 
-Measured on corridor21 with ``benchmarks/ukf_corridor21.py`` (numbers in the README).
+Measured on corridor21 with ``benchmarks/ukf_corridor21.py`` (docs/results/ukf.md).
 """
 
 from __future__ import annotations

@@ -44,8 +44,10 @@ def colour_differences(
     """diff_banda and diff_media of every (projection i, landmark j), sec. 3.2.
 
     Args:
-        left_i, right_i: (K, 3) MC of the projections.
-        left_j, right_j: (M, 3) MC of the landmarks (NaN rows: unknown).
+        left_i: (K, 3) MC of the projections' left sides.
+        right_i: (K, 3) MC of the projections' right sides.
+        left_j: (M, 3) MC of the landmarks' left sides (NaN rows: unknown).
+        right_j: (M, 3) MC of the landmarks' right sides (NaN rows: unknown).
 
     Returns:
         (diff_band (K, M), diff_mean (K, M)) in grey levels; NaN where a landmark's MC is NaN.

@@ -46,7 +46,8 @@ def track_lines(
         tolerance_rad: widening of the epipolar interval [rad] (``config.tolerance_px`` through
             the image line).
         config: the depths the interval spans and the PMC gate.
-        prev_profiles, profiles: (J, 3, W), (K, 3, W) PMCs, or None (geometric match only).
+        prev_profiles: (J, 3, W) PMCs of the previous lines, or None (geometric match only).
+        profiles: (K, 3, W) PMCs of the current lines, or None (geometric match only).
 
     Returns:
         (K,) int: previous index, or -1 when the projection is new.

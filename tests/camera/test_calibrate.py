@@ -44,7 +44,7 @@ EXACT_RTOL = 1e-6
 #: cornerSubPix on the renderer's boards (default supersampling): RMS distance to the exact
 #: projection [px]
 RENDERED_CORNER_RMS_PX = 0.09
-#: the issue's goal for the VMR toolbox points [px]
+#: the target for the VMR toolbox points [px]
 VMR_GOAL_PX = 0.5
 
 SMALL_BOARD = Board(4, 5, 0.06)

@@ -1543,6 +1543,78 @@ def _(tmp, fx):
     return [*argv, "--image-size", "0x768"], "--image-size"
 
 
+def _bag(tmp: Path, fx: Fixtures) -> Path:
+    """A ROS 1 bag of the fixtures' synthetic folder (odometry, images, ground truth on /tf)."""
+    pytest.importorskip("rosbags")
+    from ros_bags import write_bag
+
+    from omnislam.datasets.registry import load_dataset
+
+    return write_bag(load_dataset(str(fx.synthetic(tmp))), tmp / "run.bag", "ros1")
+
+
+def _import(tmp: Path, bag: Path, *topics: str) -> list[str]:
+    argv = ["dataset", "import", str(bag), "--out", str(tmp / "imported")]
+    return argv + [item for topic in topics for item in ("--topic", topic)]
+
+
+@case("dataset-import-bag-truncated")
+def _(tmp, fx):
+    bag = _bag(tmp, fx)
+    truncate(bag, 0.3)
+    return _import(tmp, bag, "odometry=/odom"), "run.bag"
+
+
+@case("dataset-import-bag-not-a-bag")
+def _(tmp, fx):
+    pytest.importorskip("rosbags")
+    (tmp / "run.bag").write_text("not a bag\n")
+    return _import(tmp, tmp / "run.bag", "odometry=/odom"), "run.bag: cannot read the bag"
+
+
+@case("dataset-import-topic-missing")
+def _(tmp, fx):
+    return _import(tmp, _bag(tmp, fx), "odometry=/odom", "scan=/scan"), "topic /scan (scan)"
+
+
+@case("dataset-import-topic-of-another-type")
+def _(tmp, fx):
+    return _import(tmp, _bag(tmp, fx), "odometry=/tf"), "topic /tf: message type"
+
+
+@case("dataset-import-unknown-role")
+def _(tmp, fx):
+    return _import(tmp, tmp / "run.bag", "odometry=/odom", "lidar=/x"), "lidar"
+
+
+@case("dataset-export-unknown-dataset")
+def _(tmp, fx):
+    return ["dataset", "export", "no-such-data", "--out", str(tmp / "x")], "no-such-data"
+
+
+def _omnislam_folder(tmp: Path, odometry: str) -> Path:
+    folder = tmp / "mine"
+    folder.mkdir()
+    (folder / "dataset.json").write_text(
+        '{"format": "omnislam-folder", "version": 1, "source": "test", "licence": "CC0-1.0"}')
+    (folder / "odometry.csv").write_text(odometry)
+    return folder
+
+
+@case("folder-odometry-time-backwards")
+def _(tmp, fx):
+    folder = _omnislam_folder(tmp, "stamp_s,dx_m,dy_m,dtheta_rad\n0,0,0,0\n1,0,0,0\n0.5,0,0,0\n")
+    return run_args(folder, tmp), "odometry.csv: line 4: time 0.5"
+
+
+@case("folder-metadata-without-licence")
+def _(tmp, fx):
+    folder = _omnislam_folder(tmp, "stamp_s,dx_m,dy_m,dtheta_rad\n0,0,0,0\n")
+    (folder / "dataset.json").write_text(
+        '{"format": "omnislam-folder", "version": 1, "source": "test"}')
+    return run_args(folder, tmp), "dataset.json: $: 'licence' is a required property"
+
+
 # ---- the test --------------------------------------------------------------------------------
 
 

@@ -13,7 +13,7 @@ from omnislam.harness.rundir import read_run_dir
 from omnislam.metrics.run_metrics import read_run_metrics
 from omnislam.metrics.trajectory import Alignment
 
-#: dead-reckoning ATE (SE(2) aligned) measured when the loaders were written: a regression guard
+#: dead-reckoning ATE (SE(2) aligned) of each loader's data: a regression guard
 DEAD_RECKONING_ATE_M = {
     "mrclam6-r1": 2.06,
     "victoria-park": 92.9,

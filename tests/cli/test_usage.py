@@ -66,7 +66,7 @@ def test_an_estimator_named_twice_is_listed_once(capsys):
 
 
 def test_a_local_cluster_of_no_workers_is_refused(capsys, tmp_path):
-    # --workers 0 means in-process; a LocalCluster of it used to start one worker per core
+    # --workers 0 means in-process; a LocalCluster of 0 workers would start one per core
     argv = ["compare", str(tmp_path / "g.yaml"), "--out", str(tmp_path / "r")]
     assert main([*argv, "--scheduler", "local", "--workers", "0"]) == 2
     assert "--scheduler local needs --workers >= 1" in capsys.readouterr().err

@@ -123,8 +123,8 @@ def test_the_removed_sensor_mode_option_points_to_modality():
         make_fastslam1(info, {"sensor_mode": "bearings_3d"}, np.random.default_rng(0))
 
 
-def test_min_parallax_in_degrees_gives_the_former_radians_default_exactly():
-    """3 deg -> math.radians(3.0), the float the former ``min_parallax_rad`` default was."""
+def test_min_parallax_in_degrees_gives_the_radians_float_exactly():
+    """3 deg -> math.radians(3.0), to the last bit of the float the filter compares with."""
     assert FastSLAMConfig().bearings.min_parallax_deg == 3.0
     assert math.radians(FastSLAMConfig().bearings.min_parallax_deg) == 0.05235987755982989
     changed = apply_options(FastSLAMConfig(), {"bearings.min_parallax_deg": "6"})

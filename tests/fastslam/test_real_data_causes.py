@@ -1,4 +1,4 @@
-"""FastSLAM on real logs (#21): a stated odometry covariance and the per-particle outlier gate.
+"""FastSLAM on real logs: a stated odometry covariance and the per-particle outlier gate.
 
 * With ``stated_odometry_noise`` the particles spread as a frame's ``Odometry.covariance``
   says (``core.motion.StatedOdometryMotion``), not as the alpha model would; by default (AUTO)

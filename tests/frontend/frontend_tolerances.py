@@ -1,6 +1,6 @@
 """Tolerances and sizes of the front-end tests, named in one place."""
 
-#: two sightings in one track see true points closer than this [m] (the issue's criterion)
+#: two sightings in one track see true points closer than this [m] (the precision criterion)
 SAME_POINT_M = 0.05
 #: minimum track precision with geometric verification
 MIN_TRACK_PRECISION = 0.99

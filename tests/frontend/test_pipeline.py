@@ -268,8 +268,8 @@ def test_the_workers_import_only_what_preparing_an_image_needs(demo_sequence):
 def test_bearing_sigmas_agree_with_the_residuals_against_ground_truth(demo_sequence, demo_log,
                                                                       demo_truth):
     """The logged sigma of a bearing is its RMS error against the true point of its track
-    (the issue's criterion: within 1.5x), not a multiple of it (measured on these 24 images:
-    0.87; with the previous 1 px of pixel noise it was ~0.2)."""
+    (within 1.5x), not a multiple of it (measured on these 24 images: 0.87; a stated pixel noise
+    of 1 px gives ~0.2)."""
     sightings = evaluation.true_sightings(demo_log, demo_truth)
     residuals = evaluation.bearing_residuals(
         demo_log, sightings, demo_sequence.ground_truth.trajectory.poses_w,

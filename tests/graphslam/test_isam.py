@@ -385,7 +385,7 @@ def test_a_creeping_robot_does_not_make_isam2_indeterminate():
     Cholesky throws "Indeterminate linear system". The graph's 1 mm floor prevents it.
     """
     scenario = simulate_stopping(np.random.default_rng(0))
-    # the old behaviour: only the motion model's own floor, Cholesky without the QR fallback
+    # without the safeguards: only the motion model's own floor, Cholesky without the QR fallback
     old = configured(
         GraphSLAMConfig(),
         poses={"odometry_min_sigma_m": 1e-4},

@@ -116,8 +116,8 @@ def test_prior_map_of_a_missing_or_empty_run_is_refused(shared_data, tmp_path):
 
 def test_a_loader_option_hiding_ids_reaches_the_estimator_through_the_shared_log(tmp_path):
     """The shared front-end log of a synthetic world stores its pole sightings with their ids;
-    the ``-noids`` cell replaying it must still see them without (issue 20: demo-noids gave
-    byte-identical trajectories to demo)."""
+    the ``-noids`` cell replaying it must still see them without (otherwise demo-noids would
+    give byte-identical trajectories to demo)."""
     from omnislam.frontend.observation_log import load_observation_log
     from omnislam.harness.grid import load_grid
     from omnislam.harness.layout import CELLS

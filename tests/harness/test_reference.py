@@ -33,7 +33,7 @@ OPTIMUM_TOL_RAD = 1e-4
 #: the reference's bare iSAM2 pass vs omnislam's iSAM2 on the same prefix: positions [m] (the
 #: two build the same updates; they differ in rounding, which can change relinearisation)
 WARM_START_TOL_M = 1e-3
-#: the recipe of the reference computed with omnislam's own GraphSLAM (before it was GTSAM's)
+#: the recipe of a reference computed with omnislam's own GraphSLAM (a version-1 cache entry)
 RECIPE_V1 = "lm-optimum v1: iSAM2 preset victoria-park-gtsam, file covariances; LM 100 its, 1e-10"
 
 

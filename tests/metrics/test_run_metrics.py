@@ -55,7 +55,7 @@ DESIGN_CONTRACT_KEYS = (
     "peak_rss_mb",
     "alignment",
 )
-#: the header of results.csv before RunMetrics (a regression guard: the file must not change)
+#: the header of results.csv (a regression guard: the file's columns must not change)
 RESULTS_CSV_HEADER = (
     "cell,dataset,estimator,override,seed,status,ate_rmse_m,ate_max_m,ate_origin_rmse_m,"
     "rpe_trans_rmse_m,rpe_rot_rmse_deg,landmark_rmse_m,landmarks_estimated,landmarks_matched,"

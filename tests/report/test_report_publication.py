@@ -245,7 +245,7 @@ def test_latex_escape_and_provenance_never_fail(tmp_path, monkeypatch):
 
 
 def test_the_report_shows_each_runs_association_counts(tmp_path):
-    """Issue 16: every association decision an estimator counts (estimator_info.json) is in the
+    """Every association decision an estimator counts (estimator_info.json) is in the
     report, one row per run, for the estimators that count any (not dead reckoning): a small
     MR.CLAM folder with the barcodes hidden, so the back ends associate on their own."""
     data = write_small_mrclam(tmp_path / "MRCLAM_Small")

@@ -27,7 +27,7 @@ NMS_PX = 4.0
 TRUTH_PX = 4.0
 #: bearing noise of the simulated extraction, as stated with each line [rad] (0.8 px)
 SIGMA_RAD = 0.002
-#: the corridor test's limit on wrong validated pairs (the issue's goal)
+#: the corridor test's limit on wrong validated pairs (the target)
 MAX_WRONG_FRACTION = 0.01
 
 

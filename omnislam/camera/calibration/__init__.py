@@ -1,4 +1,4 @@
-"""Calibration of the package's camera models from checkerboard images (issue 19).
+"""Calibration of the package's camera models from checkerboard images.
 
 Corner points (detected by :mod:`.detect` or read by :mod:`.points_io`) become
 :class:`BoardView` records; :func:`calibrate` initialises one model and fits it jointly with

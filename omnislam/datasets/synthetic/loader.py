@@ -205,7 +205,8 @@ class SyntheticFolder:
 
         Args:
             index: frame index.
-            rows, cols: (K,) integer pixel-centre coordinates (``v``, ``u``) in the image.
+            rows: (K,) integer pixel-centre rows (``v``) in the image.
+            cols: (K,) integer pixel-centre columns (``u``) in the image.
 
         Returns:
             (K, 3) float32 world points [m]; NaN where the pixel sees nothing.

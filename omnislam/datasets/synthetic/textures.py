@@ -461,7 +461,8 @@ class TextureAtlas:
 
         Args:
             textures: (N,) texture indices.
-            u_m, v_m: (N,) texture coordinates [m].
+            u_m: (N,) texture coordinate along u [m].
+            v_m: (N,) texture coordinate along v [m].
             footprint_m: (N,) size of the pixel on the surface [m] (selects the mip level);
                 None samples the full-resolution level.
 

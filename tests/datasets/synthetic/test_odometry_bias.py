@@ -51,7 +51,7 @@ def test_drive_gives_the_odometry_of_simulate():
 @pytest.mark.parametrize(
     "name", [n for n, p in PRESETS.items() if n != "campus1500" and p.odometry_bias != NO_BIAS])
 def test_every_preset_drifts_by_one_to_three_percent(name):
-    """The issue's realistic odometry: 1-3 % of the distance, with the bias; < 1 % without
+    """The realistic odometry: 1-3 % of the distance, with the bias; < 1 % without
     (the thesis presets' robot has no bias: the thesis's model is zero-mean)."""
     for preset, lo, hi in ((PRESETS[name], 0.01, 0.03),
                            (dataclasses.replace(PRESETS[name], odometry_bias=NO_BIAS), 0.0, 0.011)):
