@@ -259,7 +259,11 @@ FORMAT_TITLES = {
     DatasetFormat.GTSAM_GRAPH: "gtsam graph",
     DatasetFormat.CARMEN: "CARMEN log",
     DatasetFormat.SYNTHETIC: "omnislam synthetic",
+    DatasetFormat.FOLDER: "omnislam folder",
 }
+#: formats whose files state their own source (a render its preset and seed, an omnislam folder
+#: its dataset.json): a path in them keeps it
+SELF_DESCRIBED = frozenset({DatasetFormat.SYNTHETIC, DatasetFormat.FOLDER})
 
 
 @dataclass(frozen=True, slots=True)
@@ -414,8 +418,7 @@ def load_dataset(
     sequence = load(resolved.path, **kwargs)
     if not isinstance(sequence, Sequence):  # pragma: no cover - defensive
         raise DataError("loader did not return a Sequence", resolved.path)
-    if not resolved.registered and resolved.format is not DatasetFormat.SYNTHETIC:
-        # a render names its own preset and seed; other data from a path is the user's
+    if not resolved.registered and resolved.format not in SELF_DESCRIBED:
         sequence = replace(sequence, source=path_source(resolved.format, resolved.path))
     return sequence
 
