@@ -1,6 +1,13 @@
-"""The package's own exceptions; the CLI turns them into one line on stderr and exit code 2."""
+"""The package's own exceptions; the CLI turns them into one line on stderr and exit code 2.
+
+``did_you_mean`` is the one hint of every message about an unknown name (an estimator, an
+option key, a dataset): the known names nearest to it.
+"""
 
 from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
 
 
 class OmnislamError(Exception):
@@ -38,3 +45,30 @@ class MissingExtraError(OmnislamError, ImportError):
 
 class EstimationError(OmnislamError):
     """An estimator reached a state it cannot continue from (e.g. a singular system)."""
+
+
+def nearest(name: str, known: Iterable[str], *, count: int = 3, cutoff: float = 0.6) -> list[str]:
+    """The known names most similar to ``name``, nearest first (``difflib.get_close_matches``:
+    at most ``count``, each of similarity ``SequenceMatcher.ratio`` >= ``cutoff``)."""
+    return difflib.get_close_matches(name, list(known), n=count, cutoff=cutoff)
+
+
+def did_you_mean(
+    name: str,
+    known: Iterable[str],
+    *,
+    count: int = 3,
+    cutoff: float = 0.6,
+    otherwise: Iterable[str] = (),
+) -> str:
+    """`` (did you mean 'a' or 'b'?)``: the known names nearest to an unknown one, or "".
+
+    Args:
+        name: the unknown name as given.
+        known: the names it could have meant.
+        count: at most this many suggestions, nearest first.
+        cutoff: the least similarity of a suggestion (``difflib.SequenceMatcher.ratio``, 0-1).
+        otherwise: the names to suggest when none is that similar.
+    """
+    near = nearest(name, known, count=count, cutoff=cutoff) or list(otherwise)
+    return f" (did you mean {' or '.join(repr(n) for n in near)}?)" if near else ""

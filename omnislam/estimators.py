@@ -44,7 +44,7 @@ import numpy as np
 from omnislam.core.modality import MODALITY_OPTION, Modality, resolve_modality
 from omnislam.core.sequence_info import SequenceInfo
 from omnislam.core.types import Estimator
-from omnislam.errors import ConfigError, OmnislamError
+from omnislam.errors import ConfigError, OmnislamError, did_you_mean
 
 #: factory(info, options, rng) -> Estimator
 EstimatorFactory = Callable[[SequenceInfo, Mapping[str, str], np.random.Generator], Estimator]
@@ -368,12 +368,10 @@ def _entries() -> dict[str, EstimatorEntry]:
 
 def unknown_estimator_message(name: str) -> str:
     """The one line for an estimator name the registry does not hold, with the nearest names."""
-    import difflib
-
     names = list(_entries())
-    near = difflib.get_close_matches(name, names, n=2, cutoff=0.6)
-    hint = f" (did you mean {' or '.join(repr(n) for n in near)}?)" if near else ""
-    return f"unknown estimator {name!r}{hint}; known: {', '.join(names)}"
+    return f"unknown estimator {name!r}{did_you_mean(name, names, count=2)}; known: " + ", ".join(
+        names
+    )
 
 
 def _attribute(name: str, target: str) -> object | None:

@@ -17,14 +17,13 @@ one-line hint of an unknown key.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import enum
 import types
 import typing
 from collections.abc import Mapping
 from typing import Any, TypeVar
 
-from omnislam.errors import ConfigError
+from omnislam.errors import ConfigError, did_you_mean, nearest
 
 C = TypeVar("C")
 
@@ -127,8 +126,9 @@ def _check_key(config: Any, key: str) -> None:
     section, or an optional section itself (``maybe=none``).
 
     The message of an unknown key names where it went when a section holds a field of that
-    name (``'n_particles'; it is set as 'particles.n_particles'``), else the nearest known keys and
-    the sections.
+    name (``'n_particles'; it is set as 'particles.n_particles'``), else the nearest known keys
+    (by the whole key, else by the field's name: ``n_particle`` suggests
+    ``particles.n_particles``) and the sections.
     """
     leaves = [o.key for o in describe_options(config)]
     sections = sorted({k.rsplit(".", 1)[0] for k in leaves if "." in k})
@@ -140,8 +140,10 @@ def _check_key(config: Any, key: str) -> None:
     moved = [k for k in leaves if k.rsplit(".", 1)[-1] == key.rsplit(".", 1)[-1]]
     if len(moved) == 1:
         raise ConfigError(f"unknown option {key!r}; it is set as {moved[0]!r}")
-    near = difflib.get_close_matches(key, leaves, n=3, cutoff=0.7) or moved
-    hint = f" (did you mean {' or '.join(repr(k) for k in near)}?)" if near else ""
+    tails = sorted({k.rsplit(".", 1)[-1] for k in leaves})  # a misspelt field of a section
+    near_tails = nearest(key.rsplit(".", 1)[-1], tails, count=3, cutoff=0.7)
+    similar = [k for t in near_tails for k in leaves if k.rsplit(".", 1)[-1] == t]
+    hint = did_you_mean(key, leaves, count=3, cutoff=0.7, otherwise=moved or similar[:3])
     tops = sorted({k.split(".", 1)[0] for k in leaves})
     if len(tops) > 12:
         heads = sorted({k.split(".", 1)[0] for k in sections})

@@ -118,8 +118,10 @@ class _HeldBack(logging.Handler):
         self.records.append(record)
 
     def print_held(self) -> None:
-        for record in self.records:
-            print(self.format(record), file=sys.stderr)
+        """Print each distinct line once (a warning logged by every cell of a grid, or by the
+        command and by its cells, is one line)."""
+        for line in dict.fromkeys(self.format(record) for record in self.records):
+            print(line, file=sys.stderr)
         self.records.clear()
 
 

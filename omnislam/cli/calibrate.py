@@ -1,16 +1,15 @@
-"""``omnislam calibrate IMAGES... --model M --board COLSxROWS --square M --out camera.yaml``.
+"""Fit an omnidirectional camera model to checkerboard images.
 
 Corners come from OpenCV's detector on each image (refined to sub-pixel on the original) or
-from a points file (``--points FILE.mat|.csv``; the board then comes from the file when it
-holds it). The chosen model is initialised and fitted jointly with every board pose
-(:mod:`omnislam.camera.calibration`). Writes the camera YAML atomically (with
-``reprojection_rms_px``) and a report folder (``report.json``, ``report.md``, and
-``residuals.png`` when matplotlib is installed); prints the per-image table and, last,
-``rms_px: X``. Existing outputs are replaced only with ``--overwrite``. An image whose board
-is not found or whose points disagree with the board is named in a warning with the problem and
-left out; fewer than three usable images stop the command with exit code 2 (the one error line
-names the first image left out and why). The stage lines on stderr are progress
-(``omnislam --quiet`` silences them).
+from a points file (--points FILE.mat or FILE.csv; the board then comes from the file when it
+holds it). The chosen model is initialised and fitted jointly with every board pose. Writes the
+camera YAML atomically (with reprojection_rms_px) and a report folder (report.json, report.md,
+and residuals.png when matplotlib is installed); prints the per-image table and, last,
+rms_px: X. Existing outputs are replaced only with --overwrite. An image whose board is not
+found or whose points disagree with the board is named in a warning with the problem and left
+out; fewer than three usable images stop the command with exit code 2 (the one error line names
+the first image left out and why). The stage lines on stderr are progress (omnislam --quiet
+silences them).
 """
 
 from __future__ import annotations

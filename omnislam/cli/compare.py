@@ -1,14 +1,14 @@
-"""``omnislam compare GRID.yaml --out RESULTS_DIR [--workers N | --scheduler ADDRESS]``.
+"""Run a grid of datasets x estimators x seeds and collect their metrics.
 
-Runs every cell of the grid (see ``omnislam.harness.grid``; ``--template`` prints a commented
-one) on a local process pool (``--workers``, default: one per core; 0 runs in this process) or
-on a Dask cluster (``--scheduler tcp://HOST:PORT``; ``--scheduler local`` starts a LocalCluster
-of ``--workers`` processes). An existing RESULTS_DIR is refused unless ``--resume`` (keep its
-finished cells, compute the others: the way to continue an interrupted grid) or
-``--overwrite`` (compute every cell again). Progress goes to stderr: cells finished, frames
-stepped by the running cells, rate and ETA; a table of the results to stdout. Exit code 0 when
-every cell succeeded, 1 when some failed (each named on stderr), 2 on bad input (nothing
-written).
+omnislam compare --template prints a commented grid file with every key. The cells run on a
+local process pool (--workers, default: one per core; 0 runs them in this process) or on a Dask
+cluster (--scheduler tcp://HOST:PORT; --scheduler local starts a local cluster of --workers
+processes). An existing RESULTS_DIR is refused unless --resume (keep its finished cells,
+compute the others: the way to continue an interrupted grid) or --overwrite (compute every cell
+again). Progress goes to stderr: cells finished, frames stepped by the running cells, rate and
+ETA; then each distinct warning of the cells, once; a table of the results goes to stdout. Exit
+code 0 when every cell succeeded, 1 when some failed (each named on stderr), 2 on bad input
+(nothing written).
 """
 
 from __future__ import annotations
@@ -116,6 +116,8 @@ def run(args: argparse.Namespace) -> int:
             on_progress=bar.on_progress,
             reuse=args.resume,
         )
+    for warning in result.warnings:  # each once, after the progress lines
+        warning.log()
     return _print_outcomes(result, args.out)
 
 

@@ -1,10 +1,10 @@
-"""``omnislam demo [--out DIR]``: the embedded default, end to end (see omnislam/demo.py).
+"""Run the embedded demo end to end.
 
 Renders the demo world, runs the shared front end, every available estimator and the report,
 each step with its progress on stderr (images rendered and processed, frames stepped by each
-estimator, the report's datasets); the work folder (``--work``) is a cache that later runs
-reuse when its inputs are unchanged. The last line names the report. An existing report
-folder is replaced only with ``--overwrite`` (``make demo`` passes it).
+estimator, the report's datasets); the work folder (--work) is a cache that later runs reuse
+when its inputs are unchanged. The last line names the report. An existing report folder is
+replaced only with --overwrite (make demo passes it).
 """
 
 from __future__ import annotations
@@ -108,6 +108,8 @@ def run(args: argparse.Namespace) -> int:
             on_grid=progress.on_grid,
             report_step=progress.report_step,
         )
+    for warning in result.results.warnings:  # each once, after the progress lines
+        warning.log()
     print(f"{'estimator':16s} {'ATE RMSE [m]':>12s} {'landmark RMSE [m]':>18s} {'status':>9s}")
     for outcome in result.results.outcomes:
         metrics = outcome.metrics

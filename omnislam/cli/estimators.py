@@ -1,14 +1,12 @@
-"""``omnislam estimators [NAME ...] [--all] [--json]``: the registered estimators and their options.
+"""List the registered estimators and their options.
 
-For each estimator of the registry (``omnislam.estimators.ESTIMATORS``: the built-ins and the
-installed plugins): what it is, the plugin it comes from, the observation streams it consumes,
-whether this installation can run it, its presets, and its main ``--set KEY=VALUE`` options
-with their defaults and meaning, then the sections its other options live in; ``--all`` lists
-every option, section by section. Everything is read from the
-estimator's configuration dataclasses and the ``Attributes:`` sections of their docstrings
-(``omnislam.options.describe_options``), so the list cannot drift from the code. The options
-the harness takes for every estimator (``modality``, ``prior_map``, ``wrong_id_fraction``,
-``clutter_per_frame``) end the list.
+For each estimator of the registry (the built-ins and the installed plugins): what it is, the
+plugin it comes from, the observation streams it consumes, whether this installation can run it,
+its presets, and its main --set KEY=VALUE options with their defaults and meaning, then the
+sections its other options live in; --all lists every option, section by section. Everything is
+read from the estimators' configuration classes and their documentation, so the list cannot
+drift from the code. The options the harness takes for every estimator (modality, prior_map,
+wrong_id_fraction, clutter_per_frame) end the list.
 """
 
 from __future__ import annotations

@@ -1,20 +1,23 @@
-"""``omnislam evaluate RUN_DIR [--json]`` or ``omnislam evaluate --ref GT EST [--align A]``.
+"""Score a run against its ground truth, or trajectory files against a reference (--ref).
 
-With a RUN_DIR: every metric against the run's ground truth; writes ``RUN_DIR/metrics.json``
-(``metrics.run_metrics``; null for what is not computed or has no ground truth) and prints a
-table, or the JSON with ``--json``. Every value that is missing says why. A ``metrics.json``
-computed with other settings (``--rpe-segment``, ``--landmark-gate``) is replaced only with
-``--overwrite``.
+With a RUN_DIR: every metric against the run's ground truth; writes RUN_DIR/metrics.json (null
+for what is not computed or has no ground truth) and prints a table, or the JSON with --json.
+Every value that is missing says why. A metrics.json computed with other settings
+(--rpe-segment, --landmark-gate) is replaced only with --overwrite.
 
-With ``--ref GT.tum EST.tum`` (TUM or KITTI, detected from the number of values per line, or
-``--format``): trajectories from anywhere, as ``evo_ape`` / ``evo_rpe`` compare them. The
-estimate is aligned to the reference by ``--align``: ``none``, ``origin`` (first pose
-anchored; evo's ``--align_origin``), ``se2`` (rotation about z and x-y translation; evo's ``-a``
-on planar runs), ``se3`` (evo's ``-a``) or ``sim3`` (evo's ``-as``); then ATE (position error
-statistics) and RPE (translation and rotation over segments of ``--rpe-segment`` metres of
-reference travel, all start poses: evo's ``--all_pairs --pairs_from_reference --delta M
---delta_unit m``; and between consecutive poses: ``--delta 1 --delta_unit f``). Nothing is
-written unless ``--out``.
+With --ref GT EST [EST ...] (TUM or KITTI files, detected from the number of values per line,
+or --format): trajectories from anywhere, as evo_ape and evo_rpe compare them, several
+estimates in one table as evo_res shows them. Each estimate is aligned to the reference by
+--align: none, origin (first pose anchored; evo's --align_origin), se2 (rotation about z and
+x-y translation; evo's -a on planar runs), se3 (evo's -a) or sim3 (evo's -as); then ATE
+(position error statistics) and RPE (translation and rotation over segments of --rpe-segment
+metres of reference travel, all start poses: evo's --all_pairs --pairs_from_reference --delta M
+--delta_unit m; and between consecutive poses: --delta 1 --delta_unit f). Nothing is written
+unless --out.
+
+--plot FILE.svg (or .pdf, .png) draws, in either form, the top view of the reference and of
+each estimate after its alignment (a RUN_DIR's: se2) and each estimate's translation error over
+time.
 
 The RPE segment defaults to 10 m, or to a quarter of the ground truth's travel (rounded down to
 1-2-5) when the run travels less than 40 m.
@@ -35,9 +38,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(
-        "run_dir",
+        "paths",
+        nargs="+",
         metavar="RUN_DIR | EST",
-        help="folder written by `omnislam run`; with --ref, the estimated trajectory file",
+        help="folder written by `omnislam run`; with --ref, one or more estimated trajectory "
+        "files",
     )
     p.add_argument(
         "--ref", default=None, metavar="GT", help="reference trajectory file (TUM or KITTI)"
@@ -73,9 +78,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--out", default=None, metavar="FILE.json", help="with --ref: write the numbers as JSON"
     )
     p.add_argument(
+        "--plot",
+        default=None,
+        metavar="FILE.svg",
+        help="draw the aligned trajectories and the translation error over time (.svg, .pdf "
+        "or .png)",
+    )
+    p.add_argument(
         "--overwrite",
         action="store_true",
-        help="replace a metrics.json of other settings (or --out's file)",
+        help="replace a metrics.json of other settings (or the file of --out or --plot)",
     )
     p.set_defaults(handler=run)
 
@@ -89,10 +101,16 @@ def _fmt(value: object) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from omnislam._files import check_output_location, check_overwrite
     from omnislam.errors import ConfigError
     from omnislam.harness.evaluation import EvaluationOptions
+    from omnislam.report.trajectory_figure import plot_format
 
     EvaluationOptions(rpe_segment_m=args.rpe_segment)  # the one check of its value
+    if args.plot is not None:  # before any work
+        plot_format(args.plot)
+        check_overwrite(args.plot, args.overwrite, "plot")
+        check_output_location(args.plot, "plot")
     if args.ref is not None:
         return run_ref(args)
     for flag, given in (
@@ -102,6 +120,11 @@ def run(args: argparse.Namespace) -> int:
     ):
         if given:
             raise ConfigError(f"{flag} applies to --ref GT EST; a RUN_DIR is SE(2)-aligned")
+    if len(args.paths) > 1:
+        raise ConfigError(
+            f"one RUN_DIR at a time, got {len(args.paths)} (several trajectory files are "
+            "scored against one reference with --ref GT EST1 EST2 ...)"
+        )
     return run_run_dir(args)
 
 
@@ -109,8 +132,9 @@ def run_run_dir(args: argparse.Namespace) -> int:
     import json
     from pathlib import Path
 
+    from omnislam._files import atomic_write_bytes
     from omnislam.errors import ConfigError, DataError
-    from omnislam.harness.evaluation import EvaluationOptions, evaluate_run, missing_reasons
+    from omnislam.harness.evaluation import EvaluationOptions, evaluate_run
     from omnislam.harness.layout import METRICS
     from omnislam.harness.rundir import read_run_dir
     from omnislam.metrics.run_metrics import read_run_metrics, write_run_metrics
@@ -122,11 +146,12 @@ def run_run_dir(args: argparse.Namespace) -> int:
             defaults.landmark_gate_m if args.landmark_gate is None else args.landmark_gate
         ),
     )
-    path = Path(args.run_dir)
+    path = Path(args.paths[0])
     if not path.is_dir():
         raise DataError("no such RUN_DIR", path)
     record = read_run_dir(path)
     metrics = evaluate_run(record, options)
+    figure = None if args.plot is None else _run_dir_figure(record, path, args)
     if (path / METRICS).is_file() and not args.overwrite:
         try:
             old = read_run_metrics(path / METRICS)
@@ -139,9 +164,20 @@ def run_run_dir(args: argparse.Namespace) -> int:
                 "--overwrite to replace them"
             )
     write_run_metrics(path / METRICS, metrics)
+    if figure is not None:
+        atomic_write_bytes(args.plot, figure)
     if args.json:
         print(json.dumps(metrics.to_json(), indent=2))
         return 0
+    _print_run_metrics(record, metrics, args)
+    print(f"-> {path / METRICS}" + (f" and {args.plot}" if figure is not None else ""))
+    return 0
+
+
+def _print_run_metrics(record: Any, metrics: Any, args: argparse.Namespace) -> None:
+    """The table of ``evaluate RUN_DIR``: one line per metric, what is missing and why."""
+    from omnislam.harness.evaluation import missing_reasons
+
     config = record.config
     why = missing_reasons(metrics)
     print(f"{config.estimator} on {config.dataset} ({config.frames} frames)")
@@ -201,8 +237,44 @@ def run_run_dir(args: argparse.Namespace) -> int:
             f"  (RPE segment {rpe.segment_m:g} m chosen for a run of {rpe.travel_m:.3g} m; "
             "set it with --rpe-segment)"
         )
-    print(f"-> {path / METRICS}")
-    return 0
+
+
+def _run_dir_figure(record: Any, path: Path, args: argparse.Namespace) -> bytes:
+    """The ``--plot`` figure of a RUN_DIR: its estimate, SE(2)-aligned, against its ground truth.
+
+    Raises:
+        ConfigError: the run has no ground truth to draw against.
+    """
+    from omnislam.errors import ConfigError
+    from omnislam.harness.evaluation import compare_trajectories
+    from omnislam.metrics.trajectory import Alignment
+    from omnislam.report.trajectory_figure import plot_format, trajectory_figure
+
+    truth = record.ground_truth.trajectory
+    if truth is None:
+        raise ConfigError(f"{path}: --plot needs ground truth, and this run has none")
+    result = compare_trajectories(
+        truth, record.estimate.trajectory, Alignment.SE2, args.rpe_segment
+    )
+    label = record.config.estimator
+    return trajectory_figure(
+        truth.positions_w[:, :2],
+        [_plotted(label, result)],
+        plot_format(args.plot),
+        f"{label} on {record.config.dataset}, aligned se2",
+    )
+
+
+def _plotted(label: str, result: Any) -> Any:
+    """An estimate of the figure: its aligned positions and its ATE errors over time."""
+    from omnislam.report.trajectory_figure import PlottedEstimate
+
+    return PlottedEstimate(
+        label,
+        result.aligned.positions_w[:, :2],
+        result.ate.stamps_s,
+        result.ate.errors_m,
+    )
 
 
 def _settings(metrics: object) -> tuple[float | None, float | None]:
@@ -216,66 +288,136 @@ def _describe(settings: tuple[float | None, float | None]) -> str:
 
 
 def run_ref(args: argparse.Namespace) -> int:
-    """``evaluate --ref GT EST``: ATE and RPE of two trajectory files, as evo computes them."""
+    """``evaluate --ref GT EST [EST ...]``: ATE and RPE of trajectory files, as evo computes
+    them; one estimate as a list of statistics, several as one table (evo_res's)."""
     import json
     from pathlib import Path
 
-    from omnislam._files import atomic_write_text, check_output_location, check_overwrite
+    from omnislam._files import (
+        atomic_write_bytes,
+        atomic_write_text,
+        check_output_location,
+        check_overwrite,
+    )
     from omnislam.errors import ConfigError
     from omnislam.harness.evaluation import compare_trajectories
     from omnislam.metrics.trajectory import Alignment
 
     if args.landmark_gate is not None:
         raise ConfigError("--landmark-gate applies to a RUN_DIR (trajectory files have no map)")
-    reference_path, estimate_path = Path(args.ref), Path(args.run_dir)
+    reference_path, estimate_paths = Path(args.ref), [Path(p) for p in args.paths]
     if args.out is not None:
         check_overwrite(args.out, args.overwrite, "metrics file")
         check_output_location(args.out, "metrics file")
-    fmt, reference, estimate = _read_pair(reference_path, estimate_path, args.format)
+    fmt, reference, estimates = _read_trajectories(reference_path, estimate_paths, args.format)
     alignment = Alignment(args.align)
-    result = compare_trajectories(reference, estimate, alignment, args.rpe_segment)
-    numbers = {
-        "reference": str(reference_path),
-        "estimate": str(estimate_path),
-        "format": fmt,
-        "alignment": alignment.value,
-        **_ref_numbers(result),
-    }
+    results = [compare_trajectories(reference, e, alignment, args.rpe_segment) for e in estimates]
+    numbers = [
+        {"estimate": str(path), **_ref_numbers(result)}
+        for path, result in zip(estimate_paths, results, strict=True)
+    ]
+    head = {"reference": str(reference_path), "format": fmt, "alignment": alignment.value}
+    document = {**head, **numbers[0]} if len(numbers) == 1 else {**head, "estimates": numbers}
+    figure = None
+    if args.plot is not None:  # made before anything is written
+        figure = _ref_figure(reference, estimate_paths, results, args, f"{reference_path}")
     if args.out is not None:
-        atomic_write_text(args.out, json.dumps(numbers, indent=2) + "\n")
+        atomic_write_text(args.out, json.dumps(document, indent=2) + "\n")
+    if figure is not None:
+        atomic_write_bytes(args.plot, figure)
     if args.json:
-        print(json.dumps(numbers, indent=2))
+        print(json.dumps(document, indent=2))
         return 0
-    _print_ref(result, numbers, f"{estimate_path} against {reference_path} ({fmt})", args)
-    if args.out is not None:
-        print(f"-> {args.out}")
+    if len(results) == 1:
+        what = f"{estimate_paths[0]} against {reference_path} ({fmt})"
+        _print_ref(results[0], {**head, **numbers[0]}, what, args)
+    else:
+        _print_ref_table(results, numbers, f"against {reference_path} ({fmt})", args)
+    for written in (args.out, args.plot):
+        if written is not None:
+            print(f"-> {written}")
     return 0
 
 
-def _read_pair(reference_path: Path, estimate_path: Path, fmt: str) -> tuple[str, Any, Any]:
-    """(format, reference, estimate): two trajectory files of one format (``--format``, or
+def _read_trajectories(
+    reference_path: Path, estimate_paths: list[Path], fmt: str
+) -> tuple[str, Any, list[Any]]:
+    """(format, reference, estimates): trajectory files of one format (``--format``, or
     detected from each file).
 
     Raises:
-        ConfigError: the two files are of different formats.
+        ConfigError: an estimate of another format than the reference, or one given twice.
     """
     from omnislam.datasets.trajectory_io import detect_trajectory_format, read_trajectory
     from omnislam.errors import ConfigError
 
-    formats = [
-        detect_trajectory_format(path) if fmt == "auto" else fmt
-        for path in (reference_path, estimate_path)
-    ]
-    if formats[0] != formats[1]:
-        raise ConfigError(
-            f"{estimate_path}: a {formats[1]} file against a {formats[0]} reference "
-            f"({reference_path}); give both in one format (KITTI files have no stamps)"
-        )
-    return (
-        formats[0],
-        read_trajectory(reference_path, formats[0]),
-        read_trajectory(estimate_path, formats[1]),
+    seen: set[str] = set()
+    for path in estimate_paths:
+        if str(path) in seen:
+            raise ConfigError(f"{path}: estimate given twice")
+        seen.add(str(path))
+    paths = [reference_path, *estimate_paths]
+    formats = [detect_trajectory_format(p) if fmt == "auto" else fmt for p in paths]
+    for path, other in zip(estimate_paths, formats[1:], strict=True):
+        if other != formats[0]:
+            raise ConfigError(
+                f"{path}: a {other} file against a {formats[0]} reference "
+                f"({reference_path}); give every file in one format (KITTI files have no stamps)"
+            )
+    trajectories = [read_trajectory(p, formats[0]) for p in paths]
+    return formats[0], trajectories[0], trajectories[1:]
+
+
+def _ref_figure(
+    reference: Any, paths: list[Path], results: list[Any], args: argparse.Namespace, what: str
+) -> bytes:
+    """The ``--plot`` figure of ``--ref``: every estimate, aligned, against the reference."""
+    from omnislam.report.trajectory_figure import plot_format, trajectory_figure
+
+    return trajectory_figure(
+        reference.positions_w[:, :2],
+        [_plotted(str(p), r) for p, r in zip(paths, results, strict=True)],
+        plot_format(args.plot),
+        f"against {what}, aligned {args.align}",
     )
+
+
+def _print_ref_table(
+    results: list[Any], numbers: list[dict[str, Any]], what: str, args: argparse.Namespace
+) -> None:
+    """Several estimates against one reference: one row each (evo_res's table)."""
+    import math
+
+    segment = f"{results[0].rpe.delta:g} m"
+    header = (
+        "estimate", "poses", "coverage", "ATE rmse", "mean", "median", "std", "min", "max",
+        f"RPE {segment} trans rmse", "rot rmse [deg]",
+    )  # fmt: skip
+    rows = []
+    for result, row in zip(results, numbers, strict=True):
+        ate = row["ate_m"]
+        rows.append(
+            (
+                row["estimate"],
+                str(result.ate.matched),
+                f"{result.ate.coverage:.1%}",
+                *(_fmt(ate[key]) for key in ("rmse", "mean", "median", "std", "min", "max")),
+                _fmt(row["rpe_trans_m"]["rmse"]),
+                _fmt(row["rpe_rot_deg"]["rmse"]),
+            )
+        )
+    print(f"{len(results)} estimates {what}, aligned {args.align}; ATE and RPE in metres")
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(header)]
+    for line in (header, *rows):
+        print("  " + "  ".join(c.ljust(w) for c, w in zip(line, widths, strict=True)).rstrip())
+    for row in numbers:
+        if "rpe" in row["missing"]:
+            print(f"  {row['estimate']}: RPE -: {row['missing']['rpe']}")
+    if args.rpe_segment is None and math.isfinite(results[0].travel_m):
+        print(
+            f"  (RPE segment {segment} chosen for a reference of {results[0].travel_m:.3g} m; "
+            "set it with --rpe-segment)"
+        )
 
 
 def _ref_numbers(result: Any) -> dict[str, object]:

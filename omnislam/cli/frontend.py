@@ -1,12 +1,10 @@
-"""``omnislam frontend DATASET --out LOG [--config YAML] [--frames N] [--seed N]``.
+"""Run the shared front end once over a dataset and write its observation log.
 
-Runs the shared front end once over a dataset and writes its ObservationLog (compressed npz),
-to replay with ``omnislam run DATASET --log LOG``. Progress (images done, rate, ETA) goes to
-stderr. An existing LOG is refused unless ``--overwrite`` (rebuild it) or ``--resume`` (keep it
-when it was built from the same dataset, configuration, ``--frames`` and ``--seed``, else
-rebuild it). ``--export DIR`` also writes the log as CSV files with a JSON description
-(``omnislam.frontend.log_export``; docs/tutorials/observation-log.md), for back ends outside
-omnislam.
+The log (a compressed .npz) is replayed with omnislam run DATASET --log LOG. Progress (images
+done, rate, ETA) goes to stderr. An existing LOG is refused unless --overwrite (rebuild it) or
+--resume (keep it when it was built from the same dataset, configuration, --frames and --seed,
+else rebuild it). --export DIR also writes the log as CSV files with a JSON description
+(docs/tutorials/observation-log.md), for back ends outside omnislam.
 """
 
 from __future__ import annotations
@@ -23,7 +21,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("dataset", help="registered dataset name or path")
     p.add_argument("--out", required=True, help="ObservationLog file to write (.npz)")
-    p.add_argument("--config", help="YAML file of front-end overrides (see frontend.config)")
+    p.add_argument(
+        "--config", help="YAML file of front-end overrides (keys of the front end's configuration)"
+    )
     p.add_argument("--frames", type=int, default=None, help="process at most N images")
     p.add_argument("--seed", type=int, default=0, help="seed of the RANSAC generator")
     p.add_argument(

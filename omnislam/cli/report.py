@@ -1,13 +1,13 @@
-"""``omnislam report RESULTS_DIR --out reports/NAME``: a comparative report of finished runs.
+"""Write a comparative report of finished runs.
 
-RESULTS_DIR is the folder ``omnislam compare`` wrote, a RUN_DIR, or a folder of RUN_DIRs.
-Writes ``report.md`` with its SVGs and a self-contained ``index.html`` (figures inlined): a
-verdict per dataset first, the tables and figures, a provenance block last (this command line
-included). Every table is also written as ``tables/NAME.csv`` and ``tables/NAME.tex`` (LaTeX
-booktabs), plus ``exports/`` (TUM, KITTI, PLY, g2o) unless ``--no-exports``; ``--no-figures``
-leaves out each dataset's figures (a report of many datasets small enough to commit). An existing
-report folder is replaced only with ``--overwrite``. Progress goes to stderr; the last line
-names the report.
+RESULTS_DIR is the folder omnislam compare wrote, a RUN_DIR, or a folder of RUN_DIRs. Writes
+report.md with its SVGs and a self-contained index.html (figures inlined): a verdict per dataset
+first, the tables and figures, a provenance block last (this command line included). Every
+table is also written as tables/NAME.csv and tables/NAME.tex (LaTeX booktabs), plus exports/
+(TUM, KITTI, PLY, g2o) unless --no-exports; --no-figures leaves out each dataset's figures and
+keeps the summary figures (a report of many datasets small enough to commit). An existing report
+folder is replaced only with --overwrite. Progress goes to stderr; the last line names the
+report.
 """
 
 from __future__ import annotations

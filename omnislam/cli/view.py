@@ -1,10 +1,9 @@
-"""``omnislam view RUN_DIR [--out FILE.rrd] [--spawn]``: a Rerun recording of one run.
+"""Write a Rerun recording of one run.
 
-Writes ``FILE.rrd`` (default ``RUN_DIR/run.rrd``) with the trajectory against the ground
-truth, the landmarks with their covariance ellipsoids, the sightings over time and, for image
-datasets, every image with its keypoints (``omnislam.report.view``). ``--spawn`` then opens it
-in the Rerun viewer (``rerun FILE.rrd``). Open it later with ``rerun FILE.rrd``. Needs the
-``view`` extra: ``pip install '.[view]'`` in a clone.
+Writes FILE.rrd (default RUN_DIR/run.rrd) with the trajectory against the ground truth, the
+landmarks with their covariance ellipsoids, the sightings over time and, for image datasets,
+every image with its keypoints. --spawn then opens it in the Rerun viewer; open it later with
+rerun FILE.rrd. Needs the view extra: pip install '.[view]' in a clone.
 """
 
 from __future__ import annotations

@@ -15,13 +15,13 @@ import enum
 import importlib
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from omnislam.datasets._common import DATA_ENV, Association, data_root
 from omnislam.datasets.sequence import GroundTruthKind, Sequence
-from omnislam.errors import ConfigError, DataError
+from omnislam.errors import ConfigError, DataError, did_you_mean
 
 if TYPE_CHECKING:
     from omnislam.datasets.synthetic.presets import Preset
@@ -252,14 +252,34 @@ REGISTRY: dict[str, DatasetEntry] = {
 }
 
 
+#: how the provenance of a run names a format (``path_source``)
+FORMAT_TITLES = {
+    DatasetFormat.MRCLAM: "MR.CLAM",
+    DatasetFormat.VICTORIA_PARK: "Victoria Park",
+    DatasetFormat.GTSAM_GRAPH: "gtsam graph",
+    DatasetFormat.CARMEN: "CARMEN log",
+    DatasetFormat.SYNTHETIC: "omnislam synthetic",
+    DatasetFormat.FOLDER: "omnislam folder",
+}
+#: formats whose files state their own source (a render its preset and seed, an omnislam folder
+#: its dataset.json): a path in them keeps it
+SELF_DESCRIBED = frozenset({DatasetFormat.SYNTHETIC, DatasetFormat.FOLDER})
+
+
 @dataclass(frozen=True, slots=True)
 class ResolvedDataset:
-    """A dataset argument turned into a format, a path, a name and fixed options."""
+    """A dataset argument turned into a format, a path, a name and fixed options.
+
+    Attributes:
+        registered: the argument was a registered name (the published dataset, credited to
+            its authors); False for a path, whatever data it holds.
+    """
 
     name: str
     format: DatasetFormat
     path: Path
     options: Mapping[str, str] = field(default_factory=dict)
+    registered: bool = False
 
     def option_names(self) -> frozenset[str]:
         """The ``--set`` keys the loader of this format accepts."""
@@ -308,13 +328,10 @@ def resolve(dataset: str) -> ResolvedDataset:
                 f"dataset {dataset!r} not found: looked in {where} "
                 f"(set {DATA_ENV} to the folder holding the real data)"
             )
-        return ResolvedDataset(entry.name, entry.format, where, entry.options)
+        return ResolvedDataset(entry.name, entry.format, where, entry.options, registered=True)
     path = Path(dataset).expanduser()
     if not path.exists():
-        raise ConfigError(
-            f"unknown dataset {dataset!r}: not a registered name ({', '.join(REGISTRY)}) "
-            "nor an existing file or folder"
-        )
+        raise ConfigError(_unknown_dataset_message(dataset))
     fmt = detect_format(path)
     if fmt is None:
         raise DataError(
@@ -327,6 +344,32 @@ def resolve(dataset: str) -> ResolvedDataset:
         path = next(p for p in path.iterdir() if p.name.endswith((".log", ".log.gz")))
     name = path.name.removesuffix(".gz").removesuffix(".log") if path.is_file() else path.name
     return ResolvedDataset(name, fmt, path)
+
+
+def path_source(fmt: DatasetFormat, path: Path) -> str:
+    """The provenance of data read from a path: what it is and where, crediting no one (a folder
+    in MR.CLAM format need not be the published MR.CLAM dataset)."""
+    kind = "folder" if path.is_dir() else "file"
+    return f"a {kind} in {FORMAT_TITLES[fmt]} format at {path}"
+
+
+def preset_names() -> tuple[str, ...]:
+    """The synthetic presets' names (none when the synthetic package cannot be imported)."""
+    try:
+        from omnislam.datasets.synthetic import PRESETS
+    except (ImportError, AttributeError):
+        return ()
+    return tuple(str(name) for name in PRESETS)
+
+
+def _unknown_dataset_message(dataset: str) -> str:
+    """The one line for a dataset argument that names nothing, with the nearest names."""
+    presets = preset_names()
+    hint = did_you_mean(dataset, [*REGISTRY, *presets])
+    where = f"a registered name ({', '.join(REGISTRY)})"
+    if presets:
+        where += f", a synthetic preset ({', '.join(presets)})"
+    return f"unknown dataset {dataset!r}{hint}: not {where} nor an existing file or folder"
 
 
 def parse_options(fmt: DatasetFormat, options: Mapping[str, str]) -> dict[str, object]:
@@ -358,7 +401,8 @@ def load_dataset(
         options: loader options (``--set`` strings); they override the entry's fixed ones.
 
     Returns:
-        The Sequence.
+        The Sequence; its ``source`` credits a registered dataset's authors, and names what
+        and where the data is for a path (``path_source``).
     """
     resolved = resolve(dataset) if isinstance(dataset, str) else dataset
     merged = {**resolved.options, **(options or {})}
@@ -374,6 +418,8 @@ def load_dataset(
     sequence = load(resolved.path, **kwargs)
     if not isinstance(sequence, Sequence):  # pragma: no cover - defensive
         raise DataError("loader did not return a Sequence", resolved.path)
+    if not resolved.registered and resolved.format not in SELF_DESCRIBED:
+        sequence = replace(sequence, source=path_source(resolved.format, resolved.path))
     return sequence
 
 
@@ -419,7 +465,7 @@ def list_datasets() -> list[ListedDataset]:
                 _synthetic_sensors(preset),
                 GroundTruthKind.EXACT.value,
                 True,
-                "render with: omnislam dataset synth " + str(name) + " --out DIR",
+                f"rendered by: omnislam run {name} (cached) or dataset synth {name} --out DIR",
             )
         )
     return rows

@@ -379,6 +379,8 @@ class TrajectoryComparison:
         rpe_frame: RPE between consecutive associated poses.
         travel_m: the reference's travel over the associated poses [m].
         why: why a value is missing (``"rpe"`` -> reason), as ``missing_reasons``.
+        aligned: the estimate after the alignment (a ``core.types.Trajectory`` in the
+            reference's frame; what ``omnislam evaluate --plot`` draws).
     """
 
     ate: AteResult
@@ -386,6 +388,7 @@ class TrajectoryComparison:
     rpe_frame: Any
     travel_m: float
     why: dict[str, str]
+    aligned: Any = None
 
 
 def compare_trajectories(
@@ -425,4 +428,4 @@ def compare_trajectories(
             f"no pose pair {segment:g} m of reference travel apart (the reference travels "
             f"{travel:.3g} m); choose a shorter --rpe-segment"
         )
-    return TrajectoryComparison(result, main, frame, travel, why)
+    return TrajectoryComparison(result, main, frame, travel, why, aligned)

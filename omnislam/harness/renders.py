@@ -11,9 +11,10 @@ syntax tree without docstrings. An edited comment or a front-end setting the ren
 re-renders nothing; a changed odometry model or camera re-renders everything, and since the path
 changes, every cell on it is computed again.
 
-The path is known before the render exists, so a grid's cells name it from the start; the
-writer produces byte-identical folders for the same inputs and writes atomically
-(``datasets.synthetic.writer``), so any worker of a cluster may render it into a shared cache.
+The path is known before the render exists, so a grid's cells name it from the start
+(``omnislam run PRESET`` renders into the same folder: ``preset_render``); the writer produces
+byte-identical folders for the same inputs and writes atomically (``datasets.synthetic.writer``),
+so any worker of a cluster may render it into a shared cache.
 """
 
 from __future__ import annotations
@@ -105,6 +106,20 @@ def render_spec(preset: str, seed: int, images: int | None = None) -> RenderSpec
         "\n".join([*parameters, str(seed), str(images), backend, renderer_code_hash()]).encode()
     )
     return RenderSpec(preset, seed, images, backend, digest.hexdigest()[:12])
+
+
+def preset_render(dataset: str, seed: int) -> RenderSpec | None:
+    """The render a run's dataset argument names, or None when it names data on disk.
+
+    ``omnislam run demo`` renders the preset as a grid's ``{synthetic: demo}`` with that seed
+    does (the same cache folder, so a run and a grid cell share the render and its front-end
+    log): a synthetic preset's name that is neither a registered dataset nor an existing path.
+    """
+    from omnislam.datasets.registry import REGISTRY, preset_names
+
+    if dataset in REGISTRY or dataset not in preset_names() or Path(dataset).exists():
+        return None
+    return render_spec(dataset, seed)
 
 
 def ensure_render(

@@ -12,6 +12,10 @@ in-process. Two kinds of task run on the workers:
    (``Cell.external``) ``read_external_cell`` instead, which reads them from their files (and is
    never reused: reading them again is cheap and sees a changed file).
 
+Both return the warnings they logged instead of printing them where they ran
+(``harness.held_warnings``); the GridResult holds each distinct one once, for the command to
+print after its progress.
+
 This process writes each cell and evaluates it, so every cell is written atomically by one
 writer; the workers read the data, the cache (renders) and the front-end logs in
 RESULTS_DIR/logs, so on a cluster those must be on a shared file system at the same paths:
@@ -60,6 +64,7 @@ from omnislam.harness.evaluation import EvaluationOptions, evaluate_run
 from omnislam.harness.execute import RunSpec, StepCallback, execute_run, parse_run_options
 from omnislam.harness.external import ExternalResult
 from omnislam.harness.grid import Cell, Grid, column_label
+from omnislam.harness.held_warnings import LoggedWarning, distinct, held_warnings
 from omnislam.harness.layout import (
     CELL_TIME,
     CELLS,
@@ -161,11 +166,13 @@ class PrepareProgress:
 
 @dataclass(frozen=True, slots=True)
 class GridResult:
-    """Every cell's outcome, in grid order."""
+    """Every cell's outcome, in grid order, and each distinct warning the tasks logged once
+    (``harness.held_warnings``; a loader's warning is logged by every cell of its dataset)."""
 
     grid: Grid
     out_dir: Path
     outcomes: tuple[CellOutcome, ...] = field(default_factory=tuple)
+    warnings: tuple[LoggedWarning, ...] = ()
 
     def count(self, status: CellStatus) -> int:
         """Number of cells with ``status``."""
@@ -372,6 +379,7 @@ class Prepared:
             or not needed).
         wall_s, cpu_s: wall-clock and CPU time of the preparation [s] (the CPU of this process
             and of its ended children: the front end's workers when it pipelines).
+        warnings: what it logged at WARNING or above, each once.
     """
 
     dataset: str
@@ -381,6 +389,7 @@ class Prepared:
     truth_computed: bool = False
     wall_s: float = 0.0
     cpu_s: float = 0.0
+    warnings: tuple[LoggedWarning, ...] = ()
 
 
 def prepare_dataset(
@@ -402,8 +411,22 @@ def prepare_dataset(
     log's tracks (``track_truth.cache_track_truth``) when ``track_truth`` (some cell of the dataset
     consumes bearings-3d), so the workers running its cells read them from the cache.
     ``on_step(stage, done, total)`` hears what takes time: "simulating", "rendering" (images),
-    "front end" (images), "track truth" (images).
+    "front end" (images), "track truth" (images). What it logs at WARNING or above is held
+    back and returned (``Prepared.warnings``).
     """
+    with held_warnings() as held:
+        prepared = _prepare_dataset(dataset, render, logs_dir, track_truth, on_step)
+    return replace(prepared, warnings=distinct(held))
+
+
+def _prepare_dataset(
+    dataset: str,
+    render: RenderSpec | None,
+    logs_dir: str,
+    track_truth: bool = False,
+    on_step: StepCallback | None = None,
+) -> Prepared:
+    """``prepare_dataset`` without holding its warnings back."""
     import time
 
     from omnislam.datasets.registry import load_dataset, resolve
@@ -470,17 +493,19 @@ class CellTime:
         return {"wall_s": self.wall_s, "cpu_s": self.cpu_s, "host": self.host}
 
 
-def run_cell(spec: RunSpec, reporter: StepReporter | None = None) -> tuple[RunRecord, CellTime]:
-    """``execute_run(spec)`` and what it cost; runs on a worker, its progress sent to
-    ``reporter`` (``harness.channel``)."""
+def run_cell(
+    spec: RunSpec, reporter: StepReporter | None = None
+) -> tuple[RunRecord, CellTime, tuple[LoggedWarning, ...]]:
+    """``execute_run(spec)``, what it cost and the warnings it logged (held back, each once);
+    runs on a worker, its progress sent to ``reporter`` (``harness.channel``)."""
     import socket
     import time
 
     wall, cpu = time.perf_counter(), time.process_time()
-    record = execute_run(spec, on_step=reporter)
-    return record, CellTime(
-        time.perf_counter() - wall, time.process_time() - cpu, socket.gethostname()
-    )
+    with held_warnings() as held:
+        record = execute_run(spec, on_step=reporter)
+    cost = CellTime(time.perf_counter() - wall, time.process_time() - cpu, socket.gethostname())
+    return record, cost, distinct(held)
 
 
 def read_external_cell(
@@ -584,10 +609,11 @@ def run_grid(
     grid = _with_prior_maps(grid, cells_dir)
 
     outcomes: dict[str, CellOutcome] = {}
+    tasks: list[_GridRun] = []
 
     def summary() -> GridResult:
         ordered = tuple(outcomes[c.cell_id] for c in grid.cells if c.cell_id in outcomes)
-        return GridResult(grid, out_dir, ordered)
+        return GridResult(grid, out_dir, ordered, distinct(w for t in tasks for w in t.warnings))
 
     def finish(outcome: CellOutcome) -> None:
         outcomes[outcome.cell.cell_id] = outcome
@@ -596,7 +622,10 @@ def run_grid(
         if on_outcome is not None:
             on_outcome(outcome)
 
-    _GridRun(grid, out_dir, executor_factory, max_attempts, finish, on_progress, reuse=reuse).run()
+    tasks.append(
+        _GridRun(grid, out_dir, executor_factory, max_attempts, finish, on_progress, reuse=reuse)
+    )
+    tasks[0].run()
     if not reuse:
         wanted = {cell.cell_id for cell in grid.cells}
         for old in cells_dir.iterdir():
@@ -660,6 +689,7 @@ class _GridRun:
         self.reuse = reuse
         self.channel: ProgressChannel | None = None
         self.announced: set[str] = set()  # datasets whose preparation progress was passed on
+        self.warnings: list[LoggedWarning] = []  # what the tasks logged, in arrival order
 
     # -- submission ----------------------------------------------------------------------
     def _submit(self, kind: str, key: str, fn: Callable[..., object], *args: object) -> None:
@@ -830,10 +860,12 @@ class _GridRun:
             return
         if kind == "prepare":
             prepared: Prepared = result  # type: ignore[assignment]
+            self.warnings.extend(prepared.warnings)
             _say_prepared(prepared)
             self._ready(key, prepared.log)
             return
-        record, time_taken = result  # type: ignore[misc]
+        record, time_taken, logged = result  # type: ignore[misc]
+        self.warnings.extend(logged)
         cell = self.by_id[key]
         if self.on_progress is not None:
             self._relay(finishing=key)  # its last frames before it is stored

@@ -162,6 +162,22 @@ def _config(cell: ReportCell) -> RunConfig | None:
         return None
 
 
+def _dataset_source(config: RunConfig) -> str:
+    """The dataset a run was given and who to credit: a registered name with its citation, a
+    path as the run describes it ("a folder in MR.CLAM format at PATH", crediting no one; a
+    synthetic preset with its seed), paths as ``shown_path`` shows them."""
+    from omnislam.datasets.registry import REGISTRY
+
+    shown = shown_path(config.dataset)
+    if not config.source:
+        return shown
+    if config.dataset in REGISTRY:
+        return f"{config.dataset}: {config.source}"
+    if config.dataset_path and config.dataset_path in config.source:
+        return config.source.replace(config.dataset_path, shown_path(config.dataset_path))
+    return f"{shown} ({config.source})"
+
+
 def _options_text(options: Mapping[str, str]) -> str:
     return ", ".join(f"{k}={v}" for k, v in sorted(options.items())) or "defaults"
 
@@ -228,11 +244,7 @@ def provenance_rows(
         group = [c for c in cells if c.dataset == dataset]
         group_configs = [configs[c.cell_id] for c in group if configs[c.cell_id] is not None]
         frames = sorted({cfg.frames for cfg in group_configs})  # type: ignore[union-attr]
-        source = (
-            shown_path(group_configs[0].dataset)  # type: ignore[union-attr]
-            if group_configs
-            else UNKNOWN
-        )
+        source = _dataset_source(group_configs[0]) if group_configs else UNKNOWN  # type: ignore[arg-type]
         text = f"{source}; frames {', '.join(map(str, frames)) or UNKNOWN}"
         text += f"; images {_images_text(group_configs)}"
         text += f"; path length {_path_length(group)}"

@@ -1333,6 +1333,71 @@ def _(tmp, fx):
     return [*argv, "--out", str(tmp / "m.json")], "m.json"
 
 
+@case("evaluate-ref-estimate-given-twice")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    est = str(run / "trajectory.tum")
+    return ["evaluate", est, est, "--ref", str(run / "ground_truth.tum")], "given twice"
+
+
+@case("evaluate-ref-second-estimate-missing")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    argv = ["evaluate", str(run / "trajectory.tum"), str(tmp / "other.tum")]
+    return [*argv, "--ref", str(run / "ground_truth.tum")], "other.tum"
+
+
+@case("evaluate-ref-estimates-in-two-formats")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    (tmp / "est.kitti").write_text("1 0 0 0 0 1 0 0 0 0 1 0\n" * 3)
+    argv = ["evaluate", str(run / "trajectory.tum"), str(tmp / "est.kitti")]
+    return [*argv, "--ref", str(run / "ground_truth.tum")], "est.kitti: a kitti file"
+
+
+@case("evaluate-plot-suffix")
+def _(tmp, fx):
+    return ["evaluate", str(fx.run_dir(tmp)), "--plot", str(tmp / "plot.jpg")], "plot.jpg"
+
+
+@case("evaluate-plot-exists")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    (tmp / "plot.svg").write_text("<svg/>")
+    argv = ["evaluate", str(run / "trajectory.tum"), "--ref", str(run / "ground_truth.tum")]
+    return [*argv, "--plot", str(tmp / "plot.svg")], "--overwrite"
+
+
+@case("evaluate-plot-of-a-run-without-ground-truth")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    _set_config("ground_truth_kind", "none")(run)
+    (run / "ground_truth.tum").unlink()
+    return ["evaluate", str(run), "--plot", str(tmp / "plot.svg")], "needs ground truth"
+
+
+@case("evaluate-two-run-dirs")
+def _(tmp, fx):
+    run = fx.run_dir(tmp)
+    return ["evaluate", str(run), str(run)], "--ref GT EST1 EST2"
+
+
+@case("run-unknown-dataset-suggests-the-nearest")
+def _(tmp, fx):
+    return run_args("mrclam6-r9", tmp), "unknown dataset 'mrclam6-r9' (did you mean 'mrclam6-r"
+
+
+@case("run-misspelt-option-of-a-section")
+def _(tmp, fx):
+    argv = run_args(mrclam(tmp), tmp, "fastslam1", "--set", "n_particle=30")
+    return argv, "unknown option 'n_particle' (did you mean 'particles.n_particles'?)"
+
+
+@case("run-negative-seed")
+def _(tmp, fx):
+    return run_args(mrclam(tmp), tmp, "deadreckoning", "--seed", "-1"), "--seed"
+
+
 @case("view-not-a-run-dir")
 def _(tmp, fx):
     (tmp / "empty").mkdir()

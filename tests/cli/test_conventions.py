@@ -239,6 +239,43 @@ def test_help_texts_say_what_the_code_does():
     assert "plugin" in estimator_help
 
 
+def _every_help(parser, path=("omnislam",)):
+    """(command path, --help text) of ``parser`` and of every sub-command under it."""
+    import argparse
+
+    yield " ".join(path), parser.format_help()
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from _every_help(sub, (*path, name))
+
+
+def _module_names() -> set[str]:
+    """Every module of the package, dotted below ``omnislam`` (``harness.rundir``, ...)."""
+    import pkgutil
+
+    return {
+        info.name.removeprefix("omnislam.")
+        for info in pkgutil.walk_packages(omnislam.__path__, "omnislam.")
+    }
+
+
+def test_help_is_plain_text_without_internal_module_names():
+    import re
+
+    modules = _module_names()
+    dotted = sorted(m for m in modules if "." in m)
+    assert "harness.rundir" in dotted and "frontend.config" in dotted  # the walk sees them
+    markup = re.compile(r"``|:[a-z]+:`|\bomnislam[./][a-z_]")
+    helps = dict(_every_help(build_parser()))
+    assert {"omnislam run", "omnislam dataset list", "omnislam dataset synth"} <= set(helps)
+    for command, text in helps.items():
+        flat = " ".join(text.split())
+        assert not markup.search(flat), (command, markup.search(flat).group(0))
+        named = [m for m in dotted if re.search(rf"(?<![\w.]){re.escape(m)}(?![\w])", flat)]
+        assert not named, (command, named)
+
+
 # ---- files are readable by others ------------------------------------------------------------
 
 

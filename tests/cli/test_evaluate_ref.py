@@ -217,3 +217,118 @@ def test_format_detection_names_the_line(tmp_path):
     (tmp_path / "x.txt").write_text("# header\n\n1 2 3 4 5\n")
     with pytest.raises(DataError, match=r"x.txt: line 3: 5 values"):
         detect_trajectory_format(tmp_path / "x.txt")
+
+
+# ---- several estimates against one reference (evo_res's use) and --plot ------------------------
+
+
+def estimates_of(truth: Trajectory, seeds: tuple[int, ...]) -> list[Trajectory]:
+    """Estimates of one planar ground truth: each rotated, offset, scaled a little and drifting
+    differently, at its own subset of the stamps with a few milliseconds of jitter."""
+    out = []
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        n = len(truth.stamps_s)
+        angle = rng.uniform(-1.0, 1.0)
+        c, s = np.cos(angle), np.sin(angle)
+        se2 = truth.se2.copy()
+        drift = np.cumsum(rng.normal(0, 0.005, (n, 2)), axis=0)
+        se2[:, :2] = rng.uniform(0.95, 1.05) * se2[:, :2] @ np.array([[c, -s], [s, c]]).T
+        se2[:, :2] += rng.normal(0, 2.0, 2) + drift + rng.normal(0, 0.03, (n, 2))
+        se2[:, 2] += angle + rng.normal(0, 0.01, n)
+        keep = np.sort(rng.choice(n, size=n - 15, replace=False))
+        stamps = truth.stamps_s[keep] + rng.uniform(-0.003, 0.003, len(keep))
+        out.append(Trajectory.from_se2(stamps, se2[keep]))
+    return out
+
+
+def _evo_ape_stats(gt: Path, est: Path, alignment: str) -> dict:
+    """evo_ape's statistics of ``est`` against ``gt`` through evo's Python API."""
+    from evo.core import metrics, sync
+    from evo.tools import file_interface
+
+    reference = file_interface.read_tum_trajectory_file(str(gt))
+    estimate = file_interface.read_tum_trajectory_file(str(est))
+    reference, estimate = sync.associate_trajectories(reference, estimate)
+    if alignment != "none":
+        estimate.align(reference, correct_scale=alignment == "sim3")
+    ape = metrics.APE(metrics.PoseRelation.translation_part)
+    ape.process_data((reference, estimate))
+    return ape.get_all_statistics()
+
+
+@pytest.mark.parametrize("alignment", ["none", "se2", "sim3"])
+def test_three_estimates_in_one_table_each_as_evo_ape(alignment, tmp_path, capsys):
+    pytest.importorskip("evo")
+    truth, _ = planar_pair()
+    gt = tmp_path / "gt.tum"
+    write_tum(gt, truth)
+    paths = []
+    for i, estimate in enumerate(estimates_of(truth, (21, 22, 23))):
+        paths.append(tmp_path / f"est{i}.tum")
+        write_tum(paths[-1], estimate)
+    argv = ["evaluate", *map(str, paths), "--ref", str(gt), "--align", alignment]
+    assert main([*argv, "--json"]) == 0
+    numbers = json.loads(capsys.readouterr().out)
+    assert numbers["alignment"] == alignment and numbers["reference"] == str(gt)
+    assert [e["estimate"] for e in numbers["estimates"]] == list(map(str, paths))
+    rmses = []
+    for path, ours in zip(paths, numbers["estimates"], strict=True):
+        _assert_stats(ours["ate_m"], _evo_ape_stats(gt, path, alignment), (path.name, alignment))
+        rmses.append(ours["ate_m"]["rmse"])
+    assert len(set(rmses)) == 3  # three different estimates, three different numbers
+
+    assert main(argv) == 0  # the table: a header and one row per estimate, in the given order
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith(f"3 estimates against {gt} (tum), aligned {alignment}")
+    rows = [line.split() for line in lines[2:5]]
+    assert [row[0] for row in rows] == list(map(str, paths))
+    assert [float(row[3]) for row in rows] == pytest.approx(rmses, rel=1e-3)  # 4 digits shown
+
+
+def _svg_texts(path: Path) -> list[str]:
+    import xml.etree.ElementTree as ElementTree
+
+    root = ElementTree.parse(path).getroot()
+    return [t.text or "" for t in root.iter() if t.tag.endswith("text")] + [
+        (t.text or "") for t in root.iter() if t.tag.endswith("title")
+    ]
+
+
+def test_plot_draws_every_estimate_and_the_error_over_time(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    truth, _ = planar_pair()
+    gt = tmp_path / "gt.tum"
+    write_tum(gt, truth)
+    paths = []
+    for i, estimate in enumerate(estimates_of(truth, (31, 32))):
+        paths.append(tmp_path / f"est{i}.tum")
+        write_tum(paths[-1], estimate)
+    argv = ["evaluate", *map(str, paths), "--ref", str(gt)]
+    for suffix, magic in ((".svg", b"<?xml"), (".pdf", b"%PDF"), (".png", b"\x89PNG")):
+        plot = tmp_path / f"plot{suffix}"
+        assert main([*argv, "--plot", str(plot)]) == 0
+        assert f"-> {plot}" in capsys.readouterr().out
+        assert plot.read_bytes().startswith(magic), suffix
+    svg = " ".join(_svg_texts(tmp_path / "plot.svg"))
+    for text in ("reference", str(paths[0]), str(paths[1]), "translation error [m]", "x [m]"):
+        assert text in svg, text
+    # the same files, twice: the same figure (no date in an SVG)
+    again = tmp_path / "again.svg"
+    assert main([*argv, "--plot", str(again)]) == 0
+    assert again.read_bytes() == (tmp_path / "plot.svg").read_bytes()
+
+
+def test_plot_of_a_run_dir_is_its_estimate_against_its_ground_truth(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    from room_log import write_room_log
+
+    log = write_room_log(tmp_path / "room.log", frames=30)
+    run = tmp_path / "run"
+    assert main(["run", str(log), "--estimator", "deadreckoning", "--out", str(run)]) == 0
+    plot = tmp_path / "run.svg"
+    assert main(["evaluate", str(run), "--plot", str(plot)]) == 0
+    assert f"and {plot}" in capsys.readouterr().out
+    svg = " ".join(_svg_texts(plot))
+    assert "deadreckoning" in svg and "reference" in svg and "aligned se2" in svg
+    assert (run / "metrics.json").is_file()

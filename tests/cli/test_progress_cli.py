@@ -110,6 +110,26 @@ def test_compare_shows_the_frames_the_workers_step(tmp_path):
     assert re.search(rf"2/2 cells, {n}/{n} frame \(100%\).*done in", lines[-1]), lines[-1]
 
 
+@pytest.mark.parametrize("workers", ["0", "2"])
+def test_compare_prints_each_warning_once_after_its_progress(tmp_path, workers):
+    data = write_small_mrclam(tmp_path / "MRCLAM_Small")
+    measurements = data / "Robot1_Measurement.dat"
+    measurements.write_text(measurements.read_text() + "30.0 99 1.0 0.1\n")  # no such barcode
+    grid = tmp_path / "grid.yaml"
+    grid.write_text(f"datasets: [{data.name}]\nestimators: [deadreckoning, ekfslam]\n")
+    grid.write_text(grid.read_text() + "seeds: [0, 1]\n")
+    out = tmp_path / "results"
+    result = _omnislam("compare", str(grid), "--out", str(out), "--workers", workers)
+    lines = result.stderr.splitlines()
+    # the dataset is loaded by the grid's check and by each of its 4 cells: one line
+    warned = [i for i, x in enumerate(lines) if "sightings with unknown barcodes dropped" in x]
+    assert len(warned) == 1, result.stderr
+    assert lines[warned[0]].startswith("WARNING omnislam.datasets.mrclam: ")
+    progress = [i for i, x in enumerate(lines) if x.startswith("compare (")]
+    assert progress and max(progress) < warned[0], result.stderr  # after the progress lines
+    assert "4 computed" in result.stdout
+
+
 def test_report_ends_with_every_dataset_done(tmp_path):
     """The report's last progress line counts every dataset (its exports come after the
     figures and once printed "0/1 dataset ... done")."""

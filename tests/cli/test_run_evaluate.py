@@ -142,3 +142,49 @@ def test_dataset_list_shows_where_it_looked(tmp_path, monkeypatch, capsys):
     assert main(["dataset", "list", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert {"name", "source", "sensors", "ground_truth", "found", "location"} <= set(rows[0])
+
+
+def test_provenance_credits_the_published_dataset_only_when_it_was_named(
+    tmp_path, monkeypatch, capsys, shared_data
+):
+    from small_mrclam import write_small_mrclam
+
+    monkeypatch.setenv("OMNISLAM_DATA", str(shared_data))
+    monkeypatch.chdir(tmp_path)
+    write_small_mrclam(tmp_path / "MRCLAM_Mine")
+    for dataset, run in (("MRCLAM_Mine", "mine"), ("mrclam6-r1", "published")):
+        assert main(["run", dataset, "--estimator", "deadreckoning", "--out", run]) == 0
+    mine = yaml.safe_load((tmp_path / "mine" / "config.yaml").read_text())
+    assert mine["source"] == "a folder in MR.CLAM format at MRCLAM_Mine"
+    published = yaml.safe_load((tmp_path / "published" / "config.yaml").read_text())
+    assert "UTIAS" in published["source"] and "Leung" in published["source"]
+    assert mine["seed"] == published["seed"] == 0  # the default seed, recorded
+
+    for run in ("mine", "published"):
+        argv = ["report", run, "--out", f"report-{run}", "--no-exports", "--no-figures"]
+        assert main(argv) == 0
+    capsys.readouterr()
+    own = (tmp_path / "report-mine" / "report.md").read_text()
+    assert "a folder in MR.CLAM format at MRCLAM_Mine" in own and "UTIAS" not in own
+    cited = (tmp_path / "report-published" / "report.md").read_text()
+    assert "mrclam6-r1: UTIAS MR.CLAM: Leung" in cited
+
+
+def test_run_renders_a_synthetic_preset_on_demand_into_the_cache(tmp_path, capsys):
+    pytest.importorskip("cv2")
+    from omnislam.harness.cache import cache_dir
+    from omnislam.harness.renders import render_spec
+
+    argv = ["run", "thesis-route1", "--estimator", "deadreckoning", "--seed", "3"]
+    assert main([*argv, "--out", str(tmp_path / "a")]) == 0
+    config = yaml.safe_load((tmp_path / "a" / "config.yaml").read_text())
+    render = render_spec("thesis-route1", 3).path()
+    assert render.is_dir() and cache_dir() in render.parents
+    assert config["dataset"] == str(render.absolute()) and config["seed"] == 3
+    assert config["source"].startswith("synthetic preset thesis-route1 (seed 3)")
+    assert "rendered thesis-route1 (seed 3)" in capsys.readouterr().err
+    before = render.stat().st_mtime_ns
+    assert main([*argv, "--out", str(tmp_path / "b")]) == 0  # the second run reuses the render
+    assert "rendered" not in capsys.readouterr().err and render.stat().st_mtime_ns == before
+    first, second = ((tmp_path / r / "trajectory.tum").read_bytes() for r in "ab")
+    assert first == second
