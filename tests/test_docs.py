@@ -143,7 +143,11 @@ def shown_commands(markdown: str) -> list[str]:
     for block in FENCED.finditer(markdown):
         if block["lang"] in SHELL:
             lines.extend(block["body"].replace("\\\n", " ").splitlines())
-    lines.extend(m["code"] for m in INLINE.finditer(FENCED.sub("", markdown)))
+    # inline code is a command only when it starts as one (`a valid omnislam folder` is output)
+    lines.extend(
+        m["code"] for m in INLINE.finditer(FENCED.sub("", markdown))
+        if re.match(r"(\S*/)?omnislam\s|python -m omnislam\s", m["code"])
+    )
     commands = []
     for line in lines:
         for part in re.split(r"&&|\|\||;|\|", line):
@@ -170,6 +174,8 @@ def command_problems(command: str, parser: argparse.ArgumentParser) -> list[str]
             flag = token.split("=")[0]
             if flag not in parser._option_string_actions:
                 problems.append(f"{flag} (in 'omnislam {command}')")
+        elif sub and token.isupper():
+            break  # a placeholder (`omnislam COMMAND --help`) stands for any command
         elif sub and token in sub:
             parser = sub[token]
         elif sub:

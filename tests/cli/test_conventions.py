@@ -137,8 +137,8 @@ def test_compare_template_is_a_commented_grid_with_every_key(capsys, tmp_path):
         "{dataset: b.log, label: b}",
     )
     grid = parse_grid(runnable, tmp_path / "grid.yaml")
-    # 2 datasets x (3 estimators + fs1 once per override) x 3 seeds
-    assert len(grid.cells) == 2 * (3 + 2) * 3
+    # 2 datasets x (3 deterministic estimators once + fs1 once per override and seed)
+    assert len(grid.cells) == 2 * (3 + 2 * 3)
     fs1 = {
         c.spec.options["particles.n_particles"] for c in grid.cells if c.estimator_label == "fs1"
     }
