@@ -447,14 +447,26 @@ def _commanded_odometry(odometry: np.ndarray, frame_stamps: np.ndarray, command_
     return odometry_r, odometry_cov
 
 
-def _ranges_bearings(sightings: Sightings, kept: np.ndarray, depth_ranges: bool
+def _ranges_bearings(sightings: Sightings, kept: np.ndarray, depth_ranges: bool, path: Path
                      ) -> tuple[np.ndarray, np.ndarray]:
     """The ranges [m] and bearings [rad] of the ``kept`` sightings, the file's optical-axis
-    depths turned into ranges (``ranges_from_depths``) when ``depth_ranges``."""
+    depths turned into ranges (``ranges_from_depths``) when ``depth_ranges``.
+
+    Raises:
+        DataError: a depth below ``DEPTH_BIAS_M`` (naming ``path``, the measurement file).
+    """
     bearings = sightings.bearings_rad[kept]
     ranges = sightings.ranges_m[kept]
     if depth_ranges:
         ranges = ranges_from_depths(ranges, bearings)
+        if np.any(ranges < 0):
+            k = int(np.argmax(ranges < 0))
+            raise DataError(
+                f"time {float(sightings.stamps_s[kept][k])!r}: depth "
+                f"{float(sightings.ranges_m[kept][k]):g} m is below the depth bias "
+                f"{DEPTH_BIAS_M:g} m (no range; depth_ranges=false keeps the column as it is)",
+                path,
+            )
     return ranges, bearings
 
 
@@ -552,7 +564,7 @@ def load_mrclam(
         frames.stamps_s,
         frames.image_stamps_s,
         sightings.landmark_ids[~early],
-        *_ranges_bearings(sightings, ~early, depth_ranges),
+        *_ranges_bearings(sightings, ~early, depth_ranges, files.measurement_path),
         sigma_range_m,
         sigma_bearing_rad,
         association,

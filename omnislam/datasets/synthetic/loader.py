@@ -143,7 +143,7 @@ class SyntheticFolder:
         world_path = self.path / "world.json"
         try:
             text = world_path.read_text()
-        except OSError as exc:
+        except (OSError, UnicodeDecodeError) as exc:
             raise DataError(f"cannot read world: {exc}", world_path) from exc
         self.world = World.from_json(text, world_path)
         self.quads = self.world.arrays()
