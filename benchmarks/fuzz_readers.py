@@ -7,8 +7,8 @@ ConfigError naming the input, within the time limit) with the mutation that caus
 
     python benchmarks/fuzz_readers.py --examples 10000 [--seed 0] [--no-images]
 
-Exit status 1 when any violation was found. About 35 ms per example on the shared machine
-(10 000: ~6 min), plus ~20 s to build the inputs.
+Exit status 1 when any violation was found. 9-50 ms per example on the shared machine
+(10 000: 1.5-9 min, idle or busy), plus ~20 s to build the inputs.
 """
 
 from __future__ import annotations
