@@ -124,11 +124,22 @@ def check_overwrite(
     return True
 
 
-def output_error(exc: OSError, path: str | Path, what: str = "output") -> ConfigError:
-    """The one-line ConfigError of an OSError met while writing ``path``."""
+def output_error(
+    exc: OSError, path: str | Path, what: str = "output", *, atomic: bool = False
+) -> ConfigError:
+    """The one-line ConfigError of an OSError met while writing ``path``.
+
+    Args:
+        exc: the error.
+        path: the output being written.
+        what: what the output is, for the message.
+        atomic: the output is written aside and renamed into place, so an earlier ``path`` is
+            untouched; the message then says so when there is one (a full disk, a quota).
+    """
     reason = exc.strerror or str(exc)
     where = f" ({exc.filename})" if exc.filename and str(exc.filename) != str(path) else ""
-    return ConfigError(f"{path}: cannot write the {what}: {reason}{where}")
+    kept = f"; the previous {what} is left as it was" if atomic and Path(path).exists() else ""
+    return ConfigError(f"{path}: cannot write the {what}: {reason}{where}{kept}")
 
 
 def yaml_error_line(exc: Exception) -> str:
@@ -192,3 +203,23 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def atomic_write_texts(texts: dict[Path, str]) -> None:
+    """Write several files together: each to a temporary file next to it, then, once all are
+    written, rename each into place (a write that fails leaves every earlier file as it was)."""
+    staged: list[tuple[Path, Path]] = []
+    try:
+        for path, text in texts.items():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+            staged.append((Path(tmp), path))
+            with os.fdopen(fd, "w") as handle:
+                handle.write(text)
+            make_public(tmp)
+        for tmp, path in staged:
+            os.replace(tmp, path)
+    finally:
+        for tmp, _ in staged:
+            tmp.unlink(missing_ok=True)
+

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import math
 import types
 import typing
 from collections.abc import Mapping
@@ -48,7 +49,10 @@ def _convert(key: str, text: str, hint: Any) -> Any:
         if hint is int:
             return int(text)
         if hint is float:
-            return float(text)
+            value = float(text)
+            if math.isnan(value):  # no option means "not a number"; infinity may mean "off"
+                raise ValueError("NaN is not a value")
+            return value
         if hint is str:
             return text
         if isinstance(hint, type) and issubclass(hint, enum.Enum):
@@ -118,7 +122,8 @@ def apply_options(config: C, options: Mapping[str, str], *, prefix: str = "") ->
     try:
         return dataclasses.replace(config, **direct)
     except (ValueError, TypeError) as exc:
-        raise ConfigError(f"invalid options {', '.join(options)}: {exc}") from exc
+        keys = ", ".join(prefix + key for key in options)
+        raise ConfigError(f"invalid options {keys}: {exc}") from exc
 
 
 def _check_key(config: Any, key: str) -> None:

@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
         overrides = read_yaml(args.config)
         if overrides is not None and not isinstance(overrides, dict):
             raise ConfigError(f"{args.config}: the configuration must be a mapping")
-    config = frontend_config_from_dict(overrides)
+    config = frontend_config_from_dict(overrides, args.config)
     if args.frames is not None and args.frames < 1:
         raise ConfigError("--frames must be >= 1")
     out = Path(args.out)

@@ -60,10 +60,13 @@ class MotionNoise:
     reference_step_m: float | None = None
 
     def __post_init__(self) -> None:
-        if min(self.a_vv, self.a_vw, self.a_wv, self.a_ww) < 0 or min(self.min_sigma) < 0:
-            raise ValueError("motion noise coefficients must be non-negative")
-        if self.reference_step_m is not None and not self.reference_step_m > 0:
-            raise ValueError("reference_step_m must be None or positive")
+        coefficients = (self.a_vv, self.a_vw, self.a_wv, self.a_ww, *self.min_sigma)
+        if not all(0.0 <= c < math.inf for c in coefficients):  # False for NaN
+            raise ValueError(
+                f"motion noise coefficients must be finite and non-negative, got {coefficients}"
+            )
+        if self.reference_step_m is not None and not 0.0 < self.reference_step_m < math.inf:
+            raise ValueError("reference_step_m must be None or positive and finite")
 
 
 @runtime_checkable

@@ -199,6 +199,10 @@ def check_range(
         )
 
 
+#: largest id a text column may hold: every integer up to it is exact in a float and in int64
+MAX_INTEGER = 2.0**53
+
+
 def check_integers(table: Table, column: int, name: str) -> None:
     """Raise DataError at the first row whose ``column`` is not a whole number (an id column).
 
@@ -208,11 +212,13 @@ def check_integers(table: Table, column: int, name: str) -> None:
         name: the column's name (for the message).
     """
     values = table.values[:, column]
-    bad = values != np.round(values)
+    bad = (values != np.round(values)) | ~(np.abs(values) <= MAX_INTEGER)
     if np.any(bad):
         row = int(np.argmax(bad))
         raise DataError(
-            f"{table.where(row)}: {name} {float(values[row])!r} is not an integer", table.path
+            f"{table.where(row)}: {name} {float(values[row])!r} is not an integer "
+            f"(of at most {MAX_INTEGER:.0f} in magnitude)",
+            table.path,
         )
 
 

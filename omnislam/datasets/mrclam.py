@@ -317,14 +317,22 @@ def ranges_from_depths(depths_m: np.ndarray, bearings_rad: np.ndarray) -> np.nda
     return (np.asarray(depths_m) - DEPTH_BIAS_M) / np.cos(np.asarray(bearings_rad))
 
 
+#: the files an MR.CLAM folder shares between its robots
+SHARED_FILES = ("Barcodes.dat", "Landmark_Groundtruth.dat")
+#: the files of one robot of an MR.CLAM folder (``Robot1_Odometry.dat``, ...)
+ROBOT_FILE_KINDS = ("Odometry", "Measurement", "Groundtruth")
+
+
 def is_mrclam_folder(path: Path) -> bool:
-    """True when ``path`` is a folder with ``Barcodes.dat`` and ``Robot*_Odometry.dat`` files."""
+    """True when ``path`` is a folder holding any file of an MR.CLAM dataset (``SHARED_FILES``,
+    ``RobotN_{Odometry,Measurement,Groundtruth}.dat``): a folder that lacks one of them is
+    recognised and ``load_mrclam`` names the file missing."""
     path = Path(path)
-    return (
-        path.is_dir()
-        and (path / "Barcodes.dat").is_file()
-        and any(path.glob("Robot*_Odometry.dat"))
-    )
+    if not path.is_dir():
+        return False
+    if any((path / name).is_file() for name in SHARED_FILES):
+        return True
+    return any(any(path.glob(f"Robot*_{kind}.dat")) for kind in ROBOT_FILE_KINDS)
 
 
 @dataclass(frozen=True, slots=True)
@@ -360,9 +368,16 @@ def _read_robot_files(folder: Path, robot: int) -> _RobotFiles:
     if not folder.is_dir():
         raise DataError("not a folder (expected an MR.CLAM dataset folder)", folder)
     files = {kind: folder / f"Robot{robot}_{kind}.dat" for kind in ("Odometry", "Measurement")}
-    if not files["Odometry"].is_file():
-        robots = sorted(p.name.split("_")[0] for p in folder.glob("Robot*_Odometry.dat"))
+    robots = sorted(p.name.split("_")[0] for p in folder.glob("Robot*_Odometry.dat"))
+    if not files["Odometry"].is_file() and robots:
         raise ConfigError(f"{folder}: no files for robot={robot} (found: {', '.join(robots)})")
+    for path in (folder / SHARED_FILES[0], folder / SHARED_FILES[1], *files.values()):
+        if not path.is_file():
+            raise DataError(
+                f"file missing (an MR.CLAM folder holds {', '.join(SHARED_FILES)} and, per "
+                "robot N, RobotN_Odometry.dat, RobotN_Measurement.dat, RobotN_Groundtruth.dat)",
+                path,
+            )
     barcodes = read_barcodes(folder / "Barcodes.dat")
     landmark_ids, landmarks_xy = read_landmark_groundtruth(folder / "Landmark_Groundtruth.dat")
     odometry_table = read_robot_odometry_table(files["Odometry"])
@@ -432,14 +447,26 @@ def _commanded_odometry(odometry: np.ndarray, frame_stamps: np.ndarray, command_
     return odometry_r, odometry_cov
 
 
-def _ranges_bearings(sightings: Sightings, kept: np.ndarray, depth_ranges: bool
+def _ranges_bearings(sightings: Sightings, kept: np.ndarray, depth_ranges: bool, path: Path
                      ) -> tuple[np.ndarray, np.ndarray]:
     """The ranges [m] and bearings [rad] of the ``kept`` sightings, the file's optical-axis
-    depths turned into ranges (``ranges_from_depths``) when ``depth_ranges``."""
+    depths turned into ranges (``ranges_from_depths``) when ``depth_ranges``.
+
+    Raises:
+        DataError: a depth below ``DEPTH_BIAS_M`` (naming ``path``, the measurement file).
+    """
     bearings = sightings.bearings_rad[kept]
     ranges = sightings.ranges_m[kept]
     if depth_ranges:
         ranges = ranges_from_depths(ranges, bearings)
+        if np.any(ranges < 0):
+            k = int(np.argmax(ranges < 0))
+            raise DataError(
+                f"time {float(sightings.stamps_s[kept][k])!r}: depth "
+                f"{float(sightings.ranges_m[kept][k]):g} m is below the depth bias "
+                f"{DEPTH_BIAS_M:g} m (no range; depth_ranges=false keeps the column as it is)",
+                path,
+            )
     return ranges, bearings
 
 
@@ -538,7 +565,7 @@ def load_mrclam(
         frames.stamps_s,
         frames.image_stamps_s,
         sightings.landmark_ids[~early],
-        *_ranges_bearings(sightings, ~early, depth_ranges),
+        *_ranges_bearings(sightings, ~early, depth_ranges, files.measurement_path),
         sigma_range_m,
         sigma_bearing_rad,
         association,

@@ -23,6 +23,10 @@ from omnislam.errors import DataError
 
 #: digits written for stamps and values (round trips exactly at double precision)
 _FORMAT = "%.17g"
+#: largest position coordinate read [m]: beyond any place on Earth in UTM or ECEF coordinates
+#: (within 1e7 m) by a factor of ten; a corrupt 1e306 is not a position (its squares overflow
+#: in the alignment's SVD)
+MAX_COORDINATE_M = 1.0e8
 
 
 def _numeric_rows(path: Path, columns: int) -> Iterator[tuple[str, np.ndarray]]:
@@ -59,12 +63,19 @@ def _numeric_rows(path: Path, columns: int) -> Iterator[tuple[str, np.ndarray]]:
         yield where, values
 
 
+def _check_position(where: str, xyz: np.ndarray, path: Path) -> None:
+    """Raise DataError when a coordinate of ``xyz`` (3,) is beyond ``MAX_COORDINATE_M``."""
+    if not np.all(np.abs(xyz) <= MAX_COORDINATE_M):
+        raise DataError(f"{where}: position {xyz.tolist()} is beyond {MAX_COORDINATE_M:g} m", path)
+
+
 def read_tum(path: str | Path) -> Trajectory:
     """Read a TUM trajectory file.
 
     Raises:
-        DataError: unreadable file, wrong column count, non-numeric value, a quaternion far
-            from unit norm, or stamps that are not strictly increasing (file and line named).
+        DataError: unreadable file, wrong column count, non-numeric value, a position beyond
+            ``MAX_COORDINATE_M``, a quaternion far from unit norm, or stamps that are not
+            strictly increasing (file and line named).
     """
     path = Path(path)
     stamps, xyz, quats = [], [], []
@@ -79,6 +90,7 @@ def read_tum(path: str | Path) -> Trajectory:
                 f"({float(stamps[-1])!r})",
                 path,
             )
+        _check_position(where, values[1:4], path)
         stamps.append(values[0])
         xyz.append(values[1:4])
         quats.append(np.r_[q_xyzw[3], q_xyzw[:3]] / norm)
@@ -109,6 +121,7 @@ def read_kitti(path: str | Path, stamps_s: np.ndarray | None = None) -> Trajecto
     for where, values in _numeric_rows(path, 12):
         pose = np.eye(4)
         pose[:3, :4] = values.reshape(3, 4)
+        _check_position(where, pose[:3, 3], path)
         R = pose[:3, :3]
         if not np.allclose(R @ R.T, np.eye(3), atol=1e-5) or np.linalg.det(R) < 0:
             raise DataError(f"{where}: rotation block is not a rotation", path)

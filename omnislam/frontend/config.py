@@ -14,6 +14,7 @@ import hashlib
 import json
 import typing
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from omnislam.errors import ConfigError
@@ -573,6 +574,15 @@ def config_hash(config: FrontendConfig) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+#: the Python types a YAML value may have for a field of each scalar type
+_SCALARS: dict[type, tuple[type, ...]] = {bool: (bool,), int: (int,), float: (int, float)}
+
+
+def _is_a(value: object, hint: type) -> bool:
+    """True when a YAML ``value`` fits a field of scalar type ``hint`` (a bool is no number)."""
+    return isinstance(value, _SCALARS[hint]) and (hint is bool or not isinstance(value, bool))
+
+
 def _build(cls: type, doc: object, where: str) -> object:
     """Instantiate config dataclass ``cls`` from a mapping, converting nested records/enums."""
     if not isinstance(doc, dict):
@@ -593,22 +603,43 @@ def _build(cls: type, doc: object, where: str) -> object:
             except ValueError as exc:
                 options = ", ".join(m.value for m in hint)
                 raise ConfigError(f"{where}.{key}: {value!r} is not one of {options}") from exc
-        elif hint is float and isinstance(value, int) and not isinstance(value, bool):
+        elif hint in _SCALARS and not _is_a(value, hint):
+            raise ConfigError(f"{where}.{key}: expected {hint.__name__}, got {value!r}")
+        elif hint is float:
             kwargs[key] = float(value)
         else:
             kwargs[key] = value
     return cls(**kwargs)
 
 
-def frontend_config_from_dict(doc: dict[str, Any] | None) -> FrontendConfig:
+def frontend_config_from_dict(
+    doc: dict[str, Any] | None, source: str | Path | None = None
+) -> FrontendConfig:
     """Merge overrides onto the defaults.
 
     ``sift`` may also be a preset name (``"lowe"``, ``"omni-thesis"``) or a mapping with a
     ``preset`` key plus overrides.
 
+    Args:
+        doc: the overrides, by section (``{"laser": {"min_points": 5}}``); None: the defaults.
+        source: the file the overrides were read from; every error message starts with it.
+
     Raises:
-        ConfigError: unknown keys, bad enum values or out-of-range values.
+        ConfigError: unknown keys, bad enum values, values of the wrong type or out of range.
     """
+    try:
+        return _merge_overrides(doc)
+    except ConfigError as exc:
+        if source is None:
+            raise
+        raise ConfigError(f"{source}: {exc}") from None
+    except (TypeError, ValueError) as exc:  # a value of the wrong type met a range check
+        where = f"{source}: " if source is not None else ""
+        raise ConfigError(f"{where}a value of the wrong type ({exc})") from None
+
+
+def _merge_overrides(doc: dict[str, Any] | None) -> FrontendConfig:
+    """``frontend_config_from_dict`` without the file's name in its errors."""
     doc = dict(doc or {})
     sift = doc.pop("sift", None)
     base = FrontendConfig()

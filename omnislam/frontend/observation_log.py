@@ -280,6 +280,9 @@ def load_observation_log(
             arrays = {key: data[key] for key in data.files if key != "meta"}
         except NPZ_ERRORS as exc:
             raise DataError(f"malformed observation log ({npz_reason(exc)})", path) from None
+    not_arrays = sorted(key for key, value in arrays.items() if not isinstance(value, np.ndarray))
+    if not_arrays:  # a member whose name lost its .npy: numpy hands its raw bytes
+        raise DataError(f"malformed observation log (member {not_arrays[0]!r} is no array)", path)
     _check_arrays(arrays, path)
     frames, pixels = _frames_from_arrays(arrays, path)
     return ObservationLog(

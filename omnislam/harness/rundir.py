@@ -350,7 +350,7 @@ def write_run_dir(path: Path, record: RunRecord) -> None:
             os.replace(staging, path)
     except OSError as exc:
         shutil.rmtree(staging, ignore_errors=True)
-        raise output_error(exc, path, "RUN_DIR") from None
+        raise output_error(exc, path, "RUN_DIR", atomic=True) from None
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise

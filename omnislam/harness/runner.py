@@ -55,7 +55,12 @@ from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from omnislam._files import atomic_write_text, check_output_location, output_error
+from omnislam._files import (
+    atomic_write_text,
+    atomic_write_texts,
+    check_output_location,
+    output_error,
+)
 from omnislam._progress import say
 from omnislam.errors import ConfigError, DataError, OmnislamError
 from omnislam.frontend.timing import cpu_with_children_s
@@ -351,10 +356,21 @@ def _row(outcome: CellOutcome) -> dict[str, object]:
 
 
 def write_summary(result: GridResult) -> None:
-    """Write ``results.json`` and ``results.csv`` atomically (cells finished so far)."""
+    """Write ``results.json`` and ``results.csv`` atomically (cells finished so far).
+
+    Raises:
+        ConfigError: a file that cannot be written (a full disk): the previous summary stays.
+    """
+    try:
+        _write_summary(result)
+    except OSError as exc:
+        raise output_error(exc, result.out_dir, "results summary", atomic=True) from None
+
+
+def _write_summary(result: GridResult) -> None:
+    """``write_summary`` without the translation of its errors (both files or neither)."""
     rows = [_row(o) for o in result.outcomes]
     summary = {"grid": result.grid.name, "cells": rows}
-    atomic_write_text(result.out_dir / RESULTS_JSON, json.dumps(summary, indent=2) + "\n")
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow([*CSV_LABELS, *(spec.key for spec in CSV_FIELDS)])
@@ -362,7 +378,10 @@ def write_summary(result: GridResult) -> None:
         metrics = outcome.metrics
         values = [None if metrics is None else spec.json_value(metrics) for spec in CSV_FIELDS]
         writer.writerow([row[k] for k in CSV_LABELS] + ["" if v is None else v for v in values])
-    atomic_write_text(result.out_dir / RESULTS_CSV, buffer.getvalue())
+    atomic_write_texts({
+        result.out_dir / RESULTS_JSON: json.dumps(summary, indent=2) + "\n",
+        result.out_dir / RESULTS_CSV: buffer.getvalue(),
+    })
 
 
 @dataclass(frozen=True, slots=True)

@@ -128,7 +128,7 @@ def write_report(
             os.replace(staging, out_dir)
     except OSError as exc:
         shutil.rmtree(staging, ignore_errors=True)
-        raise output_error(exc, out_dir, "report") from None
+        raise output_error(exc, out_dir, "report", atomic=True) from None
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise

@@ -274,6 +274,28 @@ def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "robot=4"), "robot=4"
 
 
+def _mrclam_missing_case(file: str) -> None:
+    """An MR.CLAM folder without ``file``: recognised as MR.CLAM, the file named missing."""
+
+    @case(f"mrclam-missing-{file}")
+    def build(tmp: Path, _fx: Fixtures) -> tuple[list[str], str]:
+        folder = mrclam(tmp)
+        (folder / file).unlink()
+        return run_args(folder, tmp), f"{file}: file missing"
+
+
+for _file in ("Barcodes.dat", ODOM, MEAS):
+    _mrclam_missing_case(_file)
+
+
+@case("mrclam-only-a-measurement-file")
+def _(tmp, fx):
+    folder = tmp / "MRCLAM_Part"
+    folder.mkdir()
+    (folder / MEAS).write_text(measurement_text())
+    return run_args(folder, tmp), "Barcodes.dat: file missing"
+
+
 @case("mrclam-robot-not-a-number")
 def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "deadreckoning", "--set", "robot=one"), "robot"
@@ -612,6 +634,14 @@ def _(tmp, fx):
 def _(tmp, fx):
     folder = fx.synthetic(tmp)
     _csv_cell(folder / "groundtruth.tum", 3, 1, "1e308", sep=" ")
+    return run_args(folder, tmp), "groundtruth.tum: line 3: position"
+
+
+@case("synthetic-groundtruth-position-1e5")
+def _(tmp, fx):
+    """Beyond the synthetic worlds' extent, not beyond what a trajectory file may hold."""
+    folder = fx.synthetic(tmp)
+    _csv_cell(folder / "groundtruth.tum", 3, 1, "1e5", sep=" ")
     return run_args(folder, tmp), "groundtruth.tum: stamp"
 
 
@@ -667,6 +697,23 @@ def _meta_case(name: str, edit: Callable[[dict], None], needle: str) -> None:
 
 _meta_case("preset-missing", lambda doc: doc.pop("preset"), "key 'preset' missing")
 _meta_case("frames-wrong", _set("frames", value=7), "'frames' is 7")
+
+
+def _meta_text_case(name: str, text: str, needle: str) -> None:
+    """A synthetic folder whose ``meta.json`` is replaced by ``text``: still recognised as a
+    synthetic folder (it holds a world.json), the metadata named."""
+
+    @case(f"synthetic-meta-{name}")
+    def build(tmp: Path, fx: Fixtures) -> tuple[list[str], str]:
+        folder = fx.synthetic(tmp)
+        (folder / "meta.json").write_text(text)
+        return run_args(folder, tmp), f"meta.json: {needle}"
+
+
+_meta_text_case("not-json", '{"format": "omnislam-synthetic",', "cannot read synthetic metadata")
+_meta_text_case("a-list", "[1, 2]\n", "malformed: expected a JSON object")
+_meta_text_case("without-format", '{"version": 1}\n', "key 'format' missing")
+_meta_text_case("empty", "", "cannot read synthetic metadata")
 
 
 def _gt_map_case(name: str, change: Callable[[Path], None], needle: str) -> None:
@@ -837,6 +884,19 @@ def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "graphslam", "--set", "modality=telepathy"), "telepathy"
 
 
+def _motion_noise_case(name: str, option: str, needle: str) -> None:
+    """``run --set OPTION`` of a motion-noise coefficient that is not a finite number."""
+
+    @case(f"run-motion-noise-{name}")
+    def build(tmp: Path, _fx: Fixtures) -> tuple[list[str], str]:
+        return run_args(mrclam(tmp), tmp, "ekfslam", "--set", option), needle
+
+
+_motion_noise_case("nan", "motion_noise.a_vv=nan", "option motion_noise.a_vv: NaN")
+_motion_noise_case("inf", "motion_noise.a_ww=inf", "motion_noise.a_ww: motion noise")
+_motion_noise_case("floor-nan", "motion_noise.min_sigma=1e-4,nan,1e-4", "motion_noise.min_sigma")
+
+
 @case("run-prior-map-not-a-run-dir")
 def _(tmp, fx):
     return run_args(mrclam(tmp), tmp, "ukf", "--set", f"prior_map={tmp / 'nope'}"), "prior_map"
@@ -955,6 +1015,16 @@ _run_dir_case(
     "trajectory-not-a-number",
     lambda r: (r / "trajectory.tum").write_text("0 x 0 0 0 0 0 1\n"),
     "trajectory.tum",
+)
+_run_dir_case(
+    "trajectory-position-1e306",
+    lambda r: _csv_cell(r / "trajectory.tum", 4, 1, "1e306", sep=" "),
+    "trajectory.tum: line 4: position [1e+306",
+)
+_run_dir_case(
+    "ground-truth-position-1e306",
+    lambda r: _csv_cell(r / "ground_truth.tum", 4, 2, "-1e306", sep=" "),
+    "ground_truth.tum: line 4: position",
 )
 _run_dir_case("timing-fewer-rows", lambda r: _keep_lines(r / "timing.csv", 5), "timing.csv")
 _run_dir_case("timing-bad-header", lambda r: (r / "timing.csv").write_text("a,b\n"), "timing.csv")
@@ -1228,7 +1298,19 @@ def _(tmp, fx):
 @case("frontend-config-unknown-key")
 def _(tmp, fx):
     (tmp / "fe.yaml").write_text("colour: red\n")
-    return frontend_with_config(tmp), "colour"
+    return frontend_with_config(tmp), "fe.yaml: frontend: unknown key(s) colour"
+
+
+@case("frontend-config-unknown-key-in-a-section")
+def _(tmp, fx):
+    (tmp / "fe.yaml").write_text("laser: {colour: red}\n")
+    return frontend_with_config(tmp), "fe.yaml: frontend.laser: unknown key(s) colour"
+
+
+@case("frontend-config-value-of-the-wrong-type")
+def _(tmp, fx):
+    (tmp / "fe.yaml").write_text("matching: {ratio: high}\n")
+    return frontend_with_config(tmp), "fe.yaml: frontend.matching.ratio: expected float"
 
 
 @case("frontend-frames-zero")

@@ -47,12 +47,17 @@ POLE_RANGE_MARGIN_M = 1.0
 
 
 def is_synthetic_folder(path: str | Path) -> bool:
-    """True when ``path`` is a folder written by ``omnislam dataset synth``."""
+    """True when ``path`` is a folder written by ``omnislam dataset synth``: its ``meta.json``
+    names the format, or it holds a ``meta.json`` and a ``world.json`` (the metadata is then
+    malformed, and ``load_synthetic`` says how)."""
     meta = Path(path) / "meta.json"
     try:
-        return json.loads(meta.read_text()).get("format") == FORMAT_NAME
-    except (OSError, ValueError, AttributeError):
-        return False
+        doc = json.loads(meta.read_text())
+    except (OSError, ValueError):
+        doc = None
+    if isinstance(doc, dict) and "format" in doc:
+        return doc["format"] == FORMAT_NAME
+    return meta.is_file() and (Path(path) / "world.json").is_file()
 
 
 def _read_meta(folder: Path) -> dict[str, object]:
@@ -61,7 +66,11 @@ def _read_meta(folder: Path) -> dict[str, object]:
         meta = json.loads(path.read_text())
     except (OSError, ValueError) as exc:
         raise DataError(f"cannot read synthetic metadata: {exc}", path) from exc
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT_NAME:
+    if not isinstance(meta, dict):
+        raise DataError(f"malformed: expected a JSON object, found {type(meta).__name__}", path)
+    if "format" not in meta:
+        raise DataError("key 'format' missing", path)
+    if meta["format"] != FORMAT_NAME:
         raise DataError(f"not an {FORMAT_NAME} folder", path)
     if meta.get("version") != FORMAT_VERSION:
         raise DataError(f"unsupported format version {meta.get('version')!r}", path)
@@ -134,7 +143,7 @@ class SyntheticFolder:
         world_path = self.path / "world.json"
         try:
             text = world_path.read_text()
-        except OSError as exc:
+        except (OSError, UnicodeDecodeError) as exc:
             raise DataError(f"cannot read world: {exc}", world_path) from exc
         self.world = World.from_json(text, world_path)
         self.quads = self.world.arrays()
