@@ -529,9 +529,10 @@ def run_cell(
 
 def read_external_cell(
     spec: RunSpec, external: ExternalResult, reporter: StepReporter | None = None
-) -> tuple[RunRecord, CellTime]:
-    """``harness.external.external_record``: another system's results as a cell; runs on a
-    worker (``reporter`` hears that it is loading)."""
+) -> tuple[RunRecord, CellTime, tuple[LoggedWarning, ...]]:
+    """``harness.external.external_record``: another system's results as a cell, what reading
+    them cost and the warnings it logged, as ``run_cell``; runs on a worker (``reporter``
+    hears that it is loading)."""
     import socket
     import time
 
@@ -540,10 +541,10 @@ def read_external_cell(
     if reporter is not None:
         reporter("loading", 0, 0)
     wall, cpu = time.perf_counter(), time.process_time()
-    record = external_record(spec, external)
-    return record, CellTime(
-        time.perf_counter() - wall, time.process_time() - cpu, socket.gethostname()
-    )
+    with held_warnings() as held:
+        record = external_record(spec, external)
+    cost = CellTime(time.perf_counter() - wall, time.process_time() - cpu, socket.gethostname())
+    return record, cost, distinct(held)
 
 
 def read_cell_time(cell_dir: Path) -> CellTime | None:
