@@ -150,6 +150,8 @@ def suite_table(report: str | Path) -> str:
     header, rows = _read_csv(report / ATE_TABLE)
     if tuple(header[:2]) != LEADING:
         raise SuiteTableError(f"{report / ATE_TABLE}: expected columns {LEADING} first")
+    if "input" not in _read_csv(report / VERDICT_TABLE)[0]:
+        return suite_table_v1(report)  # a report of format 1
     estimators = [h for h in header[2:] if not h.endswith((" min", " max"))]
     verdicts = read_verdicts(report)
     lines = [
@@ -169,6 +171,106 @@ def suite_table(report: str | Path) -> str:
         best = "; ".join(
             (f"{v.input}: " if len(found) > 1 else "") + _verdict_text(v) for v in found
         ) or "–"
+        lines.append(
+            f"| {row['dataset']} | {row['ground truth']} | " + " | ".join(cells) + f" | {best} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------------------------
+# Reports of format 1: verdict.csv with one row per dataset (no ``input`` column), ate-rmse.csv
+# with the mean and standard deviation over seeds. A committed table of that format stays
+# checkable until ``make suite`` writes the report anew.
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class VerdictV1:
+    """One row of a format-1 verdict.csv (one row per dataset), as far as the table shows it."""
+
+    best: str
+    runner_up: str
+    margin_percent: float | None
+    within_spread: str
+    best_median: float | None = None
+    baseline_median: float | None = None
+
+    @property
+    def behind_baseline(self) -> bool:
+        """Dead reckoning's median is below the best estimator's: no estimator beats it."""
+        return (
+            self.best_median is not None
+            and self.baseline_median is not None
+            and self.best_median > self.baseline_median
+        )
+
+
+def _format_v1(mean: str, std: str) -> str:
+    """``0.113``, ``0.532 ± 0.095``; the report's own text (``– (failed)``) when no number."""
+    value = _number(mean)
+    if value is None:
+        return mean.strip() or "–"
+    spread = _number(std)
+    return f"{value:.3g}" if spread is None else f"{value:.3g} ± {spread:.2g}"
+
+
+def read_verdicts_v1(report: Path) -> dict[str, VerdictV1]:
+    """Dataset label -> its verdict (datasets without a ranked estimator are absent)."""
+    _, rows = _read_csv(report / VERDICT_TABLE)
+    out = {}
+    for row in rows:
+        try:
+            if row["best"]:
+                out[row["dataset"]] = VerdictV1(
+                    row["best"],
+                    row["runner-up"],
+                    _number(row["margin [%]"]),
+                    row["within seed spread"],
+                    _number(row["best median [m]"]),
+                    _number(row["dead reckoning median [m]"]),
+                )
+        except KeyError as exc:
+            raise SuiteTableError(f"{report / VERDICT_TABLE}: no column {exc}") from None
+    return out
+
+
+def suite_table_v1(report: Path) -> str:
+    """The table of a report of format 1, as that format's script wrote it (mean ± std per
+    cell, one verdict per dataset)."""
+    header, rows = _read_csv(report / ATE_TABLE)
+    if tuple(header[:2]) != LEADING:
+        raise SuiteTableError(f"{report / ATE_TABLE}: expected columns {LEADING} first")
+    estimators = [h for h in header[2:] if not h.endswith(" std")]
+    verdicts = read_verdicts_v1(report)
+    lines = [
+        "| dataset | ground truth | "
+        + " | ".join(estimators)
+        + " | best: median over seeds (margin over next) |",
+        "|---|---|" + "---|" * len(estimators) + "---|",
+    ]
+    for row in rows:
+        verdict = verdicts.get(row["dataset"])
+        cells = []
+        for name in estimators:
+            text = _format_v1(row.get(name, ""), row.get(f"{name} std", ""))
+            cells.append(f"**{text}**" if verdict is not None and verdict.best == name else text)
+        if verdict is None:
+            best = "–"
+        else:
+            best = verdict.best
+            if verdict.best_median is not None:
+                best += f" {verdict.best_median:.3g}"
+            if not verdict.runner_up:  # the only estimator besides dead reckoning
+                best += " (only one ranked"
+            else:
+                margin = (
+                    f"{verdict.margin_percent:.0f} %" if verdict.margin_percent is not None else "?"
+                )
+                best += f" ({margin} over {verdict.runner_up}"
+                best += "; within seed spread" if verdict.within_spread == "yes" else ""
+            if verdict.behind_baseline:
+                best += f"; dead reckoning's {verdict.baseline_median:.3g} is lower"
+            best += ")"
         lines.append(
             f"| {row['dataset']} | {row['ground truth']} | " + " | ".join(cells) + f" | {best} |"
         )

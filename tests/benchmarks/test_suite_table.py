@@ -104,3 +104,12 @@ def test_check_fails_on_a_stale_table_and_bad_input_exits_2(small_report, tmp_pa
     )
     assert suite_table.main(["--report", str(tmp_path / "none"), "--readme", str(readme)]) == 2
     assert "ate-rmse.csv: cannot read" in capsys.readouterr().err
+
+
+def test_the_committed_tables_are_the_committed_suite_reports():
+    """The README's and the suite page's tables are what the committed report gives, whichever
+    format it was written in (a report of format 1 has one verdict row per dataset)."""
+    report = REPO / "reports" / "suite"
+    for page in ("README.md", "docs/results/index.md"):
+        args = ["--report", str(report), "--readme", str(REPO / page), "--check"]
+        assert suite_table.main(args) == 0, page
