@@ -91,6 +91,8 @@ class Row:
     landmarks_far: int
     revisits: int
     first_chance_m: float
+    chance_error_m: float
+    chance_spread_m: float
     closed_m: float
     closed_frame: int
     revisits_reassociated: float
@@ -203,7 +205,6 @@ def measure_run(outcome: CellOutcome, record: RunRecord, truth: RouteTruth) -> R
     wTr = estimate.trajectory.se2
     anchored = ate(estimate.trajectory, gt.trajectory, Alignment.ORIGIN).gtTest
     aligned = ate(estimate.trajectory, gt.trajectory, Alignment.SE2).gtTest
-    end_w = anchored[:2, :2] @ wTr[-1, :2] + anchored[:2, 3]
     sighted = np.isin(gt.landmark_ids, truth.sightings.poles)
     map_w = estimate.landmarks_w[:, :2] @ aligned[:2, :2].T + aligned[:2, 3]
     duplicates = tm.pole_duplicates(map_w, gt.landmarks_w[sighted, :2])
@@ -215,7 +216,7 @@ def measure_run(outcome: CellOutcome, record: RunRecord, truth: RouteTruth) -> R
         config=cell.estimator_label,
         seed=int(cell.spec.seed),
         ate_m=_number(metrics.ate.rmse_m),
-        end_error_m=float(np.linalg.norm(end_w - gt.trajectory.se2[-1, :2])),
+        end_error_m=_pose_error(wTr, anchored, gt.trajectory.se2, len(wTr) - 1),
         landmark_rmse_m=_number(metrics.landmarks.rmse_m),
         landmarks=len(estimate.landmark_ids),
         poles_sighted=int(sighted.sum()),
@@ -224,6 +225,8 @@ def measure_run(outcome: CellOutcome, record: RunRecord, truth: RouteTruth) -> R
         landmarks_far=duplicates.far,
         revisits=len(truth.found),
         first_chance_m=_number(closure.first_chance_m),
+        chance_error_m=_pose_error(wTr, anchored, gt.trajectory.se2, closure.first_chance_frame),
+        chance_spread_m=_spread_m(estimate.pose_covariances, closure.first_chance_frame),
         closed_m=_number(closure.closed_m),
         closed_frame=-1 if closure.closed_frame is None else closure.closed_frame,
         revisits_reassociated=closure.closed_share,
@@ -231,6 +234,20 @@ def measure_run(outcome: CellOutcome, record: RunRecord, truth: RouteTruth) -> R
         after_blind_reassociated=closure.after_blind_share,
         cpu_s=math.nan if outcome.time is None else outcome.time.cpu_s,
     )
+
+
+def _pose_error(wTr: np.ndarray, gtTest: np.ndarray, truth: np.ndarray, k: int | None) -> float:
+    """Position error of frame k's pose, the estimate moved by ``gtTest`` [m] (NaN: no k)."""
+    if k is None:
+        return math.nan
+    return float(np.linalg.norm(gtTest[:2, :2] @ wTr[k, :2] + gtTest[:2, 3] - truth[k, :2]))
+
+
+def _spread_m(covariances: np.ndarray | None, k: int | None) -> float:
+    """The estimate's position std at frame k, sqrt(var x + var y) [m] (NaN: none stated)."""
+    if covariances is None or k is None:
+        return math.nan
+    return float(math.sqrt(max(covariances[k, 0, 0] + covariances[k, 1, 1], 0.0)))
 
 
 def _number(value: float | None) -> float:
@@ -250,6 +267,8 @@ def _write_csv(path: Path, rows: list[Row]) -> None:
 COLUMNS = (
     ("ATE [m]", "ate_m", "{:.2f}"),
     ("end error [m]", "end_error_m", "{:.2f}"),
+    ("error at the first revisit [m]", "chance_error_m", "{:.2f}"),
+    ("its std [m]", "chance_spread_m", "{:.2f}"),
     ("landmark RMSE [m]", "landmark_rmse_m", "{:.2f}"),
     ("landmarks / pole", "landmarks_per_pole", "{:.2f}"),
     ("poles mapped twice", "poles_mapped_twice", "{:.0f}"),

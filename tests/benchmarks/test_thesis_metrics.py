@@ -5,6 +5,7 @@ estimate that agrees with the truth re-associates it there, one that drifts does
 from __future__ import annotations
 
 import importlib.util
+import itertools
 import math
 import sys
 from pathlib import Path
@@ -34,7 +35,7 @@ def _square_loop() -> np.ndarray:
     """(N, 3) poses round the square counter-clockwise from the origin, back to it."""
     corners = np.array([[0, 0], [SIDE_M, 0], [SIDE_M, SIDE_M], [0, SIDE_M], [0, 0]], float)
     poses = []
-    for a, b in zip(corners[:-1], corners[1:], strict=True):
+    for a, b in itertools.pairwise(corners):
         heading = math.atan2(*(b - a)[::-1])
         for s in np.arange(0.0, SIDE_M, STEP_M):
             poses.append([*(a + s / SIDE_M * (b - a)), heading])
@@ -65,7 +66,7 @@ def loop():
 
 
 def test_a_pole_seen_at_the_start_is_revisited_at_the_end(loop):
-    wTr, travel, sightings, found = loop
+    _, travel, sightings, found = loop
     assert travel[-1] == pytest.approx(4 * SIDE_M)
     assert len(found) == 1  # the half-way pole is seen once, in one visit
     revisit = found[0]
