@@ -75,6 +75,10 @@ def _sequence(
     """The Sequence of a folder whose metadata, odometry and images are read."""
     stamps = odometry.stamps_s
     sightings = read_sightings(root, meta, stamps, association)
+    if sightings.bearings is not None and images is not None:
+        raise DataError(
+            f"bearing-only sightings and {layout.IMAGES}: the front end's bearings of the images "
+            "and the file's would be one stream; keep one of them", root / layout.SIGHTINGS)
     laser = read_laser(root, meta, stamps)
     initial = meta.get("initial_pose_w")
     facts = {
@@ -93,7 +97,8 @@ def _sequence(
         odometry_covariance_r=odometry.covariance_r,
         initial_pose_w=None if initial is None else np.asarray(initial, dtype=float),
         ground_truth=read_ground_truth(root, meta),
-        range_bearing=sightings,
+        range_bearing=sightings.range_bearing,
+        bearing_sightings=sightings.bearings,
         laser=laser,
         image_loader=None if images is None else images.load,
         image_frames=np.zeros(0, np.int64) if images is None else images.frames,
