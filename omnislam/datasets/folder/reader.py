@@ -490,6 +490,7 @@ def read_laser(root: Path, meta: dict[str, Any], frame_stamps_s: np.ndarray
     angles = np.asarray(settings["angles_rad"], dtype=float)
     if np.any(np.diff(angles) <= 0):
         raise DataError("laser.angles_rad must be increasing", root / layout.METADATA)
+    angles = _laser_in_robot_frame(angles, settings.get("offset_r"), root / layout.METADATA)
     names = layout.laser_columns(len(angles))
     scans = read_csv(path, (layout.STAMP, *names))
     scans.require_values([layout.STAMP])
@@ -505,6 +506,26 @@ def read_laser(root: Path, meta: dict[str, Any], frame_stamps_s: np.ndarray
     ranges[frames] = values
     role = LaserRole(settings.get("role", LaserRole.SENSOR.value))
     return LaserScans(angles, ranges, float(settings["max_range_m"]), role)
+
+
+def _laser_in_robot_frame(angles_rad: np.ndarray, offset_r: list[float] | None,
+                          metadata_path: Path) -> np.ndarray:
+    """The beam angles in the robot frame: as written without an offset, else turned by the
+    offset's yaw (a beam's range is the same from the robot's origin).
+
+    Raises:
+        DataError: an offset with x or y: the scans are held as ranges along fixed beam angles
+            from the robot's origin, which a scanner off that origin does not give.
+    """
+    if offset_r is None:
+        return angles_rad
+    x, y, yaw = offset_r
+    if x or y:
+        raise DataError(
+            "laser.offset_r: the scanner must be on the robot's vertical axis (x = y = 0; the "
+            "yaw turns the beams): scans are ranges along fixed beam angles from the robot's "
+            "origin", metadata_path)
+    return angles_rad + yaw if yaw else angles_rad
 
 
 @dataclass(frozen=True, slots=True)

@@ -2,10 +2,10 @@
 
 Numbers are written with ``repr`` (17 significant digits at most, the shortest text that
 reads back to the same double), so that ``load_folder`` gives back the odometry, range-bearing
-sightings, scans and stamps bit for bit (bearing-only sightings, stored as unit vectors and
-written as azimuth and elevation, to a few ulps) and an estimator run on the folder gives the run on the original
-bit for bit. Images are written as PNG (lossless). The folder is written beside ``out`` and
-renamed into place when complete.
+sightings, scans and stamps bit for bit and an estimator run on the folder gives the run on the
+original bit for bit (bearing-only sightings, held as unit vectors and written as azimuth and
+elevation, come back to an ulp). Images are written as PNG (lossless). The folder is written
+beside ``out`` and renamed into place when complete.
 """
 
 from __future__ import annotations
