@@ -325,6 +325,29 @@ def _synthetic_folder(root: Path) -> Path:
     return folder
 
 
+def _bearing_folder(root: Path) -> Path:
+    """An omnislam folder of bearing-only sightings (elevations, both sigmas) and a laser
+    turned by its offset."""
+    import json
+
+    folder = root / "omnislam-folder-bearings"
+    folder.mkdir()
+    (folder / "dataset.json").write_text(json.dumps({
+        "format": "omnislam-folder", "version": 1, "source": "fuzz", "licence": "CC0-1.0",
+        "sightings": {"height_m": 0.5, "offset_r": [0.0, 0.0, 0.1]},
+        "laser": {"angles_rad": [-0.5, 0.0, 0.5], "max_range_m": 8.0,
+                  "offset_r": [0.0, 0.0, 0.2]},
+    }))
+    (folder / "odometry.csv").write_text(
+        "stamp_s,dx_m,dy_m,dtheta_rad\n0.0,0,0,0\n0.5,0.2,0,0.05\n1.0,0.2,0,0.05\n")
+    (folder / "sightings.csv").write_text(
+        "stamp_s,landmark_id,bearing_rad,elevation_rad,sigma_bearing_rad,sigma_elevation_rad\n"
+        "0.5,1,0.5,0.25,0.01,0.01\n0.5,,-0.5,,0.02,\n1.0,1,0.6,0.2,0.01,0.01\n")
+    (folder / "laser.csv").write_text(
+        "stamp_s,range_0_m,range_1_m,range_2_m\n0.5,2.0,3.0,\n1.0,2.5,8.0,1.0\n")
+    return folder
+
+
 def _files(folder: Path) -> tuple[str, ...]:
     return tuple(sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file()))
 
@@ -378,6 +401,7 @@ def build_targets(root: Path, *, images: bool = True) -> dict[str, Target]:
         _folder("omnislam-folder", Path(folder), load_folder, sequence_sane),
         _folder("omnislam-folder-check", Path(folder), check_folder,
                 lambda problems: isinstance(problems, list)),
+        _folder("omnislam-folder-bearings", _bearing_folder(root), load_folder, sequence_sane),
     ]
     if images:
         from omnislam.camera.rig import CameraRig

@@ -19,6 +19,10 @@ from __future__ import annotations
 import argparse
 import json
 
+#: the ``--groundtruth-kind`` values of ``dataset import`` (``GroundTruthKind`` without NONE;
+#: named here so that the parser imports nothing), the first the default
+GROUNDTRUTH_KINDS = ("motion-capture", "gps-partial", "pseudo", "reference", "exact")
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -101,6 +105,11 @@ def _add_folder_actions(actions: argparse._SubParsersAction) -> None:
     bag.add_argument("--gt-frame", default="base_link", help="child frame of ground truth on /tf")
     bag.add_argument("--source", default=None, help="one line saying where the data come from")
     bag.add_argument("--licence", default="unstated", help="the data's licence")
+    bag.add_argument(
+        "--groundtruth-kind", default=GROUNDTRUTH_KINDS[0], choices=GROUNDTRUTH_KINDS,
+        help="where the ground-truth topic's poses come from, written as the folder's "
+        "ground_truth.kind (default: motion-capture)",
+    )
     bag.add_argument("--overwrite", action="store_true", help="replace an existing folder")
     bag.set_defaults(handler=run_import)
 
@@ -182,6 +191,7 @@ def run_export(args: argparse.Namespace) -> int:
 def run_import(args: argparse.Namespace) -> int:
     from omnislam._files import check_output_location, check_overwrite
     from omnislam.datasets.rosbag import import_bag, parse_topics
+    from omnislam.datasets.sequence import GroundTruthKind
 
     topics = parse_topics(args.topics)
     check_overwrite(args.out, args.overwrite, "omnislam folder", _is_folder_output)
@@ -195,6 +205,7 @@ def run_import(args: argparse.Namespace) -> int:
         gt_frame=args.gt_frame,
         source=args.source,
         licence=args.licence,
+        groundtruth_kind=GroundTruthKind(args.groundtruth_kind),
     )
     print(f"wrote {out}: an omnislam folder from {args.bag}")
     return 0

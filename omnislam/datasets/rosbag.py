@@ -138,6 +138,7 @@ def import_bag(
     gt_frame: str = "base_link",
     source: str | None = None,
     licence: str = "unstated",
+    groundtruth_kind: GroundTruthKind = GroundTruthKind.MOTION_CAPTURE,
 ) -> Path:
     """Convert a bag into an omnislam folder.
 
@@ -150,19 +151,25 @@ def import_bag(
         gt_frame: child frame of the ground truth on a TF topic.
         source: one line saying where the data come from (default: the bag's name).
         licence: the data's licence.
+        groundtruth_kind: where the ground-truth topic's poses come from, written as the
+            folder's ``ground_truth.kind`` (default MOTION_CAPTURE, a Vicon or OptiTrack
+            topic; NONE is refused: a ground-truth topic is some kind of truth).
 
     Returns:
         ``out``.
 
     Raises:
         MissingExtraError: ``rosbags`` is not installed (the ``rosbag`` extra).
-        ConfigError: images without a calibration.
+        ConfigError: images without a calibration; ``groundtruth_kind`` NONE.
         DataError: an unreadable bag; a missing topic, a topic of a type its role cannot use,
             a message that cannot be decoded (naming the topic and the message).
     """
     from omnislam.datasets.folder import export_folder
 
     bag = Path(bag)
+    if groundtruth_kind is GroundTruthKind.NONE:
+        raise ConfigError("--groundtruth-kind none: a ground-truth topic is motion-capture, "
+                          "gps-partial, pseudo, reference or exact")
     rig = None
     if Role.IMAGES in topics:
         if calibration is None:
@@ -171,7 +178,7 @@ def import_bag(
 
         rig = load_rig(calibration)
     streams = read_bag(bag, topics, TfFrames(world_frame, gt_frame))
-    sequence = _sequence(bag, streams, rig, source or f"ROS bag {bag.name}")
+    sequence = _sequence(bag, streams, rig, source or f"ROS bag {bag.name}", groundtruth_kind)
     return export_folder(sequence, out, licence=licence)
 
 
@@ -300,8 +307,10 @@ def _check_streams(streams: _Streams, topics: Mapping[Role, str], tf: TfFrames, 
                             f"the previous one ({stamps[k - 2]!r})", bag)
 
 
-def _sequence(bag: Path, streams: _Streams, rig: Any, source: str) -> DataSequence:
-    """The Sequence of the streams: frames at the odometry's and the sensors' stamps."""
+def _sequence(bag: Path, streams: _Streams, rig: Any, source: str,
+              groundtruth_kind: GroundTruthKind) -> DataSequence:
+    """The Sequence of the streams: frames at the odometry's and the sensors' stamps, the
+    ground truth of kind ``groundtruth_kind``."""
     odom_s = np.array([s for s, _ in streams.odometry])
     odom_poses = np.array([p for _, p in streams.odometry])
     sensor_s = np.array([s for s, _, _ in streams.images] + [s for s, _ in streams.scans])
@@ -323,7 +332,7 @@ def _sequence(bag: Path, streams: _Streams, rig: Any, source: str) -> DataSequen
         laser = LaserScans(angles, ranges, max_range)
     images = {int(np.searchsorted(stamps, s)): (m, where) for s, m, where in streams.images
               if odom_s[0] <= s <= odom_s[-1]}
-    truth, initial = _ground_truth(streams, stamps)
+    truth, initial = _ground_truth(streams, stamps, groundtruth_kind)
     return DataSequence(
         name=bag.stem,
         source=source,
@@ -339,9 +348,10 @@ def _sequence(bag: Path, streams: _Streams, rig: Any, source: str) -> DataSequen
     )
 
 
-def _ground_truth(streams: _Streams, stamps: np.ndarray) -> tuple[GroundTruth, np.ndarray | None]:
-    """The ground truth trajectory and the pose of the first frame in its world (when the
-    truth brackets it)."""
+def _ground_truth(streams: _Streams, stamps: np.ndarray, kind: GroundTruthKind
+                  ) -> tuple[GroundTruth, np.ndarray | None]:
+    """The ground truth trajectory (of ``kind``) and the pose of the first frame in its world
+    (when the truth brackets it)."""
     if not streams.truth:
         return GroundTruth(), None
     truth_s = np.array([s for s, _, _ in streams.truth])
@@ -351,7 +361,7 @@ def _ground_truth(streams: _Streams, stamps: np.ndarray) -> tuple[GroundTruth, n
     trajectory = Trajectory(truth_s, se3_from_xyz_quat(xyz, quats))
     valid, first = interpolate_se2(truth_s, se2_from_se3(trajectory.poses_w), stamps[:1],
                                    MAX_GROUND_TRUTH_GAP_S)
-    truth = GroundTruth(GroundTruthKind.MOTION_CAPTURE, trajectory,
+    truth = GroundTruth(kind, trajectory,
                         note="ground truth from the bag's ground-truth topic")
     return truth, first[0] if valid[0] else None
 

@@ -1,10 +1,11 @@
 """The Sequence: one recorded or rendered run, as every loader returns it.
 
-A Sequence holds what the sensors gave (odometry, range-bearing sightings, laser scans, images
-read on demand) and the ground truth, aligned to one list of frame stamps. It never estimates.
-``frame_input(i, ...)`` is the one builder of the FrameInput records estimators consume: the
-loaders' direct sightings, and the front end's bearings, vertical lines and laser landmarks on
-top (``frame_inputs(observations)`` replays a front-end log with the sequence's own odometry).
+A Sequence holds what the sensors gave (odometry, range-bearing sightings, bearing-only
+sightings, laser scans, images read on demand) and the ground truth, aligned to one list of
+frame stamps. It never estimates. ``frame_input(i, ...)`` is the one builder of the FrameInput
+records estimators consume: the loaders' direct sightings, and the front end's bearings,
+vertical lines and laser landmarks on top (``frame_inputs(observations)`` replays a front-end
+log with the sequence's own odometry; a frame the log gives no bearings keeps the loader's).
 A sequence may carry a ``PriorMap`` (surveyed landmarks, a synthetic world's line map) for
 localisers.
 """
@@ -115,6 +116,34 @@ class LaserScans:
         return self.role is LaserRole.SENSOR
 
 
+@dataclass(frozen=True, slots=True)
+class BearingSightings:
+    """A bearing-only sensor's sightings (a camera's landmark bearings, with or without their
+    elevation), one record per frame: the estimators take them as the omni front end's
+    bearings (``Modality.BEARINGS_3D``).
+
+    Attributes:
+        frames: per frame, the bearings (unit vectors in the robot frame from the sensor's
+            viewpoint, landmark ids or ``UNKNOWN_ID``, angular sigmas), None where a frame has
+            none.
+        sensor_height_m: height of the sensor's viewpoint above the robot frame's origin [m]
+            (the bearing estimators triangulate from there, as from a camera rig's viewpoint);
+            default 0.
+    """
+
+    frames: tuple[Bearings | None, ...]
+    sensor_height_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "frames", tuple(self.frames))
+        object.__setattr__(self, "sensor_height_m", float(self.sensor_height_m))
+        if not np.isfinite(self.sensor_height_m):
+            raise DataError("BearingSightings.sensor_height_m must be finite")
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+
 class _Default:
     """Marker type of "the loader's own sightings" in ``Sequence.frame_input``."""
 
@@ -138,6 +167,8 @@ class Sequence:
         initial_pose_w: (3,) pose of frame 0 in the ground-truth world frame, when known
             (estimators start at the origin; evaluation aligns).
         range_bearing: per-frame sightings (None where a frame has none), or None.
+        bearing_sightings: a bearing-only sensor's sightings (``BearingSightings``), or None;
+            the frames' bearings unless a front-end log gives a frame its own.
         laser: laser scans, or None.
         image_loader: ``image_loader(i)`` reads image i (H, W, 3) uint8, or None.
         image_frames: (K,) indices of the frames that have an image.
@@ -164,6 +195,7 @@ class Sequence:
     odometry_covariance_r: np.ndarray | None = None
     initial_pose_w: np.ndarray | None = None
     range_bearing: tuple[RangeBearing | None, ...] | None = None
+    bearing_sightings: BearingSightings | None = None
     laser: LaserScans | None = None
     image_loader: Callable[[int], np.ndarray] | None = None
     image_frames: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
@@ -207,6 +239,8 @@ class Sequence:
             )
         if self.range_bearing is not None and len(self.range_bearing) != n:
             raise DataError(f"{self.name}: range_bearing must have one entry per frame")
+        if self.bearing_sightings is not None and len(self.bearing_sightings) != n:
+            raise DataError(f"{self.name}: bearing_sightings must have one entry per frame")
         if self.laser is not None and self.laser.ranges_m.shape[0] != n:
             raise DataError(f"{self.name}: laser must have one row per frame")
         frames = _frozen(self.image_frames, np.int64, (None,), f"{self.name}: image_frames")
@@ -228,7 +262,7 @@ class Sequence:
         self,
         index: int,
         *,
-        bearings: Bearings | None = None,
+        bearings: Bearings | _Default | None = _DEFAULT,
         range_bearing: RangeBearing | _Default | None = _DEFAULT,
         vertical_lines: VerticalLines | None = None,
     ) -> FrameInput:
@@ -237,12 +271,16 @@ class Sequence:
 
         Args:
             index: the frame.
-            bearings: omni bearings of the front end, or None.
+            bearings: omni bearings of the front end, or None; by default the loader's own
+                bearing-only sightings (``self.bearing_sightings``), if any.
             range_bearing: range-bearing sightings; by default the loader's own
                 (``self.range_bearing[index]``); the front end passes those merged with its
                 laser landmarks.
             vertical_lines: vertical lines of the front end, or None.
         """
+        if isinstance(bearings, _Default):
+            own = self.bearing_sightings
+            bearings = own.frames[index] if own is not None else None
         if isinstance(range_bearing, _Default):
             range_bearing = self.range_bearing[index] if self.range_bearing is not None else None
         cov = None
@@ -263,7 +301,8 @@ class Sequence:
 
         Args:
             observations: a front-end log's frames (one per frame, in order): their bearings,
-                range-bearing sightings and vertical lines replace the loader's sightings.
+                range-bearing sightings and vertical lines replace the loader's sightings (a
+                frame without bearings in the log keeps the loader's bearing-only sightings).
                 None: the loader's sightings only.
             odometry: take the odometry (and its covariance) from ``observations`` too (a
                 log's laser odometry); else it comes from the sequence.
@@ -284,7 +323,7 @@ class Sequence:
                 )
             frame = self.frame_input(
                 seen.index,
-                bearings=seen.bearings,
+                bearings=_DEFAULT if seen.bearings is None else seen.bearings,
                 range_bearing=seen.range_bearing,
                 vertical_lines=seen.vertical_lines,
             )

@@ -149,7 +149,7 @@ def sequence_info(
 ) -> SequenceInfo:
     """What the estimators are told about a run (``core.sequence_info.SequenceInfo``), from the
     frames as fed: their modalities, whether every range-bearing sighting carries a true id, the
-    sightings' first sigmas, the rig, the prior map.
+    sightings' first sigmas, the rig (or the height of a bearing-only sensor), the prior map.
 
     Args:
         sequence: the loaded Sequence.
@@ -169,7 +169,8 @@ def sequence_info(
         known_association=known,
         sigma_range_m=float(sightings[0].sigma_range_m[0]) if sightings else None,
         sigma_bearing_rad=float(sightings[0].sigma_bearing_rad[0]) if sightings else None,
-        sensor_height_m=sensor_height_m(sequence.calibration),
+        sensor_height_m=sensor_height_m(sequence.calibration,
+                                        getattr(sequence, "bearing_sightings", None)),
         prior_map=sequence.prior_map,
         calibration=sequence.calibration,
         facts=sequence.info,
@@ -177,10 +178,13 @@ def sequence_info(
     )
 
 
-def sensor_height_m(calibration: object) -> float | None:
-    """Height of a camera rig's single viewpoint above the robot frame (None without a rig)."""
+def sensor_height_m(calibration: object, bearing_sightings: Any = None) -> float | None:
+    """Height of a camera rig's single viewpoint above the robot frame, else of the sensor of
+    the loader's bearing-only sightings (``Sequence.bearing_sightings``); None without either."""
     viewpoint = getattr(calibration, "viewpoint_r", None)
-    return None if viewpoint is None else float(np.asarray(viewpoint)[2])
+    if viewpoint is not None:
+        return float(np.asarray(viewpoint)[2])
+    return None if bearing_sightings is None else bearing_sightings.sensor_height_m
 
 
 def load_log(sequence: object, log: str | Path) -> Any:

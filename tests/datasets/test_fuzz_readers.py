@@ -21,12 +21,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from reader_fuzz import RandomChooser, Target, build_targets, check
 
-#: hypothesis examples per reader in the suite (11 readers: about 20 s with the inputs built)
+#: hypothesis examples per reader in the suite (12 readers: about 20 s with the inputs built)
 EXAMPLES_PER_READER = 30
 
 READERS = (
     "mrclam", "victoria-park", "gtsam-graph", "carmen", "observation-log", "run-dir", "grid",
-    "omnislam-folder", "omnislam-folder-check", "synthetic", "camera",
+    "omnislam-folder", "omnislam-folder-check", "omnislam-folder-bearings", "synthetic",
+    "camera",
 )
 REPO = Path(__file__).resolve().parents[2]
 

@@ -147,3 +147,27 @@ def test_images_need_a_calibration(render, tmp_path):
     with pytest.raises(ConfigError, match="--calibration"):
         import_bag(bag, tmp_path / "out", {Role.ODOMETRY: "/odom",
                                            Role.IMAGES: "/camera/image/compressed"})
+
+
+def test_the_ground_truths_kind_is_motion_capture_unless_told(render, tmp_path):
+    import json
+
+    from omnislam.cli.dataset import GROUNDTRUTH_KINDS
+    from omnislam.datasets.rosbag import import_bag
+    from omnislam.datasets.sequence import GroundTruthKind
+
+    assert set(GROUNDTRUTH_KINDS) == {k.value for k in GroundTruthKind} - {"none"}
+    bag = write_bag(load_dataset(str(render)), _bag_path(tmp_path, "ros1"), "ros1")
+    topics = ["--topic", "odometry=/odom", "--topic", "groundtruth=/tf"]
+    for kind, extra in (("motion-capture", []), ("pseudo", ["--groundtruth-kind", "pseudo"])):
+        out = tmp_path / kind
+        assert main(["-q", "dataset", "import", str(bag), "--out", str(out), *topics,
+                     *extra]) == 0
+        assert json.loads((out / "dataset.json").read_text())["ground_truth"]["kind"] == kind
+        assert load_folder(out).ground_truth.kind is GroundTruthKind(kind)
+    with pytest.raises(ConfigError, match="groundtruth-kind none"):
+        import_bag(bag, tmp_path / "none", {Role.ODOMETRY: "/odom", Role.GROUNDTRUTH: "/tf"},
+                   groundtruth_kind=GroundTruthKind.NONE)
+    with pytest.raises(SystemExit):
+        main(["-q", "dataset", "import", str(bag), "--out", str(tmp_path / "x"), *topics,
+              "--groundtruth-kind", "none"])

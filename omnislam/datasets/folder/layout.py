@@ -45,6 +45,12 @@ TRUE_INCREMENTS = ("true_dx_m", "true_dy_m", "true_dtheta_rad")
 #: sightings: the landmark id (empty: unknown) and the range and bearing in the sensor frame
 SIGHTING_COLUMNS = ("landmark_id", "range_m", "bearing_rad")
 SIGHTING_SIGMAS = ("sigma_range_m", "sigma_bearing_rad")
+#: bearing-only sightings (no ``range_m``): the elevation above the sensor's horizontal plane
+#: and its sigma (the estimators take one angular sigma per bearing: it must equal the bearing's)
+ELEVATION = "elevation_rad"
+SIGMA_ELEVATION = "sigma_elevation_rad"
+#: the columns a file of bearing-only sightings writes
+BEARING_SIGHTING_COLUMNS = ("landmark_id", "bearing_rad", ELEVATION, "sigma_bearing_rad")
 #: images: the stamp and the file, relative to the folder
 IMAGE_COLUMNS = (STAMP, "file")
 #: one landmark per row: ground truth (landmarks.csv) and prior map (prior_map.csv)
@@ -61,6 +67,13 @@ WALL_COLUMNS = ("x0_m", "y0_m", "x1_m", "y1_m")
 def laser_columns(beams: int) -> tuple[str, ...]:
     """The range columns of ``laser.csv`` for ``beams`` beams: ``range_0_m ...``."""
     return tuple(f"range_{k}_m" for k in range(beams))
+
+
+class SightingKind(enum.Enum):
+    """What the rows of ``sightings.csv`` give: all a range (and a bearing), or none."""
+
+    RANGE_BEARING = "range-bearing"
+    BEARING_ONLY = "bearing-only"
 
 
 class OdometryForm(enum.Enum):

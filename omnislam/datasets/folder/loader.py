@@ -12,6 +12,7 @@ from omnislam.datasets.folder import layout
 from omnislam.datasets.folder.reader import (
     FolderImages,
     FolderOdometry,
+    FolderSightings,
     attempt,
     check_image_sizes,
     metadata_problems,
@@ -47,6 +48,11 @@ def load_folder(
     odometry = read_odometry(root, meta)
     stamps = odometry.stamps_s
     images = read_images(root, stamps)
+    sightings = read_sightings(root, meta, stamps, association)
+    if sightings.bearings is not None and images is not None:
+        raise DataError(
+            f"bearing-only sightings and {layout.IMAGES}: the front end's bearings of the images "
+            "and the file's would be one stream; keep one of them", root / layout.SIGHTINGS)
     rig = None
     if images is not None:
         rig = read_calibration(root)
@@ -55,8 +61,8 @@ def load_folder(
         root,
         meta,
         odometry,
+        sightings,
         name=name,
-        association=association,
         images=images,
         rig=rig,
     )
@@ -66,15 +72,14 @@ def _sequence(
     root: Path,
     meta: dict[str, Any],
     odometry: FolderOdometry,
+    sightings: FolderSightings,
     *,
     name: str | None,
-    association: Association,
     images: FolderImages | None,
     rig: Any,
 ) -> Sequence:
-    """The Sequence of a folder whose metadata, odometry and images are read."""
+    """The Sequence of a folder whose metadata, odometry, sightings and images are read."""
     stamps = odometry.stamps_s
-    sightings = read_sightings(root, meta, stamps, association)
     laser = read_laser(root, meta, stamps)
     initial = meta.get("initial_pose_w")
     facts = {
@@ -93,7 +98,8 @@ def _sequence(
         odometry_covariance_r=odometry.covariance_r,
         initial_pose_w=None if initial is None else np.asarray(initial, dtype=float),
         ground_truth=read_ground_truth(root, meta),
-        range_bearing=sightings,
+        range_bearing=sightings.range_bearing,
+        bearing_sightings=sightings.bearings,
         laser=laser,
         image_loader=None if images is None else images.load,
         image_frames=np.zeros(0, np.int64) if images is None else images.frames,

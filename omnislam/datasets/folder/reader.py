@@ -24,7 +24,7 @@ import numpy as np
 
 from omnislam.core.ackermann import integrate_unicycle
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
-from omnislam.core.types import UNKNOWN_ID, PriorMap, RangeBearing
+from omnislam.core.types import UNKNOWN_ID, Bearings, PriorMap, RangeBearing
 from omnislam.datasets._common import Association, odometry_from_poses
 from omnislam.datasets._text import (
     StampOrder,
@@ -37,6 +37,7 @@ from omnislam.datasets._text import (
 from omnislam.datasets.folder import layout
 from omnislam.datasets.folder.csv_table import NamedTable, read_csv
 from omnislam.datasets.sequence import (
+    BearingSightings,
     GroundTruth,
     GroundTruthKind,
     LaserRole,
@@ -235,49 +236,197 @@ def frame_rows(stamps_s: np.ndarray, frame_stamps_s: np.ndarray, table: NamedTab
     return index
 
 
+@dataclass(frozen=True, slots=True)
+class FolderSightings:
+    """``sightings.csv`` as the Sequence holds it: range-bearing or bearing-only (one of them).
+
+    Attributes:
+        range_bearing: one RangeBearing per frame (None where none), or None.
+        bearings: the bearing-only sightings, or None.
+    """
+
+    range_bearing: tuple[RangeBearing | None, ...] | None = None
+    bearings: BearingSightings | None = None
+
+
 def read_sightings(
     root: Path, meta: dict[str, Any], frame_stamps_s: np.ndarray, association: Association
-) -> tuple[RangeBearing | None, ...] | None:
-    """``sightings.csv`` as one RangeBearing per frame (None where none), or None without the
-    file.
+) -> FolderSightings:
+    """``sightings.csv``: range-bearing sightings (every row has a range) or bearing-only ones
+    (no row has one), in the robot frame; nothing without the file.
 
     Raises:
-        DataError: naming the file and the line.
+        DataError: naming the file and the line (a file mixing rows with and without a range
+            names the first row unlike the first).
     """
     path = root / layout.SIGHTINGS
     if not path.exists():
-        return None
+        return FolderSightings()
     settings = meta.get("sightings", {})
-    sightings = read_csv(path, (layout.STAMP, *layout.SIGHTING_COLUMNS), layout.SIGHTING_SIGMAS)
-    table = sightings.table
-    sightings.require_values((layout.STAMP, "range_m", "bearing_rad"))
+    optional = ("range_m", layout.ELEVATION, *layout.SIGHTING_SIGMAS, layout.SIGMA_ELEVATION)
+    sightings = read_csv(path, (layout.STAMP, "landmark_id", "bearing_rad"), optional)
+    sightings.require_values((layout.STAMP, "bearing_rad"))
     frames = frame_rows(sightings.column(layout.STAMP), frame_stamps_s, sightings)
-    order = StampOrder.NON_DECREASING
-    check_stamps(sightings.column(layout.STAMP), table.line_numbers, path, order)
+    check_stamps(sightings.column(layout.STAMP), sightings.table.line_numbers, path,
+                 StampOrder.NON_DECREASING)
+    landmark_ids = _landmark_ids(sightings, association)
+    check_range(sightings.table, sightings.columns["bearing_rad"], "bearing_rad", -math.pi,
+                math.pi)
+    per_frame = _per_frame(frames, len(frame_stamps_s), settings.get("every_frame", False))
+    if _sighting_kind(sightings) is layout.SightingKind.RANGE_BEARING:
+        return FolderSightings(range_bearing=_range_bearing(
+            sightings, settings, landmark_ids, per_frame))
+    return FolderSightings(bearings=_bearing_only(
+        sightings, settings, landmark_ids, per_frame, root / layout.METADATA))
+
+
+def _landmark_ids(sightings: NamedTable, association: Association) -> np.ndarray:
+    """(K,) whole landmark ids >= 0, ``UNKNOWN_ID`` where empty (everywhere when
+    ``association`` is UNKNOWN)."""
     ids = sightings.column("landmark_id")
     known = np.isfinite(ids)
     if known.any():
         check_integers(_rows(sightings, known), sightings.columns["landmark_id"], "landmark_id")
         check_range(_rows(sightings, known), sightings.columns["landmark_id"], "landmark_id",
                     0, math.inf)
-    check_range(table, sightings.columns["range_m"], "range_m", 0.0, MAX_COORDINATE_M)
-    check_range(table, sightings.columns["bearing_rad"], "bearing_rad", -math.pi, math.pi)
-    sigmas = [_sigma_column(sightings, name, settings) for name in layout.SIGHTING_SIGMAS]
     landmark_ids = np.where(known, np.nan_to_num(ids), UNKNOWN_ID).astype(np.int64)
     if association is Association.UNKNOWN:
         landmark_ids[:] = UNKNOWN_ID
-    ranges, bearings = _in_robot_frame(sightings, settings.get("offset_r"))
-    empty = RangeBearing(np.zeros(0, np.int64), [], [], [], [])
-    out: list[RangeBearing | None] = [
-        empty if settings.get("every_frame", False) else None
-    ] * len(frame_stamps_s)
+    return landmark_ids
+
+
+def _sighting_kind(sightings: NamedTable) -> layout.SightingKind:
+    """Range-bearing (every row has a range) or bearing-only (no row has one, or no column).
+
+    Raises:
+        DataError: naming the first row whose range is given when the first row's is not, or
+            the reverse.
+    """
+    if not sightings.has("range_m") or not len(sightings):
+        return layout.SightingKind.BEARING_ONLY
+    ranged = np.isfinite(sightings.column("range_m"))
+    if ranged.all() or not ranged.any():
+        return (layout.SightingKind.RANGE_BEARING if ranged[0]
+                else layout.SightingKind.BEARING_ONLY)
+    row = int(np.argmax(ranged != ranged[0]))
+    first = int(sightings.table.line_numbers[0])
+    what = "has a range_m" if ranged[row] else "has no range_m"
+    raise DataError(
+        f"{sightings.table.where(row)}: {what}, line {first} "
+        f"{'does not' if ranged[row] else 'does'} (a file holds range-bearing or bearing-only "
+        "sightings, not both)", sightings.table.path)
+
+
+def _per_frame(frames: np.ndarray, n_frames: int, every_frame: bool
+               ) -> tuple[list[np.ndarray | None], bool]:
+    """(per frame, the rows of its sightings or None, whether a frame without rows saw
+    nothing): the rows grouped by frame, in the file's order within a frame."""
+    out: list[np.ndarray | None] = [None] * n_frames
     order = np.argsort(frames, kind="stable")
     starts = np.flatnonzero(np.r_[True, np.diff(frames[order]) != 0])
     for rows in np.split(order, starts[1:]) if len(order) else []:
-        out[int(frames[rows[0]])] = RangeBearing(
-            landmark_ids[rows], ranges[rows], bearings[rows], sigmas[0][rows], sigmas[1][rows]
-        )
-    return tuple(out)
+        out[int(frames[rows[0]])] = rows
+    return out, every_frame
+
+
+def _range_bearing(
+    sightings: NamedTable, settings: dict[str, Any], landmark_ids: np.ndarray,
+    per_frame: tuple[list[np.ndarray | None], bool],
+) -> tuple[RangeBearing | None, ...]:
+    """The range-bearing sightings of every frame, moved into the robot frame
+    (``sightings.offset_r``).
+
+    Raises:
+        DataError: naming the line: a range out of bounds, a sigma missing or not positive, an
+            elevation (range-bearing sightings are planar).
+    """
+    _require_empty(sightings, (layout.ELEVATION, layout.SIGMA_ELEVATION),
+                   "range-bearing sightings are planar; elevations are for bearing-only rows")
+    check_range(sightings.table, sightings.columns["range_m"], "range_m", 0.0, MAX_COORDINATE_M)
+    sigmas = [_sigma_column(sightings, name, settings) for name in layout.SIGHTING_SIGMAS]
+    ranges, bearings = _in_robot_frame(sightings, settings.get("offset_r"))
+    rows_of, every_frame = per_frame
+    empty = RangeBearing(np.zeros(0, np.int64), [], [], [], [])
+    return tuple(
+        (empty if every_frame else None) if rows is None else RangeBearing(
+            landmark_ids[rows], ranges[rows], bearings[rows], sigmas[0][rows], sigmas[1][rows])
+        for rows in rows_of
+    )
+
+
+def _bearing_only(
+    sightings: NamedTable, settings: dict[str, Any], landmark_ids: np.ndarray,
+    per_frame: tuple[list[np.ndarray | None], bool], metadata_path: Path,
+) -> BearingSightings:
+    """The bearing-only sightings of every frame as unit vectors in the robot frame: azimuth
+    ``bearing_rad`` turned by the offset's yaw, ``elevation_rad`` (empty: 0, the landmark at
+    the sensor's height), u = (cos e cos a, cos e sin a, sin e).
+
+    Raises:
+        DataError: naming the line (an elevation beyond +-pi/2, a sigma missing, not positive
+            or unlike the bearing's, a range sigma) or ``dataset.json`` (an offset off the
+            robot's vertical axis).
+    """
+    _require_empty(sightings, ("sigma_range_m",), "the row has no range")
+    sigma = _sigma_column(sightings, "sigma_bearing_rad", settings)
+    elevations = np.zeros(len(sightings))
+    if sightings.has(layout.ELEVATION):
+        check_range(sightings.table, sightings.columns[layout.ELEVATION], layout.ELEVATION,
+                    -math.pi / 2, math.pi / 2)
+        elevations = np.nan_to_num(sightings.column(layout.ELEVATION), nan=0.0)
+    if sightings.has(layout.SIGMA_ELEVATION):
+        given = sightings.column(layout.SIGMA_ELEVATION)
+        unlike = np.isfinite(given) & (given != sigma)
+        if unlike.any():
+            row = int(np.argmax(unlike))
+            raise DataError(
+                f"{sightings.table.where(row)}: sigma_elevation_rad differs from "
+                "sigma_bearing_rad (the bearing estimators take one angular sigma per "
+                "bearing, the same in azimuth and elevation)", sightings.table.path)
+    azimuths = sightings.column("bearing_rad")
+    yaw = _bearing_sensor_yaw(settings.get("offset_r"), metadata_path)
+    if yaw:
+        azimuths = azimuths + yaw
+    vectors = np.column_stack([np.cos(elevations) * np.cos(azimuths),
+                               np.cos(elevations) * np.sin(azimuths), np.sin(elevations)])
+    rows_of, every_frame = per_frame
+    empty = Bearings(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0))
+    frames = tuple(
+        (empty if every_frame else None) if rows is None
+        else Bearings(landmark_ids[rows], vectors[rows], sigma[rows])
+        for rows in rows_of
+    )
+    return BearingSightings(frames, settings.get("height_m", 0.0))
+
+
+def _bearing_sensor_yaw(offset_r: list[float] | None, metadata_path: Path) -> float:
+    """The yaw of a bearing-only sensor's offset (0 without one).
+
+    Raises:
+        DataError: an offset with x or y: a bearing without range cannot be moved to the
+            robot's origin, and the bearing estimators place the viewpoint on its vertical axis.
+    """
+    if offset_r is None:
+        return 0.0
+    x, y, yaw = offset_r
+    if x or y:
+        raise DataError(
+            "sightings.offset_r: bearing-only sightings need the sensor on the robot's vertical "
+            "axis (x = y = 0; its height is sightings.height_m)", metadata_path)
+    return float(yaw)
+
+
+def _require_empty(sightings: NamedTable, names: tuple[str, ...], why: str) -> None:
+    """Raise DataError at the first non-empty cell of the columns ``names`` (``why``: the
+    reason they must be empty)."""
+    for name in names:
+        if not sightings.has(name):
+            continue
+        given = np.isfinite(sightings.column(name))
+        if given.any():
+            row = int(np.argmax(given))
+            raise DataError(f"{sightings.table.where(row)}: {name} is given, but {why}",
+                            sightings.table.path)
 
 
 def _rows(table: NamedTable, mask: np.ndarray) -> Table:
@@ -341,6 +490,7 @@ def read_laser(root: Path, meta: dict[str, Any], frame_stamps_s: np.ndarray
     angles = np.asarray(settings["angles_rad"], dtype=float)
     if np.any(np.diff(angles) <= 0):
         raise DataError("laser.angles_rad must be increasing", root / layout.METADATA)
+    angles = _laser_in_robot_frame(angles, settings.get("offset_r"), root / layout.METADATA)
     names = layout.laser_columns(len(angles))
     scans = read_csv(path, (layout.STAMP, *names))
     scans.require_values([layout.STAMP])
@@ -356,6 +506,26 @@ def read_laser(root: Path, meta: dict[str, Any], frame_stamps_s: np.ndarray
     ranges[frames] = values
     role = LaserRole(settings.get("role", LaserRole.SENSOR.value))
     return LaserScans(angles, ranges, float(settings["max_range_m"]), role)
+
+
+def _laser_in_robot_frame(angles_rad: np.ndarray, offset_r: list[float] | None,
+                          metadata_path: Path) -> np.ndarray:
+    """The beam angles in the robot frame: as written without an offset, else turned by the
+    offset's yaw (a beam's range is the same from the robot's origin).
+
+    Raises:
+        DataError: an offset with x or y: the scans are held as ranges along fixed beam angles
+            from the robot's origin, which a scanner off that origin does not give.
+    """
+    if offset_r is None:
+        return angles_rad
+    x, y, yaw = offset_r
+    if x or y:
+        raise DataError(
+            "laser.offset_r: the scanner must be on the robot's vertical axis (x = y = 0; the "
+            "yaw turns the beams): scans are ranges along fixed beam angles from the robot's "
+            "origin", metadata_path)
+    return angles_rad + yaw if yaw else angles_rad
 
 
 @dataclass(frozen=True, slots=True)

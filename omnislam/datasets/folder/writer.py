@@ -1,10 +1,11 @@
 """Write any Sequence as an omnislam folder (``omnislam dataset export NAME --out DIR``).
 
 Numbers are written with ``repr`` (17 significant digits at most, the shortest text that
-reads back to the same double), so that ``load_folder`` gives back the odometry, sightings,
-scans and stamps bit for bit and an estimator run on the folder gives the run on the original
-bit for bit. Images are written as PNG (lossless). The folder is written beside ``out`` and
-renamed into place when complete.
+reads back to the same double), so that ``load_folder`` gives back the odometry, range-bearing
+sightings, scans and stamps bit for bit and an estimator run on the folder gives the run on the
+original bit for bit (bearing-only sightings, held as unit vectors and written as azimuth and
+elevation, come back to an ulp). Images are written as PNG (lossless). The folder is written
+beside ``out`` and renamed into place when complete.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from omnislam._files import output_error
 from omnislam.core.types import UNKNOWN_ID, PriorMap
 from omnislam.datasets.folder import layout
 from omnislam.datasets.folder.csv_table import write_csv
-from omnislam.datasets.sequence import GroundTruthKind, LaserRole, Sequence
+from omnislam.datasets.sequence import BearingSightings, GroundTruthKind, LaserRole, Sequence
 from omnislam.errors import DataError
 
 #: the licence written for datasets omnislam reads from elsewhere
@@ -43,7 +44,7 @@ def export_folder(sequence: Sequence, out: str | Path, *, licence: str = SOURCE_
 
     Raises:
         DataError: sightings the format cannot hold (frames with no sightings mixed with
-            frames with an empty list).
+            frames with an empty list; range-bearing and bearing-only sightings together).
         ConfigError: the folder cannot be written.
     """
     out = Path(out)
@@ -132,16 +133,26 @@ def _write_odometry(folder: Path, sequence: Sequence) -> None:
 
 
 def _write_sightings(folder: Path, sequence: Sequence) -> dict[str, Any]:
-    """``sightings.csv`` (ids empty where unknown) and its ``dataset.json`` section."""
-    if sequence.range_bearing is None:
+    """``sightings.csv`` (ids empty where unknown): the range-bearing sightings, or the
+    bearing-only ones (``_bearing_rows``), and its ``dataset.json`` section."""
+    own = sequence.bearing_sightings
+    if sequence.range_bearing is not None and own is not None:
+        raise DataError(f"{sequence.name}: range-bearing and bearing-only sightings; the folder "
+                        "format holds one kind of sightings")
+    records = sequence.range_bearing if own is None else own.frames
+    if records is None:
         return {}
-    listed = [rb for rb in sequence.range_bearing if rb is not None]
+    listed = [record for record in records if record is not None]
     every_frame = len(listed) == len(sequence)
-    if not every_frame and any(len(rb) == 0 for rb in listed):
+    if not every_frame and any(len(record) == 0 for record in listed):
         raise DataError(
             f"{sequence.name}: some frames have no sightings and others an empty list; the "
             "folder format tells them apart only for every frame (sightings.every_frame)"
         )
+    if own is not None:
+        header = [layout.STAMP, *layout.BEARING_SIGHTING_COLUMNS]
+        write_csv(folder / layout.SIGHTINGS, header, _bearing_rows(sequence.stamps_s, own))
+        return {"sightings": {"every_frame": every_frame, "height_m": own.sensor_height_m}}
     rows = []
     for stamp, rb in zip(sequence.stamps_s.tolist(), sequence.range_bearing, strict=True):
         if rb is None:
@@ -159,6 +170,28 @@ def _write_sightings(folder: Path, sequence: Sequence) -> dict[str, Any]:
     header = [layout.STAMP, *layout.SIGHTING_COLUMNS, *layout.SIGHTING_SIGMAS]
     write_csv(folder / layout.SIGHTINGS, header, rows)
     return {"sightings": {"every_frame": every_frame}}
+
+
+def _bearing_rows(stamps_s: np.ndarray, sightings: BearingSightings) -> list[list[str]]:
+    """The rows of bearing-only sightings: each unit vector u as its azimuth atan2(u_y, u_x)
+    and elevation atan2(u_z, hypot(u_x, u_y)) (they give u back to a few ulps, not bit for
+    bit)."""
+    rows = []
+    for stamp, seen in zip(stamps_s.tolist(), sightings.frames, strict=True):
+        if seen is None:
+            continue
+        x, y, z = seen.unit_vectors_r.T
+        azimuths, elevations = np.arctan2(y, x), np.arctan2(z, np.hypot(x, y))
+        for k in range(len(seen)):
+            landmark = int(seen.landmark_ids[k])
+            rows.append([
+                repr(stamp),
+                "" if landmark == UNKNOWN_ID else str(landmark),
+                repr(float(azimuths[k])),
+                repr(float(elevations[k])),
+                repr(float(seen.sigmas_rad[k])),
+            ])
+    return rows
 
 
 def _write_laser(folder: Path, sequence: Sequence) -> dict[str, Any]:
