@@ -101,11 +101,16 @@ class Pairings:
         PHt = self.projected() if projected is None else projected
         return np.einsum("kmdi,kmie->kmde", self.jacobians, PHt) + self.noise[:, None]
 
-    def individual(self) -> np.ndarray:
-        """(K, M) D2_km = nu_km^T S_km^-1 nu_km, the individual compatibility of each pairing."""
+    def individual(self, covariances: np.ndarray | None = None) -> np.ndarray:
+        """(K, M) D2_km = nu_km^T S_km^-1 nu_km, the individual compatibility of each pairing.
+
+        Args:
+            covariances: (K, M, d, d) the S_km when already computed
+                (``innovation_covariances``); None computes them.
+        """
         if self.sightings == 0 or self.candidates == 0:
             return np.zeros((self.sightings, self.candidates))
-        S = self.innovation_covariances()
+        S = self.innovation_covariances() if covariances is None else covariances
         nu = self.innovations
         return np.einsum("kmd,kmd->km", nu, np.linalg.solve(S, nu[..., None])[..., 0])
 
@@ -184,16 +189,19 @@ def jcbb(
     Returns:
         The hypothesis with the most jointly compatible pairings (smallest D2_H among equals).
     """
-    d2_ind = pairings.individual()
     if pairings.sightings == 0 or pairings.candidates == 0:
         unpaired = np.full(pairings.sightings, UNPAIRED, dtype=np.int64)
-        return JointAssociation(unpaired, 0.0, d2_ind, 0, True)
+        return JointAssociation(unpaired, 0.0, pairings.individual(), 0, True)
+    PHt = pairings.projected()  # once, for the individual gates and the tree
+    S_one = pairings.innovation_covariances(PHt)
+    d2_ind = pairings.individual(S_one)
     dim = pairings.innovations.shape[-1]
     gate_one = chi_square_gate(
         probability if individual_probability is None else individual_probability, dim
     )
     gates = joint_gates(probability, dim, pairings.sightings)
-    tree = _InterpretationTree(pairings, _candidate_options(d2_ind, gate_one), gates, max_nodes)
+    options = _candidate_options(d2_ind, gate_one)
+    tree = _InterpretationTree(pairings, options, gates, max_nodes, (PHt, S_one))
     tree.search()
     return tree.result(d2_ind)
 
@@ -216,6 +224,8 @@ class _InterpretationTree:
         options: per sighting, its candidates in the order they are tried.
         gates: (K + 1,) joint gates on D2_H by number of pairings (``joint_gates``).
         max_nodes: nodes to visit at most.
+        projections: (P H_km^T (K, M, n, d), S_km (K, M, d, d)) of every pairing
+            (``Pairings.projected``, ``Pairings.innovation_covariances``).
     """
 
     def __init__(
@@ -224,6 +234,7 @@ class _InterpretationTree:
         options: list[list[int]],
         gates: np.ndarray,
         max_nodes: int,
+        projections: tuple[np.ndarray, np.ndarray],
     ) -> None:
         k_count = pairings.sightings
         self.pairings = pairings
@@ -234,8 +245,7 @@ class _InterpretationTree:
         self.pairable_after = np.zeros(k_count + 1, dtype=np.int64)
         for k in range(k_count - 1, -1, -1):
             self.pairable_after[k] = self.pairable_after[k + 1] + (1 if options[k] else 0)
-        self.PHt = pairings.projected()
-        self.S_one = pairings.innovation_covariances(self.PHt)
+        self.PHt, self.S_one = projections
         self.current = np.full(k_count, UNPAIRED, dtype=np.int64)
         self.best = self.current.copy()
         self.best_pairings = 0
