@@ -1,7 +1,9 @@
 # Two commands do everything on a fresh machine:
 #   make demo   renders the embedded `demo` world and runs the pipeline end to end
-#   make test   runs ruff, the unit tests, the example estimator plugin's tests and the
-#               documentation site's strict build
+#   make test   runs ruff, the tests not marked slow, the example estimator plugin's tests and
+#               the documentation site's strict build (what CI runs)
+#   make test-all  the same with every test, the slow ones included (long end-to-end runs,
+#               more seeds, killed workers)
 # Both create .venv and install what is needed first (system libraries too, when root on Debian).
 #   make docs   the documentation site (mkdocs.yml) into site/, with `mkdocs build --strict`
 #   make suite  every estimator on every dataset (benchmarks/grids/suite.yaml): results in
@@ -15,7 +17,7 @@ PLUGIN := examples/estimator_plugin
 STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml $(PLUGIN)/pyproject.toml | cksum | cut -d' ' -f1)
 SYSLIBS := libusb-1.0-0 libgl1 libegl1 libx11-6 libudev1 libgomp1
 
-.PHONY: test demo docs suite venv kernels syslibs lint clean
+.PHONY: test test-all demo docs suite venv kernels syslibs lint clean
 
 venv: $(STAMP)
 
@@ -54,11 +56,17 @@ syslibs:
 lint: venv
 	$(BIN)/ruff check .
 
+# PYTEST_MARKS: which tests `make test` runs (`make test-all` runs them all)
+PYTEST_MARKS ?= not slow
+
 test: kernels
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q $(if $(PYTEST_MARKS),-m "$(PYTEST_MARKS)")
 	$(BIN)/python -m pytest -q $(PLUGIN)/tests
 	@$(MAKE) --no-print-directory docs
+
+test-all:
+	@$(MAKE) --no-print-directory test PYTEST_MARKS=
 
 # the site reads the package's docstrings from this checkout (mkdocs.yml: paths [.])
 docs: venv

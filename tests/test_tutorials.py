@@ -63,6 +63,7 @@ def _verdict(report: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(f))
 
 
+@pytest.mark.slow
 def test_own_estimator(shared_data: Path, tmp_path: Path):
     pytest.importorskip("ekf_localiser", reason="install examples/estimator_plugin (make test)")
     ran = run_page(TUTORIALS / "own-estimator.md", tmp_path)
@@ -70,6 +71,7 @@ def test_own_estimator(shared_data: Path, tmp_path: Path):
     assert _verdict(tmp_path / "reports" / "plugin-grid")[0]["best"].startswith("ekf-")
 
 
+@pytest.mark.slow
 def test_external_results(shared_data: Path, tmp_path: Path):
     ran = run_page(TUTORIALS / "external-results.md", tmp_path)
     assert len(ran) == 3

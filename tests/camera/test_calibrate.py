@@ -387,6 +387,7 @@ def test_vmr_detected_corners_match_the_toolbox_and_the_fit(shared_data, tmp_pat
         ("hyperbolic", 13),
     ],
 )
+@pytest.mark.slow
 def test_rendered_images_recover_the_camera_on_more_seeds(tmp_path, model, seed):
     truth = UNIFIED_TRUTH if model == "unified" else HYPERBOLIC_TRUTH
     paths = rendered_set(tmp_path, truth, Board(6, 7, 0.05), 8, seed)

@@ -110,6 +110,7 @@ def test_compare_shows_the_frames_the_workers_step(tmp_path):
     assert re.search(rf"2/2 cells, {n}/{n} frame \(100%\).*done in", lines[-1]), lines[-1]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("workers", ["0", "2"])
 def test_compare_prints_each_warning_once_after_its_progress(tmp_path, workers):
     data = write_small_mrclam(tmp_path / "MRCLAM_Small")
@@ -130,6 +131,7 @@ def test_compare_prints_each_warning_once_after_its_progress(tmp_path, workers):
     assert "3 computed" in result.stdout
 
 
+@pytest.mark.slow
 def test_report_ends_with_every_dataset_done(tmp_path):
     """The report's last progress line counts every dataset (its exports come after the
     figures and once printed "0/1 dataset ... done")."""

@@ -8,6 +8,7 @@ the filter beats dead reckoning and its landmarks land within their covariances.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from ekfslam_scenario import JACOBIAN_ATOL, ORACLE_ATOL, pose_error
 from scipy.stats import chi2
 
@@ -238,6 +239,7 @@ def dead_reckoning(frames: list[FrameInput], start: np.ndarray) -> np.ndarray:
     return np.array(poses)
 
 
+@pytest.mark.slow
 def test_bearing_only_run_beats_dead_reckoning_and_maps_within_covariances():
     true_poses, points, frames = omni_scenario(seed=1, steps=400)  # ~2 loops
     ekf = omni_filter()

@@ -124,6 +124,7 @@ def test_agrees_with_batch_graphslam_within_covariances(rng):
     assert np.max(np.abs(ekf.landmarks_w[ekf_order, :2] - scenario.landmarks_w)) < 0.3
 
 
+@pytest.mark.slow
 def test_pose_nees_inside_the_95_percent_band_early_in_the_run():
     """Mean pose NEES over 30 seeds, steps 1..150 (frame 0 is exact): inside the two-sided 95%
     chi-square band of 30 x 3 dof at >= 90% of the steps (5% fall outside by chance), and the

@@ -159,6 +159,7 @@ def test_augmentation_equals_numerical_jacobian_propagation(rng):
     np.testing.assert_allclose(J_z, J[d:, d:], atol=JACOBIAN_ATOL)
 
 
+@pytest.mark.slow
 def test_covariance_stays_symmetric_psd_over_10000_steps():
     scenario = make_scenario(seed=7, steps=10_000)
     ekf = EKFSLAM(EKFSLAMConfig(motion_noise=NOISE))

@@ -110,6 +110,7 @@ def test_beats_dead_reckoning_and_maps_the_landmarks(variant):
     assert max(errors) < LANDMARK_RMSE_M
 
 
+@pytest.mark.slow
 def test_fastslam2_with_10_particles_at_least_as_good_as_fastslam1():
     """Paired over 8 seeds (same world, odometry and sightings): the 2.0 proposal gives a
     lower mean ATE with 10 particles and keeps its particles diverse (fewer resamplings)."""
@@ -157,6 +158,7 @@ UNKNOWN_ASSOCIATION_SETTINGS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", list(Variant))
 def test_unknown_association(variant):
     """Per-particle maximum-likelihood association finds each well-separated landmark once."""

@@ -18,6 +18,7 @@ def _run(argv):
     return args.handler(args)
 
 
+@pytest.mark.slow
 def test_writes_a_log_and_reuses_it(demo_folder, tmp_path, capsys):
     out = tmp_path / "demo.npz"
     config = tmp_path / "fe.yaml"
@@ -37,6 +38,7 @@ def test_writes_a_log_and_reuses_it(demo_folder, tmp_path, capsys):
     assert load_observation_log(out).config["sift"]["edge_threshold"] == 10.0
 
 
+@pytest.mark.slow
 def test_resume_rebuilds_a_log_of_another_seed(demo_folder, tmp_path, capsys):
     out = tmp_path / "demo.npz"
     config = tmp_path / "fe.yaml"

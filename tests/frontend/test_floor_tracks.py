@@ -199,6 +199,7 @@ def demo_logs(demo_sequence):
     return plain, floor
 
 
+@pytest.mark.slow
 def test_the_pipeline_adds_floor_tracks_on_the_floor_and_leaves_the_rest(demo_logs, demo_truth):
     plain, floor = demo_logs
     landmark_ids = set()

@@ -187,6 +187,7 @@ def test_pipelined_and_sequential_runs_give_the_same_log(demo_sequence, demo_log
     assert children_s >= in_workers
 
 
+@pytest.mark.slow
 def test_two_pipelined_runs_at_once_in_one_process(demo_sequence, demo_log):
     """Two front ends in threads of one process (a Dask worker's): Python has one fork server
     per process and a run stops it when it ends, so the second run spawns its workers; both

@@ -32,14 +32,17 @@ def jit_kernels():
 
 @pytest.fixture(scope="module")
 def aot_kernels(tmp_path_factory):
-    """The kernels compiled ahead of time (``kernels_aot``, ~10 s), loaded from a fresh
-    build."""
-    folder = tmp_path_factory.mktemp("aot")
-    try:
-        kernels_aot.build(folder)
-    except Exception as exc:  # no C compiler: numba's just-in-time path is what runs
-        pytest.skip(f"cannot compile ahead of time here: {type(exc).__name__}: {exc}")
-    module = kernels_aot.load(folder)
+    """The kernels compiled ahead of time (``kernels_aot``): the installed build when it
+    matches this source and machine (``make kernels``, what runs), else a fresh build
+    (~10 s)."""
+    module = kernels_aot.load()
+    if module is None:
+        folder = tmp_path_factory.mktemp("aot")
+        try:
+            kernels_aot.build(folder)
+        except Exception as exc:  # no C compiler: numba's just-in-time path is what runs
+            pytest.skip(f"cannot compile ahead of time here: {type(exc).__name__}: {exc}")
+        module = kernels_aot.load(folder)
     assert module is not None
     return SimpleNamespace(**{name: getattr(module, name) for name in kernels_aot.SIGNATURES})
 

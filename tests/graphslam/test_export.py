@@ -196,6 +196,7 @@ def test_gtsam_s_2d_reader_loses_the_factors_after_a_line_it_does_not_know(tmp_p
         assert graph.size() == factors, extra
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("estimator", ["graphslam", "graphslam-batch"])
 def test_run_dir_graph_g2o_reads_back_with_gtsam(tmp_path, estimator):
     """``omnislam run mrclam6-r1 --estimator E --out R``: R/graph.g2o through gtsam.readG2o."""

@@ -120,6 +120,7 @@ def _run(frames, config):
     return graph
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [3, 5])
 def test_the_joint_floor_solve_recovers_the_scale_better_than_the_pairs(seed):
     """The pairs over the graph's trajectory leave the scale 0.088 % (seed 3) and 0.111 %

@@ -160,6 +160,7 @@ def _ate_scale(estimate, poses):
     return float(np.sum(est * true) / np.sum(true * true))
 
 
+@pytest.mark.slow
 def test_graphslam_takes_the_floors_scale():
     frames, poses, _ = _scenario(np.random.default_rng(3))
     config = GraphSLAMConfig(poses=PoseConfig(sensor_height_m=SENSOR_HEIGHT_M))
@@ -177,6 +178,7 @@ def test_graphslam_takes_the_floors_scale():
     assert abs(_ate_scale(metric.estimate(), poses) - 1) < 0.003
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [3, 5])
 def test_the_final_estimate_takes_the_runs_final_floor_scale(seed):
     """Floor points only in the second half: the first half's odometry enters the online graph
@@ -227,6 +229,7 @@ def _noisy_odometry(frames, rng, sigma=0.15):
     return noisy
 
 
+@pytest.mark.slow
 def test_refined_pairs_measure_the_trajectorys_own_scale():
     """Over a trajectory that is the truth scaled by k, the floor pairs say 1 / k, whatever the
     raw odometry's noise (which spreads the raw pairs)."""
@@ -243,6 +246,7 @@ def test_refined_pairs_measure_the_trajectorys_own_scale():
         floor.refined(poses[:-1])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [2, 3])
 def test_the_final_floor_scale_is_refined_over_the_graphs_trajectory(seed):
     """Per-step odometry noise of 15 % leaves the raw pairs' scale 1-1.7 % off on these seeds;
@@ -270,6 +274,7 @@ def test_the_final_floor_scale_is_refined_over_the_graphs_trajectory(seed):
     np.testing.assert_array_equal(refined.estimate().trajectory.se2, first)
 
 
+@pytest.mark.slow
 def test_fixed_lag_final_estimate_is_the_whole_graph_optimum():
     """The smoother's window is bounded; ``estimate()`` smooths every factor, as iSAM2 does
     (with the odometry at the scales it was added at, as iSAM2 has it)."""
@@ -321,6 +326,7 @@ class _FailingOnce(FixedLagSession):
         self._smoother = Smoother(self)
 
 
+@pytest.mark.slow
 def test_fixed_lag_restarts_on_the_window_after_a_failed_update(monkeypatch):
     frames, _, _ = _scenario(np.random.default_rng(5))
     config = GraphSLAMConfig(

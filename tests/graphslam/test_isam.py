@@ -152,6 +152,7 @@ def _rotate_some_bearings(
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 3])
 def test_omni_default_kernel_holds_the_map_against_bearings_inside_the_gate(seed):
     """3 % of the bearings off by 10 deg (~35 sigmas, inside the 20 deg gate): with the
@@ -243,6 +244,7 @@ def test_frames_before_the_first_sighting_are_dead_reckoning(planar):
     assert every.info().factors == 20
 
 
+@pytest.mark.slow
 def test_wrong_associations_the_defaults_keep_ate_near_clean():
     """20% of sightings re-assigned to wrong ids: the defaults (outlier gate + consistent
     insertion), Cauchy + consistent insertion, and neither."""

@@ -23,6 +23,7 @@ LANDMARK_RMSE_M = 0.15
 MIN_LANDMARKS = 60
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2])
 def test_no_indeterminate_system_on_demo_seeds(tmp_path, seed):
     from omnislam.core.modality import Modality

@@ -169,6 +169,7 @@ def test_robust_sightings_are_gated_by_their_gaussian_sigmas():
 DATASET6 = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "mrclam"
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (DATASET6 / "MRCLAM_Dataset6").is_dir(), reason="no MR.CLAM data")
 def test_mrclam_robot1_without_ids_gains_and_with_ids_nothing_moves(monkeypatch):
     """Robot 1 without ids: the batch optimum 0.095 m, re-associated 0.084 m (with ids: 0.061 m)."""

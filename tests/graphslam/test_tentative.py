@@ -67,6 +67,7 @@ def test_config_rejects_a_zero_window():
         AssociationConfig(tentative_window_frames=0)
 
 
+@pytest.mark.slow
 def test_clutter_is_dropped_and_the_trajectory_matches_known_association():
     """Unknown ids plus ~0.5 false detections per frame: the tentative stage keeps the map."""
     ratios = []

@@ -45,6 +45,7 @@ def _alive(pid: int) -> bool:
     return state not in ("Z", "X")
 
 
+@pytest.mark.slow
 def test_workers_die_with_a_killed_compare_and_a_rerun_resumes(tmp_path):
     for name, seed in (("room_a", 1), ("room_b", 2)):
         write_room_log(tmp_path / "data" / f"{name}.log", frames=2000, seed=seed)

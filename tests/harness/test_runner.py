@@ -252,6 +252,7 @@ def test_dask_local_cluster_gives_the_numbers_of_the_serial_run(tmp_path, dask_c
     assert numbers(tmp_path / "dask") == numbers(tmp_path / "serial")
 
 
+@pytest.mark.slow
 def test_dask_worker_killed_mid_grid_still_gives_a_complete_identical_result(tmp_path, dask_client):
     # cells big enough (loading ~0.5 s each) that a worker is killed while computing one
     grid = load_grid(make_grid(tmp_path, frames=6000, segment=10.0))

@@ -50,6 +50,7 @@ def metrics_rows(results: Path) -> list[tuple[str, str, dict]]:
     ]
 
 
+@pytest.mark.slow
 def test_pool_dask_and_a_rerun_from_cache_give_identical_numbers(small_suite, tmp_path):
     distributed = pytest.importorskip("distributed")
     grid = load_grid(small_suite)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from omnislam.core.measurement import Bearing2D
 from omnislam.core.modality import Modality
@@ -190,6 +191,7 @@ def test_wrong_validated_pairs_stay_below_one_percent_beside_unmapped_lines():
     assert worst_mean_err <= 0.03
 
 
+@pytest.mark.slow
 def test_the_papers_step_4_alone_validates_wrong_pairs_there():
     """The same corridor without the covariance gates and with Sc_k alone: the two-frame
     validation passes wrong pairs (so the test above can fail)."""

@@ -36,6 +36,7 @@ def _digests(folder):
     }
 
 
+@pytest.mark.slow
 def test_same_preset_and_seed_give_byte_identical_folders(tmp_path):
     pytest.importorskip("cv2")
     for name in ("a", "b"):
@@ -47,6 +48,7 @@ def test_same_preset_and_seed_give_byte_identical_folders(tmp_path):
     assert "images/000000.png" in a and "gt/000000.npz" in a and "world.json" in a
 
 
+@pytest.mark.slow
 def test_another_image_rate_keeps_the_world_route_and_odometry(tmp_path):
     pytest.importorskip("cv2")
     preset_k = PRESETS["demo"].image_every_k
