@@ -146,7 +146,7 @@ def _executor_factory(
     import os
 
     from omnislam.errors import ConfigError
-    from omnislam.harness.runner import local_executor_factory
+    from omnislam.harness.runner import dask_executor_factory, local_executor_factory
 
     if args.scheduler is None:
         if args.workers is not None:  # 0: in this process
@@ -175,7 +175,7 @@ def _executor_factory(
         client = stack.enter_context(distributed.Client(address, timeout="10s"))
     except OSError as exc:
         raise ConfigError(f"cannot reach the Dask scheduler {address!r} ({exc})") from None
-    return client.get_executor, f"Dask at {address}"
+    return dask_executor_factory(client), f"Dask at {address}"
 
 
 def _print_outcomes(result: GridResult, out: str) -> int:

@@ -1,7 +1,7 @@
 """Run a Grid through any ``concurrent.futures`` executor: a local process pool or Dask.
 
 The runner is written against ``concurrent.futures.Executor`` only: ``ProcessPoolExecutor`` by
-default, ``distributed.Client(address).get_executor()`` for a Dask cluster, ``SerialExecutor``
+default, a Dask client's executor for a cluster (``dask_executor_factory``), ``SerialExecutor``
 in-process. Two kinds of task run on the workers:
 
 1. ``prepare_dataset``, once per dataset: render a synthetic preset that is not in the cache
@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import csv
 import enum
+import functools
 import io
 import json
 import os
@@ -240,6 +241,20 @@ def local_executor_factory(workers: int) -> Callable[[], Executor]:
         )
 
     return make
+
+
+def dask_executor_factory(client: object) -> Callable[[], Executor]:
+    """Factory of the executor of a Dask ``distributed.Client``: its tasks are impure.
+
+    Dask names a pure task (``Client.submit``'s default) after its function and arguments, so a
+    task resubmitted after its worker died would get the name of the failed one and the
+    scheduler would answer with that one's ``KilledWorker`` at once: every attempt would fail
+    without running. ``pure=False`` gives each submission a name of its own.
+
+    Args:
+        client: a connected ``distributed.Client``.
+    """
+    return functools.partial(client.get_executor, pure=False)  # type: ignore[attr-defined]
 
 
 def check_results_dir(out_dir: Path) -> None:

@@ -17,7 +17,13 @@ from room_log import write_room_log
 from omnislam.errors import ConfigError
 from omnislam.harness.grid import load_grid
 from omnislam.harness.layout import CELLS, METRICS
-from omnislam.harness.runner import CellStatus, SerialExecutor, run_cell, run_grid
+from omnislam.harness.runner import (
+    CellStatus,
+    SerialExecutor,
+    dask_executor_factory,
+    run_cell,
+    run_grid,
+)
 from omnislam.metrics.run_metrics import MEASURED_KEYS, read_run_metrics
 
 GRID = """
@@ -247,7 +253,7 @@ def dask_client():
 def test_dask_local_cluster_gives_the_numbers_of_the_serial_run(tmp_path, dask_client):
     grid = load_grid(make_grid(tmp_path))
     serial = run_grid(grid, tmp_path / "serial", SerialExecutor)
-    dask = run_grid(grid, tmp_path / "dask", dask_client.get_executor)
+    dask = run_grid(grid, tmp_path / "dask", dask_executor_factory(dask_client))
     assert serial.count(CellStatus.COMPUTED) == dask.count(CellStatus.COMPUTED) == 4
     assert numbers(tmp_path / "dask") == numbers(tmp_path / "serial")
 
@@ -272,7 +278,7 @@ def test_dask_worker_killed_mid_grid_still_gives_a_complete_identical_result(tmp
 
     thread = threading.Thread(target=killer)
     thread.start()
-    result = run_grid(grid, tmp_path / "dask", dask_client.get_executor)
+    result = run_grid(grid, tmp_path / "dask", dask_executor_factory(dask_client))
     thread.join()
     assert killed, "no worker was busy: nothing was killed"
     assert result.count(CellStatus.COMPUTED) == 4

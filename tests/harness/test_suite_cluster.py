@@ -16,7 +16,13 @@ from test_runner import CountingExecutor, numbers
 
 from omnislam.harness.grid import load_grid
 from omnislam.harness.layout import CELL_TIME, CELLS, RESULTS_JSON
-from omnislam.harness.runner import CellStatus, SerialExecutor, local_executor_factory, run_grid
+from omnislam.harness.runner import (
+    CellStatus,
+    SerialExecutor,
+    dask_executor_factory,
+    local_executor_factory,
+    run_grid,
+)
 from omnislam.metrics.run_metrics import MEASURED_KEYS
 
 GRID = """
@@ -70,7 +76,7 @@ def test_pool_dask_and_a_rerun_from_cache_give_identical_numbers(small_suite, tm
         ) as cluster,
         distributed.Client(cluster) as client,
     ):
-        dask = run_grid(grid, tmp_path / "dask", client.get_executor)
+        dask = run_grid(grid, tmp_path / "dask", dask_executor_factory(client))
     assert dask.count(CellStatus.COMPUTED) == len(grid.cells)
     reference = numbers(tmp_path / "pool")  # metrics (not time, memory) and trajectory.tum
     assert numbers(tmp_path / "dask") == reference
