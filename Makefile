@@ -56,12 +56,16 @@ syslibs:
 lint: venv
 	$(BIN)/ruff check .
 
-# PYTEST_MARKS: which tests `make test` runs (`make test-all` runs them all)
+# PYTEST_MARKS: which tests `make test` runs (`make test-all` runs them all);
+# PYTEST_WORKERS: pytest-xdist processes, one per core by default (a test module stays on one
+# worker, so its module fixtures are built once)
 PYTEST_MARKS ?= not slow
+PYTEST_WORKERS ?= $(shell nproc 2>/dev/null || echo 2)
 
 test: kernels
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -q $(if $(PYTEST_MARKS),-m "$(PYTEST_MARKS)")
+	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --dist loadscope \
+	  $(if $(PYTEST_MARKS),-m "$(PYTEST_MARKS)")
 	$(BIN)/python -m pytest -q $(PLUGIN)/tests
 	@$(MAKE) --no-print-directory docs
 
