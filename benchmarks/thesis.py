@@ -355,8 +355,8 @@ def draw_maps(
     figure, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.4 * rows),
                                 squeeze=False)
     for ax, (label, poses, landmarks) in zip(axes.flat, panels, strict=False):
-        grid = occupancy_grid(poses, laser.angles_rad, laser.ranges_m, laser.max_range_m,
-                              resolution_m=resolution)
+        grid = occupancy_grid(laser.scanner_poses_w(poses), laser.angles_rad, laser.ranges_m,
+                              laser.max_range_m, resolution_m=resolution)
         ax.imshow(grid.probability, origin="lower", cmap="gray_r", vmin=0, vmax=1,
                   extent=grid.extent_w, interpolation="none")
         ax.plot(poses[:, 0], poses[:, 1], lw=0.5, color="tab:blue")

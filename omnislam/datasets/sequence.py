@@ -18,6 +18,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from omnislam.core.se import se2_compose
+from omnislam.core.sensor_mount import is_at_origin
 from omnislam.core.types import (
     Bearings,
     FrameInput,
@@ -85,17 +87,22 @@ class LaserScans:
     """Planar laser scans, one row per frame (NaN where a frame has no scan).
 
     Attributes:
-        angles_rad: (B,) beam angles in the robot frame, counter-clockwise from the heading.
-        ranges_m: (N, B) ranges; values >= max_range_m mean "no return".
+        angles_rad: (B,) beam angles in the scanner frame, counter-clockwise from its heading.
+        ranges_m: (N, B) ranges from the scanner; values >= max_range_m mean "no return".
         max_range_m: the sensor's maximum range.
         role: SENSOR (the default) or OCCUPANCY (for the occupancy grid only: the front end
             neither registers nor extracts landmarks from them).
+        offset_r: (3,) the scanner's pose [x, y, yaw] in the robot frame [m, m, rad]; default
+            zero (the scanner frame is the robot frame). A SICK on a Pioneer sits 0.1-0.3 m
+            ahead of the axle: every consumer of the scans moves them by it
+            (``omnislam.core.sensor_mount``).
     """
 
     angles_rad: np.ndarray
     ranges_m: np.ndarray
     max_range_m: float
     role: LaserRole = LaserRole.SENSOR
+    offset_r: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
         angles = _frozen(self.angles_rad, float, (None,), "LaserScans.angles_rad")
@@ -108,6 +115,15 @@ class LaserScans:
         object.__setattr__(self, "angles_rad", angles)
         object.__setattr__(self, "ranges_m", ranges)
         object.__setattr__(self, "max_range_m", float(self.max_range_m))
+        object.__setattr__(self, "offset_r", _frozen(self.offset_r, float, (3,),
+                                                     "LaserScans.offset_r"))
+
+    def scanner_poses_w(self, wTr: np.ndarray) -> np.ndarray:
+        """(..., 3) the scanner's poses wTs = wTr (+) offset_r of robot poses ``wTr``
+        (..., 3) ([x, y, yaw]; ``wTr`` itself when the offset is zero)."""
+        if is_at_origin(self.offset_r):
+            return wTr
+        return se2_compose(wTr, self.offset_r)
 
     @property
     def senses(self) -> bool:

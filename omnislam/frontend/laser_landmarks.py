@@ -174,13 +174,14 @@ def extract_laser_landmarks(
     """Spike and line landmarks of one scan as range-bearing sightings (ids unknown).
 
     Args:
-        angles_rad: (B,) beam angles in the robot frame (counter-clockwise from the heading).
+        angles_rad: (B,) beam angles in the scanner frame (counter-clockwise from its heading;
+            the sightings come out in this frame: ``mounted_laser`` moves them to the robot's).
         ranges_m: (B,) ranges [m]; ``>= max_range_m`` or NaN means no return.
         max_range_m: the sensor's maximum range.
         config: thresholds.
         rng: random generator for RANSAC.
-        pose_dr: (3,) dead-reckoning pose [x, y, theta] used to drop the perpendicular from
-            the odometry frame's origin (None: from the sensor itself).
+        pose_dr: (3,) dead-reckoning pose [x, y, theta] of the scanner used to drop the
+            perpendicular from the odometry frame's origin (None: from the sensor itself).
 
     Returns:
         Sightings with ``UNKNOWN_ID``: spikes first, then the line landmarks (corners or

@@ -99,7 +99,8 @@ class ObservationLog:
 
 
 def dataset_fingerprint(sequence: Any) -> str:
-    """``name-<12 hex>``: the sequence's name and a hash of its stamps, odometry and images.
+    """``name-<12 hex>``: the sequence's name and a hash of its stamps, odometry and images
+    (and of its scanner's offset on the robot, when not zero).
 
     Args:
         sequence: an ``omnislam.datasets.Sequence``.
@@ -108,6 +109,8 @@ def dataset_fingerprint(sequence: Any) -> str:
     for array in (sequence.stamps_s, sequence.odometry_r, sequence.image_frames):
         digest.update(np.ascontiguousarray(array).tobytes())
     digest.update(str(sequence.laser is not None).encode())
+    if sequence.laser is not None and np.any(sequence.laser.offset_r):
+        digest.update(np.ascontiguousarray(sequence.laser.offset_r).tobytes())
     digest.update(str(sequence.range_bearing is not None).encode())
     calibration = getattr(sequence.calibration, "to_dict", None)
     if calibration is not None:

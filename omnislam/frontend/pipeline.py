@@ -490,14 +490,11 @@ class _FrontendRun:
             config.with_images or sequence.image_loader is None
         ):
             return None
-        from omnislam.frontend.scan_matching import laser_odometry
+        from omnislam.frontend.mounted_laser import robot_laser_odometry
 
-        scans = sequence.laser
-        with self.clock("laser_odometry"):
-            return laser_odometry(
-                scans.angles_rad, scans.ranges_m, scans.max_range_m, sequence.odometry_r,
-                config, sequence.odometry_covariance_r,
-            )
+        with self.clock("laser_odometry"):  # the robot's motion, the scanner off its origin
+            return robot_laser_odometry(sequence.laser, sequence.odometry_r, config,
+                                        sequence.odometry_covariance_r)
 
     def _laser_sightings(self, laser_odom: LaserOdometry | None) -> dict[int, RangeBearing]:
         """Per frame with a scan, its laser landmarks (``laser_landmarks``), when the laser is
@@ -507,7 +504,7 @@ class _FrontendRun:
             config.merge_with_sightings or not _has_own_sightings(sequence)
         ):
             return {}
-        from omnislam.frontend.laser_landmarks import extract_laser_landmarks
+        from omnislam.frontend.mounted_laser import robot_laser_landmarks
 
         scans = sequence.laser
         # the feet of the perpendicular are dropped from the odometry frame's origin through
@@ -518,12 +515,9 @@ class _FrontendRun:
         sightings: dict[int, RangeBearing] = {}
         with self.clock("laser"):
             for i in range(len(sequence)):
-                ranges = scans.ranges_m[i]
-                if np.all(np.isnan(ranges)):
+                if np.all(np.isnan(scans.ranges_m[i])):
                     continue
-                sightings[i] = extract_laser_landmarks(
-                    scans.angles_rad, ranges, scans.max_range_m, config, self.rng, poses_dr[i]
-                )
+                sightings[i] = robot_laser_landmarks(scans, i, config, self.rng, poses_dr[i])
             if config.persistence_radius_m is not None:
                 from omnislam.frontend.laser_landmarks import persistent_sightings
 

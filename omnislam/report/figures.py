@@ -5,8 +5,9 @@ ATE RMSE is the median over seeds (``metrics.seeds``: with an even count, the lo
 middle ones), so a panel's ATE is the number the tables print -- and from every run for the
 figures over seeds: ATE over seeds, accuracy against run time,
 each trajectory coloured by its position error over the ground truth, error over distance,
-landmark maps, step-time percentiles and -- where the data has laser scans (CARMEN, synthetic)
--- occupancy grids built from the scans on every estimated trajectory (``occupancy``). Every
+landmark maps, step-time percentiles and -- where the data has laser scans (CARMEN, synthetic,
+a folder's ``laser.csv``) -- occupancy grids built from the scans on every estimated trajectory
+(``occupancy``; the beams start at the scanner, ``LaserScans.scanner_poses_w``). Every
 estimate is drawn SE(2)-aligned to the ground truth as its ATE aligns it.
 """
 
@@ -28,7 +29,7 @@ from omnislam.report.options import ReportOptions
 from omnislam.report.results import ReportCell, columns, gt_label
 
 #: dataset formats whose Sequence can carry raw laser scans (occupancy grids)
-LASER_FORMATS = (DatasetFormat.CARMEN, DatasetFormat.SYNTHETIC)
+LASER_FORMATS = (DatasetFormat.CARMEN, DatasetFormat.SYNTHETIC, DatasetFormat.FOLDER)
 
 #: (file stem, caption) of each figure of a dataset, in report order; each answers one question
 FIGURES: tuple[tuple[str, str], ...] = (
@@ -368,7 +369,7 @@ def _occupancy_grids(
 
     def build(poses: np.ndarray) -> object:
         return occupancy_grid(
-            poses,
+            laser.scanner_poses_w(poses),  # the beams start at the scanner, not the robot
             laser.angles_rad,
             laser.ranges_m,
             laser.max_range_m,

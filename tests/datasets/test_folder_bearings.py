@@ -176,20 +176,27 @@ def test_graphslam_on_a_folder_of_the_logs_bearings_gives_the_logs_solution(tmp_
     assert "modality: bearings-3d" in config
 
 
-def test_a_laser_offset_gives_the_scans_of_a_folder_premoved_to_the_robot_frame(tmp_path):
-    for name in "abc":
+def test_a_laser_offset_is_the_scanners_pose_kept_with_its_scans_and_exported(tmp_path):
+    for name in "ab":
         (tmp_path / name).mkdir()
-    angles, yaw = [-0.5, 0.0, 0.5], 0.3
+    angles, offset = [-0.5, 0.0, 0.5], [0.25, 0.05, 0.1]
     scans = "stamp_s,range_0_m,range_1_m,range_2_m\n0.1,2.0,3.0,\n0.2,2.5,8.0,1.0\n"
     laser = {"angles_rad": angles, "max_range_m": 8.0}
-    turned = load_folder(folder(tmp_path / "a", {**META, "laser": {**laser, "offset_r": [
-        0.0, 0.0, yaw]}}, laser_csv=scans)).laser
-    premoved = load_folder(folder(tmp_path / "b", {**META, "laser": {
-        **laser, "angles_rad": [a + yaw for a in angles]}}, laser_csv=scans)).laser
-    np.testing.assert_array_equal(turned.angles_rad, premoved.angles_rad)
-    np.testing.assert_array_equal(turned.ranges_m, premoved.ranges_m)
-    root = folder(tmp_path / "c", {**META, "laser": {**laser, "offset_r": [0.2, 0.0, 0.0]}},
+    root = folder(tmp_path / "a", {**META, "laser": {**laser, "offset_r": offset}},
                   laser_csv=scans)
-    with pytest.raises(DataError, match=r"laser\.offset_r: the scanner must be on the robot's"):
-        load_folder(root)
-    assert any("laser.offset_r" in problem for problem in check_folder(root))
+    assert check_folder(root) == []
+    mounted = load_folder(root)
+    np.testing.assert_array_equal(mounted.laser.angles_rad, angles)  # the scanner's frame
+    np.testing.assert_array_equal(mounted.laser.offset_r, offset)
+    centred = load_folder(folder(tmp_path / "b", {**META, "laser": laser}, laser_csv=scans))
+    np.testing.assert_array_equal(centred.laser.offset_r, np.zeros(3))
+    np.testing.assert_array_equal(mounted.laser.ranges_m, centred.laser.ranges_m)
+    again = load_folder(export_folder(mounted, tmp_path / "again")).laser
+    assert json.loads((tmp_path / "again" / "dataset.json").read_text())["laser"][
+        "offset_r"] == offset
+    np.testing.assert_array_equal(again.offset_r, mounted.laser.offset_r)
+    np.testing.assert_array_equal(again.angles_rad, mounted.laser.angles_rad)
+    np.testing.assert_array_equal(again.ranges_m, mounted.laser.ranges_m)
+    export_folder(centred, tmp_path / "centred")
+    assert "offset_r" not in json.loads((tmp_path / "centred" / "dataset.json").read_text())[
+        "laser"]

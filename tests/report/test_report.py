@@ -6,6 +6,7 @@ import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import mounted_laser_room as mounted
 import numpy as np
 import pytest
 from room_log import ROOM_X, ROOM_Y, write_room_log
@@ -105,6 +106,52 @@ def test_occupancy_grid_of_the_room_sees_walls_and_free_space(room_log):
     assert at(5.0, 4.0, 1.0) < 0.2  # the middle of the room is free
     assert at(ROOM_X, 4.0, 0.15) > 0.9 and at(5.0, ROOM_Y, 0.15) > 0.9  # walls
     assert at(ROOM_X + 1.0, 4.0, 0.3) == pytest.approx(0.5)  # behind the wall: unknown
+
+
+def _largest_probability(grid, x, y, half_m=0.1):
+    """The largest occupancy probability of ``grid`` within half_m of (x, y)."""
+    lo = ((np.array([x, y]) - half_m - grid.origin_w) / grid.resolution_m).astype(int)
+    hi = ((np.array([x, y]) + half_m - grid.origin_w) / grid.resolution_m).astype(int)
+    return grid.probability[lo[1] : hi[1] + 1, lo[0] : hi[0] + 1].max()
+
+
+def _report_grid_of_the_mounted_room(folder, offset_r):
+    """The report's occupancy grid on the ground truth of the room scanned from
+    ``mounted.OFFSET_R``, declared as ``offset_r`` (None: as mounted), read from a folder."""
+    from omnislam.core.types import Estimate
+    from omnislam.datasets.folder import export_folder
+    from omnislam.harness.rundir import RunConfig, RunRecord
+    from omnislam.report.figures import _occupancy_grids
+
+    sequence = mounted.mounted_room(declared_offset_r=offset_r)
+    root = export_folder(sequence, folder)
+    config = RunConfig(dataset=str(root), dataset_path=str(root), estimator="deadreckoning",
+                       omnislam_version="test", frames=len(sequence), total_s=0.0,
+                       peak_rss_mb=0.0, ground_truth_kind="exact")
+    record = RunRecord(config, Estimate(sequence.ground_truth.trajectory),
+                       np.zeros(len(sequence)), sequence.ground_truth)
+    notes: list[str] = []
+    grids = _occupancy_grids(record, {"truth as estimate": (np.eye(4), record)},
+                             "ground truth (exact)", ReportOptions(), notes)
+    assert [label for label, _ in grids] == ["ground truth", "truth as estimate"]
+    assert notes == []
+    return grids[0][1]
+
+
+def test_occupancy_grids_draw_the_beams_from_a_scanner_mounted_off_the_robots_origin(tmp_path):
+    along_x, along_y = np.linspace(1.0, 9.0, 33), np.linspace(1.0, 7.0, 25)
+    x_max, y_max, inset = mounted.ROOM_X, mounted.ROOM_Y, 0.3
+    walls = [(x, y) for x in along_x for y in (0.0, y_max)]
+    walls += [(x, y) for y in along_y for x in (0.0, x_max)]
+    inside = [(x, y) for x in along_x for y in (inset, y_max - inset)]
+    inside += [(x, y) for y in along_y for x in (inset, x_max - inset)]
+    grid = _report_grid_of_the_mounted_room(tmp_path / "mounted", None)
+    assert np.mean([_largest_probability(grid, x, y) > 0.9 for x, y in walls]) > 0.9
+    assert max(_largest_probability(grid, x, y) for x, y in inside) < 0.2  # free up to them
+    assert min(_largest_probability(grid, x, y) for x, y in mounted.POLES_W) > 0.9
+    naive = _report_grid_of_the_mounted_room(tmp_path / "undeclared", np.zeros(3))
+    # undeclared, the walls are drawn 0.1-0.25 m off: most of their true lines are not occupied
+    assert np.mean([_largest_probability(naive, x, y) > 0.9 for x, y in walls]) < 0.5
 
 
 def test_covariances_round_trip_and_give_nees_and_ellipses(tmp_path, record_with_a_map):

@@ -24,6 +24,7 @@ import numpy as np
 
 from omnislam.core.ackermann import integrate_unicycle
 from omnislam.core.motion import MotionNoise, OdometryMotionModel
+from omnislam.core.sensor_mount import range_bearing_in_robot_frame
 from omnislam.core.types import UNKNOWN_ID, Bearings, PriorMap, RangeBearing
 from omnislam.datasets._common import Association, odometry_from_poses
 from omnislam.datasets._text import (
@@ -344,7 +345,8 @@ def _range_bearing(
                    "range-bearing sightings are planar; elevations are for bearing-only rows")
     check_range(sightings.table, sightings.columns["range_m"], "range_m", 0.0, MAX_COORDINATE_M)
     sigmas = [_sigma_column(sightings, name, settings) for name in layout.SIGHTING_SIGMAS]
-    ranges, bearings = _in_robot_frame(sightings, settings.get("offset_r"))
+    ranges, bearings = range_bearing_in_robot_frame(  # from the robot's origin
+        sightings.column("range_m"), sightings.column("bearing_rad"), settings.get("offset_r"))
     rows_of, every_frame = per_frame
     empty = RangeBearing(np.zeros(0, np.int64), [], [], [], [])
     return tuple(
@@ -459,23 +461,11 @@ def _sigma_column(sightings: NamedTable, name: str, settings: dict[str, Any]) ->
     return values
 
 
-def _in_robot_frame(sightings: NamedTable, offset_r: list[float] | None
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """(ranges_m, bearings_rad) from the robot's origin: as written without a sensor offset,
-    else the sensor-frame points moved by ``offset_r`` = [x, y, yaw]."""
-    ranges, bearings = sightings.column("range_m"), sightings.column("bearing_rad")
-    if offset_r is None or not any(offset_r):
-        return ranges, bearings
-    x, y, yaw = offset_r
-    px = x + ranges * np.cos(bearings + yaw)
-    py = y + ranges * np.sin(bearings + yaw)
-    return np.hypot(px, py), np.arctan2(py, px)
-
-
 def read_laser(root: Path, meta: dict[str, Any], frame_stamps_s: np.ndarray
                ) -> LaserScans | None:
     """``laser.csv`` (one row per scanned frame) as one row of ranges per frame (NaN where a
-    frame has no scan), or None without the file.
+    frame has no scan), or None without the file; the beam angles in the scanner frame as
+    written, the scanner's pose ``laser.offset_r`` (default zero) kept with them.
 
     Raises:
         DataError: naming the file and the line (or ``dataset.json`` without ``laser``).
@@ -490,7 +480,6 @@ def read_laser(root: Path, meta: dict[str, Any], frame_stamps_s: np.ndarray
     angles = np.asarray(settings["angles_rad"], dtype=float)
     if np.any(np.diff(angles) <= 0):
         raise DataError("laser.angles_rad must be increasing", root / layout.METADATA)
-    angles = _laser_in_robot_frame(angles, settings.get("offset_r"), root / layout.METADATA)
     names = layout.laser_columns(len(angles))
     scans = read_csv(path, (layout.STAMP, *names))
     scans.require_values([layout.STAMP])
@@ -505,27 +494,8 @@ def read_laser(root: Path, meta: dict[str, Any], frame_stamps_s: np.ndarray
     ranges = np.full((len(frame_stamps_s), len(angles)), np.nan)
     ranges[frames] = values
     role = LaserRole(settings.get("role", LaserRole.SENSOR.value))
-    return LaserScans(angles, ranges, float(settings["max_range_m"]), role)
-
-
-def _laser_in_robot_frame(angles_rad: np.ndarray, offset_r: list[float] | None,
-                          metadata_path: Path) -> np.ndarray:
-    """The beam angles in the robot frame: as written without an offset, else turned by the
-    offset's yaw (a beam's range is the same from the robot's origin).
-
-    Raises:
-        DataError: an offset with x or y: the scans are held as ranges along fixed beam angles
-            from the robot's origin, which a scanner off that origin does not give.
-    """
-    if offset_r is None:
-        return angles_rad
-    x, y, yaw = offset_r
-    if x or y:
-        raise DataError(
-            "laser.offset_r: the scanner must be on the robot's vertical axis (x = y = 0; the "
-            "yaw turns the beams): scans are ranges along fixed beam angles from the robot's "
-            "origin", metadata_path)
-    return angles_rad + yaw if yaw else angles_rad
+    return LaserScans(angles, ranges, float(settings["max_range_m"]), role,
+                      settings.get("offset_r", np.zeros(3)))
 
 
 @dataclass(frozen=True, slots=True)

@@ -195,7 +195,8 @@ def _bearing_rows(stamps_s: np.ndarray, sightings: BearingSightings) -> list[lis
 
 
 def _write_laser(folder: Path, sequence: Sequence) -> dict[str, Any]:
-    """``laser.csv`` (the frames with a scan) and its ``dataset.json`` section."""
+    """``laser.csv`` (the frames with a scan) and its ``dataset.json`` section (the beam
+    angles in the scanner frame, its ``offset_r`` when not zero)."""
     laser = sequence.laser
     if laser is None:
         return {}
@@ -209,6 +210,8 @@ def _write_laser(folder: Path, sequence: Sequence) -> dict[str, Any]:
     }
     if laser.role is not LaserRole.SENSOR:
         section["role"] = laser.role.value
+    if np.any(laser.offset_r):
+        section["offset_r"] = laser.offset_r.tolist()
     return {"laser": section}
 
 
