@@ -14,12 +14,26 @@ pole seen long before that re-associates it) and the share of revisits that re-a
 before and after the longest blind stretch (route 2's corridor without poles)::
 
     python benchmarks/thesis.py --out runs/thesis [--routes 1 2] [--seeds 0 1 2 3 4]
-        [--configs fs1-50 fs2-10 graphslam] [--workers 1] [--figure-seed 0 | --no-figures]
+        [--configs fs1-50 fs2-10 graphslam] [--noise-scale 1 0.5 0.25] [--workers 1]
+        [--figure-seed 0 | --no-figures]
 
-Writes ``OUT/runs/`` (the grid's results folder), ``OUT/thesis.csv`` (one row per run),
-``OUT/thesis.md`` (per route and configuration: median [min-max] over the seeds) and
-``OUT/figures/routeR-sS.png`` (the maps drawn as the thesis's Figs. 5.6 and 5.8: the occupancy
-grid of the 180 deg laser on each estimated trajectory, with its landmarks and the true poles).
+The thesis states no odometry coefficients, so ``--noise-scale S`` runs the presets with their
+alpha coefficients (``THESIS_MOTION_NOISE``) multiplied by S: the simulated robot's odometry,
+not any estimator's setting (every estimator keeps its defaults). The same seed draws the same
+world, sightings and odometry noise at every scale, only scaled. Scale 1 is the registered
+preset: a grid over ``{synthetic: thesis-routeR}``, rendered into the harness's cache, in
+``OUT/runs/``. Any other scale is rendered per seed into a folder of its own,
+``OUT/renders/thesis-routeR-xS-sSEED-BACKEND-KEY`` (the registered render's folder name with the
+scale inserted: KEY covers the preset, seed, backend and renderer code), and run by a grid over
+those folders with that seed, ``OUT/runs-xS/sSEED/`` (one results folder per seed, since a grid
+gives every folder on disk the same seeds); ``omnislam run FOLDER --seed SEED`` gives the same
+run.
+
+Writes the results folders, ``OUT/thesis.csv`` (one row per run), ``OUT/thesis.md`` (per route,
+scale and configuration: median [min-max] over the seeds) and ``OUT/figures/routeR-sS.png``
+(``routeR-xS-sS.png`` at other scales; the maps drawn as the thesis's Figs. 5.6 and 5.8: the
+occupancy grid of the 180 deg laser on each estimated trajectory, with its landmarks and the
+true poles).
 """
 
 from __future__ import annotations
@@ -29,7 +43,7 @@ import csv
 import math
 import sys
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -37,8 +51,13 @@ import thesis_metrics as tm
 import yaml
 
 from omnislam.datasets.registry import load_dataset, resolve
-from omnislam.harness.grid import Cell, parse_grid
+from omnislam.datasets.synthetic.loader import is_synthetic_folder
+from omnislam.datasets.synthetic.presets import PRESETS, Preset
+from omnislam.datasets.synthetic.simulate import simulate
+from omnislam.datasets.synthetic.writer import write_synthetic
+from omnislam.harness.grid import Cell, Grid, parse_grid
 from omnislam.harness.layout import CELLS
+from omnislam.harness.renders import RenderSpec, render_spec
 from omnislam.harness.rundir import RunRecord, read_run_dir
 from omnislam.harness.runner import CellOutcome, local_executor_factory, run_grid
 from omnislam.metrics.trajectory import Alignment, ate
@@ -79,6 +98,7 @@ class Row:
     """One run's figures (a line of ``thesis.csv``)."""
 
     route: int
+    noise_scale: float
     config: str
     seed: int
     ate_m: float
@@ -100,6 +120,13 @@ class Row:
     after_blind_reassociated: float
     cpu_s: float
 
+    @property
+    def chance_sigmas(self) -> float:
+        """The error at the first revisit in the estimate's own stds there (NaN: none stated)."""
+        if not self.chance_spread_m > 0:
+            return math.nan
+        return self.chance_error_m / self.chance_spread_m
+
 
 @dataclass(frozen=True, slots=True)
 class RouteTruth:
@@ -111,23 +138,39 @@ class RouteTruth:
     blind_end_m: float
 
 
+@dataclass(frozen=True, slots=True)
+class Experiment:
+    """One grid of the experiment and where its results go.
+
+    Attributes:
+        scale: the odometry noise's scale (1: the registered presets).
+        grid: the harness grid.
+        results_dir: its results folder.
+    """
+
+    scale: float
+    grid: Grid
+    results_dir: Path
+
+
 def main() -> None:
     args = _arguments()
     out = Path(args.out).resolve()
     configs = [c for c in CONFIGS if not args.configs or c.label in args.configs]
-    grid = parse_grid(_grid_text(args.routes, args.seeds, configs), out / "thesis.yaml")
-    result = run_grid(grid, out / "runs", local_executor_factory(args.workers),
-                      on_outcome=_say)
-    rows = _measure(result.outcomes, out / "runs" / CELLS)
+    rows, done = [], []
+    for scale in args.noise_scale:
+        for experiment in experiments(out, args.routes, args.seeds, configs, scale):
+            result = run_grid(experiment.grid, experiment.results_dir,
+                              local_executor_factory(args.workers), on_outcome=_say)
+            rows += _measure(result.outcomes, experiment.results_dir / CELLS, scale)
+            done.append(experiment)
     _write_csv(out / "thesis.csv", rows)
     table = markdown(rows, configs, args.seeds)
     (out / "thesis.md").write_text(table)
     print(table)
     if not args.no_figures:
-        for route in args.routes:
-            path = out / "figures" / f"route{route}-s{args.figure_seed}.png"
-            draw_maps(path, route, args.figure_seed, configs, out / "runs" / CELLS, grid.cells)
-            print(f"figure: {path}")
+        for experiment in done:
+            _draw(out, args.routes, args.figure_seed, configs, experiment)
 
 
 def _arguments() -> argparse.Namespace:
@@ -137,24 +180,108 @@ def _arguments() -> argparse.Namespace:
     parser.add_argument("--seeds", type=int, nargs="+", default=list(range(10)))
     parser.add_argument("--configs", nargs="+", choices=[c.label for c in CONFIGS],
                         help="run only these configurations (default: all)")
+    parser.add_argument("--noise-scale", type=float, nargs="+", default=[1.0],
+                        help="the presets' odometry alphas times these (default 1)")
     parser.add_argument("--workers", type=int, default=1, help="grid workers (0: in process)")
     parser.add_argument("--figure-seed", type=int, default=0, help="the seed the maps show")
     parser.add_argument("--no-figures", action="store_true")
     args = parser.parse_args()
     if not args.no_figures and args.figure_seed not in args.seeds:
         parser.error(f"--figure-seed {args.figure_seed} is not among --seeds")
+    if any(s <= 0 for s in args.noise_scale):
+        parser.error("--noise-scale takes positive numbers")
     return args
 
 
-def _grid_text(routes: Iterable[int], seeds: list[int], configs: Sequence[Config]) -> str:
+# -- the odometry noise's scale -------------------------------------------------------------
+def scale_text(scale: float) -> str:
+    """The scale as folder names and tables write it: ``x0.5``."""
+    return f"x{scale:g}"
+
+
+def scaled_preset(name: str, scale: float) -> Preset:
+    """The registered preset ``name`` with its odometry's alpha coefficients (thesis eq. 4.40)
+    times ``scale``, named ``NAME-xS``; scale 1 is the registered preset itself.
+
+    Only the alphas scale: the stds' floor and the reference step stay the preset's."""
+    preset = PRESETS[name]
+    if scale == 1:
+        return preset
+    noise = preset.motion_noise
+    scaled = replace(noise, a_vv=noise.a_vv * scale, a_vw=noise.a_vw * scale,
+                     a_wv=noise.a_wv * scale, a_ww=noise.a_ww * scale)
+    return replace(preset, name=f"{name}-{scale_text(scale)}", motion_noise=scaled,
+                   description=f"{preset.description}; odometry alphas {scale_text(scale)}")
+
+
+def scaled_render(name: str, scale: float, seed: int) -> RenderSpec:
+    """The render of ``scaled_preset(name, scale)`` for ``seed``: the registered render's spec
+    (its key covers the preset, the seed, the backend and the renderer's code) with the scaled
+    preset's name, so its folder is the registered one's with the scale inserted; scale 1 is
+    the registered render."""
+    return replace(render_spec(name, seed), preset=scaled_preset(name, scale).name)
+
+
+def ensure_scaled_render(name: str, scale: float, seed: int, renders_dir: Path) -> Path:
+    """The folder of ``scaled_render`` under ``renders_dir``, rendered unless it is there (the
+    writer renames a finished folder into place, so a folder that is there is complete)."""
+    spec = scaled_render(name, scale, seed)
+    path = spec.path(renders_dir)
+    if not is_synthetic_folder(path):
+        print(f"  rendering {path.name}", file=sys.stderr, flush=True)
+        sim = simulate(scaled_preset(name, scale), seed, backend=spec.backend)
+        write_synthetic(path, sim, backend=spec.backend, overwrite=True)
+    return path
+
+
+def experiments(
+    out: Path, routes: Sequence[int], seeds: list[int], configs: Sequence[Config], scale: float
+) -> list[Experiment]:
+    """The grids of one scale: at 1, one over the registered presets in ``OUT/runs``; else one
+    per seed over that seed's scaled renders (rendered first), in ``OUT/runs-xS/sSEED``."""
+    if scale == 1:
+        datasets = [{"synthetic": ROUTES[r], "label": f"route{r}"} for r in routes]
+        text = grid_text("thesis", datasets, seeds, configs)
+        return [Experiment(scale, parse_grid(text, out / "thesis.yaml"), out / "runs")]
+    found = []
+    for seed in seeds:
+        datasets = [
+            {"dataset": str(ensure_scaled_render(ROUTES[r], scale, seed, out / "renders")),
+             "label": f"route{r}"}
+            for r in routes
+        ]
+        name = f"thesis-{scale_text(scale)}-s{seed}"
+        grid = parse_grid(grid_text(name, datasets, [seed], configs), out / f"{name}.yaml")
+        found.append(Experiment(scale, grid, out / f"runs-{scale_text(scale)}" / f"s{seed}"))
+    return found
+
+
+def grid_text(
+    name: str, datasets: list[dict[str, str]], seeds: list[int], configs: Sequence[Config]
+) -> str:
     """The experiment as a harness grid (YAML)."""
     grid = {
-        "name": "thesis",
-        "datasets": [{"synthetic": ROUTES[r], "label": f"route{r}"} for r in routes],
+        "name": name,
+        "datasets": datasets,
         "estimators": [c.entry() for c in configs],
         "seeds": seeds,
     }
     return yaml.safe_dump(grid, sort_keys=False)
+
+
+def _draw(
+    out: Path, routes: Iterable[int], seed: int, configs: Sequence[Config], experiment: Experiment
+) -> None:
+    """The maps of ``seed`` on every route, if the experiment ran that seed."""
+    cells = [c for c in experiment.grid.cells if c.spec.seed == seed]
+    if not cells:
+        return
+    noise = "" if experiment.scale == 1 else f"-{scale_text(experiment.scale)}"
+    for route in routes:
+        path = out / "figures" / f"route{route}{noise}-s{seed}.png"
+        draw_maps(path, route, seed, configs, experiment.results_dir / CELLS, cells,
+                  experiment.scale)
+        print(f"figure: {path}")
 
 
 def _say(outcome: CellOutcome) -> None:
@@ -165,8 +292,9 @@ def _say(outcome: CellOutcome) -> None:
 
 
 # -- the measurements of one run ---------------------------------------------------------
-def _measure(outcomes: Iterable[CellOutcome], cells_dir: Path) -> list[Row]:
-    """One Row per finished cell, the render's truth read once per (route, seed)."""
+def _measure(outcomes: Iterable[CellOutcome], cells_dir: Path, scale: float) -> list[Row]:
+    """One Row per finished cell, the render's truth read once per (route, seed); ``scale``:
+    the odometry noise's scale of the renders."""
     truths: dict[str, RouteTruth] = {}
     rows = []
     for outcome in outcomes:
@@ -176,7 +304,7 @@ def _measure(outcomes: Iterable[CellOutcome], cells_dir: Path) -> list[Row]:
         path = record.config.dataset_path
         if path not in truths:
             truths[path] = route_truth(path, record)
-        rows.append(measure_run(outcome, record, truths[path]))
+        rows.append(measure_run(outcome, record, truths[path], scale))
     return rows
 
 
@@ -198,8 +326,11 @@ def route_truth(dataset_path: str, record: RunRecord) -> RouteTruth:
     return RouteTruth(sightings, travel, tm.revisits(sightings, travel), blind_end)
 
 
-def measure_run(outcome: CellOutcome, record: RunRecord, truth: RouteTruth) -> Row:
-    """The thesis's figures of one run (``thesis_metrics``) beside the harness's metrics."""
+def measure_run(
+    outcome: CellOutcome, record: RunRecord, truth: RouteTruth, scale: float = 1.0
+) -> Row:
+    """The thesis's figures of one run (``thesis_metrics``) beside the harness's metrics;
+    ``scale``: the odometry noise's scale of its render."""
     metrics, estimate, gt = outcome.metrics, record.estimate, record.ground_truth
     assert metrics is not None and gt.trajectory is not None
     wTr = estimate.trajectory.se2
@@ -213,6 +344,7 @@ def measure_run(outcome: CellOutcome, record: RunRecord, truth: RouteTruth) -> R
     cell = outcome.cell
     return Row(
         route=int(cell.dataset_label.removeprefix("route")),
+        noise_scale=scale,
         config=cell.estimator_label,
         seed=int(cell.spec.seed),
         ate_m=_number(metrics.ate.rmse_m),
@@ -269,6 +401,7 @@ COLUMNS = (
     ("end error [m]", "end_error_m", "{:.2f}"),
     ("error at the first revisit [m]", "chance_error_m", "{:.2f}"),
     ("its std [m]", "chance_spread_m", "{:.2f}"),
+    ("error / std", "chance_sigmas", "{:.0f}"),
     ("landmark RMSE [m]", "landmark_rmse_m", "{:.2f}"),
     ("landmarks / pole", "landmarks_per_pole", "{:.2f}"),
     ("poles mapped twice", "poles_mapped_twice", "{:.0f}"),
@@ -290,15 +423,20 @@ def spread(values: Sequence[float], form: str) -> str:
 
 
 def markdown(rows: list[Row], configs: Sequence[Config], seeds: Sequence[int]) -> str:
-    """Per route, one line per configuration: median [min-max] over the seeds, and on how many
-    seeds the loop closed (a revisit re-associated) and where (median travel)."""
+    """Per route and odometry noise scale, one line per configuration: median [min-max] over
+    the seeds, and on how many seeds the loop closed (a revisit re-associated) and where (median
+    travel)."""
     lines = []
-    for route in sorted({r.route for r in rows}):
-        lines += [f"### Route {route} (seeds {_seed_text(seeds)})", ""]
+    scales = sorted({r.noise_scale for r in rows}, reverse=True)
+    for route, scale in sorted({(r.route, r.noise_scale) for r in rows},
+                               key=lambda rs: (rs[0], -rs[1])):
+        noise = f", odometry noise {scale_text(scale)}" if scales != [1.0] else ""
+        lines += [f"### Route {route}{noise} (seeds {_seed_text(seeds)})", ""]
         heads = ["configuration", "loop closed", "closed at [m]", *(c[0] for c in COLUMNS)]
         lines += ["| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
         for config in configs:
-            sel = [r for r in rows if r.route == route and r.config == config.label]
+            sel = [r for r in rows if r.route == route and r.noise_scale == scale
+                   and r.config == config.label]
             if not sel:
                 continue
             closed = [r.closed_m for r in sel if np.isfinite(r.closed_m)]
@@ -324,10 +462,12 @@ def draw_maps(
     configs: Sequence[Config],
     cells_dir: Path,
     cells: Sequence[Cell],
+    noise_scale: float = 1.0,
 ) -> None:
     """One panel per configuration as the thesis's Figs. 5.6 and 5.8: the occupancy grid of the
     180 deg laser built on the estimated trajectory (start anchored), its landmarks (circles)
-    and the true poles (dots); the first panel is the truth."""
+    and the true poles (dots); the first panel is the truth. ``noise_scale``: the odometry
+    noise's scale of the render (named in the title when it is not 1)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -368,7 +508,8 @@ def draw_maps(
         ax.tick_params(labelsize=6)
     for ax in axes.flat[len(panels):]:
         ax.axis("off")
-    figure.suptitle(f"{ROUTES[route]}, seed {seed}: occupancy of the 180 deg laser on each "
+    noise = "" if noise_scale == 1 else f", odometry noise {scale_text(noise_scale)}"
+    figure.suptitle(f"{ROUTES[route]}{noise}, seed {seed}: occupancy of the 180 deg laser on each "
                     "trajectory, landmarks (orange), true poles (black)", fontsize=10)
     figure.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
