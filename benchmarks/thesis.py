@@ -74,14 +74,23 @@ class Config:
     label: str
     estimator: str
     particles: int | None = None
+    options: tuple[tuple[str, object], ...] = ()
 
     def entry(self) -> dict[str, object]:
         """The grid's estimator entry."""
         if self.particles is None:
             return {"estimator": self.estimator, "label": self.label}
         options = {"particles.n_particles": self.particles,
-                   "existence.max_range_m": POLE_LASER_RANGE_M}
+                   "existence.max_range_m": POLE_LASER_RANGE_M, **dict(self.options)}
         return {"estimator": self.estimator, "label": self.label, "options": options}
+
+    def with_options(self, options: dict[str, object]) -> Config:
+        """FastSLAM's configuration with more options, under a label of its own (``+set``)
+        so its cells never mix with the defaults' in a results folder; others as they are."""
+        if self.particles is None or not options:
+            return self
+        return Config(f"{self.label}+set", self.estimator, self.particles,
+                      tuple(sorted(options.items())))
 
 
 CONFIGS = (
@@ -156,7 +165,8 @@ class Experiment:
 def main() -> None:
     args = _arguments()
     out = Path(args.out).resolve()
-    configs = [c for c in CONFIGS if not args.configs or c.label in args.configs]
+    configs = [c.with_options(args.fastslam_set) for c in CONFIGS
+               if not args.configs or c.label in args.configs]
     rows, done = [], []
     for scale in args.noise_scale:
         for experiment in experiments(out, args.routes, args.seeds, configs, scale):
@@ -182,6 +192,9 @@ def _arguments() -> argparse.Namespace:
                         help="run only these configurations (default: all)")
     parser.add_argument("--noise-scale", type=float, nargs="+", default=[1.0],
                         help="the presets' odometry alphas times these (default 1)")
+    parser.add_argument("--fastslam-set", nargs="+", default=[], metavar="KEY=VALUE",
+                        help="more FastSLAM options (a diagnostic: its columns are then "
+                        "labelled +set)")
     parser.add_argument("--workers", type=int, default=1, help="grid workers (0: in process)")
     parser.add_argument("--figure-seed", type=int, default=0, help="the seed the maps show")
     parser.add_argument("--no-figures", action="store_true")
@@ -190,6 +203,10 @@ def _arguments() -> argparse.Namespace:
         parser.error(f"--figure-seed {args.figure_seed} is not among --seeds")
     if any(s <= 0 for s in args.noise_scale):
         parser.error("--noise-scale takes positive numbers")
+    pairs = [kv.partition("=") for kv in args.fastslam_set]
+    if any(not key or not sep for key, sep, _ in pairs):
+        parser.error("--fastslam-set takes KEY=VALUE")
+    args.fastslam_set = {key: yaml.safe_load(value) for key, _, value in pairs}
     return args
 
 
