@@ -376,15 +376,16 @@ class LaserLandmarkConfig:
             spike seen in one scan only is clutter, not a landmark (docs/results/frontend.md,
             "The laser front end").
         persistence_scans: how many previous scans must all have seen a sighting within
-            ``persistence_radius_m`` for it to be kept. Default 1 (the previous scan): 2 or 3
-            leave CARMEN csail's back ends at its laser odometry but halve intel's accuracy
-            (docs/results/frontend.md, "A CARMEN log the laser path was not tuned on").
+            ``persistence_radius_m`` for it to be kept. Default 1 (the previous scan): 3 leaves
+            CARMEN csail's filters near its laser odometry but costs intel (EKF-SLAM 0.26 ->
+            0.82 m; docs/results/frontend.md, "A CARMEN log the laser path was not tuned on").
         min_separation_m: a sighting with another of the same scan (spike or corner) within
             this distance is dropped, and so is the other: objects closer together than an
             association can tell apart (a chair's legs, a railing) pair with each other's
-            landmarks. Default None (every sighting): 0.5 brings EKF-SLAM and FastSLAM 2.0 on
-            CARMEN csail near dead reckoning but costs intel and aces accuracy
-            (docs/results/frontend.md, "A CARMEN log the laser path was not tuned on").
+            landmarks. Default None (every sighting): 0.5 with two persistence scans brings
+            EKF-SLAM and both FastSLAMs under dead reckoning on CARMEN csail but costs EKF-SLAM
+            on intel and aces (docs/results/frontend.md, "A CARMEN log the laser path was not
+            tuned on").
     """
 
     enabled: bool = True
