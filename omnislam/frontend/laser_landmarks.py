@@ -293,15 +293,15 @@ def persistent_sightings(
     Each frame's sightings are placed in the world through ``poses_w`` (the odometry the
     estimators get: laser odometry on CARMEN, accurate from one scan to the next); a sighting
     is kept when each of the ``scans`` previous frames with sightings had one within
-    ``radius_m`` of it. A spike
-    from a person walking by, a chair leg seen from one side only or a beam grazing a door
-    frame rarely meets this; a pole or a wall corner does. The first ``scans`` sightings of
-    every landmark are dropped: an estimator meets it ``scans`` scans later.
+    ``radius_m`` of it. A spike from a person walking by, a chair leg seen from one side only
+    or a beam grazing a door frame rarely meets this; a pole or a wall corner does. The first
+    ``scans`` sightings of every landmark are dropped: an estimator meets it ``scans`` scans
+    later.
 
     Args:
         sightings: frame index -> that frame's sightings (ids unknown).
         poses_w: (N, 3) robot poses [x, y, theta] in the odometry's world frame.
-        radius_m: largest distance to a sighting of the previous frame [m].
+        radius_m: largest distance to a sighting of each previous frame [m].
         scans: how many previous frames must all have seen it (1: the previous one).
 
     Returns:
