@@ -32,6 +32,12 @@ within 0.2 m (placed with the corrected poses: seen once, or not a fixed point);
 keeps 280 spikes, 2 of them such. With every sighting, every estimator there ended worse than
 its laser odometry alone (docs/results/frontend.md, "The laser front end (CARMEN)").
 
+**Separation** (``separated``, ``LaserLandmarkConfig.min_separation_m``, off by default): a
+sighting with another of the same scan within the distance is dropped, as is the other. On
+CARMEN csail (0.5 deg beams) 6 of the 8.3 spikes per scan have another spike within 0.3 m (a
+railing, chair legs, every other beam of an interlaced scan in front of an edge): objects that
+close pair with each other's landmarks.
+
 **Noise** (``sighting_noise``): the tutorial's 1 % of the range and 1 deg, plus an isotropic
 position std that does not shrink with the range (``LaserLandmarkConfig.sigma_floor_m``, 3 cm):
 on CARMEN two sightings of one landmark lie 3-7 cm apart at every range
@@ -41,6 +47,8 @@ Readings beyond the sensor's valid range (8.1 m for the tutorial's SICK) are ign
 """
 
 from __future__ import annotations
+
+import collections
 
 import numpy as np
 
@@ -218,14 +226,36 @@ def extract_laser_landmarks(
         r_out.append(float(np.hypot(*point)))
         b_out.append(float(np.arctan2(point[1], point[0])))
     r = np.array(r_out, dtype=float)
+    b = np.array(b_out, dtype=float)
+    if config.min_separation_m is not None:
+        isolated = separated(r, b, config.min_separation_m)
+        r, b = r[isolated], b[isolated]
     sigma_range_m, sigma_bearing_rad = sighting_noise(r, config)
     return RangeBearing(
         landmark_ids=np.full(r.shape[0], UNKNOWN_ID, dtype=np.int64),
         ranges_m=r,
-        bearings_rad=np.array(b_out, dtype=float),
+        bearings_rad=b,
         sigma_range_m=sigma_range_m,
         sigma_bearing_rad=sigma_bearing_rad,
     )
+
+
+def separated(ranges_m: np.ndarray, bearings_rad: np.ndarray, min_separation_m: float
+              ) -> np.ndarray:
+    """Which point sightings of one scan have no other within ``min_separation_m``.
+
+    Args:
+        ranges_m: (K,) ranges [m].
+        bearings_rad: (K,) bearings in the sensor frame.
+        min_separation_m: smallest distance to the scan's other sightings [m].
+
+    Returns:
+        (K,) bool, True where the nearest other sighting is farther than ``min_separation_m``.
+    """
+    xy = np.column_stack([ranges_m * np.cos(bearings_rad), ranges_m * np.sin(bearings_rad)])
+    gap = np.linalg.norm(xy[:, None, :] - xy[None, :, :], axis=2)
+    np.fill_diagonal(gap, np.inf)
+    return gap.min(axis=1, initial=np.inf) > min_separation_m
 
 
 def sighting_noise(
@@ -257,39 +287,43 @@ def sighting_noise(
 
 
 def persistent_sightings(
-    sightings: dict[int, RangeBearing], poses_w: np.ndarray, radius_m: float
+    sightings: dict[int, RangeBearing], poses_w: np.ndarray, radius_m: float, scans: int = 1
 ) -> dict[int, RangeBearing]:
-    """The sightings that the previous scan saw too: a landmark must be re-observable.
+    """The sightings that the previous scans saw too: a landmark must be re-observable.
 
     Each frame's sightings are placed in the world through ``poses_w`` (the odometry the
     estimators get: laser odometry on CARMEN, accurate from one scan to the next); a sighting
-    is kept when the previous frame with sightings had one within ``radius_m`` of it. A spike
-    from a person walking by, a chair leg seen from one side only or a beam grazing a door
-    frame rarely meets this; a pole or a wall corner does. The first sighting of every landmark
-    is dropped: an estimator meets it one scan later.
+    is kept when each of the ``scans`` previous frames with sightings had one within
+    ``radius_m`` of it. A spike from a person walking by, a chair leg seen from one side only
+    or a beam grazing a door frame rarely meets this; a pole or a wall corner does. The first
+    ``scans`` sightings of every landmark are dropped: an estimator meets it ``scans`` scans
+    later.
 
     Args:
         sightings: frame index -> that frame's sightings (ids unknown).
         poses_w: (N, 3) robot poses [x, y, theta] in the odometry's world frame.
-        radius_m: largest distance to a sighting of the previous frame [m].
+        radius_m: largest distance to a sighting of each previous frame [m].
+        scans: how many previous frames must all have seen it (1: the previous one).
 
     Returns:
         frame index -> the kept sightings (the same frames; possibly empty).
     """
     kept: dict[int, RangeBearing] = {}
-    previous_w = np.zeros((0, 2))
+    previous_w: collections.deque[np.ndarray] = collections.deque(maxlen=scans)
     for i in sorted(sightings):
         s = sightings[i]
         world, _, _ = RangeBearing2D().inverse(
             poses_w[i], np.column_stack([s.ranges_m, s.bearings_rad]))
-        if previous_w.shape[0] and world.shape[0]:
-            gap = np.linalg.norm(world[:, None, :] - previous_w[None, :, :], axis=2).min(axis=1)
-            keep = gap <= radius_m
-        else:
-            keep = np.zeros(world.shape[0], dtype=bool)
+        keep = np.full(world.shape[0], len(previous_w) == scans)
+        for before_w in previous_w:
+            if not before_w.shape[0]:
+                keep[:] = False
+                break
+            gap = np.linalg.norm(world[:, None, :] - before_w[None, :, :], axis=2).min(axis=1)
+            keep &= gap <= radius_m
         kept[i] = RangeBearing(
             s.landmark_ids[keep], s.ranges_m[keep], s.bearings_rad[keep],
             s.sigma_range_m[keep], s.sigma_bearing_rad[keep],
         )
-        previous_w = world
+        previous_w.append(world)
     return kept

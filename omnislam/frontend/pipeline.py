@@ -522,7 +522,8 @@ class _FrontendRun:
                 from omnislam.frontend.laser_landmarks import persistent_sightings
 
                 sightings = persistent_sightings(sightings, poses_dr,
-                                                 config.persistence_radius_m)
+                                                 config.persistence_radius_m,
+                                                 config.persistence_scans)
         return sightings
 
     def _frames(self, images: TrackedImages, laser_odom: LaserOdometry | None,

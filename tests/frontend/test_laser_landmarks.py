@@ -185,3 +185,57 @@ def test_extracted_sightings_carry_the_floored_noise(rng):
     np.testing.assert_allclose(sightings.sigma_bearing_rad, sb)
     with pytest.raises(ConfigError, match="sigma_floor_m"):
         LaserLandmarkConfig(sigma_floor_m=-0.01)
+
+
+def _poles_in(angles, ranges, poles, radius=0.03):
+    """``ranges`` with the rays that hit one of the round ``poles`` shortened to it."""
+    c, s = np.cos(angles), np.sin(angles)
+    for p in np.asarray(poles, dtype=float):
+        b = c * p[0] + s * p[1]
+        disc = b**2 - (p @ p - radius**2)
+        t = b - np.sqrt(np.where(disc >= 0, disc, 0.0))
+        ranges = np.where((disc >= 0) & (t > 0), np.minimum(ranges, t), ranges)
+    return ranges
+
+
+def test_a_cluster_of_spikes_gives_no_sighting_and_an_isolated_pole_one(rng):
+    """Clutter (a chair's four legs 0.3 m apart, a railing) makes spikes closer together than
+    an association can tell apart: with ``min_separation_m`` none of them is a sighting, while
+    a pole standing alone still is; without it every leg is one."""
+    angles = np.linspace(-np.pi, np.pi, 720, endpoint=False)  # 0.5 deg beams
+    _, ranges = _room_scan(pole=(10.0, 10.0), half=(4.0, 3.0), beams=720)
+    chair = [(2.0, -1.0), (2.3, -1.0), (2.0, -1.3), (2.3, -1.3)]
+    pole = np.array([-1.5, 1.2])
+    ranges = _poles_in(angles, ranges, [*chair, tuple(pole)])
+    spikes_only = {"ransac_consensus": 10**6}  # no lines: the spikes alone
+    every = LaserLandmarkConfig(**spikes_only)
+    assert every.min_separation_m is None
+    assert len(extract_laser_landmarks(angles, ranges, 30.0, every, rng)) == 5
+    separated = LaserLandmarkConfig(min_separation_m=0.5, **spikes_only)
+    sightings = extract_laser_landmarks(angles, ranges, 30.0, separated, rng)
+    assert len(sightings) == 1
+    seen = sightings.ranges_m[0] * np.array(
+        [np.cos(sightings.bearings_rad[0]), np.sin(sightings.bearings_rad[0])]
+    )
+    assert np.linalg.norm(seen - pole) < 0.05
+
+
+def test_with_two_persistence_scans_a_sighting_needs_both_previous_scans():
+    """``persistent_sightings(..., scans=2)``: a pole is kept from its third scan on, a spike
+    that lasts two scans (a door swinging, a person pausing) never."""
+    from omnislam.errors import ConfigError
+    from omnislam.frontend.laser_landmarks import persistent_sightings
+
+    poses = np.array([[0.3 * k, 0.0, 0.05 * k] for k in range(5)])
+    pole, brief = np.array([3.0, 1.0]), np.array([2.0, -2.0])
+    sightings = {
+        k: _sightings_of([pole] + ([brief] if k in (2, 3) else []), poses[k]) for k in range(5)
+    }
+    one = persistent_sightings(sightings, poses, radius_m=0.2)
+    two = persistent_sightings(sightings, poses, radius_m=0.2, scans=2)
+    assert [len(one[k]) for k in range(5)] == [0, 1, 1, 2, 1]
+    assert [len(two[k]) for k in range(5)] == [0, 0, 1, 1, 1]
+    with pytest.raises(ConfigError, match="persistence_scans"):
+        LaserLandmarkConfig(persistence_scans=0)
+    with pytest.raises(ConfigError, match="min_separation_m"):
+        LaserLandmarkConfig(min_separation_m=0.0)
