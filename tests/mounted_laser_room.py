@@ -13,13 +13,15 @@ has something to correct.
 from __future__ import annotations
 
 import numpy as np
+from room_log import ROOM_X, ROOM_Y, ray_cast_room
 
 from omnislam.core.se import se2_between, se2_compose, se2_integrate
 from omnislam.core.types import Trajectory
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, LaserScans, Sequence
 
-#: the room: x in [0, ROOM_X], y in [0, ROOM_Y] [m]
-ROOM_X, ROOM_Y = 10.0, 8.0
+#: the room is room_log's (x in [0, ROOM_X], y in [0, ROOM_Y] [m]), with its own poles
+__all__ = ["BEAMS", "OFFSET_R", "POLES_W", "POLE_RADIUS_M", "ROOM_X", "ROOM_Y", "beam_angles",
+           "mounted_room", "ray_cast", "robot_path"]
 #: pole centres (x, y) [m], of radius POLE_RADIUS_M
 POLES_W = np.array([[5.0, 6.0], [1.5, 1.5], [8.5, 1.5], [8.5, 6.5], [1.5, 6.5]])
 POLE_RADIUS_M = 0.08
@@ -45,18 +47,7 @@ def robot_path(frames: int) -> np.ndarray:
 def ray_cast(wTs: np.ndarray, angles_rad: np.ndarray) -> np.ndarray:
     """(B,) exact ranges [m] of beams ``angles_rad`` (scanner frame) from the scanner pose
     ``wTs`` to the nearest wall or pole."""
-    x, y = wTs[0], wTs[1]
-    c, s = np.cos(wTs[2] + angles_rad), np.sin(wTs[2] + angles_rad)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tx = np.where(c > 0, (ROOM_X - x) / c, np.where(c < 0, -x / c, np.inf))
-        ty = np.where(s > 0, (ROOM_Y - y) / s, np.where(s < 0, -y / s, np.inf))
-    ranges = np.minimum(tx, ty)
-    for px, py in POLES_W:  # ray-circle intersections
-        b = c * (px - x) + s * (py - y)
-        disc = b**2 - ((px - x) ** 2 + (py - y) ** 2 - POLE_RADIUS_M**2)
-        hit = (disc >= 0) & (b > 0)
-        ranges = np.where(hit, np.minimum(ranges, b - np.sqrt(np.maximum(disc, 0.0))), ranges)
-    return ranges
+    return ray_cast_room(wTs[0], wTs[1], wTs[2] + angles_rad, POLES_W, POLE_RADIUS_M)
 
 
 def mounted_room(frames: int = 50, seed: int = 0, declared_offset_r: np.ndarray | None = None

@@ -25,15 +25,19 @@ POLES = ((1.5, 1.5), (8.5, 1.5), (8.5, 6.5), (1.5, 6.5))
 POLE_RADIUS_M = 0.15
 
 
-def _ray_to_walls(x: float, y: float, angles: np.ndarray) -> np.ndarray:
+def ray_cast_room(
+    x: float, y: float, angles: np.ndarray, poles=POLES, pole_radius_m: float = POLE_RADIUS_M
+) -> np.ndarray:
+    """(B,) exact ranges [m] from (x, y) along the world angles ``angles`` to the nearest of the
+    room's walls and the poles ``poles`` ((x, y) centres [m] of radius ``pole_radius_m``)."""
     c, s = np.cos(angles), np.sin(angles)
     with np.errstate(divide="ignore", invalid="ignore"):
         tx = np.where(c > 0, (ROOM_X - x) / c, np.where(c < 0, -x / c, np.inf))
         ty = np.where(s > 0, (ROOM_Y - y) / s, np.where(s < 0, -y / s, np.inf))
     ranges = np.minimum(tx, ty)
-    for px, py in POLES:  # ray-circle intersections
+    for px, py in poles:  # ray-circle intersections
         b = c * (px - x) + s * (py - y)
-        disc = b**2 - ((px - x) ** 2 + (py - y) ** 2 - POLE_RADIUS_M**2)
+        disc = b**2 - ((px - x) ** 2 + (py - y) ** 2 - pole_radius_m**2)
         hit = (disc >= 0) & (b > 0)
         ranges = np.where(hit, np.minimum(ranges, b - np.sqrt(np.maximum(disc, 0.0))), ranges)
     return ranges
@@ -61,7 +65,7 @@ def write_room_log(path: Path, frames: int = 60, seed: int = 0, beams: int = BEA
             noisy = delta + rng.normal(0.0, [0.02, 0.01, 0.01])
             raw = se2_compose(truth[k - 1], noisy)
             lines.append(f"ODOM {raw[0]:.6f} {raw[1]:.6f} {raw[2]:.6f} 0 0 0 {stamp:.3f} h {stamp}")
-        ranges = _ray_to_walls(pose[0], pose[1], pose[2] + beam_angles)
+        ranges = ray_cast_room(pose[0], pose[1], pose[2] + beam_angles)
         ranges = np.minimum(ranges + rng.normal(0.0, 0.01, beams), MAX_RANGE_M)
         r = " ".join(f"{v:.3f}" for v in ranges)
         p = f"{pose[0]:.6f} {pose[1]:.6f} {pose[2]:.6f}"
