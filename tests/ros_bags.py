@@ -1,5 +1,6 @@
 """Write ROS 1 and ROS 2 bags from a Sequence with ``rosbags``' own writers (for the importer's
-tests): odometry poses, compressed images, ground truth on ``/tf``, laser scans."""
+tests): odometry poses, compressed images, ground truth on ``/tf``, laser scans and the robot's
+static frames on ``/tf_static``."""
 
 from __future__ import annotations
 
@@ -60,15 +61,23 @@ class _Messages:
                                                              covariance=np.zeros(36)),
         )
 
-    def tf(self, stamp_s: float, wTr: np.ndarray):
+    def transform(self, stamp_s: float, parent: str, child: str, pTc: np.ndarray):
         t = self.t
-        q = quat_wxyz_from_se3(wTr)
+        q = quat_wxyz_from_se3(pTc)
         transform = t["geometry_msgs/msg/Transform"](
-            translation=t["geometry_msgs/msg/Vector3"](x=wTr[0, 3], y=wTr[1, 3], z=wTr[2, 3]),
+            translation=t["geometry_msgs/msg/Vector3"](x=pTc[0, 3], y=pTc[1, 3], z=pTc[2, 3]),
             rotation=t["geometry_msgs/msg/Quaternion"](x=q[1], y=q[2], z=q[3], w=q[0]))
-        stamped = t["geometry_msgs/msg/TransformStamped"](
-            header=self.header(stamp_s, "world"), child_frame_id="base_link", transform=transform)
-        return t["tf2_msgs/msg/TFMessage"](transforms=[stamped])
+        return t["geometry_msgs/msg/TransformStamped"](
+            header=self.header(stamp_s, parent), child_frame_id=child, transform=transform)
+
+    def tf(self, stamp_s: float, wTr: np.ndarray):
+        stamped = self.transform(stamp_s, "world", "base_link", wTr)
+        return self.t["tf2_msgs/msg/TFMessage"](transforms=[stamped])
+
+    def tf_static(self, stamp_s: float, edges):
+        """One ``/tf_static`` message of ``edges`` ((parent, child, pTc) each)."""
+        transforms = [self.transform(stamp_s, p, c, pTc) for p, c, pTc in edges]
+        return self.t["tf2_msgs/msg/TFMessage"](transforms=transforms)
 
     def compressed(self, stamp_s: float, rgb: np.ndarray, fmt: str):
         import cv2
@@ -78,23 +87,30 @@ class _Messages:
         return self.t["sensor_msgs/msg/CompressedImage"](
             header=self.header(stamp_s, "camera"), format=fmt, data=data.reshape(-1))
 
-    def scan(self, stamp_s: float, angles: np.ndarray, ranges: np.ndarray, max_range: float):
+    def scan(self, stamp_s: float, angles: np.ndarray, ranges: np.ndarray, max_range: float,
+             frame: str = "laser"):
         return self.t["sensor_msgs/msg/LaserScan"](
-            header=self.header(stamp_s, "laser"), angle_min=float(angles[0]),
+            header=self.header(stamp_s, frame), angle_min=float(angles[0]),
             angle_max=float(angles[-1]), angle_increment=float(angles[1] - angles[0]),
             time_increment=0.0, scan_time=0.0, range_min=0.0, range_max=float(max_range),
             ranges=np.asarray(ranges, dtype=np.float32), intensities=np.zeros(0, np.float32))
 
 
 def write_bag(sequence, path: Path, kind: str, *, image_format: str = "png",
-              scan: bool = False) -> Path:
+              scan: bool = False, static_edges=(), scan_frame: str = "base_link") -> Path:
     """Write ``sequence`` as a bag of ``kind`` (``KINDS``) at ``path``: ``/odom`` (the poses
-    its odometry integrates to), ``/camera/image/compressed``, ``/tf`` (ground truth from
-    ``world`` to ``base_link``) and, with ``scan``, ``/scan``."""
+    its odometry integrates to, child frame ``base_link``), ``/camera/image/compressed``,
+    ``/tf`` (ground truth from ``world`` to ``base_link``), with ``scan`` ``/scan`` (in
+    ``scan_frame``) and, with ``static_edges`` ((parent, child, pTc (4, 4)) each), one
+    ``/tf_static`` message of them before the rest."""
     messages = _Messages(kind == "ros1")
     poses = se2_integrate(sequence.odometry_r)
     truth = sequence.ground_truth.trajectory
     stream = []  # (stamp, topic, msgtype, message)
+    if static_edges:
+        stamp = float(sequence.stamps_s[0])
+        stream.append((stamp, "/tf_static", "tf2_msgs/msg/TFMessage",
+                       messages.tf_static(stamp, static_edges)))
     for i, stamp in enumerate(sequence.stamps_s.tolist()):
         odometry = messages.odometry(stamp, *poses[i])
         stream.append((stamp, "/odom", "nav_msgs/msg/Odometry", odometry))
@@ -103,7 +119,7 @@ def write_bag(sequence, path: Path, kind: str, *, image_format: str = "png",
         if scan:
             laser = sequence.laser
             stream.append((stamp, "/scan", "sensor_msgs/msg/LaserScan", messages.scan(
-                stamp, laser.angles_rad, laser.ranges_m[i], laser.max_range_m)))
+                stamp, laser.angles_rad, laser.ranges_m[i], laser.max_range_m, scan_frame)))
     for i in sequence.image_frames.tolist():
         stamp = float(sequence.stamps_s[i])
         stream.append((stamp, "/camera/image/compressed", "sensor_msgs/msg/CompressedImage",

@@ -103,6 +103,11 @@ def _add_folder_actions(actions: argparse._SubParsersAction) -> None:
                      help="camera calibration (omnislam rig YAML) of the images")
     bag.add_argument("--world-frame", default="world", help="parent frame of ground truth on /tf")
     bag.add_argument("--gt-frame", default="base_link", help="child frame of ground truth on /tf")
+    bag.add_argument(
+        "--laser-offset", default=None, metavar="X,Y,YAW",
+        help="the laser's pose on the robot [m, m, rad] (default: read from the bag's "
+        "/tf_static, the scans' frame in the odometry's child frame)",
+    )
     bag.add_argument("--source", default=None, help="one line saying where the data come from")
     bag.add_argument("--licence", default="unstated", help="the data's licence")
     bag.add_argument(
@@ -188,6 +193,25 @@ def run_export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _laser_offset(text: str | None) -> list[float] | None:
+    """``--laser-offset X,Y,YAW`` as three floats (None when not given).
+
+    Raises:
+        ConfigError: not three numbers.
+    """
+    from omnislam.errors import ConfigError
+
+    if text is None:
+        return None
+    try:
+        values = [float(part) for part in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 3:
+        raise ConfigError(f"--laser-offset needs X,Y,YAW (three numbers), got {text!r}")
+    return values
+
+
 def run_import(args: argparse.Namespace) -> int:
     from omnislam._files import check_output_location, check_overwrite
     from omnislam.datasets.rosbag import import_bag, parse_topics
@@ -206,6 +230,7 @@ def run_import(args: argparse.Namespace) -> int:
         source=args.source,
         licence=args.licence,
         groundtruth_kind=GroundTruthKind(args.groundtruth_kind),
+        laser_offset_r=_laser_offset(args.laser_offset),
     )
     print(f"wrote {out}: an omnislam folder from {args.bag}")
     return 0

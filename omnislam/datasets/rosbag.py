@@ -12,7 +12,11 @@ Topics by role and the message types each takes:
   (``rgb8``, ``bgr8``, ``mono8``); the camera's calibration is an omnislam rig YAML given with
   ``--calibration`` (a ROS ``CameraInfo`` describes a pinhole camera only).
 * ``scan``: ``sensor_msgs/LaserScan``, every scan with the same beams; a range outside
-  ``[range_min, range_max]`` or not finite is "no return" (``range_max``).
+  ``[range_min, range_max]`` or not finite is "no return" (``range_max``). The scanner's
+  mounting on the robot (``LaserScans.offset_r``) is the pose of the scans' ``frame_id`` in the
+  odometry's ``child_frame_id``, composed from the bag's ``/tf_static`` (``datasets.tf_tree``;
+  ``--laser-offset X,Y,YAW`` states it instead); a scanner frame that ``/tf_static`` does not
+  join to the robot's is taken to be at the robot's origin, with a warning.
 * ``groundtruth``: ``geometry_msgs/PoseStamped``, ``nav_msgs/Odometry``,
   ``geometry_msgs/TransformStamped``, or ``tf2_msgs/TFMessage`` (``/tf``: the transforms from
   ``world_frame`` to ``gt_frame``).
@@ -27,6 +31,7 @@ and the message.
 from __future__ import annotations
 
 import enum
+import logging
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -40,7 +45,10 @@ from omnislam.core.types import Trajectory
 from omnislam.datasets._common import interpolate_se2, odometry_from_poses
 from omnislam.datasets.sequence import GroundTruth, GroundTruthKind, LaserScans
 from omnislam.datasets.sequence import Sequence as DataSequence
+from omnislam.datasets.tf_tree import frame_name, planar_mount, pose_in, static_edge
 from omnislam.errors import ConfigError, DataError
+
+log = logging.getLogger(__name__)
 
 
 class Role(enum.Enum):
@@ -68,6 +76,10 @@ ACCEPTED: dict[Role, tuple[str, ...]] = {
 MAX_ODOMETRY_GAP_S = 1.0
 #: how long a gap in the ground truth may be bridged to give the first frame's pose [s]
 MAX_GROUND_TRUTH_GAP_S = 0.5
+#: the topic of the robot's static frames (read for the laser's mounting when scans are asked for)
+STATIC_TOPIC = "/tf_static"
+#: the robot's frame when the odometry names none
+DEFAULT_ROBOT_FRAME = "base_link"
 
 
 def parse_topics(items: Sequence[str]) -> dict[Role, str]:
@@ -111,6 +123,9 @@ class _Streams:
     scans: list[tuple[float, np.ndarray]] = field(default_factory=list)  # (stamp, ranges)
     scan_geometry: tuple[np.ndarray, float] | None = None  # (angles_rad, max_range_m)
     truth: list[tuple[float, np.ndarray, np.ndarray]] = field(default_factory=list)
+    robot_frame: str = ""  # the first odometry message's child_frame_id
+    scan_frame: str = ""  # the first scan's frame_id
+    static: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)  # (parent, child)
 
 
 def _stamp_s(header: Any) -> float:
@@ -139,6 +154,7 @@ def import_bag(
     source: str | None = None,
     licence: str = "unstated",
     groundtruth_kind: GroundTruthKind = GroundTruthKind.MOTION_CAPTURE,
+    laser_offset_r: Sequence[float] | None = None,
 ) -> Path:
     """Convert a bag into an omnislam folder.
 
@@ -154,15 +170,19 @@ def import_bag(
         groundtruth_kind: where the ground-truth topic's poses come from, written as the
             folder's ``ground_truth.kind`` (default MOTION_CAPTURE, a Vicon or OptiTrack
             topic; NONE is refused: a ground-truth topic is some kind of truth).
+        laser_offset_r: the scanner's [x, y, yaw] on the robot [m, m, rad], stated instead of
+            read from ``/tf_static``.
 
     Returns:
         ``out``.
 
     Raises:
         MissingExtraError: ``rosbags`` is not installed (the ``rosbag`` extra).
-        ConfigError: images without a calibration; ``groundtruth_kind`` NONE.
+        ConfigError: images without a calibration; ``groundtruth_kind`` NONE; a
+            ``laser_offset_r`` that is not three finite numbers.
         DataError: an unreadable bag; a missing topic, a topic of a type its role cannot use,
-            a message that cannot be decoded (naming the topic and the message).
+            a message that cannot be decoded (naming the topic and the message); a scanner
+            frame tilted out of the robot's plane.
     """
     from omnislam.datasets.folder import export_folder
 
@@ -170,6 +190,7 @@ def import_bag(
     if groundtruth_kind is GroundTruthKind.NONE:
         raise ConfigError("--groundtruth-kind none: a ground-truth topic is motion-capture, "
                           "gps-partial, pseudo, reference or exact")
+    offset = _checked_offset(laser_offset_r)
     rig = None
     if Role.IMAGES in topics:
         if calibration is None:
@@ -178,8 +199,46 @@ def import_bag(
 
         rig = load_rig(calibration)
     streams = read_bag(bag, topics, TfFrames(world_frame, gt_frame))
-    sequence = _sequence(bag, streams, rig, source or f"ROS bag {bag.name}", groundtruth_kind)
+    if Role.SCAN in topics and offset is None:
+        offset = laser_mount(streams, bag)
+    sequence = _sequence(bag, streams, rig, source or f"ROS bag {bag.name}", groundtruth_kind,
+                         offset)
     return export_folder(sequence, out, licence=licence)
+
+
+def _checked_offset(laser_offset_r: Sequence[float] | None) -> np.ndarray | None:
+    """A stated laser mounting as (3,) floats, or None."""
+    if laser_offset_r is None:
+        return None
+    offset = np.asarray(laser_offset_r, dtype=float)
+    if offset.shape != (3,) or not np.all(np.isfinite(offset)):
+        raise ConfigError(f"--laser-offset needs three finite numbers X,Y,YAW [m, m, rad], got "
+                          f"{list(laser_offset_r)}")
+    return offset
+
+
+def laser_mount(streams: _Streams, bag: Path) -> np.ndarray:
+    """(3,) the scanner's [x, y, yaw] on the robot from the bag's static frames: the pose of
+    the scans' frame in the odometry's child frame (zero when they are one frame, or, with a
+    warning, when ``/tf_static`` does not join them).
+
+    Raises:
+        DataError: the scanner's frame is tilted out of the robot's plane.
+    """
+    robot = streams.robot_frame or DEFAULT_ROBOT_FRAME
+    scanner = streams.scan_frame
+    if not scanner or scanner == robot:
+        return np.zeros(3)
+    rTs = pose_in(streams.static, robot, scanner)
+    if rTs is None:
+        log.warning("%s: %s does not join the scans' frame %r to the robot's %r: the laser is "
+                    "taken to be at the robot's origin (--laser-offset X,Y,YAW states it)",
+                    bag, STATIC_TOPIC, scanner, robot)
+        return np.zeros(3)
+    try:
+        return planar_mount(rTs, robot, scanner)
+    except DataError as exc:
+        raise DataError(str(exc), bag) from None
 
 
 def read_bag(bag: Path, topics: Mapping[Role, str], tf: TfFrames) -> _Streams:
@@ -199,10 +258,12 @@ def read_bag(bag: Path, topics: Mapping[Role, str], tf: TfFrames) -> _Streams:
         with highlevel.AnyReader([bag]) as reader:
             connections = _connections(reader, topics, bag)
             role_of = {c.topic: role for role, c in connections.items()}
-            total = sum(c.msgcount for c in connections.values())
-            counts = dict.fromkeys(role_of, 0)
+            static = _static_connections(reader, topics)
+            wanted = list(connections.values()) + static
+            total = sum(c.msgcount for c in wanted)
+            counts = dict.fromkeys([c.topic for c in wanted], 0)
             with Progress(f"import {bag.name}", total, "message") as progress:
-                for connection, _, raw in reader.messages(connections=list(connections.values())):
+                for connection, _, raw in reader.messages(connections=wanted):
                     topic = connection.topic
                     counts[topic] += 1
                     where = f"topic {topic}, message {counts[topic]}"
@@ -211,7 +272,10 @@ def read_bag(bag: Path, topics: Mapping[Role, str], tf: TfFrames) -> _Streams:
                     except Exception as exc:  # a library error of any kind: a corrupt message
                         raise DataError(f"{where}: cannot decode {connection.msgtype} ({exc})",
                                         bag) from None
-                    _take(streams, role_of[topic], message, where, tf, bag)
+                    if topic in role_of:
+                        _take(streams, role_of[topic], message, where, tf, bag)
+                    else:
+                        _take_static(streams, message, where, bag)
                     progress.advance()
     except highlevel.AnyReaderError as exc:
         raise DataError(f"cannot read the bag ({' '.join(str(exc).split())})", bag) from None
@@ -238,10 +302,33 @@ def _connections(reader: Any, topics: Mapping[Role, str], bag: Path) -> dict[Rol
     return found
 
 
+def _static_connections(reader: Any, topics: Mapping[Role, str]) -> list[Any]:
+    """The bag's ``/tf_static`` connections, when scans are asked for and no role takes it."""
+    if Role.SCAN not in topics or STATIC_TOPIC in topics.values():
+        return []
+    return [c for c in reader.connections
+            if c.topic == STATIC_TOPIC and c.msgtype == "tf2_msgs/msg/TFMessage"]
+
+
+def _take_static(streams: _Streams, message: Any, where: str, bag: Path) -> None:
+    """The static transforms of one ``/tf_static`` message (a later one replaces an edge)."""
+    for transform in message.transforms:
+        t = transform.transform
+        try:
+            pTc = static_edge(np.array([t.translation.x, t.translation.y, t.translation.z]),
+                              _quaternion_wxyz(t.rotation))
+        except ValueError as exc:
+            raise DataError(f"{where}: {transform.child_frame_id!r}: {exc}", bag) from None
+        key = (frame_name(transform.header.frame_id), frame_name(transform.child_frame_id))
+        streams.static[key] = pTc
+
+
 def _take(streams: _Streams, role: Role, message: Any, where: str, tf: TfFrames, bag: Path
           ) -> None:
     """Append one decoded message to its role's stream."""
     if role is Role.ODOMETRY:
+        if not streams.odometry:
+            streams.robot_frame = frame_name(message.child_frame_id)
         pose = message.pose.pose
         streams.odometry.append((_stamp_s(message.header),
                                  np.array([pose.position.x, pose.position.y,
@@ -267,6 +354,8 @@ def _take_scan(streams: _Streams, scan: Any, where: str, bag: Path) -> None:
     elif len(angles) != len(streams.scan_geometry[0]) or not np.allclose(
             angles, streams.scan_geometry[0], atol=1e-9) or geometry[1] != streams.scan_geometry[1]:
         raise DataError(f"{where}: its beams or range_max differ from the first scan's", bag)
+    if not streams.scans:
+        streams.scan_frame = frame_name(scan.header.frame_id)
     none = ~np.isfinite(ranges) | (ranges < scan.range_min) | (ranges > scan.range_max)
     ranges[none] = scan.range_max
     streams.scans.append((_stamp_s(scan.header), ranges))
@@ -308,9 +397,11 @@ def _check_streams(streams: _Streams, topics: Mapping[Role, str], tf: TfFrames, 
 
 
 def _sequence(bag: Path, streams: _Streams, rig: Any, source: str,
-              groundtruth_kind: GroundTruthKind) -> DataSequence:
+              groundtruth_kind: GroundTruthKind, laser_offset_r: np.ndarray | None = None
+              ) -> DataSequence:
     """The Sequence of the streams: frames at the odometry's and the sensors' stamps, the
-    ground truth of kind ``groundtruth_kind``."""
+    ground truth of kind ``groundtruth_kind``, the scanner at ``laser_offset_r`` on the robot
+    (None: at its origin)."""
     odom_s = np.array([s for s, _ in streams.odometry])
     odom_poses = np.array([p for _, p in streams.odometry])
     sensor_s = np.array([s for s, _, _ in streams.images] + [s for s, _ in streams.scans])
@@ -329,7 +420,8 @@ def _sequence(bag: Path, streams: _Streams, rig: Any, source: str,
         for stamp, row in streams.scans:
             if odom_s[0] <= stamp <= odom_s[-1]:
                 ranges[np.searchsorted(stamps, stamp)] = row
-        laser = LaserScans(angles, ranges, max_range)
+        offset = np.zeros(3) if laser_offset_r is None else laser_offset_r
+        laser = LaserScans(angles, ranges, max_range, offset_r=offset)
     images = {int(np.searchsorted(stamps, s)): (m, where) for s, m, where in streams.images
               if odom_s[0] <= s <= odom_s[-1]}
     truth, initial = _ground_truth(streams, stamps, groundtruth_kind)
