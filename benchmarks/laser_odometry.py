@@ -124,31 +124,55 @@ class Consistency:
         return Consistency(*(np.concatenate([getattr(p, f) for p in parts]) for f in
                              ("errors", "covariances", "rotations_rad")))
 
-    def row(self, mask: np.ndarray | None = None) -> str:
-        """One table row over the steps in ``mask`` (all when None).
+    def summary(self, mask: np.ndarray | None = None) -> ConsistencySummary | None:
+        """The consistency of the steps in ``mask`` (all when None); None under 5 steps.
 
         z = error / stated std per axis (std 1 and 0.27 % beyond 3 when consistent); NEES
-        ``e^T P^-1 e`` (chi-square with 3 dof: mean 3, median 2.37; Bar-Shalom et al. 2001,
-        sec. 5.4.2).
+        ``e^T P^-1 e`` (chi-square with 3 dof when consistent: mean 3, median 2.37;
+        Bar-Shalom, Li & Kirubarajan 2001, sec. 5.4.2).
         """
         keep = np.ones(len(self.errors), dtype=bool) if mask is None else mask
         e, P = self.errors[keep], self.covariances[keep]
         if len(e) < 5:
-            return f"{len(e)} | | | | | |"
+            return None
         z = e / np.sqrt(np.diagonal(P, axis1=1, axis2=2))
         nees = np.einsum("ni,ni->n", e, np.linalg.solve(P, e[:, :, None])[:, :, 0])
-        sx, sy, st = z.std(axis=0)
-        return (f"{len(e)} | {sx:.2f} | {sy:.2f} | {st:.2f} | "
-                f"{100 * np.mean(np.abs(z[:, 2]) > 3):.1f} | {nees.mean():.2f} | "
-                f"{np.median(nees):.2f}")
+        return ConsistencySummary(len(e), z.std(axis=0), float(np.mean(np.abs(z[:, 2]) > 3)),
+                                  float(nees.mean()), float(np.median(nees)))
 
-    def rows(self) -> list[tuple[str, str]]:
-        """(band, row) over all steps and per band of true rotation."""
+    def rows(self) -> list[tuple[str, int, ConsistencySummary | None]]:
+        """(band, steps, summary) over all steps, then per band of the true rotation."""
         turn_deg = np.degrees(np.abs(self.rotations_rad))
-        out = [("all", self.row())]
+        out = [("all", len(self.errors), self.summary())]
         for lo, hi in itertools.pairwise(TURN_BANDS_DEG):
-            out.append((f"{lo:.0f}-{hi:.0f} deg", self.row((turn_deg >= lo) & (turn_deg < hi))))
+            band = (turn_deg >= lo) & (turn_deg < hi)
+            out.append((f"{lo:.0f}-{hi:.0f} deg", int(band.sum()), self.summary(band)))
         return out
+
+
+@dataclass(frozen=True, slots=True)
+class ConsistencySummary:
+    """How well stated covariances describe a set of errors.
+
+    Attributes:
+        steps: how many steps.
+        z_std: (3,) standard deviation of the error over its stated std, per axis (x, y, theta).
+        beyond_3_theta: share of the steps whose heading error exceeds 3 stated stds.
+        nees_mean: mean 3-dof NEES.
+        nees_median: median 3-dof NEES.
+    """
+
+    steps: int
+    z_std: np.ndarray
+    beyond_3_theta: float
+    nees_mean: float
+    nees_median: float
+
+    def cells(self) -> str:
+        """The markdown cells after the step count."""
+        sx, sy, st = self.z_std
+        return (f"{sx:.2f} | {sy:.2f} | {st:.2f} | {100 * self.beyond_3_theta:.1f} | "
+                f"{self.nees_mean:.2f} | {self.nees_median:.2f}")
 
 
 def consistency(dataset: str, config: LaserOdometryConfig) -> Consistency:
@@ -174,11 +198,15 @@ def print_consistency(datasets: list[str], config: LaserOdometryConfig) -> None:
     parts = []
     for dataset in datasets:
         parts.append(consistency(dataset, config))
-        for band, row in parts[-1].rows():
-            print(f"| {Path(dataset).name.split('-corrected')[0]} | {band} | {row} |", flush=True)
+        _print_rows(Path(dataset).name.split("-corrected")[0], parts[-1])
     if len(parts) > 1:
-        for band, row in Consistency.concatenate(parts).rows():
-            print(f"| pooled | {band} | {row} |")
+        _print_rows("pooled", Consistency.concatenate(parts))
+
+
+def _print_rows(name: str, steps: Consistency) -> None:
+    for band, n, summary in steps.rows():
+        cells = "| | | | |" if summary is None else summary.cells()
+        print(f"| {name} | {band} | {n} | {cells} |", flush=True)
 
 
 def with_and_without(dataset: str, estimators: list[str]) -> None:
