@@ -322,8 +322,8 @@ def expose(
 ) -> np.ndarray:
     """Linear radiance in [0, 1] to an 8-bit image: electrons, noise, gain, ADC, encoding.
 
-    ``mu_e = radiance * full_well * t / t_ref`` (at most the full well);
-    ``e = mu_e + sqrt(mu_e + sigma_d^2) z`` with ``z`` standard normal (``standard_normal``);
+    ``mu_e = radiance * full_well * t / t_ref``; ``e = min(mu_e + sqrt(mu_e + sigma_d^2) z,
+    full_well)`` with ``z`` standard normal (``standard_normal``: the charge saturates);
     ``adc = round(e * gain * (2^12 - 1) / full_well)`` clipped to the ADC's range; the image is
     ``lut[adc]`` (EMVA 1288 linear model, system gain ``K = gain (2^12 - 1) / full_well``
     DN/e).
@@ -340,11 +340,11 @@ def expose(
     """
     electrons = radiance
     electrons *= np.float32(pixel.full_well_e * exposure.time_s / pixel.reference_exposure_s)
-    np.minimum(electrons, np.float32(pixel.full_well_e), out=electrons)
     sigma = np.add(electrons, np.float32(pixel.read_noise_e ** 2))
     np.sqrt(sigma, out=sigma)
     sigma *= standard_normal(rng, electrons.shape)
     electrons += sigma
+    np.minimum(electrons, np.float32(pixel.full_well_e), out=electrons)
     levels = (1 << ADC_BITS) - 1
     electrons *= np.float32(exposure.gain * levels / pixel.full_well_e)
     np.clip(electrons, 0, levels, out=electrons)
@@ -434,9 +434,9 @@ class CameraSensor:
             radiance *= self.vignetting
         rng = np.random.default_rng((self.seed, SENSOR_STREAM, int(frame_index)))
         out = expose(radiance, exposure, self.config.pixel, self.lut, rng)
-        out *= self._mask_u8[..., None]
         if self.config.jpeg_quality is not None:
             out = jpeg_round_trip(out, self.config.jpeg_quality)
+        out *= self._mask_u8[..., None]  # after the JPEG's ringing
         self.auto_exposure.update(float(np.mean(cv2.mean(out, self._mask_u8)[:3])))
         self.exposures.append(exposure)
         return out
