@@ -37,11 +37,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 from statistics import NormalDist
 
 import numpy as np
 
 from omnislam.camera.rig import CameraRig
+from omnislam.core.se import se3_from_se2, se3_inverse, se3_transform_points
 from omnislam.errors import ConfigError
 
 #: the sensor's entry in a render's seed sequence (the world and the route use others)
@@ -132,7 +134,8 @@ class MotionBlurConfig:
         flow_step_px: the image motion is projected on a grid of this pitch and interpolated
             between (a full-resolution projection costs twice the render). Default 8: the
             motion varies slowly except at depth edges, where the parallax of a few
-            millimetres of travel is sub-pixel.
+            millimetres of travel is sub-pixel (and within a grid step of the mask's edge,
+            where samples outside the mask count as still).
         max_samples: at most this many samples along a pixel's motion (one per pixel of the
             longest motion). Default 9.
     """
@@ -244,19 +247,14 @@ def image_motion(
     height, width = points_w.shape[:2]
     grid = points_w[step_px // 2::step_px, step_px // 2::step_px]
     flat = grid.reshape(-1, 3).astype(float)
-    ends = [rig.project_r(_world_to_robot(flat, pose))[0] for pose in (wTr_start, wTr_end)]
+    ends = [rig.project_r(se3_transform_points(se3_inverse(se3_from_se2(wTr)), flat))[0]
+            for wTr in (wTr_start, wTr_end)]
     motion = np.nan_to_num(ends[1] - ends[0], nan=0.0).astype(np.float32)
     motion = motion.reshape(*grid.shape[:2], 2)
     # cv2.resize maps output pixel x to grid coordinate (x + 0.5) / step - 0.5: the grid's
-    # samples sit at the pixels step // 2 + k step (exact for even steps)
+    # samples sit at the pixels step // 2 + k step (exact for an even step dividing the sides,
+    # as 8 divides the presets' 640 px)
     return cv2.resize(motion, (width, height), interpolation=cv2.INTER_LINEAR)
-
-
-def _world_to_robot(points_w: np.ndarray, wTr: np.ndarray) -> np.ndarray:
-    """(N, 3) world points in the frame of the planar robot pose ``wTr`` = [x, y, theta]."""
-    c, s = math.cos(wTr[2]), math.sin(wTr[2])
-    dx, dy = points_w[:, 0] - wTr[0], points_w[:, 1] - wTr[1]
-    return np.column_stack([c * dx + s * dy, -s * dx + c * dy, points_w[:, 2]])
 
 
 def motion_blur(radiance: np.ndarray, motion_px: np.ndarray, max_samples: int) -> np.ndarray:
@@ -354,7 +352,16 @@ def expose(
 
 #: levels of the normal samples' quantile table (``standard_normal``)
 NORMAL_LEVELS = 256
-_NORMAL_QUANTILES: np.ndarray | None = None
+
+
+@lru_cache(maxsize=1)
+def _normal_quantiles() -> np.ndarray:
+    """(NORMAL_LEVELS,) float32 quantiles of the standard normal at the bins' centres, scaled
+    to unit variance."""
+    normal = NormalDist()
+    quantiles = np.array([normal.inv_cdf((k + 0.5) / NORMAL_LEVELS)
+                          for k in range(NORMAL_LEVELS)])
+    return (quantiles / quantiles.std()).astype(np.float32)
 
 
 def standard_normal(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
@@ -363,17 +370,11 @@ def standard_normal(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndar
     truncated at +-2.9 sigma, where 0.4 % of a normal's mass lies beyond): ~10x faster than
     ``rng.standard_normal`` for the ~10^6 samples of an image, and noise only enters the
     images through its variance and its spatial independence."""
-    global _NORMAL_QUANTILES
-    if _NORMAL_QUANTILES is None:
-        normal = NormalDist()
-        quantiles = np.array([normal.inv_cdf((k + 0.5) / NORMAL_LEVELS)
-                              for k in range(NORMAL_LEVELS)])
-        _NORMAL_QUANTILES = (quantiles / quantiles.std()).astype(np.float32)
     cv2 = _cv2()
     codes = rng.integers(0, NORMAL_LEVELS, size=shape, dtype=np.uint8)
     if len(shape) == 3 and shape[2] in (1, 3, 4):
-        return cv2.LUT(codes, _NORMAL_QUANTILES)
-    return np.take(_NORMAL_QUANTILES, codes)
+        return cv2.LUT(codes, _normal_quantiles())
+    return np.take(_normal_quantiles(), codes)
 
 
 def jpeg_round_trip(image_rgb: np.ndarray, quality: int) -> np.ndarray:
@@ -406,6 +407,7 @@ class CameraSensor:
         self.seed = int(seed)
         camera = rig.camera
         self.mask = np.asarray(camera.mask(), dtype=bool)
+        # the vignetting's centre: the principal point (cu, cv), else the image's centre
         self._mask_u8 = self.mask.astype(np.uint8)
         centre = (float(getattr(camera, "cu", (camera.width - 1) / 2)),
                   float(getattr(camera, "cv", (camera.height - 1) / 2)))
