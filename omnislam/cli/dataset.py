@@ -66,6 +66,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     synth.add_argument(
         "--overwrite", action="store_true", help="replace an existing synthetic dataset folder"
     )
+    synth.add_argument(
+        "--realism",
+        default="clean",
+        metavar="LEVEL",
+        help="clean (default: the renderer's images) or realistic (a camera sensor: motion "
+        "blur, noise, auto-exposure, vignetting, JPEG)",
+    )
     synth.set_defaults(handler=run_synth)
     # ---- end of synth ----
     _add_folder_actions(actions)

@@ -8,6 +8,7 @@ A grid file::
       - {dataset: carmen-intel, label: intel}
       - {dataset: mrclam6-r2, options: {association: unknown}}   # loader options
       - {synthetic: lab40, seeds: [0, 1, 2]}    # a synthetic preset, rendered per seed
+      - {synthetic: lab40, realism: realistic, label: lab40-real}   # through a camera sensor
       - {dataset: victoria-park, estimators: [deadreckoning, fs1]}   # only these run on it
     estimators:
       - deadreckoning
@@ -33,10 +34,12 @@ False: the graph, the Kalman filters, dead reckoning) runs once, with the first 
 since every seed would repeat the same run; it runs per seed when the harness draws with the
 seed (``wrong_id_fraction``, ``clutter_per_frame``) or its prior map comes from a cell that
 runs per seed. A synthetic dataset (``synthetic: PRESET``, optional ``images: N`` to stop after
-N images) is a different world and noise draw per seed: it is rendered once per seed of its
-``seeds`` (default the grid's) into the cache (``harness.renders``), and *every* estimator runs
-on it once per seed, that seed seeding both the render and the estimator -- so the spread over
-seeds of a synthetic row is over worlds too.
+N images and ``realism: clean|realistic``, default clean, ``datasets.synthetic.realism``) is a
+different world and noise draw per seed: it is rendered once per seed of its ``seeds`` (default
+the grid's) into the cache (``harness.renders``), and *every* estimator runs on it once per
+seed, that seed seeding both the render and the estimator -- so the spread over seeds of a
+synthetic row is over worlds too. Unlabelled, a render that is not clean is labelled
+``PRESET-REALISM``.
 
 ``estimator: external`` is another system's results, read from files instead of run
 (``harness.external``): ``files`` names its trajectory for each cell, ``{dataset}`` (the
@@ -77,7 +80,9 @@ from omnislam.harness.prior import PRIOR_MAP_OPTION
 from omnislam.harness.renders import RenderSpec, render_spec
 
 _TOP_KEYS = {"name", "datasets", "estimators", "seeds", "overrides", "evaluation"}
-_DATASET_KEYS = {"dataset", "synthetic", "label", "options", "seeds", "images", "estimators"}
+_DATASET_KEYS = {
+    "dataset", "synthetic", "label", "options", "seeds", "images", "realism", "estimators"
+}
 _ESTIMATOR_KEYS = {"estimator", "label", "options", "seeds"}
 #: the keys of an ``estimator: external`` entry besides ``estimator``, ``label`` and ``seeds``
 _EXTERNAL_KEYS = {"files", "landmarks", "format", "true_landmark_ids"}
@@ -217,9 +222,11 @@ def _entries(raw: object, key: str, path: Path) -> list[dict[str, object]]:
         unknown = set(item) - allowed
         if unknown:
             raise ConfigError(f"{path}: {where}: unknown keys {sorted(unknown)}")
-        if name_key != "synthetic" and ({"seeds", "images"} & set(item)) and key == "dataset":
+        if (name_key != "synthetic" and ({"seeds", "images", "realism"} & set(item))
+                and key == "dataset"):
             raise ConfigError(
-                f"{path}: {where}: 'seeds' and 'images' apply to synthetic datasets only"
+                f"{path}: {where}: 'seeds', 'images' and 'realism' apply to synthetic datasets "
+                "only"
             )
         label = item.get("label")
         if label is not None and (not isinstance(label, str) or not label.strip()):
@@ -233,13 +240,14 @@ def _entries(raw: object, key: str, path: Path) -> list[dict[str, object]]:
         entry: dict[str, object] = {
             key: item[name_key],
             "synthetic": name_key == "synthetic",
-            "label": str(item.get("label") or item[name_key]),
+            "label": str(item.get("label") or _default_label(item, name_key)),
             "options": _options(
                 item.get("options"), where, path, prior_from if key == "estimator" else None
             ),
             "prior_from": prior_from[0] if prior_from else None,
             "seeds": _seeds(item["seeds"], f"{where}: ", path) if "seeds" in item else None,
             "images": images,
+            "realism": item.get("realism", "clean"),
             "estimators": (
                 _names(item["estimators"], where, "estimators", path)
                 if "estimators" in item
@@ -250,6 +258,13 @@ def _entries(raw: object, key: str, path: Path) -> list[dict[str, object]]:
         }
         out.append(entry)
     return out
+
+
+def _default_label(item: Mapping[str, object], name_key: str) -> str:
+    """An entry's label when it gives none: its name, a render's realism appended unless
+    clean (``lab40-realistic``)."""
+    realism = item.get("realism", "clean")
+    return f"{item[name_key]}-{realism}" if realism != "clean" else str(item[name_key])
 
 
 def _external(item: Mapping[str, object], where: str, path: Path) -> dict[str, object] | None:
@@ -372,7 +387,9 @@ def _resolve_datasets(
             renders = {}
             for seed in entry["seeds"] or seeds:  # type: ignore[union-attr]
                 try:
-                    spec = render_spec(preset, seed, entry["images"])  # type: ignore[arg-type]
+                    spec = render_spec(
+                        preset, seed, entry["images"], entry["realism"]  # type: ignore[arg-type]
+                    )
                 except (ConfigError, ImportError) as exc:
                     raise ConfigError(f"{path}: datasets[{i}]: {exc}") from None
                 renders[seed] = (str(spec.path().absolute()), spec)

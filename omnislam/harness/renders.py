@@ -1,15 +1,17 @@
-"""Synthetic presets in a grid: every (preset, seed, image limit) rendered once into the cache.
+"""Synthetic presets in a grid: every (preset, seed, image limit, realism) rendered once into the
+cache.
 
 A grid names a synthetic dataset by its preset (``{synthetic: lab40, seeds: [0, 1, 2]}``,
-``harness.grid``); each seed is rendered as ``omnislam dataset synth PRESET --seed S [--frames
-N]`` would render it, into ``cache_dir()/renders/PRESET-sS[-iN]-BACKEND-KEY``. KEY hashes what
-the render is a function of: the preset, the seed, the image limit, the ray-casting backend and
-the code that renders -- the synthetic package's simulator, presets and writer and, name by name,
-what they can execute inside omnislam (``harness.code_closure``: of ``frontend.config`` only
-``VerticalEdgeConfig``, of ``frontend.evaluation`` only ``visible_lines``), each statement as its
-syntax tree without docstrings. An edited comment or a front-end setting the renderer never reads
-re-renders nothing; a changed odometry model or camera re-renders everything, and since the path
-changes, every cell on it is computed again.
+optionally ``realism: realistic``, ``harness.grid``); each seed is rendered as ``omnislam
+dataset synth PRESET --seed S [--frames N] [--realism R]`` would render it, into
+``cache_dir()/renders/PRESET-sS[-iN][-R]-BACKEND-KEY`` (``-R`` only when not clean). KEY hashes
+what the render is a function of: the preset, the seed, the image limit, the realism, the
+ray-casting backend and the code that renders -- the synthetic package's simulator, presets
+and writer and, name by name, what they can execute inside omnislam (``harness.code_closure``:
+of ``frontend.config`` only ``VerticalEdgeConfig``, of ``frontend.evaluation`` only
+``visible_lines``), each statement as its syntax tree without docstrings. An edited comment or
+a front-end setting the renderer never reads re-renders nothing; a changed odometry model or
+camera re-renders everything, and since the path changes, every cell on it is computed again.
 
 The path is known before the render exists, so a grid's cells name it from the start
 (``omnislam run PRESET`` renders into the same folder: ``preset_render``); the writer produces
@@ -48,7 +50,8 @@ class RenderSpec:
         seed: the render's seed (world details and every noise).
         images: keep the run up to its ``images``-th image (None: the whole route).
         backend: ray-casting backend (``Backend`` value).
-        key: hash of everything the render is a function of (``render_key``).
+        key: hash of everything the render is a function of (``render_spec``).
+        realism: how realistic the images are (``datasets.synthetic.realism.Realism`` value).
     """
 
     preset: str
@@ -56,11 +59,13 @@ class RenderSpec:
     images: int | None
     backend: str
     key: str
+    realism: str = "clean"
 
     @property
     def folder_name(self) -> str:
         limit = f"-i{self.images}" if self.images is not None else ""
-        return f"{self.preset}-s{self.seed}{limit}-{self.backend}-{self.key}"
+        realism = f"-{self.realism}" if self.realism != "clean" else ""
+        return f"{self.preset}-s{self.seed}{limit}{realism}-{self.backend}-{self.key}"
 
     def path(self, root: Path | None = None) -> Path:
         """Where the render lives: ``root`` (default ``cache_dir()/renders``) / folder_name."""
@@ -82,20 +87,24 @@ def renderer_code_hash() -> str:
     return code_digest(renderer_code())
 
 
-def render_spec(preset: str, seed: int, images: int | None = None) -> RenderSpec:
+def render_spec(preset: str, seed: int, images: int | None = None, realism: str = "clean"
+                ) -> RenderSpec:
     """The RenderSpec of a preset's render with this installation's default backend.
 
     Raises:
-        ConfigError: an unknown preset (listing the known ones) or a bad image limit.
+        ConfigError: an unknown preset (listing the known ones) or realism, or a bad image
+            limit.
     """
     from omnislam.datasets.synthetic import PRESETS
     from omnislam.datasets.synthetic.raycast import Backend
+    from omnislam.datasets.synthetic.realism import Realism
 
     definition = PRESETS.get(preset)
     if definition is None:
         raise ConfigError(f"unknown synthetic preset {preset!r}; known: {', '.join(PRESETS)}")
     if images is not None and images < 1:
         raise ConfigError(f"synthetic {preset}: images must be >= 1, got {images}")
+    realism = Realism.parse(realism).value
     backend = Backend.default().value
     parameters = [
         f"{f.name}={getattr(value, '__qualname__', None) or repr(value)}"
@@ -103,9 +112,10 @@ def render_spec(preset: str, seed: int, images: int | None = None) -> RenderSpec
         for value in [getattr(definition, f.name)]
     ]  # the world builder by name (its code is in renderer_code_hash), not by address
     digest = hashlib.sha256(
-        "\n".join([*parameters, str(seed), str(images), backend, renderer_code_hash()]).encode()
+        "\n".join([*parameters, str(seed), str(images), realism, backend,
+                   renderer_code_hash()]).encode()
     )
-    return RenderSpec(preset, seed, images, backend, digest.hexdigest()[:12])
+    return RenderSpec(preset, seed, images, backend, digest.hexdigest()[:12], realism)
 
 
 def preset_render(dataset: str, seed: int) -> RenderSpec | None:
@@ -147,5 +157,6 @@ def ensure_render(
         if on_step is not None:
             on_step("rendering", count, images)
 
-    write_synthetic(path, sim, backend=spec.backend, overwrite=True, progress=written)
+    write_synthetic(path, sim, backend=spec.backend, overwrite=True, progress=written,
+                    realism=spec.realism)
     return True

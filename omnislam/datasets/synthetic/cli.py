@@ -1,5 +1,5 @@
 """``omnislam dataset synth PRESET --out DIR [--seed N] [--frames N] [--image-every K]
-[--backend B]``."""
+[--backend B] [--realism clean|realistic]``."""
 
 from __future__ import annotations
 
@@ -17,14 +17,15 @@ def cli_synth(args: argparse.Namespace) -> int:
     ``args`` carries ``preset``, ``out``, ``seed`` (default 0), ``frames`` (None: all images),
     ``backend`` (None: open3d if installed) and optionally ``overwrite`` and ``image_every`` (one
     image every that many odometry steps instead of the preset's ``image_every_k``: the world,
-    route, odometry and sightings are the same, only the image frames change). Returns the exit
-    code.
+    route, odometry and sightings are the same, only the image frames change) and ``realism``
+    (``realism.Realism`` value; default clean). Returns the exit code.
 
     Raises:
-        ConfigError: an unknown preset or an image step below 1.
+        ConfigError: an unknown preset or realism, or an image step below 1.
     """
     from omnislam._progress import Progress
     from omnislam.datasets.synthetic.presets import PRESETS
+    from omnislam.datasets.synthetic.realism import Realism
     from omnislam.datasets.synthetic.simulate import simulate
     from omnislam.datasets.synthetic.writer import prepare_output, write_synthetic
 
@@ -36,6 +37,7 @@ def cli_synth(args: argparse.Namespace) -> int:
         if image_every < 1:
             raise ConfigError(f"--image-every must be >= 1, got {image_every}")
         preset = dataclasses.replace(preset, image_every_k=int(image_every))
+    realism = Realism.parse(getattr(args, "realism", None) or Realism.CLEAN, "--realism")
     overwrite = bool(getattr(args, "overwrite", False))
     prepare_output(Path(args.out), overwrite)
     seed = 0 if args.seed is None else int(args.seed)
@@ -48,7 +50,7 @@ def cli_synth(args: argparse.Namespace) -> int:
             bar.update(count, doing="rendering")
 
         write_synthetic(args.out, sim, backend=args.backend, overwrite=overwrite,
-                        progress=progress)
+                        progress=progress, realism=realism)
     print(f"wrote {args.out}: {sim.stamps_s.size} frames, {sim.image_frames.size} images",
           file=sys.stderr)
     return 0

@@ -30,6 +30,7 @@ from omnislam.datasets.sequence import (
     Sequence,
 )
 from omnislam.datasets.synthetic.hit_distances import plane_distances
+from omnislam.datasets.synthetic.realism import Realism
 from omnislam.datasets.synthetic.world import MAX_COORDINATE_M
 from omnislam.datasets.synthetic.writer import FORMAT_NAME, FORMAT_VERSION, frame_name
 from omnislam.errors import DataError
@@ -454,6 +455,8 @@ def load_synthetic(path: str | Path, association: Association | None = None) -> 
             default (``meta.json``'s ``association``, written by the thesis presets), else
             KNOWN.
 
+    The images' realism (``meta.json``'s ``realism``, absent = clean) is in ``info``.
+
     Raises:
         DataError: naming the file: a malformed or inconsistent file, images lost or named
             after no frame, images without ``calibration.yaml``, or a first or last image that
@@ -474,6 +477,7 @@ def load_synthetic(path: str | Path, association: Association | None = None) -> 
     _check_odometry(odometry_table, folder.groundtruth.stamps_s)
     if association is None:
         association = _meta_enum(folder.meta, "association", Association.KNOWN, root)
+    realism = _meta_enum(folder.meta, "realism", Realism.CLEAN, root)
     laser = _read_laser(root / "laser.npz", n,
                         _meta_enum(folder.meta, "laser_role", LaserRole.SENSOR, root))
     landmarks_table = _read_csv(root / "landmarks.csv", 4)
@@ -521,6 +525,7 @@ def load_synthetic(path: str | Path, association: Association | None = None) -> 
             "backend": str(meta.get("backend")),
             "association": association.value,
             "laser": "occupancy grid only" if laser.role is LaserRole.OCCUPANCY else "sensor",
+            "realism": realism.value,
         },
     )
 

@@ -14,7 +14,9 @@ byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
     errors and alpha coefficients, as dicts). Optional, present only where a preset sets them:
     ``"pole_scanner"`` (the laser whose scan's local minima are the pole sightings, as a dict),
     ``"association": "unknown"`` (the loader hides the sightings' ids unless told otherwise)
-    and ``"laser_role": "occupancy"`` (``laser.npz`` is for the occupancy grid only).
+    and ``"laser_role": "occupancy"`` (``laser.npz`` is for the occupancy grid only). Present
+    only for a render that is not clean (``--realism``): ``"realism"`` (``realism.Realism``
+    value; absent = ``"clean"``).
 ``world.json``
     The world: quads (surface id = index), texture specs, poles, vertical lines, 2-D walls.
 ``calibration.yaml``
@@ -28,7 +30,12 @@ byte-identical files (no time stamps anywhere; zip entries carry a fixed date).
     ``routes.OdometryBias``, then the thesis alpha model, eqs. 4.38-4.44) and true. Row 0 is
     zero.
 ``images/NNNNNN.png``
-    RGB images (8 bit) of the frames that have one; NNNNNN = frame index (zero-padded).
+    RGB images (8 bit) of the frames that have one; NNNNNN = frame index (zero-padded). With
+    ``realism`` other than clean, the camera sensor model's output (``sensor.CameraSensor``:
+    blur, vignetting, noise, exposure, JPEG round trip) stored losslessly.
+``exposures.csv``
+    ``frame,exposure_s,gain``: the auto-exposure's choice for every image; only with a camera
+    sensor (``realism`` other than clean).
 ``gt/NNNNNN.npz``
     Per-image ground truth: ``surface_id`` (H, W) int32, the surface seen by each pixel
     centre (-1 outside the mask or no hit). The world point of a pixel is exact and not
@@ -73,7 +80,9 @@ from omnislam.datasets._common import Association
 from omnislam.datasets.sequence import LaserRole
 from omnislam.datasets.synthetic.line_survey import LineSurvey
 from omnislam.datasets.synthetic.raycast import Backend
+from omnislam.datasets.synthetic.realism import Realism, realism_config
 from omnislam.datasets.synthetic.render import Renderer
+from omnislam.datasets.synthetic.sensor import CameraSensor
 from omnislam.datasets.synthetic.simulate import Simulation
 from omnislam.errors import DataError
 
@@ -124,6 +133,7 @@ def write_synthetic(
     supersample: int = 1,
     overwrite: bool = False,
     progress: Callable[[int], None] | None = None,
+    realism: Realism | str = Realism.CLEAN,
 ) -> Path:
     """Render the images of ``sim`` and write the whole folder (format in the module docstring).
 
@@ -134,20 +144,26 @@ def write_synthetic(
         supersample: 1 or 2 colour rays per pixel side.
         overwrite: replace a non-empty ``out``.
         progress: called with the number of images written so far.
+        realism: CLEAN writes the renderer's images; REALISTIC passes them through the camera
+            sensor model (``realism.realism_config``).
 
     Returns:
         The folder written.
+
+    Raises:
+        ConfigError: an unknown realism.
     """
     cv2 = _cv2()
     out = Path(out)
+    realism = Realism.parse(realism)
     prepare_output(out, overwrite)
     backend = Backend.default() if backend is None else Backend(backend)
     tmp = _partial_folder(out)
     try:
-        _write_meta(tmp, sim, backend, supersample)
+        _write_meta(tmp, sim, backend, supersample, realism)
         _write_tables(tmp, sim)
         if sim.rig is not None and sim.image_frames.size:
-            _write_images(tmp, sim, backend, supersample, cv2, progress)
+            _write_images(tmp, sim, backend, supersample, cv2, progress, realism)
         _move_into_place(tmp, out)
     except OSError as exc:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -182,8 +198,9 @@ def _move_into_place(tmp: Path, out: Path) -> None:
     tmp.rename(out)
 
 
-def _write_meta(folder: Path, sim: Simulation, backend: Backend, supersample: int) -> None:
-    """``meta.json``: the run's preset, seed, renderer and counts."""
+def _write_meta(folder: Path, sim: Simulation, backend: Backend, supersample: int,
+                realism: Realism) -> None:
+    """``meta.json``: the run's preset, seed, renderer and counts; the realism unless clean."""
     meta = {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
@@ -200,6 +217,8 @@ def _write_meta(folder: Path, sim: Simulation, backend: Backend, supersample: in
         "motion_noise": dataclasses.asdict(sim.preset.motion_noise),
     }
     meta.update(_loader_defaults(sim))
+    if realism is not Realism.CLEAN:
+        meta["realism"] = realism.value
     (folder / "meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
 
 
@@ -239,9 +258,10 @@ def _write_tables(folder: Path, sim: Simulation) -> None:
 
 
 def _write_images(folder: Path, sim: Simulation, backend: Backend, supersample: int, cv2: Any,
-                  progress: Callable[[int], None] | None) -> None:
-    """``calibration.yaml``, the rendered ``images/`` and their ``gt/`` surface ids, and the
-    vertical lines' colours surveyed in them (``line_colours.csv``)."""
+                  progress: Callable[[int], None] | None, realism: Realism) -> None:
+    """``calibration.yaml``, the rendered ``images/`` and their ``gt/`` surface ids, the
+    vertical lines' colours surveyed in them (``line_colours.csv``, in the clean images: the
+    colours of the surfaces themselves) and, with a camera sensor, ``exposures.csv``."""
     from omnislam.camera.io import save_rig
 
     save_rig(sim.rig, folder / "calibration.yaml")
@@ -254,12 +274,17 @@ def _write_images(folder: Path, sim: Simulation, backend: Backend, supersample: 
         np.array([(v.x_m, v.y_m) for v in lines]),
         sim.rig,
     )
+    sensor_config = realism_config(realism).sensor
+    sensor = (None if sensor_config is None
+              else CameraSensor(sensor_config, sim.rig, sim.stamps_s, sim.poses_w, sim.seed))
     poses_se3 = Trajectory.from_se2(sim.stamps_s, sim.poses_w).poses_w
     for count, index in enumerate(sim.image_frames, start=1):
         frame = renderer.render(sim.poses_w[index])
         survey.add(frame.image, frame.points_w, poses_se3[index])
         name = frame_name(int(index))
-        if not cv2.imwrite(str(folder / "images" / f"{name}.png"), frame.image[..., ::-1]):
+        image = (frame.image if sensor is None
+                 else sensor.capture(frame.image, frame.points_w, int(index)))
+        if not cv2.imwrite(str(folder / "images" / f"{name}.png"), image[..., ::-1]):
             raise DataError("cannot write image", folder / "images" / f"{name}.png")
         write_npz(folder / "gt" / f"{name}.npz", {"surface_id": frame.surface_ids})
         if progress is not None:
@@ -271,6 +296,11 @@ def _write_images(folder: Path, sim: Simulation, backend: Backend, supersample: 
             survey.rows().astype(object),
             ["%d", "%d"] + [_FLOAT] * 6,
         )
+    if sensor is not None:
+        _write_csv(folder / "exposures.csv", "frame,exposure_s,gain",
+                   np.column_stack([sim.image_frames.astype(object),
+                                    [(e.time_s, e.gain) for e in sensor.exposures]]),
+                   ["%d", _FLOAT, _FLOAT])
 
 
 def _loader_defaults(sim: Simulation) -> dict[str, object]:
