@@ -8,6 +8,8 @@ pixel's footprint) times a deterministic shading term
     shade = (AMBIENT + DIFFUSE |n . d|) * exp(-t / FALLOFF_M)
 
 (``n`` the surface normal, ``d`` the ray, ``t`` the distance; light panels are not shaded).
+With a ``LightingConfig`` the bracket is the ambient term plus the world's lamps (point lights
+at the light panels, Lambert's cosine and inverse-square falloff: ``lighting``) instead.
 With ``supersample=2`` the colour is the mean of four sub-pixel rays at offsets (+-1/4, +-1/4)
 px, while the ground truth always belongs to the ray through the pixel centre: the world point
 ``points_w = origin + t d`` and the surface id of the first hit.
@@ -24,9 +26,10 @@ import numpy as np
 from omnislam.camera.rig import CameraRig
 from omnislam.core.se import se3_from_se2
 from omnislam.datasets.synthetic.hit_distances import MIN_DISTANCE_M
+from omnislam.datasets.synthetic.lighting import LightingConfig, lamp_heights, lamp_positions
 from omnislam.datasets.synthetic.raycast import Backend, RayCaster, make_ray_caster
 from omnislam.datasets.synthetic.textures import TextureAtlas, Workspace
-from omnislam.datasets.synthetic.world import SurfaceKind, World
+from omnislam.datasets.synthetic.world import QuadArrays, SurfaceKind, World
 from omnislam.errors import ConfigError
 
 AMBIENT = 0.55
@@ -156,6 +159,8 @@ class Renderer:
         rig: the camera model and its mounting on the robot.
         backend: ray caster (default: open3d when installed, else numpy).
         supersample: 1 or 2 rays per pixel side.
+        lighting: lamps at the light panels (``lighting`` module); None: the global shading
+            term of the module docstring.
     """
 
     def __init__(
@@ -164,6 +169,7 @@ class Renderer:
         rig: CameraRig,
         backend: Backend | str | None = None,
         supersample: int = 1,
+        lighting: LightingConfig | None = None,
     ) -> None:
         self.world = world
         self.quads = world.arrays()
@@ -203,6 +209,7 @@ class Renderer:
         self._plane[:3, :m] = quads.normals_w.T
         self._plane[3, m] = np.nan
         self._work = Workspace()
+        self._lamps = _Lamps(world, quads, unshaded, lighting, table) if lighting else None
 
     def render(self, wTr: np.ndarray) -> RenderedFrame:
         """Render the frame seen from robot pose ``wTr``.
@@ -266,6 +273,8 @@ class Renderer:
         self._plane[3, :m] = -np.einsum("ij,ij->i", self.quads.normals_w, rel)
         self._table[_CU, :m] = np.einsum("ij,ij->i", rel, self._texel_u)
         self._table[_CV, :m] = np.einsum("ij,ij->i", rel, self._texel_v)
+        if self._lamps is not None:
+            self._lamps.start_frame(origin_w, self._plane[3, :m])
 
     def _trace(
         self, origin_w: np.ndarray, directions_w: np.ndarray, name: str
@@ -331,6 +340,8 @@ class Renderer:
         colour = self.atlas.bilinear(texture, texel, level, work)
         shade = np.multiply(rows[_DIFFUSE], cos, out=cos)
         shade += rows[_AMBIENT]
+        if self._lamps is not None:
+            shade += self._lamps.irradiance(directions_w, t, ids, work)
         t *= rows[_INV_FALLOFF]
         np.negative(t, out=t)
         shade *= np.exp(t, out=t)
@@ -339,3 +350,81 @@ class Renderer:
         if miss.size:
             colour[:, miss] = np.array(BACKGROUND_RGB, dtype=np.float32)[:, None]
         return colour
+
+
+class _Lamps:
+    """The lamp term of ``lighting`` evaluated per ray (see ``lighting.lamp_irradiance``, its
+    reference implementation).
+
+    Per quad and lamp, ``n . (L_k - o_q)`` is tabulated once; per frame, the lamps on the
+    camera's side of each quad keep it (times the power), the others get 0; per ray only the
+    squared distance ``|L_k - p|^2 = |L'_k|^2 - 2 t (L'_k . d) + t^2`` (``L' = L - o``, the
+    lamp seen from the frame's viewpoint) is computed, in float32.
+
+    Args:
+        world: the world (its light panels are the lamps).
+        quads: its quad arrays.
+        unshaded: (M,) surfaces the lamps do not light (light panels).
+        config: the lighting.
+        table: the renderer's surface table: the global shading is replaced by
+            ``config.ambient`` (no view-dependent diffuse term) on the shaded surfaces.
+    """
+
+    def __init__(self, world: World, quads: QuadArrays, unshaded: np.ndarray,
+                 config: LightingConfig, table: np.ndarray) -> None:
+        m = len(unshaded)
+        self.config = config
+        self.lamps_w = lamp_positions(world, config)
+        self._heights = lamp_heights(quads.normals_w, quads.origins_w, self.lamps_w)
+        self._heights[:, unshaded] = 0.0
+        self._weights = np.zeros((self.lamps_w.shape[0], m + 1), dtype=np.float32)
+        self._lamps_o = np.zeros((self.lamps_w.shape[0], 3), dtype=np.float32)
+        self._square_o = np.zeros(self.lamps_w.shape[0], dtype=np.float32)
+        table[_AMBIENT, :m] = np.where(unshaded, 1.0, config.ambient)
+        table[_DIFFUSE, :m] = 0.0
+
+    def start_frame(self, origin_w: np.ndarray, plane_offsets: np.ndarray) -> None:
+        """Keep the lamps on the side of each quad seen from ``origin_w``.
+
+        Args:
+            origin_w: (3,) the frame's viewpoint [m].
+            plane_offsets: (M,) ``-n_q . (origin - o_q)`` of the renderer's plane table.
+        """
+        side = -np.sign(plane_offsets)
+        np.maximum(self._heights * side[None, :], 0.0, out=self._weights[:, :-1],
+                   casting="same_kind")
+        self._weights *= np.float32(self.config.lamp_power_m2)
+        self._lamps_o[...] = self.lamps_w - origin_w
+        self._square_o[...] = np.sum(self._lamps_o.astype(float) ** 2, axis=1)
+
+    def irradiance(self, directions_w: np.ndarray, distances_m: np.ndarray, ids: np.ndarray,
+                   work: Workspace) -> np.ndarray:
+        """(N,) float32 lamp term of rays (3, N) float32 ``directions_w`` hitting surfaces
+        ``ids`` at float32 ``distances_m`` (0 where nothing is hit) from the viewpoint."""
+        n = ids.shape[0]
+        total = work.get("lamps.total", (n,), np.float32)
+        total[...] = 0.0
+        if not self.lamps_w.shape[0]:
+            return total
+        weights = _gather(self._weights, ids, work.get("lamps.weights",
+                                                       (self._weights.shape[0], n), np.float32))
+        minus_2t = np.multiply(distances_m, np.float32(-2.0), out=work.get("lamps.m2t", (n,),
+                                                                             np.float32))
+        t_square = np.multiply(distances_m, distances_m, out=work.get("lamps.t2", (n,),
+                                                                      np.float32))
+        square = work.get("lamps.d2", (n,), np.float32)
+        tmp = work.get("lamps.tmp", (n,), np.float32)
+        min_square = np.float32(self.config.min_distance_m**2)
+        for k, (lamp, weight) in enumerate(zip(self._lamps_o, weights, strict=True)):
+            np.multiply(directions_w[0], lamp[0], out=square)
+            square += np.multiply(directions_w[1], lamp[1], out=tmp)
+            square += np.multiply(directions_w[2], lamp[2], out=tmp)
+            square *= minus_2t
+            square += t_square
+            square += self._square_o[k]
+            np.maximum(square, min_square, out=square)
+            np.sqrt(square, out=tmp)
+            square *= tmp  # d^3
+            weight /= square
+            total += weight
+        return total
