@@ -28,6 +28,7 @@ from omnislam.core.se import se3_from_se2
 from omnislam.datasets.synthetic.hit_distances import MIN_DISTANCE_M
 from omnislam.datasets.synthetic.lighting import LightingConfig, lamp_heights, lamp_positions
 from omnislam.datasets.synthetic.raycast import Backend, RayCaster, make_ray_caster
+from omnislam.datasets.synthetic.rig_error import RigPerturbation, true_rays_r
 from omnislam.datasets.synthetic.textures import TextureAtlas, Workspace
 from omnislam.datasets.synthetic.world import QuadArrays, SurfaceKind, World
 from omnislam.errors import ConfigError
@@ -66,8 +67,12 @@ class RigRays:
             centre ray); NaN where a sample has no ray.
         pixel_angle_rad: (P,) angle between a pixel's ray and its right neighbour's (the
             angular size of a pixel, used to pick texture mip levels).
-        origin_r: (3,) the camera's single viewpoint in the robot frame [m].
+        origin_r: (3,) the camera's single viewpoint in the robot frame [m] (of a non-central
+            rig: its mounting point).
         shape: (H, W).
+        centre_offset_r: (P, 3) of a non-central rig: each centre ray's origin minus
+            ``origin_r`` [m]; None: every ray leaves ``origin_r``.
+        sub_offset_r: (P, S, 3) the same for the sub-pixel rays; None with ``centre_offset_r``.
     """
 
     pixel_index: np.ndarray
@@ -76,41 +81,61 @@ class RigRays:
     pixel_angle_rad: np.ndarray
     origin_r: np.ndarray
     shape: tuple[int, int]
+    centre_offset_r: np.ndarray | None = None
+    sub_offset_r: np.ndarray | None = None
 
 
-def rig_rays(rig: CameraRig, supersample: int = 1) -> RigRays:
+def rig_rays(
+    rig: CameraRig, supersample: int = 1, perturbation: RigPerturbation | None = None
+) -> RigRays:
     """Rays of every usable pixel (inside ``camera.mask()``, with a ray) of a camera rig.
 
     Args:
         rig: the camera and its mounting ``rTc`` on the robot.
         supersample: 1 (centre ray only) or 2 (2 x 2 sub-pixel rays for the colour).
+        perturbation: the true rig's departure from ``rig`` (``rig_error.true_rays_r``);
+            None: the nominal, central rig.
     """
     if supersample not in (1, 2):
         raise ConfigError(f"supersample must be 1 or 2, got {supersample}")
     camera = rig.camera
     height, width = int(camera.height), int(camera.width)
+    origin_r = rig.viewpoint_r
+
+    def rays(pixels: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+        if perturbation is None:
+            return None, rig.rays_r(pixels)
+        origins_r, rays_r = true_rays_r(rig, perturbation, pixels)
+        return origins_r - origin_r, rays_r
+
     rows, cols = np.nonzero(np.asarray(camera.mask(), dtype=bool))
     pixels = np.column_stack([cols, rows]).astype(float)
-    centre_r = rig.rays_r(pixels)
+    centre_offset, centre_r = rays(pixels)
     keep = np.all(np.isfinite(centre_r), axis=1)
     pixels, centre_r = pixels[keep], centre_r[keep]
-    right_r = rig.rays_r(pixels + np.array([1.0, 0.0]))
+    centre_offset = None if centre_offset is None else centre_offset[keep]
+    right_r = rays(pixels + np.array([1.0, 0.0]))[1]
     with np.errstate(invalid="ignore"):
         angle = np.arccos(np.clip(np.sum(centre_r * right_r, axis=1), -1.0, 1.0))
     angle = np.where(np.isfinite(angle), angle, np.nanmedian(angle))
     if supersample == 1:
         sub_r = centre_r[:, None, :]
+        sub_offset = None if centre_offset is None else centre_offset[:, None, :]
     else:
         offsets = np.array([[-0.25, -0.25], [0.25, -0.25], [-0.25, 0.25], [0.25, 0.25]])
-        sub_r = np.stack([rig.rays_r(pixels + o) for o in offsets], axis=1)
+        samples = [rays(pixels + o) for o in offsets]
+        sub_r = np.stack([ray for _, ray in samples], axis=1)
+        sub_offset = None if centre_offset is None else np.stack([o for o, _ in samples], axis=1)
     index = pixels[:, 1].astype(np.int64) * width + pixels[:, 0].astype(np.int64)
     return RigRays(
         pixel_index=index,
         centre_r=centre_r,
         sub_r=sub_r,
         pixel_angle_rad=angle,
-        origin_r=rig.viewpoint_r,
+        origin_r=origin_r,
         shape=(height, width),
+        centre_offset_r=centre_offset,
+        sub_offset_r=sub_offset,
     )
 
 
@@ -161,6 +186,9 @@ class Renderer:
         supersample: 1 or 2 rays per pixel side.
         lighting: lamps at the light panels (``lighting`` module); None: the global shading
             term of the module docstring.
+        rig_error: the true rig's departure from ``rig`` (``rig_error``): the rays cast are
+            the true rig's (non-central: each has its own origin), and so is the ground truth;
+            None: ``rig`` itself.
     """
 
     def __init__(
@@ -170,12 +198,13 @@ class Renderer:
         backend: Backend | str | None = None,
         supersample: int = 1,
         lighting: LightingConfig | None = None,
+        rig_error: RigPerturbation | None = None,
     ) -> None:
         self.world = world
         self.quads = world.arrays()
         self.caster: RayCaster = make_ray_caster(self.quads, backend)
         self.atlas = TextureAtlas(world.textures)
-        self.rays = rig_rays(rig, supersample)
+        self.rays = rig_rays(rig, supersample, rig_error)
         self._centre_r = np.ascontiguousarray(self.rays.centre_r.T)
         self._angle = self.rays.pixel_angle_rad.astype(np.float32)
         n_sub = self.rays.sub_r.shape[1]
@@ -184,6 +213,11 @@ class Renderer:
         self._sub_r = np.ascontiguousarray(sub_r[self._sub_valid].T)
         self._sub_angle = np.repeat(self._angle / 2.0, n_sub)[self._sub_valid]
         self._sub_count = self._sub_valid.reshape(-1, n_sub).sum(axis=1).astype(np.float32)
+        self._centre_offset_r = self._sub_offset_r = None
+        if self.rays.centre_offset_r is not None and self.rays.sub_offset_r is not None:
+            self._centre_offset_r = np.ascontiguousarray(self.rays.centre_offset_r.T)
+            sub_offset = self.rays.sub_offset_r.reshape(-1, 3)[self._sub_valid]
+            self._sub_offset_r = np.ascontiguousarray(sub_offset.T)
 
         quads = self.quads
         m = len(quads)
@@ -232,17 +266,19 @@ class Renderer:
 
         work = self._work
         centre_w = _rotate(R_wr, self._centre_r, work.get("centre_w", self._centre_r.shape, float))
-        ids_c, t_c, cos_c = self._trace(origin_w, centre_w, "centre")
+        offset_w = self._rotate_offsets(R_wr, self._centre_offset_r, "centre")
+        ids_c, t_c, cos_c = self._trace(origin_w, centre_w, "centre", offset_w)
         if rays.sub_r.shape[1] == 1:
             centre32_w = work.get("directions32", centre_w.shape, np.float32)
             centre32_w[...] = centre_w
-            colour = self._colour(centre32_w, ids_c, t_c, cos_c, self._angle)
+            colour = self._colour(centre32_w, ids_c, t_c, cos_c, self._angle, offset_w)
         else:
             sub_w = _rotate(R_wr, self._sub_r, work.get("sub_w", self._sub_r.shape, float))
-            ids_s, t_s, cos_s = self._trace(origin_w, sub_w, "sub")
+            sub_offset_w = self._rotate_offsets(R_wr, self._sub_offset_r, "sub")
+            ids_s, t_s, cos_s = self._trace(origin_w, sub_w, "sub", sub_offset_w)
             sub = np.zeros((3, self._sub_valid.size), dtype=np.float32)
             sub[:, self._sub_valid] = self._colour(sub_w.astype(np.float32), ids_s, t_s, cos_s,
-                                                   self._sub_angle)
+                                                   self._sub_angle, sub_offset_w)
             colour = sub.reshape(3, self._sub_count.size, -1).sum(axis=2)
             colour /= np.maximum(self._sub_count, 1.0)
         np.rint(colour, out=colour)
@@ -255,6 +291,8 @@ class Renderer:
         image = np.ascontiguousarray(image.view(np.uint8).reshape(height, width, 4)[..., :3])
 
         centre_w *= t_c  # NaN where nothing is hit
+        if offset_w is not None:
+            centre_w += offset_w
         centre_w += origin_w[:, None]
         points = np.full((n_pix, 3), np.nan, dtype=np.float32)
         points[rays.pixel_index] = centre_w.T
@@ -276,18 +314,34 @@ class Renderer:
         if self._lamps is not None:
             self._lamps.start_frame(origin_w, self._plane[3, :m])
 
+    def _rotate_offsets(self, R_wr: np.ndarray, offsets_r: np.ndarray | None,
+                        name: str) -> np.ndarray | None:
+        """(3, N) ray origins of a non-central rig relative to the frame's viewpoint, in the
+        world (a work array ``name``); None for a central rig."""
+        if offsets_r is None:
+            return None
+        return _rotate(R_wr, offsets_r, self._work.get(f"{name}.offset_w", offsets_r.shape,
+                                                       float))
+
     def _trace(
-        self, origin_w: np.ndarray, directions_w: np.ndarray, name: str
+        self, origin_w: np.ndarray, directions_w: np.ndarray, name: str,
+        offsets_w: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """First hits of (3, N) rays from ``origin_w``: surface ids (N,) intp (-1 none), exact
+        """First hits of (3, N) rays from ``origin_w`` (plus ``offsets_w`` (3, N), each ray's
+        own origin's offset, for a non-central rig): surface ids (N,) intp (-1 none), exact
         float64 distances to the hit planes (N,) [m] (NaN none) and |n . d| (N,).
 
         The results are work arrays ``name``: valid until the next frame.
         """
         n = directions_w.shape[1]
         ids = self._work.get(f"{name}.ids", (n,), np.intp)
-        ids[...] = self.caster.first_hits(origin_w, directions_w.T)
+        if offsets_w is None:
+            ids[...] = self.caster.first_hits(origin_w, directions_w.T)
+        else:
+            ids[...] = self.caster.first_hits((offsets_w + origin_w[:, None]).T, directions_w.T)
         plane = _gather(self._plane, ids, self._work.get(f"{name}.plane", (4, n), np.float64))
+        if offsets_w is not None:  # n . (o_q - o - offset): the plane seen from the ray's origin
+            plane[3] -= plane[0] * offsets_w[0] + plane[1] * offsets_w[1] + plane[2] * offsets_w[2]
         cos = np.multiply(plane[0], directions_w[0], out=plane[0])
         cos += np.multiply(plane[1], directions_w[1], out=plane[1])
         cos += np.multiply(plane[2], directions_w[2], out=plane[2])
@@ -306,6 +360,7 @@ class Renderer:
         distances_m: np.ndarray,
         cos_incidence: np.ndarray,
         pixel_angle_rad: np.ndarray,
+        offsets_w: np.ndarray | None = None,
     ) -> np.ndarray:
         """(3, N) float32 colour channels (R, G, B); background where ids < 0.
 
@@ -313,6 +368,9 @@ class Renderer:
             directions_w: (3, N) float32 unit rays.
             ids, distances_m, cos_incidence: ``_trace`` results.
             pixel_angle_rad: (N,) float32 angular size of the ray's pixel.
+            offsets_w: (3, N) the rays' origins relative to the viewpoint (non-central rig);
+                None: every ray leaves the viewpoint. (The lamps are measured from the
+                viewpoint: the origins' few centimetres are neglected there.)
         """
         if not len(self.quads):  # nothing to hit, and no texture for the no-hit column
             return np.repeat(np.array(BACKGROUND_RGB, np.float32)[:, None], ids.size, axis=1)
@@ -325,12 +383,18 @@ class Renderer:
         cos = work.get("cos", (n,), np.float32)
         cos[...] = cos_incidence
         texel = work.get("texel", (2, n), np.float32)
+        # texel = a . (p - o_q) = a . (t d) + a . (o - o_q) [+ a . offset, non-central]
+        reach = directions_w
+        if offsets_w is not None:
+            reach = np.multiply(directions_w, t, out=work.get("reach", (3, n), np.float32))
+            reach += offsets_w
         for f, axes, offset in ((texel[0], _AU, _CU), (texel[1], _AV, _CV)):
             a = rows[axes]
-            np.multiply(directions_w[0], a[0], out=f)
-            f += np.multiply(directions_w[1], a[1], out=a[1])
-            f += np.multiply(directions_w[2], a[2], out=a[2])
-            f *= t
+            np.multiply(reach[0], a[0], out=f)
+            f += np.multiply(reach[1], a[1], out=a[1])
+            f += np.multiply(reach[2], a[2], out=a[2])
+            if offsets_w is None:
+                f *= t
             f += rows[offset]
         footprint = np.maximum(cos, np.float32(0.25), out=work.get("footprint", (n,), np.float32))
         np.divide(pixel_angle_rad, footprint, out=footprint)
