@@ -10,6 +10,9 @@ pixel's footprint) times a deterministic shading term
 (``n`` the surface normal, ``d`` the ray, ``t`` the distance; light panels are not shaded).
 With a ``LightingConfig`` the bracket is the ambient term plus the world's lamps (point lights
 at the light panels, Lambert's cosine and inverse-square falloff: ``lighting``) instead.
+With a ``RigPerturbation`` the rays are those of the true, imperfect rig (``rig_error``:
+non-central, each ray with its own origin) while the calibration stays the nominal one; with
+walkers (``walkers``) people-sized cylinders moving along their paths occlude the quads.
 With ``supersample=2`` the colour is the mean of four sub-pixel rays at offsets (+-1/4, +-1/4)
 px, while the ground truth always belongs to the ray through the pixel centre: the world point
 ``points_w = origin + t d`` and the surface id of the first hit.
@@ -19,6 +22,7 @@ Works with any ``omnislam.camera`` model (catadioptric or pinhole) and either ra
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,10 +30,16 @@ import numpy as np
 from omnislam.camera.rig import CameraRig
 from omnislam.core.se import se3_from_se2
 from omnislam.datasets.synthetic.hit_distances import MIN_DISTANCE_M
-from omnislam.datasets.synthetic.lighting import LightingConfig, lamp_heights, lamp_positions
+from omnislam.datasets.synthetic.lighting import (
+    LightingConfig,
+    lamp_heights,
+    lamp_irradiance,
+    lamp_positions,
+)
 from omnislam.datasets.synthetic.raycast import Backend, RayCaster, make_ray_caster
 from omnislam.datasets.synthetic.rig_error import RigPerturbation, true_rays_r
 from omnislam.datasets.synthetic.textures import TextureAtlas, Workspace
+from omnislam.datasets.synthetic.walkers import WalkerPath, walker_hits, walker_positions_w
 from omnislam.datasets.synthetic.world import QuadArrays, SurfaceKind, World
 from omnislam.errors import ConfigError
 
@@ -48,7 +58,8 @@ class RenderedFrame:
         image: (H, W, 3) uint8 RGB; black outside the mask.
         points_w: (H, W, 3) float32 world point seen by each pixel centre [m]; NaN outside the
             mask or where the ray hits nothing.
-        surface_ids: (H, W) int32 id of the surface (``World.quads`` index) seen; -1 none.
+        surface_ids: (H, W) int32 id of the surface (``World.quads`` index) seen; -1 none;
+            ``len(World.quads) + k`` walker k (only when the renderer has walkers).
     """
 
     image: np.ndarray
@@ -189,6 +200,9 @@ class Renderer:
         rig_error: the true rig's departure from ``rig`` (``rig_error``): the rays cast are
             the true rig's (non-central: each has its own origin), and so is the ground truth;
             None: ``rig`` itself.
+        walkers: people walking through the world (``walkers``), drawn where they are at the
+            frame's time; their surface ids follow the quads' (``len(world.quads) + k`` for
+            walker k).
     """
 
     def __init__(
@@ -199,11 +213,12 @@ class Renderer:
         supersample: int = 1,
         lighting: LightingConfig | None = None,
         rig_error: RigPerturbation | None = None,
+        walkers: tuple[WalkerPath, ...] = (),
     ) -> None:
         self.world = world
         self.quads = world.arrays()
         self.caster: RayCaster = make_ray_caster(self.quads, backend)
-        self.atlas = TextureAtlas(world.textures)
+        self.atlas = TextureAtlas(world.textures + tuple(w.texture for w in walkers))
         self.rays = rig_rays(rig, supersample, rig_error)
         self._centre_r = np.ascontiguousarray(self.rays.centre_r.T)
         self._angle = self.rays.pixel_angle_rad.astype(np.float32)
@@ -228,15 +243,19 @@ class Renderer:
         # level-0 texel coordinates: fx0 = (p - o_q) . dual_u |edge_u| / extent_u * width
         self._texel_u = quads.dual_u_w * (quads.length_u_m / extent[:, 0] * texture[:, 0])[:, None]
         self._texel_v = quads.dual_v_w * (quads.length_v_m / extent[:, 1] * texture[:, 1])[:, None]
-        table = np.zeros((_TEXTURE.stop, m + 1), dtype=np.float32)
+        # walkers' columns follow the quads' (their texels come from ``_Crowd``)
+        m_all = m + len(walkers)
+        unshaded = np.concatenate([unshaded, np.zeros(len(walkers), dtype=bool)])
+        texture = np.concatenate([texture, self.atlas.table[len(world.textures):]])
+        table = np.zeros((_TEXTURE.stop, m_all + 1), dtype=np.float32)
         table[_AU, :m] = self._texel_u.T
         table[_AV, :m] = self._texel_v.T
-        table[_AMBIENT, :m] = np.where(unshaded, 1.0, AMBIENT)
-        table[_DIFFUSE, :m] = np.where(unshaded, 0.0, DIFFUSE)
-        table[_INV_FALLOFF, :m] = np.where(unshaded, 0.0, 1.0 / FALLOFF_M)
-        if m:
-            table[_TEXTURE, :m] = texture.T
-            table[_TEXTURE, m] = texture[0]  # any valid texture; misses get BACKGROUND_RGB
+        table[_AMBIENT, :m_all] = np.where(unshaded, 1.0, AMBIENT)
+        table[_DIFFUSE, :m_all] = np.where(unshaded, 0.0, DIFFUSE)
+        table[_INV_FALLOFF, :m_all] = np.where(unshaded, 0.0, 1.0 / FALLOFF_M)
+        if m_all:
+            table[_TEXTURE, :m_all] = texture.T
+            table[_TEXTURE, m_all] = texture[0]  # any valid texture; misses get BACKGROUND_RGB
         self._table = table
         # float64 planes: normal and n . (o_q - origin) (per frame); the no-hit column gives NaN
         self._plane = np.zeros((4, m + 1))
@@ -244,12 +263,14 @@ class Renderer:
         self._plane[3, m] = np.nan
         self._work = Workspace()
         self._lamps = _Lamps(world, quads, unshaded, lighting, table) if lighting else None
+        self._crowd = _Crowd(walkers, m, self.rays, self._sub_r) if walkers else None
 
-    def render(self, wTr: np.ndarray) -> RenderedFrame:
+    def render(self, wTr: np.ndarray, stamp_s: float = 0.0) -> RenderedFrame:
         """Render the frame seen from robot pose ``wTr``.
 
         Args:
             wTr: (3,) planar pose [x, y, theta] or (4, 4) SE(3) robot -> world.
+            stamp_s: the frame's time [s]: where the walkers are (no effect without them).
 
         Returns:
             The image and its ground-truth maps.
@@ -263,6 +284,8 @@ class Renderer:
         height, width = rays.shape
         n_pix = height * width
         self._start_frame(origin_w)
+        if self._crowd is not None:
+            self._crowd.start_frame(stamp_s, R_wr, origin_w)
 
         work = self._work
         centre_w = _rotate(R_wr, self._centre_r, work.get("centre_w", self._centre_r.shape, float))
@@ -351,7 +374,10 @@ class Renderer:
         if too_close.any():
             ids[too_close] = -1
             t[too_close] = np.nan
-        return ids, t, np.abs(cos, out=cos)
+        cos = np.abs(cos, out=cos)
+        if self._crowd is not None:
+            self._crowd.occlude(name, origin_w, directions_w, offsets_w, ids, t, cos)
+        return ids, t, cos
 
     def _colour(
         self,
@@ -396,6 +422,8 @@ class Renderer:
             if offsets_w is None:
                 f *= t
             f += rows[offset]
+        if self._crowd is not None:
+            walkers = self._crowd.texels(ids, directions_w, t, offsets_w, texel)
         footprint = np.maximum(cos, np.float32(0.25), out=work.get("footprint", (n,), np.float32))
         np.divide(pixel_angle_rad, footprint, out=footprint)
         footprint *= t
@@ -406,6 +434,10 @@ class Renderer:
         shade += rows[_AMBIENT]
         if self._lamps is not None:
             shade += self._lamps.irradiance(directions_w, t, ids, work)
+            if self._crowd is not None:
+                shade[walkers.index] += lamp_irradiance(
+                    walkers.points_w, walkers.normals_w, self._crowd.origin_w,
+                    self._lamps.lamps_w, self._lamps.config).astype(np.float32)
         t *= rows[_INV_FALLOFF]
         np.negative(t, out=t)
         shade *= np.exp(t, out=t)
@@ -428,7 +460,8 @@ class _Lamps:
     Args:
         world: the world (its light panels are the lamps).
         quads: its quad arrays.
-        unshaded: (M,) surfaces the lamps do not light (light panels).
+        unshaded: (M + W,) surfaces the lamps do not light (light panels); W walkers follow
+            the M quads (their lamp term is ``_Crowd``'s: here they get none).
         config: the lighting.
         table: the renderer's surface table: the global shading is replaced by
             ``config.ambient`` (no view-dependent diffuse term) on the shaded surfaces.
@@ -436,16 +469,16 @@ class _Lamps:
 
     def __init__(self, world: World, quads: QuadArrays, unshaded: np.ndarray,
                  config: LightingConfig, table: np.ndarray) -> None:
-        m = len(unshaded)
+        m = len(quads)
         self.config = config
         self.lamps_w = lamp_positions(world, config)
         self._heights = lamp_heights(quads.normals_w, quads.origins_w, self.lamps_w)
-        self._heights[:, unshaded] = 0.0
-        self._weights = np.zeros((self.lamps_w.shape[0], m + 1), dtype=np.float32)
+        self._heights[:, unshaded[:m]] = 0.0
+        self._weights = np.zeros((self.lamps_w.shape[0], len(unshaded) + 1), dtype=np.float32)
         self._lamps_o = np.zeros((self.lamps_w.shape[0], 3), dtype=np.float32)
         self._square_o = np.zeros(self.lamps_w.shape[0], dtype=np.float32)
-        table[_AMBIENT, :m] = np.where(unshaded, 1.0, config.ambient)
-        table[_DIFFUSE, :m] = 0.0
+        table[_AMBIENT, :len(unshaded)] = np.where(unshaded, 1.0, config.ambient)
+        table[_DIFFUSE, :len(unshaded)] = 0.0
 
     def start_frame(self, origin_w: np.ndarray, plane_offsets: np.ndarray) -> None:
         """Keep the lamps on the side of each quad seen from ``origin_w``.
@@ -455,7 +488,7 @@ class _Lamps:
             plane_offsets: (M,) ``-n_q . (origin - o_q)`` of the renderer's plane table.
         """
         side = -np.sign(plane_offsets)
-        np.maximum(self._heights * side[None, :], 0.0, out=self._weights[:, :-1],
+        np.maximum(self._heights * side[None, :], 0.0, out=self._weights[:, :side.size],
                    casting="same_kind")
         self._weights *= np.float32(self.config.lamp_power_m2)
         self._lamps_o[...] = self.lamps_w - origin_w
@@ -492,3 +525,139 @@ class _Lamps:
             weight /= square
             total += weight
         return total
+
+
+@dataclass(frozen=True, slots=True)
+class _WalkerSamples:
+    """The rays of one ``_colour`` call that see walkers.
+
+    Attributes:
+        index: (K,) their positions among the call's rays.
+        points_w: (K, 3) the points seen [m].
+        normals_w: (K, 3) the walkers' outward normals there.
+    """
+
+    index: np.ndarray
+    points_w: np.ndarray
+    normals_w: np.ndarray
+
+
+def _sorted_azimuths(directions_r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Order and sorted azimuths [rad] (in [-pi, pi]) of (3, N) robot-frame rays."""
+    azimuth = np.arctan2(directions_r[1], directions_r[0])
+    order = np.argsort(azimuth, kind="stable")
+    return order, azimuth[order]
+
+
+def _wrap(angle_rad: float) -> float:
+    """``angle_rad`` in [-pi, pi)."""
+    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class _Crowd:
+    """The walkers of a renderer (``walkers``): where they are this frame, which rays they
+    stop, and the texels and normals of what those rays see.
+
+    Only rays whose azimuth points at a walker are tested: for a planar pose the robot-frame
+    azimuths of the rays, sorted once, give them by two binary searches per walker (every ray
+    is tested for other poses, or when the viewpoint is next to a walker).
+
+    Args:
+        walkers: the walkers; surface id ``first_id + k`` is walker k.
+        first_id: the number of quads.
+        rays: the renderer's rays (their robot-frame directions and origin offsets).
+        sub_r: (3, S) the sub-pixel rays actually traced (robot frame).
+    """
+
+    def __init__(self, walkers: tuple[WalkerPath, ...], first_id: int, rays: RigRays,
+                 sub_r: np.ndarray) -> None:
+        self.walkers = walkers
+        self.first_id = first_id
+        self._radii = np.array([w.radius_m for w in walkers])
+        self._heights = np.array([w.height_m for w in walkers])
+        self._sizes_px = np.array([w.texture.size_px for w in walkers], dtype=float)
+        self._azimuth = {"centre": _sorted_azimuths(rays.centre_r.T),
+                         "sub": _sorted_azimuths(sub_r)}
+        offsets = [o for o in (rays.centre_offset_r, rays.sub_offset_r) if o is not None]
+        self._margin_m = max((float(np.max(np.hypot(o[..., 0], o[..., 1]))) for o in offsets),
+                             default=0.0)
+        self.centres_w = np.zeros((len(walkers), 2))
+        self.origin_w = np.zeros(3)
+        self._yaw: float | None = None
+
+    def start_frame(self, stamp_s: float, R_wr: np.ndarray, origin_w: np.ndarray) -> None:
+        """Place the walkers at time ``stamp_s`` [s], seen from ``origin_w`` with the robot's
+        rotation ``R_wr``."""
+        self.centres_w = walker_positions_w(self.walkers, np.array([stamp_s]))[0]
+        self.origin_w = origin_w
+        planar = abs(R_wr[2, 2] - 1.0) < 1e-12
+        self._yaw = math.atan2(R_wr[1, 0], R_wr[0, 0]) if planar else None
+
+    def _candidates(self, name: str, n: int) -> np.ndarray:
+        """Indices of the rays of set ``name`` (``n`` rays) that may meet a walker."""
+        if self._yaw is None:
+            return np.arange(n)
+        order, azimuth = self._azimuth[name]
+        pieces = []
+        for centre, radius in zip(self.centres_w, self._radii, strict=True):
+            rel = centre - self.origin_w[:2]
+            distance = math.hypot(rel[0], rel[1]) - self._margin_m
+            reach = radius + self._margin_m
+            if distance <= reach:
+                return np.arange(n)
+            half = math.asin(reach / distance)
+            middle = math.atan2(rel[1], rel[0]) - self._yaw
+            low, high = _wrap(middle - half), _wrap(middle + half)
+            first = np.searchsorted(azimuth, low, side="left")
+            last = np.searchsorted(azimuth, high, side="right")
+            pieces.append(order[first:last] if low <= high else
+                          np.concatenate([order[first:], order[:last]]))
+        return np.unique(np.concatenate(pieces)) if pieces else np.zeros(0, dtype=np.intp)
+
+    def occlude(self, name: str, origin_w: np.ndarray, directions_w: np.ndarray,
+                offsets_w: np.ndarray | None, ids: np.ndarray, t: np.ndarray,
+                cos: np.ndarray) -> None:
+        """Where a walker is nearer than the static hit, make ``ids``, ``t`` and ``cos`` (the
+        ``_trace`` results, updated in place) the walker's."""
+        candidates = self._candidates(name, ids.size)
+        if not candidates.size:
+            return
+        d = directions_w[:, candidates]
+        origins = np.repeat(origin_w[:, None], candidates.size, axis=1)
+        if offsets_w is not None:
+            origins += offsets_w[:, candidates]
+        t_walker, walker = walker_hits(self.centres_w, self._radii, self._heights, origins, d)
+        static = t[candidates]
+        nearer = t_walker < np.where(np.isnan(static), np.inf, static)
+        chosen, k, t_hit = candidates[nearer], walker[nearer], t_walker[nearer]
+        ids[chosen] = self.first_id + k
+        t[chosen] = t_hit
+        hit_xy = origins[:2, nearer] + t_hit * d[:2, nearer]
+        normal = (hit_xy - self.centres_w[k].T) / self._radii[k]
+        cos[chosen] = np.abs(normal[0] * d[0, nearer] + normal[1] * d[1, nearer])
+
+    def texels(self, ids: np.ndarray, directions_w: np.ndarray, distances_m: np.ndarray,
+               offsets_w: np.ndarray | None, texel: np.ndarray) -> _WalkerSamples:
+        """Write the level-0 texels of the rays that see walkers into ``texel`` (2, N): u
+        around the body from its +x side, v down from the top of its head.
+
+        Args:
+            ids: (N,) surface ids of the rays.
+            directions_w: (3, N) float32 directions.
+            distances_m: (N,) float32 distances (0 where nothing is hit).
+            offsets_w: (3, N) ray origin offsets (non-central rig) or None.
+            texel: (2, N) the planar texels, overwritten where a walker is seen.
+        """
+        index = np.flatnonzero(ids >= self.first_id)
+        k = ids[index] - self.first_id
+        points = directions_w[:, index].astype(float) * distances_m[index]
+        if offsets_w is not None:
+            points += offsets_w[:, index]
+        points += self.origin_w[:, None]
+        normal_xy = (points[:2] - self.centres_w[k].T) / self._radii[k]
+        around = np.mod(np.arctan2(normal_xy[1], normal_xy[0]), 2.0 * math.pi)
+        texel[0, index] = around / (2.0 * math.pi) * self._sizes_px[k, 0]
+        texel[1, index] = (self._heights[k] - points[2]) / self._heights[k] * self._sizes_px[k, 1]
+        normals = np.zeros((index.size, 3))
+        normals[:, :2] = normal_xy.T
+        return _WalkerSamples(index, points.T, normals)

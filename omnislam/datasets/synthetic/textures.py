@@ -37,6 +37,7 @@ class TextureKind(enum.Enum):
     PLAIN = "plain"
     STRIPES = "stripes"
     PHOTO = "photo"  # a photograph (``TextureSpec.image``)
+    CLOTH = "cloth"  # a walking person's clothes: shirt over trousers (``walkers``)
 
     @property
     def repeats(self) -> bool:
@@ -62,6 +63,7 @@ _DENSITY_PX_PER_M: dict[TextureKind, float] = {
     TextureKind.PLAIN: 8.0,
     TextureKind.STRIPES: 64.0,
     TextureKind.PHOTO: 320.0,
+    TextureKind.CLOTH: 64.0,
 }
 _MAX_SIZE_PX = 512
 _MIN_SIZE_PX = 8
@@ -241,6 +243,25 @@ def _wood(rng: np.random.Generator, h: int, w: int) -> np.ndarray:
     return img
 
 
+def _cloth(rng: np.random.Generator, h: int, w: int) -> np.ndarray:
+    """A person seen as a cylinder: hair, a face band, a shirt (plain or striped) and
+    trousers, with a woven grain (rows run down from the head)."""
+    ys, xs = _grid(h, w)
+    shirt, trousers = _saturated_colour(rng) * 0.8, np.array([50.0, 55.0, 80.0]) * rng.uniform(
+        0.6, 1.4)
+    img = np.where((ys < 0.48)[..., None], shirt, trousers) * np.ones((1, w, 3))
+    if rng.random() < 0.5:  # stripes across the shirt
+        band = (np.floor(ys * rng.uniform(20, 40)) % 2).astype(bool) & (ys < 0.48)
+        img[np.broadcast_to(band, (h, w))] *= 0.6
+    skin = np.array([224.0, 172.0, 140.0]) * rng.uniform(0.5, 1.05)
+    head = np.broadcast_to(ys < 0.13, (h, w))
+    img[head] = skin
+    img[np.broadcast_to((ys < 0.05) | ((ys < 0.13) & (np.abs(xs - 0.75) < 0.2)), (h, w))] = (
+        np.array([40.0, 30.0, 25.0]) * rng.uniform(0.5, 2.5))  # hair, the back of the head
+    img *= 1.0 + 0.08 * (rng.random((h, w, 1)) - 0.5)
+    return img
+
+
 def _tiles(rng: np.random.Generator, h: int, w: int, n: int, grout: float) -> np.ndarray:
     ys, xs = _grid(h, w)
     ty, tx = np.floor(ys * n).astype(int), np.floor(xs * n).astype(int)
@@ -281,6 +302,8 @@ def generate_texture(spec: TextureSpec) -> np.ndarray:
     elif kind is TextureKind.PHOTO:
         assert spec.image is not None  # checked by TextureSpec
         img = photo_texels(spec.image, (w, h))
+    elif kind is TextureKind.CLOTH:
+        img = _cloth(rng, h, w)
     elif kind is TextureKind.STRIPES:
         ys = _grid(h, w)[0]
         band = (np.floor(ys * spec.extent_m[1] / 0.25) % 2).astype(bool)
