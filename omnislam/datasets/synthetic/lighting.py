@@ -40,7 +40,7 @@ class LightingConfig:
             is about a third as bright as under one, as in a lab lit by ceiling panels.
         lamp_power_m2: power ``P`` of each lamp in the shading's units (shade = P / d^2 under
             the lamp at distance d) [m^2]. Default 2.0: a floor 2.55 m below a panel gets
-            +0.31 and a wall 1.5 m beside and 1 m below one +0.57, so the brightest surfaces
+            +0.31 and a wall 1.5 m beside and 1 m below one +0.51, so the brightest surfaces
             of a lab stay below the texture's full colour (little clipping).
         lamp_drop_m: how far below its light panel a lamp sits [m]. Default 0.05: the panel's
             own plane must not contain the lamp (the ceiling would be lit edge-on at zero).

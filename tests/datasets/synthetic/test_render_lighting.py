@@ -105,3 +105,30 @@ def _far_wall(world) -> int:
         if q.kind is SurfaceKind.WALL and q.origin_w[0] == 12.0 and q.edge_u_w[0] == 0.0:
             return i
     raise AssertionError("no wall at x = 12")
+
+
+def test_one_wall_point_under_a_lamp_twice_as_far_gets_a_quarter_of_its_light():
+    config = LightingConfig(lamp_power_m2=1.0, ambient=0.4)
+    pose = np.array([1.0, 2.0, 0.0])
+    rig = _rig()
+    dark = Renderer(_room((11.0, 2.0)), rig, "numpy",
+                    lighting=LightingConfig(lamp_power_m2=0.0, ambient=0.4)).render(pose)
+    excess = []
+    for lamp_x in (11.0, 10.0):  # 1 m and 2 m in front of the wall at x = 12
+        world = _room((lamp_x, 2.0))
+        lit = Renderer(world, rig, "numpy", lighting=config).render(pose)
+        lamp = lamp_positions(world, config)[0]
+        # the pixel of the wall point straight in front of the lamp (normal incidence)
+        _, pixel = _pixel_of(lit, np.array([12.0, 2.0, lamp[2]]))
+        ratio = lit.image[pixel].astype(float) / dark.image[pixel]
+        excess.append((ratio.mean() - 1.0) * config.ambient)
+    assert excess[0] == pytest.approx(1.0, rel=RENDER_RTOL)  # P / d^2 at 1 m
+    assert excess[1] == pytest.approx(0.25, rel=4 * RENDER_RTOL)  # a quarter at 2 m
+
+
+def _pixel_of(frame, point_w: np.ndarray) -> tuple[float, tuple[int, int]]:
+    """Distance [m] and (row, col) of the pixel whose ground-truth point is nearest
+    ``point_w``."""
+    distance = np.linalg.norm(np.nan_to_num(frame.points_w, nan=1e9) - point_w, axis=2)
+    row, col = np.unravel_index(np.argmin(distance), distance.shape)
+    return float(distance[row, col]), (int(row), int(col))
