@@ -598,7 +598,7 @@ class _Crowd:
         if self._yaw is None:
             return np.arange(n)
         order, azimuth = self._azimuth[name]
-        pieces = []
+        chosen = np.zeros(n, dtype=bool)
         for centre, radius in zip(self.centres_w, self._radii, strict=True):
             rel = centre - self.origin_w[:2]
             distance = math.hypot(rel[0], rel[1]) - self._margin_m
@@ -610,9 +610,12 @@ class _Crowd:
             low, high = _wrap(middle - half), _wrap(middle + half)
             first = np.searchsorted(azimuth, low, side="left")
             last = np.searchsorted(azimuth, high, side="right")
-            pieces.append(order[first:last] if low <= high else
-                          np.concatenate([order[first:], order[:last]]))
-        return np.unique(np.concatenate(pieces)) if pieces else np.zeros(0, dtype=np.intp)
+            if low <= high:
+                chosen[order[first:last]] = True
+            else:
+                chosen[order[first:]] = True
+                chosen[order[:last]] = True
+        return np.flatnonzero(chosen)
 
     def occlude(self, name: str, origin_w: np.ndarray, directions_w: np.ndarray,
                 offsets_w: np.ndarray | None, ids: np.ndarray, t: np.ndarray,
