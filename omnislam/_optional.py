@@ -20,6 +20,7 @@ EXTRAS: dict[str, str] = {
     "rerun": "view",
     "numba": "fast",
     "rosbags": "rosbag",
+    "skimage": "render",
 }
 
 

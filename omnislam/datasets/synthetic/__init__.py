@@ -3,7 +3,9 @@ per-pixel ground truth, the seeds' routes as presets, and the on-disk dataset fo
 
 Modules: ``world`` (geometry + landmarks, JSON), ``textures`` (procedural textures + lookup),
 ``raycast``/``raycast_numpy``/``raycast_open3d`` (first-hit ray casting; ``hit_distances``
-their exact distances), ``render`` (images and ground-truth maps), ``routes``
+their exact distances), ``render`` (images and ground-truth maps; its optional realism:
+``lighting`` lamps, ``rig_error`` an imperfect rig, ``photos``/``photo_posters`` photographs on
+posters, ``walkers`` people walking), ``routes``
 (differential-drive paths, odometry), ``laser`` (scans and pole sightings), ``presets`` (named
 scenarios), ``simulate`` (a preset's non-image data), ``writer``/``loader`` (folder format),
 ``cli`` (``omnislam dataset synth``).

@@ -47,7 +47,8 @@ class RayCaster(Protocol):
 
     def first_hits(self, origin_w: np.ndarray, directions_w: np.ndarray) -> np.ndarray:
         """Only the surface ids of ``cast``: (N,) int32, -1 where nothing is hit (hits
-        closer than ``hit_distances.MIN_DISTANCE_M`` may remain; ``cast`` removes them)."""
+        closer than ``hit_distances.MIN_DISTANCE_M`` may remain; ``cast`` removes them).
+        ``origin_w`` may also be (N, 3), one origin per ray (a non-central camera)."""
         ...
 
 

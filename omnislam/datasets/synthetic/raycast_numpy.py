@@ -44,13 +44,24 @@ class NumpyRayCaster:
         ids = np.full(n_rays, -1, dtype=np.int32)
         if m == 0 or n_rays == 0:
             return ids
-        rel = q.origins_w - origin_w  # (M, 3)
-        num = np.sum(q.normals_w * rel, axis=1)  # n.(o_q - o)
-        a0 = -np.sum(q.dual_u_w * rel, axis=1)  # (o - o_q).dual_u
-        b0 = -np.sum(q.dual_v_w * rel, axis=1)
+        per_ray = origin_w.ndim == 2
+        if per_ray:  # n.(o_q - o) and (o - o_q).dual as quad constants minus per-ray products
+            num_q = np.sum(q.normals_w * q.origins_w, axis=1)
+            ab0_q = -np.concatenate([np.sum(q.dual_u_w * q.origins_w, axis=1),
+                                     np.sum(q.dual_v_w * q.origins_w, axis=1)])
+        else:
+            rel = q.origins_w - origin_w  # (M, 3)
+            num = np.sum(q.normals_w * rel, axis=1)  # n.(o_q - o)
+            a0 = -np.sum(q.dual_u_w * rel, axis=1)  # (o - o_q).dual_u
+            b0 = -np.sum(q.dual_v_w * rel, axis=1)
         chunk = max(_MIN_CHUNK_RAYS, _CHUNK_ELEMENTS // m)
         for start in range(0, n_rays, chunk):
             d = directions_w[start:start + chunk]
+            if per_ray:
+                o = origin_w[start:start + chunk]
+                num = num_q - o @ self._normals_t
+                ab0 = ab0_q + o @ self._dual_t
+                a0, b0 = ab0[:, :m], ab0[:, m:]
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = num / (d @ self._normals_t)
                 ab = d @ self._dual_t

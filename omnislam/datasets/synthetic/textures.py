@@ -5,6 +5,7 @@ are regenerated from it deterministically, so ``world.json`` stays small and byt
 Posters and box labels are dense random high-contrast patterns (distinctive SIFT keypoints);
 walls, floor tiles and ceiling panels are smooth or periodic (few or repeated keypoints), as in
 real corridors; ``PLAIN`` is nearly textureless (the thesis's "corridor with no landmarks").
+``PHOTO`` textures are real photographs instead (``photos``: scikit-image's sample images).
 
 Texture coordinates: ``u`` (columns) and ``v`` (rows) in metres from the quad's origin corner;
 texel (0, 0) is centred at (0.5, 0.5) texels.
@@ -18,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from omnislam.datasets.synthetic.photos import PHOTO_SOURCES, photo_texels
 from omnislam.errors import DataError
 
 
@@ -34,6 +36,8 @@ class TextureKind(enum.Enum):
     PAINT = "paint"
     PLAIN = "plain"
     STRIPES = "stripes"
+    PHOTO = "photo"  # a photograph (``TextureSpec.image``)
+    CLOTH = "cloth"  # a walking person's clothes: shirt over trousers (``walkers``)
 
     @property
     def repeats(self) -> bool:
@@ -58,6 +62,8 @@ _DENSITY_PX_PER_M: dict[TextureKind, float] = {
     TextureKind.PAINT: 32.0,
     TextureKind.PLAIN: 8.0,
     TextureKind.STRIPES: 64.0,
+    TextureKind.PHOTO: 320.0,
+    TextureKind.CLOTH: 64.0,
 }
 _MAX_SIZE_PX = 512
 _MIN_SIZE_PX = 8
@@ -72,12 +78,21 @@ class TextureSpec:
         seed: seed of its generator.
         size_px: (width, height) in texels.
         extent_m: (u, v) metres covered by one copy of the texture.
+        image: the photograph of a ``PHOTO`` texture (a ``photos.PHOTO_SOURCES`` key); None
+            for the procedural kinds.
     """
 
     kind: TextureKind
     seed: int
     size_px: tuple[int, int]
     extent_m: tuple[float, float]
+    image: str | None = None
+
+    def __post_init__(self) -> None:
+        if (self.kind is TextureKind.PHOTO) != (self.image is not None):
+            raise DataError(f"a texture has an image if and only if it is a photo: {self}")
+        if self.image is not None and self.image not in PHOTO_SOURCES:
+            raise DataError(f"texture of an unknown photograph {self.image!r}")
 
     @classmethod
     def make(
@@ -86,6 +101,7 @@ class TextureSpec:
         seed: int,
         extent_m: tuple[float, float],
         size_px: tuple[int, int] | None = None,
+        image: str | None = None,
     ) -> TextureSpec:
         """A spec with the kind's default texel density, sizes rounded to multiples of 8."""
         if size_px is None:
@@ -97,11 +113,15 @@ class TextureSpec:
 
             size_px = (side(extent_m[0]), side(extent_m[1]))
         return cls(kind, int(seed), (int(size_px[0]), int(size_px[1])),
-                   (float(extent_m[0]), float(extent_m[1])))
+                   (float(extent_m[0]), float(extent_m[1])), image)
 
     def to_dict(self) -> dict[str, object]:
-        return {"kind": self.kind.value, "seed": self.seed, "size_px": list(self.size_px),
-                "extent_m": list(self.extent_m)}
+        """Plain-Python form (``image`` only for photos: other worlds' JSON is unchanged)."""
+        doc: dict[str, object] = {"kind": self.kind.value, "seed": self.seed,
+                                  "size_px": list(self.size_px), "extent_m": list(self.extent_m)}
+        if self.image is not None:
+            doc["image"] = self.image
+        return doc
 
     @classmethod
     def from_dict(cls, doc: dict[str, object]) -> TextureSpec:
@@ -109,7 +129,8 @@ class TextureSpec:
         extent = doc["extent_m"]
         return cls(TextureKind(doc["kind"]), int(doc["seed"]),  # type: ignore[call-overload]
                    (int(size[0]), int(size[1])),  # type: ignore[index]
-                   (float(extent[0]), float(extent[1])))  # type: ignore[index]
+                   (float(extent[0]), float(extent[1])),  # type: ignore[index]
+                   None if doc.get("image") is None else str(doc["image"]))
 
     def texel_m(self) -> float:
         """Size of one texel [m] (the larger of the two axes)."""
@@ -222,6 +243,25 @@ def _wood(rng: np.random.Generator, h: int, w: int) -> np.ndarray:
     return img
 
 
+def _cloth(rng: np.random.Generator, h: int, w: int) -> np.ndarray:
+    """A person seen as a cylinder: hair, a face band, a shirt (plain or striped) and
+    trousers, with a woven grain (rows run down from the head)."""
+    ys, xs = _grid(h, w)
+    shirt, trousers = _saturated_colour(rng) * 0.8, np.array([50.0, 55.0, 80.0]) * rng.uniform(
+        0.6, 1.4)
+    img = np.where((ys < 0.48)[..., None], shirt, trousers) * np.ones((1, w, 3))
+    if rng.random() < 0.5:  # stripes across the shirt
+        band = (np.floor(ys * rng.uniform(20, 40)) % 2).astype(bool) & (ys < 0.48)
+        img[np.broadcast_to(band, (h, w))] *= 0.6
+    skin = np.array([224.0, 172.0, 140.0]) * rng.uniform(0.5, 1.05)
+    head = np.broadcast_to(ys < 0.13, (h, w))
+    img[head] = skin
+    img[np.broadcast_to((ys < 0.05) | ((ys < 0.13) & (np.abs(xs - 0.75) < 0.2)), (h, w))] = (
+        np.array([40.0, 30.0, 25.0]) * rng.uniform(0.5, 2.5))  # hair, the back of the head
+    img *= 1.0 + 0.08 * (rng.random((h, w, 1)) - 0.5)
+    return img
+
+
 def _tiles(rng: np.random.Generator, h: int, w: int, n: int, grout: float) -> np.ndarray:
     ys, xs = _grid(h, w)
     ty, tx = np.floor(ys * n).astype(int), np.floor(xs * n).astype(int)
@@ -259,6 +299,11 @@ def generate_texture(spec: TextureSpec) -> np.ndarray:
         img = tint * (1.0 + 0.04 * (_value_noise(rng, h, w, 4)[..., None] - 0.5))
     elif kind is TextureKind.PLAIN:
         img = np.full((h, w, 3), 190.0) + (rng.random((h, w, 1)) - 0.5) * 2
+    elif kind is TextureKind.PHOTO:
+        assert spec.image is not None  # checked by TextureSpec
+        img = photo_texels(spec.image, (w, h))
+    elif kind is TextureKind.CLOTH:
+        img = _cloth(rng, h, w)
     elif kind is TextureKind.STRIPES:
         ys = _grid(h, w)[0]
         band = (np.floor(ys * spec.extent_m[1] / 0.25) % 2).astype(bool)
