@@ -234,12 +234,18 @@ def input_label(cell: ReportCell) -> str:
     return text
 
 
+def registered_name(cell: ReportCell) -> str:
+    """The registry name of a run's estimator: its RUN_DIR's ``config.estimator`` (a grid's label
+    such as ``ekfslam-poles`` names a column, not an estimator), else the results row's name."""
+    return cell.config.estimator if cell.config is not None else cell.estimator
+
+
 def family_of(cell: ReportCell) -> str:
     """The method family of a run's estimator (``estimators.Family`` value); EXTERNAL for
     results read from another system's files, which no registry entry describes."""
     from omnislam.estimators import ESTIMATORS, Family
 
-    entry = ESTIMATORS.get(cell.estimator)
+    entry = ESTIMATORS.get(registered_name(cell))
     return (entry.family if entry is not None else Family.EXTERNAL).value
 
 
@@ -248,7 +254,7 @@ def method_of(cell: ReportCell) -> str:
     module, configuration and preset (``graphslam`` and ``graphslam-batch``) are one method."""
     from omnislam.estimators import ESTIMATORS
 
-    entry = ESTIMATORS.get(cell.estimator)
+    entry = ESTIMATORS.get(registered_name(cell))
     if entry is None:
         return cell.estimator
     return "|".join((entry.target.split(":")[0], entry.config, entry.preset, entry.check))
@@ -263,7 +269,7 @@ def deterministic(cells: Sequence[ReportCell]) -> bool:
     ok = [c for c in cells if c.ok and c.config is not None]
     if not ok:
         return False
-    entry = ESTIMATORS.get(ok[0].estimator)
+    entry = ESTIMATORS.get(registered_name(ok[0]))
     if entry is None or entry.stochastic:
         return False
     configs = [c.config for c in ok if c.config is not None]

@@ -135,6 +135,29 @@ def test_verdict_names_the_best_family_and_the_margin_behind_it(fakes, tmp_path)
     assert shown[1][5] == f"+{margin:.3g} m ({100 * margin / medians[runner]:.0f} %)"
 
 
+def test_a_labelled_column_keeps_its_estimators_family(fakes, tmp_path):
+    """A grid's label (``ekfslam-poles`` for ekfslam on the pole sightings) names a column, not
+    an estimator: the verdict ranks the column in its estimator's family, not as another
+    system's results."""
+    data = tmp_path / "data" / "room.log"
+    write_room_log(data, frames=60)
+    grid = {
+        "name": "labels",
+        "datasets": ["data/room.log"],
+        "estimators": [
+            "deadreckoning",
+            {"estimator": "tidy_odo", "label": "tidy-labelled", "options": {"amplitude": 0.02}},
+            {"estimator": "rough_odo", "label": "rough-labelled", "options": {"amplitude": 0.5}},
+        ],
+        "seeds": [0, 1],
+    }
+    out = tmp_path / "results"
+    run_grid(parse_grid(json.dumps(grid), tmp_path / "grid.yaml"), out, SerialExecutor)
+    write_report(out, tmp_path / "report", FAST)
+    families = {row["best"]: row["family"] for row in verdict_rows(tmp_path / "report")}
+    assert families == {"tidy-labelled": "particle filter", "rough-labelled": "factor graph"}
+
+
 def test_overlapping_seed_ranges_and_one_seed_are_told_in_the_notes(fakes, tmp_path):
     results = run_room_grid(
         tmp_path,
