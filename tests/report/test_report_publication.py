@@ -52,18 +52,21 @@ def fakes(monkeypatch):
         )
 
 
-def run_room_grid(tmp_path: Path, tidy: dict, rough: dict, name: str) -> Path:
+def run_room_grid(tmp_path: Path, tidy: dict, rough: dict, name: str,
+                  labels: tuple[str, str] | None = None) -> Path:
+    """The two fakes and dead reckoning on the room log, seeds 0 and 1 (the fakes' columns
+    named ``labels`` when given)."""
     data = tmp_path / "data" / "room.log"
     if not data.exists():
         write_room_log(data, frames=60)
+    fakes = [{"estimator": "tidy_odo", "options": tidy},
+             {"estimator": "rough_odo", "options": rough}]
+    for entry, label in zip(fakes, labels or (), strict=False):
+        entry["label"] = label
     grid = {
         "name": name,
         "datasets": ["data/room.log"],
-        "estimators": [
-            "deadreckoning",
-            {"estimator": "tidy_odo", "options": tidy},
-            {"estimator": "rough_odo", "options": rough},
-        ],
+        "estimators": ["deadreckoning", *fakes],
         "seeds": [0, 1],
     }
     out = tmp_path / f"results-{name}"
@@ -139,20 +142,8 @@ def test_a_labelled_column_keeps_its_estimators_family(fakes, tmp_path):
     """A grid's label (``ekfslam-poles`` for ekfslam on the pole sightings) names a column, not
     an estimator: the verdict ranks the column in its estimator's family, not as another
     system's results."""
-    data = tmp_path / "data" / "room.log"
-    write_room_log(data, frames=60)
-    grid = {
-        "name": "labels",
-        "datasets": ["data/room.log"],
-        "estimators": [
-            "deadreckoning",
-            {"estimator": "tidy_odo", "label": "tidy-labelled", "options": {"amplitude": 0.02}},
-            {"estimator": "rough_odo", "label": "rough-labelled", "options": {"amplitude": 0.5}},
-        ],
-        "seeds": [0, 1],
-    }
-    out = tmp_path / "results"
-    run_grid(parse_grid(json.dumps(grid), tmp_path / "grid.yaml"), out, SerialExecutor)
+    out = run_room_grid(tmp_path, {"amplitude": 0.02}, {"amplitude": 0.5}, "labels",
+                        labels=("tidy-labelled", "rough-labelled"))
     write_report(out, tmp_path / "report", FAST)
     families = {row["best"]: row["family"] for row in verdict_rows(tmp_path / "report")}
     assert families == {"tidy-labelled": "particle filter", "rough-labelled": "factor graph"}
