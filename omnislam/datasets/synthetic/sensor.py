@@ -44,6 +44,7 @@ import numpy as np
 
 from omnislam.camera.rig import CameraRig
 from omnislam.core.se import se3_from_se2, se3_inverse, se3_transform_points
+from omnislam.datasets._common import interpolate_se2
 from omnislam.errors import ConfigError
 
 #: the sensor's entry in a render's seed sequence (the world and the route use others)
@@ -216,18 +217,16 @@ class AutoExposure:
                           math.log(c.max_exposure_s * c.max_gain))
 
 
-def interpolate_pose(stamps_s: np.ndarray, poses_w: np.ndarray, t_s: float) -> np.ndarray:
-    """The (3,) planar pose at time ``t_s``, linear between the route's poses (heading
-    unwrapped), held at the route's ends.
+def pose_at(stamps_s: np.ndarray, poses_w: np.ndarray, t_s: float) -> np.ndarray:
+    """The (3,) planar pose at time ``t_s`` (``datasets._common.interpolate_se2``: linear, the
+    heading unwrapped), held at the route's ends.
 
     Args:
         stamps_s: (N,) increasing times [s].
         poses_w: (N, 3) poses [x, y, theta] in the world.
     """
-    theta = np.unwrap(poses_w[:, 2])
-    return np.array([np.interp(t_s, stamps_s, poses_w[:, 0]),
-                     np.interp(t_s, stamps_s, poses_w[:, 1]),
-                     np.interp(t_s, stamps_s, theta)])
+    t = np.clip(np.array([t_s], dtype=float), stamps_s[0], stamps_s[-1])
+    return interpolate_se2(stamps_s, poses_w, t, math.inf)[1][0]
 
 
 def image_motion(
@@ -448,7 +447,7 @@ class CameraSensor:
         """``radiance`` blurred by the motion between the exposure's start and end poses, the
         exposure centred on the frame's stamp."""
         stamp_s = float(self.stamps_s[frame_index])
-        start, end = (interpolate_pose(self.stamps_s, self.poses_w, stamp_s + d * exposure_s)
+        start, end = (pose_at(self.stamps_s, self.poses_w, stamp_s + d * exposure_s)
                       for d in (-0.5, 0.5))
         motion = image_motion(self.rig, points_w, start, end, blur.flow_step_px)
         return motion_blur(radiance, motion, blur.max_samples)
